@@ -1,0 +1,2 @@
+//! Hardware-independent firmware logic.
+#![cfg_attr(not(test), no_std)]

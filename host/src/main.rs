@@ -1,0 +1,2 @@
+//! The `lrmcal` command.
+fn main() {}

@@ -1,0 +1,131 @@
+//! The arm's parameters as plain data: what the TOML describes, what the
+//! calibration file carries and what the firmware stores.
+
+use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::{Real, ServoCurve};
+
+/// Number of joints of the arm.
+pub const JOINTS: usize = 6;
+
+/// A rigid frame: `Trans(xyz) * Rz(yaw) * Ry(pitch) * Rx(roll)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Frame<T> {
+    /// Translation, m.
+    pub xyz: [T; 3],
+    /// Roll, pitch, yaw, rad.
+    pub rpy: [T; 3],
+}
+
+impl<T: Real> Frame<T> {
+    /// The identity frame.
+    pub fn identity() -> Self {
+        Self { xyz: [T::zero(); 3], rpy: [T::zero(); 3] }
+    }
+
+    /// The frame as an isometry.
+    pub fn isometry(&self) -> IsometryMatrix3<T> {
+        let [x, y, z] = self.xyz;
+        let [roll, pitch, yaw] = self.rpy;
+        IsometryMatrix3::from_parts(
+            Translation3::new(x, y, z),
+            Rotation3::from_euler_angles(roll, pitch, yaw),
+        )
+    }
+}
+
+/// One revolute joint and the link it carries, standard DH.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Joint<T> {
+    /// DH joint-angle offset, rad.
+    pub theta: T,
+    /// DH offset along z(i-1), m.
+    pub d: T,
+    /// DH length along x(i), m.
+    pub a: T,
+    /// DH twist about x(i), rad.
+    pub alpha: T,
+    /// Joint compliance, rad/Nm (never negative).
+    pub compliance: T,
+    /// Inclusive limits of the commanded angle, rad.
+    pub limits: [T; 2],
+    /// Mass of link i, kg.
+    pub mass: T,
+    /// Centre of mass of link i in DH frame i, m.
+    pub com: [T; 3],
+    /// The servo's angle -> pulse curve.
+    pub servo: ServoCurve<T>,
+}
+
+/// The whole arm: geometry, masses, elasticity and servo curves.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Arm<T> {
+    /// Gravity in the world frame, m/s².
+    pub gravity: [T; 3],
+    /// World -> arm frame 0.
+    pub base: Frame<T>,
+    /// Compliance of the base tilt about its own y axis, rad/Nm.
+    pub base_compliance: T,
+    /// Frame 6 -> measured tool point.
+    pub tool: Frame<T>,
+    /// Payload centre of mass in the tool frame, m.
+    pub payload_com: [T; 3],
+    /// The six joints, base to tip.
+    pub joints: [Joint<T>; JOINTS],
+}
+
+impl<T: Real> Arm<T> {
+    /// The same arm with every number passed through `f` (e.g. `f64 -> f32`).
+    pub fn map<U>(&self, f: impl Fn(T) -> U + Copy) -> Arm<U> {
+        let v3 = |v: [T; 3]| v.map(f);
+        let frame = |fr: &Frame<T>| Frame { xyz: v3(fr.xyz), rpy: v3(fr.rpy) };
+        Arm {
+            gravity: v3(self.gravity),
+            base: frame(&self.base),
+            base_compliance: f(self.base_compliance),
+            tool: frame(&self.tool),
+            payload_com: v3(self.payload_com),
+            joints: self.joints.map(|j| Joint {
+                theta: f(j.theta),
+                d: f(j.d),
+                a: f(j.a),
+                alpha: f(j.alpha),
+                compliance: f(j.compliance),
+                limits: j.limits.map(f),
+                mass: f(j.mass),
+                com: v3(j.com),
+                servo: ServoCurve {
+                    minus100: f(j.servo.minus100),
+                    zero: f(j.servo.zero),
+                    plus100: f(j.servo.plus100),
+                },
+            }),
+        }
+    }
+
+    /// Gravity as a vector, world frame.
+    pub fn gravity_vector(&self) -> Vector3<T> {
+        Vector3::from(self.gravity)
+    }
+
+    /// Whether every commanded angle lies within its joint's inclusive limits.
+    pub fn within_limits(&self, q: &[T; JOINTS]) -> bool {
+        self.joints.iter().zip(q).all(|(j, &qi)| qi >= j.limits[0] && qi <= j.limits[1])
+    }
+
+    /// Clamps each commanded angle into its joint's limits.
+    pub fn clamp_to_limits(&self, q: &[T; JOINTS]) -> [T; JOINTS] {
+        core::array::from_fn(|i| {
+            let [lo, hi] = self.joints[i].limits;
+            q[i].clamp(lo, hi)
+        })
+    }
+
+    /// Whether every number in the arm is finite (no NaN, no infinity).
+    pub fn is_finite(&self) -> bool {
+        let ok = core::cell::Cell::new(true);
+        self.map(|x| ok.set(ok.get() && x.is_finite()));
+        ok.get()
+    }
+}

@@ -1,0 +1,206 @@
+//! Elastic deflection: `qa_i = q_i + k_i tau_i(qa, beta)` and
+//! `beta = k0 tau0(qa, beta)`, solved together by fixed-point iteration.
+//!
+//! The torques depend on the deflected pose, so the deflection is iterated from
+//! `qa = q, beta = 0` until the largest change of any angle falls below the
+//! tolerance. For realistic compliances the map is a strong contraction
+//! (3–6 iterations in f64); if it is not, the solver says so instead of
+//! returning a pose that does not satisfy its own equation.
+
+use nalgebra::Vector3;
+
+use crate::kinematics::{Chain, ChainFrames};
+use crate::{JOINTS, Real, real};
+
+/// Stopping rules of the deflection solver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SolverOptions<T> {
+    /// Converged when no angle changes by more than this in one iteration, rad.
+    pub tolerance: T,
+    /// Give up after this many iterations.
+    pub max_iterations: u32,
+}
+
+impl<T: Real> Default for SolverOptions<T> {
+    /// 32 machine epsilons and 60 iterations: about 7e-15 rad in f64, 4e-6 rad in f32.
+    fn default() -> Self {
+        Self { tolerance: T::default_epsilon() * real(32.0), max_iterations: 60 }
+    }
+}
+
+/// The deflected state of the arm for one command and payload.
+#[derive(Clone, Copy, Debug)]
+pub struct Deflection<T: Real> {
+    /// Actual (deflected) joint angles, rad.
+    pub qa: [T; JOINTS],
+    /// Elastic tilt of the base about y0, rad.
+    pub beta: T,
+    /// Frames of the deflected chain.
+    pub frames: ChainFrames<T>,
+    /// Iterations used.
+    pub iterations: u32,
+}
+
+impl<T: Real> Deflection<T> {
+    /// The measured point of the deflected arm, world frame, m.
+    pub fn tool_point(&self) -> Vector3<T> {
+        self.frames.tool_point()
+    }
+}
+
+/// Why the deflection could not be solved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DeflectionError {
+    /// The iteration did not settle within the allowed iterations.
+    NotConverged {
+        /// Iterations run.
+        iterations: u32,
+        /// Largest angle change in the last iteration, rad (as f64 for reporting).
+        last_step: f64,
+    },
+    /// An input or intermediate value was not finite.
+    NotFinite,
+}
+
+impl core::fmt::Display for DeflectionError {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NotConverged { iterations, last_step } => write!(
+                f,
+                "elastic deflection did not converge in {iterations} iterations (last step {last_step:.3e} rad): compliance or load too large"
+            ),
+            Self::NotFinite => f.write_str("elastic deflection met a non-finite value"),
+        }
+    }
+}
+
+impl<T: Real> Chain<T> {
+    /// Deflection for commanded angles `q` (rad) and payload `payload_kg`, from `qa = q, beta = 0`.
+    pub fn deflect(
+        &self,
+        q: &[T; JOINTS],
+        payload_kg: T,
+        options: &SolverOptions<T>,
+    ) -> Result<Deflection<T>, DeflectionError> {
+        self.deflect_from(q, payload_kg, (*q, T::zero()), options)
+    }
+
+    /// Deflection as [`Chain::deflect`], iterating from a guess `(qa, beta)`,
+    /// e.g. the previous servo frame's solution.
+    pub fn deflect_from(
+        &self,
+        q: &[T; JOINTS],
+        payload_kg: T,
+        (mut qa, mut beta): ([T; JOINTS], T),
+        options: &SolverOptions<T>,
+    ) -> Result<Deflection<T>, DeflectionError> {
+        let mut last_step = T::zero();
+        for iteration in 1..=options.max_iterations {
+            let frames = self.frames(&qa, beta);
+            let (next_qa, next_beta) = self.elastic_map(q, &frames, payload_kg);
+            last_step = (next_beta - beta).abs();
+            for (n, o) in next_qa.iter().zip(&qa) {
+                last_step = last_step.max((*n - *o).abs());
+            }
+            if !last_step.is_finite() {
+                return Err(DeflectionError::NotFinite);
+            }
+            qa = next_qa;
+            beta = next_beta;
+            if last_step <= options.tolerance {
+                let frames = self.frames(&qa, beta);
+                return Ok(Deflection { qa, beta, frames, iterations: iteration });
+            }
+        }
+        Err(DeflectionError::NotConverged {
+            iterations: options.max_iterations,
+            last_step: nalgebra::try_convert(last_step).unwrap_or(f64::NAN),
+        })
+    }
+
+    /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the given frames.
+    pub fn elastic_map(
+        &self,
+        q: &[T; JOINTS],
+        frames: &ChainFrames<T>,
+        payload_kg: T,
+    ) -> ([T; JOINTS], T) {
+        let tau = self.gravity_torques(frames, payload_kg);
+        let qa = core::array::from_fn(|i| q[i] + self.links[i].compliance * tau.joints[i]);
+        (qa, self.base_compliance * tau.base)
+    }
+
+    /// Largest violation of the fixed-point equation by a solution, rad.
+    pub fn fixed_point_residual(&self, q: &[T; JOINTS], payload_kg: T, d: &Deflection<T>) -> T {
+        let (qa, beta) = self.elastic_map(q, &self.frames(&d.qa, d.beta), payload_kg);
+        qa.iter().zip(&d.qa).fold((beta - d.beta).abs(), |m, (a, b)| m.max((*a - *b).abs()))
+    }
+
+    /// The measured point of the deflected arm, world frame, m.
+    pub fn tool_point(
+        &self,
+        q: &[T; JOINTS],
+        payload_kg: T,
+        options: &SolverOptions<T>,
+    ) -> Result<Vector3<T>, DeflectionError> {
+        self.deflect(q, payload_kg, options).map(|d| d.tool_point())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::test_arms::{lrm_like_arm, random_q};
+    use rand::{SeedableRng, rngs::StdRng};
+
+    #[test]
+    fn solution_satisfies_its_fixed_point_equation() {
+        let chain = lrm_like_arm::<f64>().chain();
+        let mut rng = StdRng::seed_from_u64(7);
+        for _ in 0..200 {
+            let q = random_q(&mut rng);
+            for load in [0.0, 0.0663] {
+                let d = chain.deflect(&q, load, &SolverOptions::default()).unwrap();
+                assert!(chain.fixed_point_residual(&q, load, &d) < 1e-9);
+                assert!(d.iterations < 20, "took {} iterations", d.iterations);
+            }
+        }
+    }
+
+    #[test]
+    fn deflection_moves_the_tool_down_under_load() {
+        let chain = lrm_like_arm::<f64>().chain();
+        let q = [0.0, 0.6, -0.4, 0.0, 0.3, 0.0];
+        let opts = SolverOptions::default();
+        let light = chain.tool_point(&q, 0.0, &opts).unwrap();
+        let heavy = chain.tool_point(&q, 0.0663, &opts).unwrap();
+        let rigid = chain.rigid_tool_point(&q);
+        assert!(light.z < rigid.z, "own weight must sag the arm");
+        assert!(heavy.z < light.z, "a payload must sag it further");
+    }
+
+    #[test]
+    fn huge_compliance_reports_non_convergence() {
+        let mut arm = lrm_like_arm::<f64>();
+        for j in &mut arm.joints {
+            j.compliance = 50.0;
+        }
+        let chain = arm.chain();
+        let err = chain.deflect(&[0.0, 0.6, -0.4, 0.0, 0.3, 0.0], 1.0, &SolverOptions::default());
+        assert!(matches!(
+            err,
+            Err(DeflectionError::NotConverged { .. } | DeflectionError::NotFinite)
+        ));
+    }
+
+    #[test]
+    fn warm_start_reaches_the_same_solution() {
+        let chain = lrm_like_arm::<f64>().chain();
+        let q = [0.2, 0.9, -0.5, 0.4, -0.7, 0.1];
+        let opts = SolverOptions::default();
+        let cold = chain.deflect(&q, 0.0663, &opts).unwrap();
+        let warm = chain.deflect_from(&q, 0.0663, (cold.qa, cold.beta), &opts).unwrap();
+        assert!(warm.iterations <= 2);
+        assert!((warm.tool_point() - cold.tool_point()).norm() < 1e-12);
+    }
+}

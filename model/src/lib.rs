@@ -1,0 +1,49 @@
+//! The elasto-kinematic model of a 6R arm, written once and used everywhere.
+//!
+//! The host identifies the model in `f64`; the firmware compensates with it in
+//! `f32`. Both call exactly this code, so identification and compensation can
+//! never disagree about what the arm is.
+//!
+//! | module | what it holds |
+//! |---|---|
+//! | [`arm`] | the arm's parameters as plain data (DH, frames, masses, compliances, servo curves) |
+//! | [`params`] | the 43 named error parameters and how they apply to an [`Arm`] |
+//! | [`kinematics`] | standard DH forward kinematics of the (deflected) chain |
+//! | [`gravity`] | gravity torques on the six joints and on the base |
+//! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
+//! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
+//! | [`servo`] | the three-point piecewise-linear servo curve (angle -> pulse) |
+//!
+//! Conventions follow `shared/CONTRACTS.md`: metres, radians, kilograms,
+//! microseconds; `T(i-1,i) = Rz(q_i + theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`.
+#![no_std]
+
+#[cfg(test)]
+extern crate std;
+
+pub mod arm;
+pub mod compensation;
+pub mod elastic;
+pub mod gravity;
+pub mod kinematics;
+pub mod params;
+pub mod servo;
+#[cfg(test)]
+mod test_arms;
+
+pub use arm::{Arm, Frame, Joint, JOINTS};
+pub use compensation::{Compensation, CompensationOptions};
+pub use elastic::{Deflection, DeflectionError, SolverOptions};
+pub use kinematics::{Chain, ChainFrames};
+pub use params::{ParamId, PARAM_COUNT};
+pub use servo::ServoCurve;
+
+/// The float type the model is generic over: `f32` on the MCU, `f64` on the host.
+pub trait Real: nalgebra::RealField + Copy {}
+impl<T: nalgebra::RealField + Copy> Real for T {}
+
+/// Converts an `f64` constant into the model's float type.
+#[inline]
+pub fn real<T: Real>(x: f64) -> T {
+    nalgebra::convert(x)
+}

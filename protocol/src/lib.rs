@@ -1,0 +1,2 @@
+//! The wire contract between `lrmcal` and the firmware.
+#![cfg_attr(not(feature = "use-std"), no_std)]
