@@ -1,0 +1,36 @@
+//! In-memory forms of the files users exchange with us (shared/CONTRACTS.md §2):
+//! measured poses, pose lists and predictions, in SI units.
+//!
+//! Files carry degrees and millimetres; everything in memory is radians and
+//! metres. The parsers and writers live in `crate::io`.
+
+use nalgebra::Vector3;
+
+/// One commanded joint configuration with its id.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Integer id of the configuration; the same id is the same configuration.
+    pub id: u32,
+    /// Commanded joint angles, rad.
+    pub q: [f64; model::JOINTS],
+}
+
+/// One row of a measurement file: a pose, its load and the measured tool point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Measurement {
+    /// The commanded pose.
+    pub pose: Pose,
+    /// Payload mass at the tool, kg.
+    pub load_kg: f64,
+    /// Measured tool point in the world frame, m.
+    pub position: Vector3<f64>,
+}
+
+/// A predicted tool point for a pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Prediction {
+    /// Pose id.
+    pub pose: u32,
+    /// Predicted tool point, world frame, m.
+    pub position: Vector3<f64>,
+}
