@@ -21,7 +21,10 @@ pub struct Frame<T> {
 impl<T: Real> Frame<T> {
     /// The identity frame.
     pub fn identity() -> Self {
-        Self { xyz: [T::zero(); 3], rpy: [T::zero(); 3] }
+        Self {
+            xyz: [T::zero(); 3],
+            rpy: [T::zero(); 3],
+        }
     }
 
     /// The frame as an isometry.
@@ -79,7 +82,10 @@ impl<T: Real> Arm<T> {
     /// The same arm with every number passed through `f` (e.g. `f64 -> f32`).
     pub fn map<U>(&self, f: impl Fn(T) -> U + Copy) -> Arm<U> {
         let v3 = |v: [T; 3]| v.map(f);
-        let frame = |fr: &Frame<T>| Frame { xyz: v3(fr.xyz), rpy: v3(fr.rpy) };
+        let frame = |fr: &Frame<T>| Frame {
+            xyz: v3(fr.xyz),
+            rpy: v3(fr.rpy),
+        };
         Arm {
             gravity: v3(self.gravity),
             base: frame(&self.base),
@@ -111,7 +117,10 @@ impl<T: Real> Arm<T> {
 
     /// Whether every commanded angle lies within its joint's inclusive limits.
     pub fn within_limits(&self, q: &[T; JOINTS]) -> bool {
-        self.joints.iter().zip(q).all(|(j, &qi)| qi >= j.limits[0] && qi <= j.limits[1])
+        self.joints
+            .iter()
+            .zip(q)
+            .all(|(j, &qi)| qi >= j.limits[0] && qi <= j.limits[1])
     }
 
     /// Clamps each commanded angle into its joint's limits.

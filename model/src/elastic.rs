@@ -24,7 +24,10 @@ pub struct SolverOptions<T> {
 impl<T: Real> Default for SolverOptions<T> {
     /// 32 machine epsilons and 60 iterations: about 7e-15 rad in f64, 4e-6 rad in f32.
     fn default() -> Self {
-        Self { tolerance: T::default_epsilon() * real(32.0), max_iterations: 60 }
+        Self {
+            tolerance: T::default_epsilon() * real(32.0),
+            max_iterations: 60,
+        }
     }
 }
 
@@ -65,7 +68,10 @@ pub enum DeflectionError {
 impl core::fmt::Display for DeflectionError {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
-            Self::NotConverged { iterations, last_step } => write!(
+            Self::NotConverged {
+                iterations,
+                last_step,
+            } => write!(
                 f,
                 "elastic deflection did not converge in {iterations} iterations (last step {last_step:.3e} rad): compliance or load too large"
             ),
@@ -109,7 +115,12 @@ impl<T: Real> Chain<T> {
             beta = next_beta;
             if last_step <= options.tolerance {
                 let frames = self.frames(&qa, beta);
-                return Ok(Deflection { qa, beta, frames, iterations: iteration });
+                return Ok(Deflection {
+                    qa,
+                    beta,
+                    frames,
+                    iterations: iteration,
+                });
             }
         }
         Err(DeflectionError::NotConverged {
@@ -133,7 +144,9 @@ impl<T: Real> Chain<T> {
     /// Largest violation of the fixed-point equation by a solution, rad.
     pub fn fixed_point_residual(&self, q: &[T; JOINTS], payload_kg: T, d: &Deflection<T>) -> T {
         let (qa, beta) = self.elastic_map(q, &self.frames(&d.qa, d.beta), payload_kg);
-        qa.iter().zip(&d.qa).fold((beta - d.beta).abs(), |m, (a, b)| m.max((*a - *b).abs()))
+        qa.iter()
+            .zip(&d.qa)
+            .fold((beta - d.beta).abs(), |m, (a, b)| m.max((*a - *b).abs()))
     }
 
     /// The measured point of the deflected arm, world frame, m.
@@ -186,7 +199,11 @@ mod tests {
             j.compliance = 50.0;
         }
         let chain = arm.chain();
-        let err = chain.deflect(&[0.0, 0.6, -0.4, 0.0, 0.3, 0.0], 1.0, &SolverOptions::default());
+        let err = chain.deflect(
+            &[0.0, 0.6, -0.4, 0.0, 0.3, 0.0],
+            1.0,
+            &SolverOptions::default(),
+        );
         assert!(matches!(
             err,
             Err(DeflectionError::NotConverged { .. } | DeflectionError::NotFinite)
@@ -199,8 +216,37 @@ mod tests {
         let q = [0.2, 0.9, -0.5, 0.4, -0.7, 0.1];
         let opts = SolverOptions::default();
         let cold = chain.deflect(&q, 0.0663, &opts).unwrap();
-        let warm = chain.deflect_from(&q, 0.0663, (cold.qa, cold.beta), &opts).unwrap();
+        let warm = chain
+            .deflect_from(&q, 0.0663, (cold.qa, cold.beta), &opts)
+            .unwrap();
         assert!(warm.iterations <= 2);
         assert!((warm.tool_point() - cold.tool_point()).norm() < 1e-12);
+    }
+}
+
+#[cfg(test)]
+mod precision_tests {
+    use super::*;
+    use crate::test_arms::{lrm_like_arm, random_q};
+    use rand::{SeedableRng, rngs::StdRng};
+
+    /// The firmware runs this model in f32: it must agree with the host's f64
+    /// to well under the calibration's accuracy.
+    #[test]
+    fn f32_model_agrees_with_f64_within_10_micrometres() {
+        let arm64 = lrm_like_arm::<f64>();
+        let (c64, c32) = (arm64.chain(), arm64.map(|x| x as f32).chain());
+        let mut rng = StdRng::seed_from_u64(11);
+        let mut worst = 0.0f64;
+        for k in 0..1000 {
+            let q: [f64; 6] = random_q(&mut rng);
+            let load = if k % 2 == 0 { 0.0 } else { 0.0663 };
+            let p64 = c64.tool_point(&q, load, &SolverOptions::default()).unwrap();
+            let p32 = c32
+                .tool_point(&q.map(|x| x as f32), load as f32, &SolverOptions::default())
+                .unwrap();
+            worst = worst.max((p64 - p32.map(f64::from)).norm());
+        }
+        assert!(worst < 1e-5, "worst f32/f64 difference {worst:e} m");
     }
 }

@@ -21,21 +21,29 @@ pub struct Torques<T> {
 }
 
 impl<T: Real> Chain<T> {
-    /// Gravity torques at the given frames with a payload of `payload_kg` at the tool.
-    pub fn gravity_torques(&self, f: &ChainFrames<T>, payload_kg: T) -> Torques<T> {
-        let g = self.gravity;
+    /// The load moment of each joint: `v_i = S_i − M_i o(i-1)`, world frame, kg·m.
+    ///
+    /// `v_i × g` is the gravity moment of links `i..6` and the payload about
+    /// `o(i-1)`; joint 1's moment (index 0) is also the whole arm's about the base.
+    pub fn load_moments(&self, f: &ChainFrames<T>, payload_kg: T) -> [Vector3<T>; JOINTS] {
         let mut weighted: Vector3<T> = (f.tool * self.payload_com).coords * payload_kg;
         let mut mass = payload_kg;
-        let mut joints = [T::zero(); JOINTS];
+        let mut moments = [Vector3::zeros(); JOINTS];
         for i in (0..JOINTS).rev() {
             let link = &self.links[i];
             weighted += (f.frames[i + 1] * link.com).coords * link.mass;
             mass += link.mass;
-            let moment = (weighted - f.joint_origin(i) * mass).cross(&g);
-            joints[i] = f.joint_axis(i).dot(&moment);
+            moments[i] = weighted - f.joint_origin(i) * mass;
         }
-        let y0 = f.frames[0].rotation.matrix().column(1).into_owned();
-        let base = y0.dot(&(weighted - f.joint_origin(0) * mass).cross(&g));
+        moments
+    }
+
+    /// Gravity torques at the given frames with a payload of `payload_kg` at the tool.
+    pub fn gravity_torques(&self, f: &ChainFrames<T>, payload_kg: T) -> Torques<T> {
+        let moments = self.load_moments(f, payload_kg);
+        let g = self.gravity;
+        let joints = core::array::from_fn(|i| f.joint_axis(i).dot(&moments[i].cross(&g)));
+        let base = f.base_tilt_axis().dot(&moments[0].cross(&g));
         Torques { joints, base }
     }
 }
@@ -75,7 +83,11 @@ mod tests {
             let f = chain.frames(&[0.3, pitch, 0.0, 0.0, 0.0, 0.0], 0.0);
             let t = chain.gravity_torques(&f, m);
             // z1 = (sin yaw, -cos yaw, 0); the mass pulls the arm down (negative pitch).
-            assert_relative_eq!(t.joints[1], -m * g * reach * f64::cos(pitch), epsilon = 1e-12);
+            assert_relative_eq!(
+                t.joints[1],
+                -m * g * reach * f64::cos(pitch),
+                epsilon = 1e-12
+            );
             assert_relative_eq!(t.joints[0], 0.0, epsilon = 1e-12);
         }
     }

@@ -66,6 +66,11 @@ impl<T: Real> ChainFrames<T> {
         self.frames[joint].rotation.matrix().column(2).into_owned()
     }
 
+    /// Axis y0 of the (tilted) frame 0: the axis of the elastic base tilt, world frame.
+    pub fn base_tilt_axis(&self) -> Vector3<T> {
+        self.frames[0].rotation.matrix().column(1).into_owned()
+    }
+
     /// Origin of frame i-1 of joint `i` (0-based `joint`), world frame.
     pub fn joint_origin(&self, joint: usize) -> Vector3<T> {
         self.frames[joint].translation.vector
@@ -74,7 +79,13 @@ impl<T: Real> ChainFrames<T> {
 
 /// The DH transform `Rz(angle) Tz(d) Tx(a) Rx(alpha)` with alpha given by its sine and cosine.
 #[inline]
-pub fn dh_transform<T: Real>(angle: T, d: T, a: T, sin_alpha: T, cos_alpha: T) -> IsometryMatrix3<T> {
+pub fn dh_transform<T: Real>(
+    angle: T,
+    d: T,
+    a: T,
+    sin_alpha: T,
+    cos_alpha: T,
+) -> IsometryMatrix3<T> {
     let (st, ct) = angle.sin_cos();
     #[rustfmt::skip]
     let r = Matrix3::new(
@@ -126,8 +137,13 @@ impl<T: Real> Chain<T> {
         ));
         let mut frames = [self.base * tilt; JOINTS + 1];
         for (i, link) in self.links.iter().enumerate() {
-            let local =
-                dh_transform(qa[i] + link.theta, link.d, link.a, link.sin_alpha, link.cos_alpha);
+            let local = dh_transform(
+                qa[i] + link.theta,
+                link.d,
+                link.a,
+                link.sin_alpha,
+                link.cos_alpha,
+            );
             frames[i + 1] = frames[i] * local;
         }
         let tool = frames[JOINTS] * self.tool;
@@ -154,7 +170,12 @@ mod tests {
         let chain = arm.chain();
         // Link lengths 0.2, 0.15, 0.1, d1 = 0.05, tool z offset 0.03.
         let (l1, l2, l3, d1, tz) = (0.2, 0.15, 0.1, 0.05, 0.03);
-        for q in [[0.0, 0.0, 0.0], [0.5, -0.3, 1.2], [-1.4, 0.9, 0.2], [3.0, -2.0, 1.0]] {
+        for q in [
+            [0.0, 0.0, 0.0],
+            [0.5, -0.3, 1.2],
+            [-1.4, 0.9, 0.2],
+            [3.0, -2.0, 1.0],
+        ] {
             let p = chain.rigid_tool_point(&[q[0], q[1], q[2], 0.0, 0.0, 0.0]);
             let (a1, a2, a3) = (q[0], q[0] + q[1], q[0] + q[1] + q[2]);
             let x = l1 * a1.cos() + l2 * a2.cos() + l3 * a3.cos();
@@ -186,8 +207,15 @@ mod tests {
     fn base_frame_moves_and_rotates_the_whole_chain() {
         let mut arm = planar_arm::<f64>();
         let p0 = arm.chain().rigid_tool_point(&[0.3; 6]);
-        arm.base = crate::Frame { xyz: [0.1, -0.2, 0.3], rpy: [0.0, 0.0, core::f64::consts::FRAC_PI_2] };
+        arm.base = crate::Frame {
+            xyz: [0.1, -0.2, 0.3],
+            rpy: [0.0, 0.0, core::f64::consts::FRAC_PI_2],
+        };
         let p1 = arm.chain().rigid_tool_point(&[0.3; 6]);
-        assert_relative_eq!(p1, Vector3::new(0.1 - p0.y, -0.2 + p0.x, 0.3 + p0.z), epsilon = 1e-12);
+        assert_relative_eq!(
+            p1,
+            Vector3::new(0.1 - p0.y, -0.2 + p0.x, 0.3 + p0.z),
+            epsilon = 1e-12
+        );
     }
 }

@@ -31,11 +31,11 @@ pub mod servo;
 #[cfg(test)]
 mod test_arms;
 
-pub use arm::{Arm, Frame, Joint, JOINTS};
+pub use arm::{Arm, Frame, JOINTS, Joint};
 pub use compensation::{Compensation, CompensationOptions};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
-pub use params::{ParamId, PARAM_COUNT};
+pub use params::{PARAM_COUNT, ParamId};
 pub use servo::ServoCurve;
 
 /// The float type the model is generic over: `f32` on the MCU, `f64` on the host.

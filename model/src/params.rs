@@ -12,11 +12,49 @@ use crate::{Arm, Real};
 pub const PARAM_COUNT: usize = 43;
 
 const NAMES: [&str; PARAM_COUNT] = [
-    "j1.theta", "j1.d", "j1.a", "j1.alpha", "j2.theta", "j2.d", "j2.a", "j2.alpha", "j3.theta",
-    "j3.d", "j3.a", "j3.alpha", "j4.theta", "j4.d", "j4.a", "j4.alpha", "j5.theta", "j5.d",
-    "j5.a", "j5.alpha", "j6.theta", "j6.d", "j6.a", "j6.alpha", "base.x", "base.y", "base.z",
-    "base.roll", "base.pitch", "base.yaw", "tool.x", "tool.y", "tool.z", "tool.roll",
-    "tool.pitch", "tool.yaw", "k1", "k2", "k3", "k4", "k5", "k6", "k0",
+    "j1.theta",
+    "j1.d",
+    "j1.a",
+    "j1.alpha",
+    "j2.theta",
+    "j2.d",
+    "j2.a",
+    "j2.alpha",
+    "j3.theta",
+    "j3.d",
+    "j3.a",
+    "j3.alpha",
+    "j4.theta",
+    "j4.d",
+    "j4.a",
+    "j4.alpha",
+    "j5.theta",
+    "j5.d",
+    "j5.a",
+    "j5.alpha",
+    "j6.theta",
+    "j6.d",
+    "j6.a",
+    "j6.alpha",
+    "base.x",
+    "base.y",
+    "base.z",
+    "base.roll",
+    "base.pitch",
+    "base.yaw",
+    "tool.x",
+    "tool.y",
+    "tool.z",
+    "tool.roll",
+    "tool.pitch",
+    "tool.yaw",
+    "k1",
+    "k2",
+    "k3",
+    "k4",
+    "k5",
+    "k6",
+    "k0",
 ];
 
 /// What physical quantity a parameter is, which sets its unit and scale.
@@ -47,7 +85,10 @@ impl ParamId {
 
     /// The parameter called `name` (e.g. `j3.d`, `base.pitch`, `k0`).
     pub fn from_name(name: &str) -> Option<Self> {
-        NAMES.iter().position(|n| *n == name).map(|i| ParamId(i as u8))
+        NAMES
+            .iter()
+            .position(|n| *n == name)
+            .map(|i| ParamId(i as u8))
     }
 
     /// Position in [`ParamId::all`].
@@ -145,7 +186,10 @@ mod tests {
             assert_eq!(ParamId::from_name(id.name()), Some(id));
         }
         assert_eq!(ParamId::from_name("j3.d").map(ParamId::index), Some(9));
-        assert_eq!(ParamId::from_name("base.pitch").map(ParamId::index), Some(28));
+        assert_eq!(
+            ParamId::from_name("base.pitch").map(ParamId::index),
+            Some(28)
+        );
         assert_eq!(ParamId::from_name("k0").map(ParamId::index), Some(42));
         assert_eq!(ParamId::from_name("j7.d"), None);
     }
@@ -153,8 +197,17 @@ mod tests {
     #[test]
     fn kinds_partition_36_geometric_and_7_compliances() {
         assert_eq!(ParamId::all().filter(|p| p.is_geometric()).count(), 36);
-        assert_eq!(ParamId::from_name("j2.a").unwrap().kind(), ParamKind::Length);
-        assert_eq!(ParamId::from_name("tool.yaw").unwrap().kind(), ParamKind::Angle);
-        assert_eq!(ParamId::from_name("k0").unwrap().kind(), ParamKind::Compliance);
+        assert_eq!(
+            ParamId::from_name("j2.a").unwrap().kind(),
+            ParamKind::Length
+        );
+        assert_eq!(
+            ParamId::from_name("tool.yaw").unwrap().kind(),
+            ParamKind::Angle
+        );
+        assert_eq!(
+            ParamId::from_name("k0").unwrap().kind(),
+            ParamKind::Compliance
+        );
     }
 }

@@ -19,7 +19,11 @@ pub struct ServoCurve<T> {
 impl<T: Real> ServoCurve<T> {
     /// The data-sheet curve of a hobby servo: 900 / 1650 / 2400 µs.
     pub fn nominal() -> Self {
-        Self { minus100: real(900.0), zero: real(1650.0), plus100: real(2400.0) }
+        Self {
+            minus100: real(900.0),
+            zero: real(1650.0),
+            plus100: real(2400.0),
+        }
     }
 
     /// 100° in radians, the abscissa of the outer calibration points.
@@ -43,7 +47,11 @@ impl<T: Real> ServoCurve<T> {
     pub fn angle(&self, pulse_us: T) -> T {
         let increasing = self.plus100 > self.minus100;
         let below_zero = (pulse_us < self.zero) == increasing;
-        let (lo, hi) = if below_zero { (self.minus100, self.zero) } else { (self.zero, self.plus100) };
+        let (lo, hi) = if below_zero {
+            (self.minus100, self.zero)
+        } else {
+            (self.zero, self.plus100)
+        };
         (pulse_us - self.zero) * Self::span() / (hi - lo)
     }
 
@@ -61,7 +69,11 @@ mod tests {
 
     #[test]
     fn passes_through_its_three_points_and_extends_outside() {
-        let c = ServoCurve { minus100: 1000.0f64, zero: 1500.0, plus100: 2100.0 };
+        let c = ServoCurve {
+            minus100: 1000.0f64,
+            zero: 1500.0,
+            plus100: 2100.0,
+        };
         let r = 100f64.to_radians();
         assert_relative_eq!(c.pulse_us(-r), 1000.0, epsilon = 1e-9);
         assert_relative_eq!(c.pulse_us(0.0), 1500.0);
@@ -74,14 +86,29 @@ mod tests {
     #[test]
     fn angle_inverts_pulse_for_either_direction() {
         for c in [
-            ServoCurve { minus100: 1000.0f64, zero: 1500.0, plus100: 2100.0 },
-            ServoCurve { minus100: 2300.0f64, zero: 1600.0, plus100: 950.0 },
+            ServoCurve {
+                minus100: 1000.0f64,
+                zero: 1500.0,
+                plus100: 2100.0,
+            },
+            ServoCurve {
+                minus100: 2300.0f64,
+                zero: 1600.0,
+                plus100: 950.0,
+            },
         ] {
             assert!(c.is_monotonic());
             for a in [-1.9, -0.5, 0.0, 0.3, 1.7] {
                 assert_relative_eq!(c.angle(c.pulse_us(a)), a, epsilon = 1e-12);
             }
         }
-        assert!(!ServoCurve { minus100: 1000.0f64, zero: 2200.0, plus100: 2100.0 }.is_monotonic());
+        assert!(
+            !ServoCurve {
+                minus100: 1000.0f64,
+                zero: 2200.0,
+                plus100: 2100.0
+            }
+            .is_monotonic()
+        );
     }
 }

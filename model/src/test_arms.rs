@@ -4,7 +4,15 @@ use rand::Rng;
 
 use crate::{Arm, Frame, JOINTS, Joint, Real, ServoCurve, real};
 
-fn joint<T: Real>(theta: f64, d: f64, a: f64, alpha: f64, k: f64, mass: f64, com: [f64; 3]) -> Joint<T> {
+fn joint<T: Real>(
+    theta: f64,
+    d: f64,
+    a: f64,
+    alpha: f64,
+    k: f64,
+    mass: f64,
+    com: [f64; 3],
+) -> Joint<T> {
     Joint {
         theta: real(theta),
         d: real(d),
@@ -25,7 +33,10 @@ pub fn planar_arm<T: Real>() -> Arm<T> {
         gravity: [0.0, 0.0, -9.80665].map(real),
         base: Frame::identity(),
         base_compliance: T::zero(),
-        tool: Frame { xyz: [0.0, 0.0, 0.03].map(real), rpy: [T::zero(); 3] },
+        tool: Frame {
+            xyz: [0.0, 0.0, 0.03].map(real),
+            rpy: [T::zero(); 3],
+        },
         payload_com: [T::zero(); 3],
         joints: [
             joint(0.0, 0.05, 0.2, 0.0, 0.0, 0.1, [-0.1, 0.0, 0.0]),
@@ -45,7 +56,10 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
         gravity: [0.0, 0.0, -9.80665].map(real),
         base: Frame::identity(),
         base_compliance: real(0.03),
-        tool: Frame { xyz: [0.0, 0.0, 0.04].map(real), rpy: [T::zero(); 3] },
+        tool: Frame {
+            xyz: [0.0, 0.0, 0.04].map(real),
+            rpy: [T::zero(); 3],
+        },
         payload_com: [T::zero(); 3],
         joints: [
             joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
