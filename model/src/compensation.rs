@@ -1,43 +1,44 @@
 //! Compensation: the joint commands that make the calibrated, elastically
 //! deflected arm put its tool point where the nominal arm would.
 //!
-//! Only the tool *point* is matched. It is what the calibration identifies (tool
-//! orientation parameters are not identifiable from 3D points), and a 3×3
-//! solve per iteration fits the MCU's budget. The arm has 6 joints for 3
-//! equations; of all commands that reach the point, the iteration converges to
-//! the one closest (in joint space) to the nominal command, so the solution
-//! does not depend on the path or on the warm start:
+//! Only the tool *point* is matched: it is what the calibration identifies
+//! (tool orientation parameters are not identifiable from 3D points).
 //!
-//! `δ ← Jᵀ (J Jᵀ + λ² I)⁻¹ (e + J δ)`, `q = q_nominal + δ`,
+//! The solve works on the *deflected* joint angles `qa`, not on the commands.
+//! For given `qa` and base tilt `beta` the chain is rigid, so the position
+//! Jacobian is exact and cheap, and the command that produces `qa` follows
+//! from the elastic equation without any inner iteration:
+//! `q = qa − K τ(qa, beta)`, with `beta = k0 τ0(qa, beta)` updated alongside.
+//! The arm has 6 joints for 3 equations; of all deflected configurations that
+//! reach the point, the iteration converges to the one closest to the nominal
+//! command — the arm ends up shaped as nearly as possible as the user asked —
+//! and so does not depend on the path or the warm start:
 //!
-//! with `e` the remaining position error, `λ² = |e|² + λ₀²` a damping that
+//! `δ ← Jᵀ (J Jᵀ + λ² I)⁻¹ (e + J δ)`, `qa = q_nominal + δ`,
+//!
+//! with `e` the remaining position error and `λ² = |e|² + λ₀²` a damping that
 //! keeps steps bounded near singular poses (Sugihara's Levenberg–Marquardt IK)
-//! and fades with the error, so it does not bias the converged command, and
-//! `J = ∂p/∂q` the Jacobian of the *deflected* tool point with respect to the
-//! *commanded* angles (see [`Chain::command_jacobian`]). Neglecting the
-//! deflection's dependence on the command (the rigid Jacobian) makes the
-//! iteration overshoot and oscillate on compliant arms with a compliant base.
+//! and fades with the error, so it does not bias the result. The base tilt is
+//! solved in the same Newton step: linearising `beta = k0 τ0(qa, beta)` gives
+//! `Δbeta` in terms of `Δqa`, which turns `J` and `e` into their rank-one
+//! corrected forms, so both converge quadratically together.
 
-use nalgebra::{Matrix3, Matrix3x6, SMatrix, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
 
-use crate::elastic::{Deflection, DeflectionError, SolverOptions};
-use crate::kinematics::Chain;
+use crate::elastic::{Deflection, DeflectionError};
+use crate::kinematics::{Chain, ChainFrames};
 use crate::{JOINTS, Real, real};
-
-/// The elastic state `x = (qa_1..qa_6, beta)` has one more coordinate than the command.
-const STATE: usize = JOINTS + 1;
 
 /// Stopping rules and damping of the compensation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CompensationOptions<T> {
-    /// Converged when the tool point is this close to the target, m.
+    /// Converged when the tool point is this close to the target, m, counting
+    /// the effect of the base tilt's remaining residual on the tool point.
     pub tolerance_m: T,
     /// Floor λ₀ of the least-squares damping, m.
     pub damping_m: T,
     /// Give up after this many iterations.
     pub max_iterations: u32,
-    /// Options of the inner deflection solve.
-    pub deflection: SolverOptions<T>,
 }
 
 impl<T: Real> Default for CompensationOptions<T> {
@@ -47,7 +48,6 @@ impl<T: Real> Default for CompensationOptions<T> {
             tolerance_m: real(1e-6),
             damping_m: real(1e-6),
             max_iterations: 10,
-            deflection: SolverOptions::default(),
         }
     }
 }
@@ -57,9 +57,10 @@ impl<T: Real> Default for CompensationOptions<T> {
 pub struct Compensation<T: Real> {
     /// Joint angles to command, rad (not yet clamped to limits).
     pub q: [T; JOINTS],
-    /// The deflected state of the calibrated arm at `q`.
+    /// The deflected state of the calibrated arm commanded with `q`.
     pub deflection: Deflection<T>,
-    /// Remaining distance of the tool point from the target, m.
+    /// Remaining distance of the tool point from the target, m, plus the
+    /// displacement the base tilt's remaining residual would cause.
     pub error_m: T,
     /// Iterations used.
     pub iterations: u32,
@@ -67,89 +68,19 @@ pub struct Compensation<T: Real> {
     pub converged: bool,
 }
 
-/// How the deflected state and tool point move with the command.
-struct CommandSensitivity<T: Real> {
-    /// `∂p/∂q`, m/rad.
-    position: Matrix3x6<T>,
-    /// `∂x/∂q` with `x = (qa, beta)`.
-    state: SMatrix<T, STATE, JOINTS>,
-}
-
 impl<T: Real> Chain<T> {
-    /// Sensitivity of the deflected state and tool point to the command at `d`.
-    ///
-    /// The state obeys `x = (q, 0) + K τ(x)`, so `∂x/∂q = (I − K ∂τ/∂x)⁻¹ E`
-    /// with `E = [I₆; 0]`. Every coordinate of `x` is a rotation about an axis
-    /// (`z(i-1)` for the joints, `y0` for the base tilt). With `v_i` the load
-    /// moment of joint i ([`Chain::load_moments`]), a rotation `c` that moves
-    /// only part of what loads torque `t` changes it by `(a_c × v_c)·(g × z_t)`,
-    /// and one that turns all of it, axis included, by `−(a_c × g)·(z_t × v_t)`.
-    fn command_sensitivity(
-        &self,
-        d: &Deflection<T>,
-        payload_kg: T,
-    ) -> Option<CommandSensitivity<T>> {
-        let f = &d.frames;
-        let g = self.gravity;
-        let moments = self.load_moments(f, payload_kg);
-        // Axis, origin and load moment of each state coordinate; the base tilt
-        // turns the whole arm about y0 through o0, so it shares joint 1's moment.
-        let axis = |c: usize| {
-            if c < JOINTS {
-                f.joint_axis(c)
-            } else {
-                f.base_tilt_axis()
-            }
-        };
-        let origin = |c: usize| f.joint_origin(if c < JOINTS { c } else { 0 });
-        let moment = |c: usize| moments[if c < JOINTS { c } else { 0 }];
-        let compliance = |c: usize| {
-            if c < JOINTS {
-                self.links[c].compliance
-            } else {
-                self.base_compliance
-            }
-        };
-        // Coordinate c is "inside" torque t's load when turning it moves only part
-        // of that load about a fixed axis: a joint at or beyond t; the base tilt
-        // is outside every joint's load and inside nothing but its own axis.
-        let moves_part_of = |c: usize, t: usize| c < JOINTS && (t == JOINTS || c >= t);
-        let partial: [Vector3<T>; STATE] = core::array::from_fn(|c| axis(c).cross(&moment(c)));
-        let whole: [Vector3<T>; STATE] = core::array::from_fn(|c| axis(c).cross(&g));
-        let mut a = SMatrix::<T, STATE, STATE>::identity();
-        for t in 0..STATE {
-            let (z, v) = (axis(t), moment(t));
-            let g_cross_z = g.cross(&z);
-            let z_cross_v = z.cross(&v);
-            for c in 0..STATE {
-                let dtau = if moves_part_of(c, t) {
-                    partial[c].dot(&g_cross_z)
-                } else {
-                    -whole[c].dot(&z_cross_v)
-                };
-                a[(t, c)] -= compliance(t) * dtau;
-            }
+    /// Position Jacobian of the tool point w.r.t. the deflected joint angles, m/rad.
+    pub fn position_jacobian(&self, f: &ChainFrames<T>) -> Matrix3x6<T> {
+        let p = f.tool_point();
+        let mut j = Matrix3x6::zeros();
+        for i in 0..JOINTS {
+            j.set_column(i, &f.joint_axis(i).cross(&(p - f.joint_origin(i))));
         }
-        let e = SMatrix::<T, STATE, JOINTS>::identity();
-        let state = a.lu().solve(&e)?;
-        let p = d.tool_point();
-        let mut geometric = SMatrix::<T, 3, STATE>::zeros();
-        for c in 0..STATE {
-            geometric.set_column(c, &axis(c).cross(&(p - origin(c))));
-        }
-        Some(CommandSensitivity {
-            position: geometric * state,
-            state,
-        })
-    }
-
-    /// `∂p/∂q`: how the deflected tool point moves with the commanded angles, m/rad.
-    pub fn command_jacobian(&self, d: &Deflection<T>, payload_kg: T) -> Option<Matrix3x6<T>> {
-        self.command_sensitivity(d, payload_kg).map(|s| s.position)
+        j
     }
 
     /// Commands that bring this (calibrated) arm's deflected tool point to `target`,
-    /// staying as close as possible to `q_nominal`.
+    /// keeping its deflected joint angles as close as possible to `q_nominal`.
     ///
     /// `warm` is a previous solution to start from (the previous servo frame's);
     /// without it the solve starts at the nominal command.
@@ -161,17 +92,31 @@ impl<T: Real> Chain<T> {
         warm: Option<&Compensation<T>>,
         options: &CompensationOptions<T>,
     ) -> Result<Compensation<T>, DeflectionError> {
-        let (mut q, mut guess) = match warm {
-            Some(w) => (w.q, (w.deflection.qa, w.deflection.beta)),
-            None => (*q_nominal, (*q_nominal, T::zero())),
+        let (mut qa, mut beta) = match warm {
+            Some(w) => (w.deflection.qa, w.deflection.beta),
+            None => (*q_nominal, T::zero()),
         };
         let mut iterations = 0;
         loop {
-            let deflection = self.deflect_from(&q, payload_kg, guess, &options.deflection)?;
-            let error = target - deflection.tool_point();
-            let error_m = error.norm();
+            let frames = self.frames(&qa, beta);
+            let moments = self.load_moments(&frames, payload_kg);
+            let tau = self.torques_from_moments(&frames, &moments);
+            let beta_residual = self.base_compliance * tau.base - beta;
+            let lever = frames.tool_point() - frames.joint_origin(0);
+            let error = target - frames.tool_point();
+            let error_m = error.norm() + beta_residual.abs() * lever.norm();
+            if !error_m.is_finite() {
+                return Err(DeflectionError::NotFinite);
+            }
             let converged = error_m <= options.tolerance_m;
             if converged || iterations >= options.max_iterations {
+                let q = core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]);
+                let deflection = Deflection {
+                    qa,
+                    beta,
+                    frames,
+                    iterations,
+                };
                 return Ok(Compensation {
                     q,
                     deflection,
@@ -181,24 +126,29 @@ impl<T: Real> Chain<T> {
                 });
             }
             iterations += 1;
-            let sensitivity = self
-                .command_sensitivity(&deflection, payload_kg)
-                .ok_or(DeflectionError::NotFinite)?;
-            let j = sensitivity.position;
-            let delta = Vector6::from_fn(|i, _| q[i] - q_nominal[i]);
+            // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
+            let g = self.gravity;
+            let y0 = frames.base_tilt_axis();
+            let g_cross_y0 = g.cross(&y0);
+            let dtau0_dqa =
+                Vector6::from_fn(|c, _| frames.joint_axis(c).cross(&moments[c]).dot(&g_cross_y0));
+            let dtau0_dbeta = -y0.cross(&g).dot(&y0.cross(&moments[0]));
+            let s = T::one() / (T::one() - self.base_compliance * dtau0_dbeta);
+            let tilt_gain = dtau0_dqa * (s * self.base_compliance);
+            let tilt_column = y0.cross(&lever);
+            let j = self.position_jacobian(&frames) + tilt_column * tilt_gain.transpose();
+            let error = error - tilt_column * (s * beta_residual);
+            let delta = Vector6::from_fn(|i, _| qa[i] - q_nominal[i]);
             let lambda2 = error_m * error_m + options.damping_m * options.damping_m;
             let jjt = j * j.transpose() + Matrix3::identity() * lambda2;
             let solved = jjt
                 .cholesky()
                 .ok_or(DeflectionError::NotFinite)?
                 .solve(&(error + j * delta));
-            let step = j.transpose() * solved - delta;
-            let state_step = sensitivity.state * step;
-            guess = (
-                core::array::from_fn(|i| deflection.qa[i] + state_step[i]),
-                deflection.beta + state_step[JOINTS],
-            );
-            q = core::array::from_fn(|i| q[i] + step[i]);
+            let next_delta = j.transpose() * solved;
+            let step = next_delta - delta;
+            qa = core::array::from_fn(|i| q_nominal[i] + next_delta[i]);
+            beta += s * beta_residual + tilt_gain.dot(&step);
         }
     }
 }
@@ -231,12 +181,20 @@ mod tests {
         let calibrated = perturbed(&mut rng).chain();
         // Cold starts from the nominal command need more iterations than a servo frame's warm start.
         let opts = CompensationOptions {
-            max_iterations: 60,
             ..Default::default()
         };
-        for _ in 0..500 {
+        let mut solved = 0;
+        while solved < 500 {
             let q: [f64; 6] = random_q(&mut rng);
-            let target = nominal.tool_point(&q, 0.0663, &opts.deflection).unwrap();
+            // Reachable: a straight elbow puts the nominal point at the edge of
+            // the workspace, which a slightly shorter calibrated arm cannot reach.
+            if q[2].abs() < 0.3 {
+                continue;
+            }
+            solved += 1;
+            let target = nominal
+                .tool_point(&q, 0.0663, &crate::SolverOptions::default())
+                .unwrap();
             let c = calibrated
                 .compensate(&q, &target, 0.0663, None, &opts)
                 .unwrap();
@@ -255,13 +213,16 @@ mod tests {
         let calibrated = perturbed(&mut rng).chain();
         let opts = CompensationOptions {
             tolerance_m: 1e-9,
-            max_iterations: 60,
             ..Default::default()
         };
         let q0 = [0.1, 0.5, -0.3, 0.2, 0.8, 0.0];
         let q1 = [0.12, 0.52, -0.31, 0.2, 0.79, 0.01];
-        let t0 = nominal.tool_point(&q0, 0.0, &opts.deflection).unwrap();
-        let t1 = nominal.tool_point(&q1, 0.0, &opts.deflection).unwrap();
+        let t0 = nominal
+            .tool_point(&q0, 0.0, &crate::SolverOptions::default())
+            .unwrap();
+        let t1 = nominal
+            .tool_point(&q1, 0.0, &crate::SolverOptions::default())
+            .unwrap();
         let first = calibrated.compensate(&q0, &t0, 0.0, None, &opts).unwrap();
         let warm = calibrated
             .compensate(&q1, &t1, 0.0, Some(&first), &opts)
@@ -282,37 +243,52 @@ mod tests {
     }
 }
 #[cfg(test)]
+mod boundary_tests {
+    use super::*;
+    use crate::test_arms::lrm_like_arm;
+
+    /// Out of reach (stretched arm, calibrated upper arm 4 mm shorter, rigid so
+    /// the bound is exact): the solve reports no convergence and returns the
+    /// closest command, 4 mm short, not garbage.
+    #[test]
+    fn unreachable_target_gives_the_closest_command_and_says_so() {
+        let mut rigid = lrm_like_arm::<f64>();
+        rigid.base_compliance = 0.0;
+        rigid.joints.iter_mut().for_each(|j| j.compliance = 0.0);
+        let nominal = rigid.chain();
+        let mut short = rigid;
+        short.joints[1].a -= 0.004;
+        let short = short.chain();
+        let q = [0.3, 0.8, 0.0, 0.0, 0.0, 0.0];
+        let target = nominal.rigid_tool_point(&q);
+        let c = short
+            .compensate(&q, &target, 0.0, None, &CompensationOptions::default())
+            .unwrap();
+        assert!(!c.converged);
+        assert!((c.error_m - 0.004).abs() < 1e-4, "closest approach {:e} m", c.error_m);
+        assert!(c.q.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.2));
+    }
+}
+
+#[cfg(test)]
 mod jacobian_tests {
     use super::*;
     use crate::test_arms::lrm_like_arm;
 
     #[test]
-    fn command_jacobian_matches_finite_differences_of_the_deflected_arm() {
-        let mut arm = lrm_like_arm::<f64>();
-        arm.base_compliance = 0.08;
-        let chain = arm.chain();
-        let opts = SolverOptions {
-            tolerance: 1e-15,
-            max_iterations: 200,
-        };
-        let q = [-0.8, 0.65, -1.05, 1.6, 1.37, 1.7];
-        let load = 0.0663;
-        let d = chain.deflect(&q, load, &opts).unwrap();
-        let j = chain.command_jacobian(&d, load).unwrap();
+    fn position_jacobian_matches_finite_differences() {
+        let chain = lrm_like_arm::<f64>().chain();
+        let qa = [-0.8, 0.65, -1.05, 1.6, 1.37, 1.7];
+        let j = chain.position_jacobian(&chain.frames(&qa, 0.03));
         let h = 1e-6;
         for c in 0..JOINTS {
-            let (mut qp, mut qm) = (q, q);
+            let (mut qp, mut qm) = (qa, qa);
             qp[c] += h;
             qm[c] -= h;
-            let numeric = (chain.tool_point(&qp, load, &opts).unwrap()
-                - chain.tool_point(&qm, load, &opts).unwrap())
+            let numeric = (chain.frames(&qp, 0.03).tool_point()
+                - chain.frames(&qm, 0.03).tool_point())
                 / (2.0 * h);
-            let diff = (numeric - j.column(c)).norm();
-            assert!(
-                diff < 1e-7,
-                "joint {c}: analytic {:?} numeric {numeric:?}",
-                j.column(c)
-            );
+            assert!((numeric - j.column(c)).norm() < 1e-8, "joint {c}");
         }
     }
 }

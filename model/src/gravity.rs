@@ -40,7 +40,15 @@ impl<T: Real> Chain<T> {
 
     /// Gravity torques at the given frames with a payload of `payload_kg` at the tool.
     pub fn gravity_torques(&self, f: &ChainFrames<T>, payload_kg: T) -> Torques<T> {
-        let moments = self.load_moments(f, payload_kg);
+        self.torques_from_moments(f, &self.load_moments(f, payload_kg))
+    }
+
+    /// Gravity torques from load moments already computed by [`Chain::load_moments`].
+    pub fn torques_from_moments(
+        &self,
+        f: &ChainFrames<T>,
+        moments: &[Vector3<T>; JOINTS],
+    ) -> Torques<T> {
         let g = self.gravity;
         let joints = core::array::from_fn(|i| f.joint_axis(i).dot(&moments[i].cross(&g)));
         let base = f.base_tilt_axis().dot(&moments[0].cross(&g));
