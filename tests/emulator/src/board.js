@@ -1,0 +1,256 @@
+//! One emulated board: an rp2040js chip with our ROM, the firmware in its flash, the USB serial
+//! port, servo pulse capture, RTT log, flash services with fault injection, cycle probes, and a
+//! paced run loop. A chip reset builds a fresh chip and carries the flash over, as a real reset
+//! (or power cycle) keeps the flash and nothing else.
+
+import { EventEmitter } from 'node:events';
+import { RP2040 } from 'rp2040js';
+import { FLASH_BASE } from './elf.js';
+import { FlashServices } from './flash.js';
+import { PwmCapture } from './pwm-capture.js';
+import { buildRom, FAULT_TRAP, LOOKUP_TRAP, ROM_CODE_END, serviceAddress, serviceName } from './rom.js';
+import { RttReader } from './rtt.js';
+import { UsbSerial } from './usb-serial.js';
+import { XIP_CTRL_KEY, XipCtrlStub } from './xip.js';
+import { CycleProbe } from './cycle-probe.js';
+
+/** Cortex-M0+ AIRCR (reset requests from `SCB::sys_reset`). */
+const AIRCR_OFFSET = 0xd0c;
+const AIRCR_SYSRESETREQ = 0x05fa0004;
+/** Wall time one run-loop slice may take before yielding to Node's event loop. */
+const SLICE_MS = 10;
+
+/** rp2040js logs through this; warnings go to our log, debug chatter is dropped. */
+function makeLogger(log) {
+  return {
+    debug() {},
+    info(component, message) {
+      log(`[${component}] ${message}`);
+    },
+    warn(component, message) {
+      log(`[${component}] warning: ${message}`);
+    },
+    error(component, message) {
+      log(`[${component}] error: ${message}`);
+    },
+  };
+}
+
+/**
+ * The emulated board. Events: `configured` (USB enumerated), `serial` (bytes from the board),
+ * `reset` ({reason}), `halted` ({reason}), `rtt` (raw defmt bytes).
+ */
+export class Board extends EventEmitter {
+  /**
+   * @param {object} options
+   * @param {import('./elf.js').Elf} options.elf the firmware
+   * @param {Uint8Array} [options.flash] a whole flash image to start from (else the ELF alone)
+   * @param {number[]} options.servoPins GPIOs whose pulses are captured
+   * @param {boolean} [options.realtime] never run ahead of wall-clock time (default true)
+   * @param {(line:string)=>void} [options.log]
+   */
+  constructor({ elf, flash, servoPins, realtime = true, log = () => {} }) {
+    super();
+    this.elf = elf;
+    this.servoPins = servoPins;
+    this.realtime = realtime;
+    this.log = log;
+    this.rom = buildRom();
+    this.flashServices = new FlashServices(log);
+    this.resets = 0;
+    this.halted = null;
+    this.running = false;
+    this.probes = new Map();
+    /** Emulated nanoseconds carried across chip resets, so time stays monotonic. */
+    this.baseNanos = 0;
+    this.timers = [];
+    this.mcu = null;
+    this.powerOn(flash ?? null);
+  }
+
+  /** Emulated time since power-on, in nanoseconds (continues across resets). */
+  get nanos() {
+    return this.baseNanos + this.mcu.clock.nanos;
+  }
+
+  /** Builds a chip, loads ROM and flash, and wires every hook. */
+  powerOn(flashImage) {
+    const mcu = new RP2040();
+    mcu.logger = makeLogger(this.log);
+    mcu.loadBootrom(this.rom); // resets the core (which reads our vectors) and erases flash
+    if (flashImage) mcu.flash.set(flashImage);
+    else this.elf.writeFlash(mcu.flash);
+    mcu.peripherals[XIP_CTRL_KEY] = new XipCtrlStub(mcu);
+    mcu.core.reset(); // vectors are in ROM; reset again now that flash holds boot2
+
+    mcu.onBreak = (code) => this.onBreak(code);
+    const watchdog = mcu.peripherals[0x40058];
+    watchdog.onWatchdogTrigger = () => this.requestReset('watchdog');
+    const ppbWrite = mcu.ppb.writeUint32.bind(mcu.ppb);
+    mcu.ppb.writeUint32 = (offset, value) => {
+      if (offset === AIRCR_OFFSET && (value >>> 0) === AIRCR_SYSRESETREQ) {
+        this.requestReset('SYSRESETREQ');
+        return;
+      }
+      ppbWrite(offset, value);
+    };
+
+    this.mcu = mcu;
+    this.serial = new UsbSerial(mcu, {
+      onData: (bytes) => this.emit('serial', bytes),
+      onConfigured: () => this.emit('configured'),
+    });
+    this.capture = new PwmCapture(mcu, this.servoPins);
+    this.rtt = new RttReader(mcu, this.elf.symbol('_SEGGER_RTT'));
+    this.pendingReset = null;
+    for (const probe of this.probes.values()) probe.attach(mcu);
+  }
+
+  /** Resets the chip at the next instruction boundary; the flash survives. */
+  requestReset(reason) {
+    this.pendingReset = reason;
+  }
+
+  doReset(reason) {
+    this.drainRtt();
+    const flash = this.mcu.flash.slice();
+    this.baseNanos += this.mcu.clock.nanos;
+    this.resets += 1;
+    this.log(`chip reset (${reason}); flash kept`);
+    this.powerOn(flash);
+    this.halted = null;
+    this.emit('reset', { reason });
+  }
+
+  halt(reason) {
+    if (this.halted) return;
+    this.drainRtt();
+    this.halted = reason;
+    this.log(`board halted: ${reason}`);
+    this.emit('halted', { reason });
+  }
+
+  /** A BKPT/UDF: a ROM service if it sits in our ROM, else the firmware stopping (panic, fault). */
+  onBreak(code) {
+    const core = this.mcu.core;
+    const pc = (core.PC - core.breakRewind) >>> 0;
+    if (pc >= ROM_CODE_END) {
+      this.halt(`firmware hit a breakpoint/UDF #${code} at 0x${pc.toString(16)} (panic or fault)`);
+      return;
+    }
+    const r = core.registers;
+    if (code === LOOKUP_TRAP) {
+      const address = serviceAddress(r[1]);
+      if (!address) {
+        const name = String.fromCharCode(r[1] & 0xff, (r[1] >> 8) & 0xff);
+        this.halt(`firmware looked up ROM function '${name}', which this ROM does not provide`);
+      }
+      r[0] = address;
+      return;
+    }
+    if (code === FAULT_TRAP) {
+      this.halt('HardFault/NMI before the firmware installed its vector table');
+      return;
+    }
+    const name = serviceName(code);
+    const outcome = this.flashServices.call(name, this.mcu, r);
+    if (outcome === 'reset') this.requestReset(`power cut during flash ${name}`);
+    else if (outcome === 'usb-boot') this.halt('rebooted to the USB bootloader (reset_to_usb_boot)');
+  }
+
+  /** Adds a cycle probe on every function whose mangled name contains `part`. */
+  addProbe(part) {
+    const functions = this.elf.functionsMatching(part);
+    if (functions.length === 0) throw new Error(`no function symbol contains '${part}'`);
+    const probe = new CycleProbe(part, functions);
+    probe.attach(this.mcu);
+    this.probes.set(part, probe);
+    return probe;
+  }
+
+  drainRtt() {
+    if (!this.mcu) return;
+    const bytes = this.rtt.poll();
+    if (bytes.length) this.emit('rtt', bytes);
+  }
+
+  /** Reads `length` bytes of flash at an offset from its start. */
+  readFlash(offset, length) {
+    return this.mcu.flash.slice(offset, offset + length);
+  }
+
+  /** Host bytes for the USB serial port. */
+  writeSerial(bytes) {
+    return this.serial.write(bytes);
+  }
+
+  /** Calls `fn` once emulated time has advanced by `micros`. */
+  after(micros, fn) {
+    this.timers.push({ at: this.nanos + micros * 1000, fn });
+  }
+
+  start() {
+    if (this.running) return;
+    this.running = true;
+    this.wallStart = performance.now();
+    this.nanosAtStart = this.nanos;
+    this.loop();
+  }
+
+  stop() {
+    this.running = false;
+  }
+
+  /** Runs instructions for a slice of wall time, then yields to Node's event loop. */
+  loop() {
+    if (!this.running) return;
+    const sliceEnd = performance.now() + SLICE_MS;
+    let idle = false;
+    while (performance.now() < sliceEnd && !idle) {
+      const limit = this.realtime
+        ? this.nanosAtStart + (performance.now() - this.wallStart) * 1e6
+        : Infinity;
+      idle = this.run(limit, 20000);
+      this.drainRtt();
+      this.fireTimers();
+    }
+    setTimeout(() => this.loop(), idle ? 1 : 0);
+  }
+
+  /** Executes up to `budget` instructions without passing `limitNanos`; true if it went idle. */
+  run(limitNanos, budget) {
+    for (let i = 0; i < budget; i++) {
+      if (this.pendingReset) this.doReset(this.pendingReset);
+      if (this.halted) return true;
+      const m = this.mcu;
+      if (m.core.waiting) {
+        const step = m.clock.nanosToNextAlarm;
+        if (!m.clock.nextAlarm || this.nanos + step > limitNanos) {
+          // Sleep until the next alarm is due in wall time (or a host byte wakes us).
+          if (m.clock.nextAlarm === null && this.timers.length === 0) return true;
+          const until = Math.min(limitNanos, this.nanos + step);
+          if (until > this.nanos) m.clock.tick(until - this.nanos);
+          return true;
+        }
+        m.clock.tick(step);
+      } else {
+        if (this.nanos > limitNanos) return true;
+        const cycles = m.core.executeInstruction();
+        m.clock.tick((cycles * 1e9) / m.clkSys);
+      }
+    }
+    return false;
+  }
+
+  fireTimers() {
+    const now = this.nanos;
+    const due = this.timers.filter((t) => t.at <= now);
+    this.timers = this.timers.filter((t) => t.at > now);
+    for (const t of due) t.fn();
+  }
+
+  /** Where the firmware's image ends in flash, for messages. */
+  imageEnd() {
+    return this.elf.segments.reduce((end, s) => Math.max(end, s.paddr + s.data.length - FLASH_BASE), 0);
+  }
+}
