@@ -224,15 +224,14 @@ export class Board extends EventEmitter {
       if (this.halted) return true;
       const m = this.mcu;
       if (m.core.waiting) {
-        const step = m.clock.nanosToNextAlarm;
-        if (!m.clock.nextAlarm || this.nanos + step > limitNanos) {
-          // Sleep until the next alarm is due in wall time (or a host byte wakes us).
-          if (m.clock.nextAlarm === null && this.timers.length === 0) return true;
-          const until = Math.min(limitNanos, this.nanos + step);
-          if (until > this.nanos) m.clock.tick(until - this.nanos);
-          return true;
-        }
-        m.clock.tick(step);
+        // Sleep to the next clock alarm or harness timer, but not past the wall-time limit.
+        const alarm = m.clock.nextAlarm ? this.nanos + m.clock.nanosToNextAlarm : Infinity;
+        const timer = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);
+        const target = Math.min(alarm, timer, limitNanos);
+        if (target === Infinity) return true; // nothing will ever happen until a host byte
+        if (target > this.nanos) m.clock.tick(target - this.nanos);
+        if (target === timer) this.fireTimers();
+        else if (target === limitNanos) return true;
       } else {
         if (this.nanos > limitNanos) return true;
         const cycles = m.core.executeInstruction();
