@@ -1,2 +1,50 @@
-//! The wire contract between `lrmcal` and the firmware.
+//! The wire contract between `lrmcal` (host) and the arm's firmware (board).
+//!
+//! Both ends depend on this crate and on `model`; nothing else is shared.
+//!
+//! # Endpoints
+//!
+//! Every exchange is one request frame from the host and one response frame
+//! from the board with the same sequence number. A new endpoint is one row
+//! here, one [`Request`] variant and one handler in the firmware.
+//!
+//! | path | request | response | what it does |
+//! |---|---|---|---|
+//! | `link/hello` | [`Request::Hello`] | [`Response::Hello`] | versions at connect |
+//! | `status/get` | [`Request::Status`] | [`Response::Status`] | versions, calibration, mode, targets, pulses, faults, uptime |
+//! | `motion/move` | [`Request::Move`] | [`Response::Done`] | move to joint targets (duration or speed) |
+//! | `motion/home` | [`Request::Home`] | [`Response::Done`] | attach all joints and move to the home pose |
+//! | `servo/attach` | [`Request::Attach`] | [`Response::Done`] | drive one or all channels again |
+//! | `servo/detach` | [`Request::Detach`] | [`Response::Done`] | make one or all channels limp |
+//! | `servo/raw` | [`Request::RawPulse`] | [`Response::Pulse`] | a raw pulse on one channel (servo tuning) |
+//! | `comp/payload` | [`Request::SetPayload`] | [`Response::Done`] | payload mass at the tool |
+//! | `comp/mode` | [`Request::SetCompensation`] | [`Response::Done`] | off / elastic only / full |
+//! | `calib/begin` | [`Request::CalibrationBegin`] | [`Response::CalibrationAck`] | start a calibration upload |
+//! | `calib/chunk` | [`Request::CalibrationChunk`] | [`Response::CalibrationAck`] | one chunk of it |
+//! | `calib/commit` | [`Request::CalibrationCommit`] | [`Response::CalibrationStored`] | check, store and apply it |
+//! | `calib/read` | [`Request::CalibrationRead`] | [`Response::CalibrationData`] | one chunk of the stored calibration |
+//! | `calib/erase` | [`Request::CalibrationErase`] | [`Response::Done`] | forget the calibration (nominal curves) |
+//! | `sys/bootloader` | [`Request::RebootToBootloader`] | [`Response::Done`] | reboot into the USB (UF2) bootloader |
+//!
+//! Any request may instead get [`Response::Error`] with a [`WireError`].
+//! The frame format, buffer sizes and versioning rule are in [`frame`].
 #![cfg_attr(not(feature = "use-std"), no_std)]
+
+pub mod calibration;
+pub mod error;
+pub mod frame;
+pub mod messages;
+
+pub use calibration::{Calibration, CalibrationFault, ModelOption};
+pub use error::WireError;
+pub use frame::{FrameError, FrameReader, PROTOCOL_VERSION};
+pub use messages::{
+    CalibrationInfo, CompensationMode, CompensationReport, DeviceInfo, Faults, FirmwareVersion,
+    Request, Response, Status, Timing,
+};
+
+/// Bytes of calibration data carried by one chunk frame.
+pub const CHUNK_LEN: usize = 128;
+
+/// Number of joints (and servo channels) of the arm.
+pub const JOINTS: usize = model::JOINTS;

@@ -1,0 +1,137 @@
+//! The calibration payload: what `lrmcal push` sends and the board keeps in flash.
+//!
+//! It is one postcard-encoded [`Calibration`]: the calibrated arm (whose
+//! joints carry the level-1 servo curves and the joint limits, and which
+//! carries the payload centre of mass), the nominal arm it was identified
+//! against (the firmware needs it to know where the user means the tool to
+//! be), the model option, the home pose and an id. On the wire it travels in
+//! [`crate::CHUNK_LEN`] chunks behind a length and CRC-32 announced up
+//! front; the board applies it only after the commit finds every byte, the
+//! CRC and [`Calibration::check`] in order.
+
+use model::{Arm, JOINTS};
+use serde::{Deserialize, Serialize};
+
+/// Largest encoded calibration, bytes (two `Arm<f32>` are about 830).
+pub const MAX_CALIBRATION_LEN: usize = 1024;
+
+/// Which parameters the calibration identified (METHOD.md's three options).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum ModelOption {
+    /// Geometric and elastic parameters (28 in the paper).
+    ElastoKinematic,
+    /// Geometric parameters only (21).
+    Kinematic,
+    /// Compliances only (7).
+    Elastic,
+}
+
+impl ModelOption {
+    /// The name used on the command line and in calibration files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::ElastoKinematic => "elasto-kinematic",
+            Self::Kinematic => "kinematic",
+            Self::Elastic => "elastic",
+        }
+    }
+
+    /// The option called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        [Self::ElastoKinematic, Self::Kinematic, Self::Elastic].into_iter().find(|o| o.name() == name)
+    }
+}
+
+/// A complete calibration as the board stores it, single precision.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Calibration {
+    /// Chosen by the host (e.g. a hash of the calibration file) to recognise it in `status`.
+    pub id: u32,
+    /// The model option it was identified with.
+    pub option: ModelOption,
+    /// The nominal arm: where a joint target means the tool to be.
+    pub nominal: Arm<f32>,
+    /// The calibrated arm: servo curves, joint limits, geometry, compliances, payload COM.
+    pub calibrated: Arm<f32>,
+    /// The pose `motion/home` goes to, nominal joint angles, rad.
+    pub home_rad: [f32; JOINTS],
+}
+
+/// What makes a calibration unusable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum CalibrationFault {
+    /// A number is NaN or infinite.
+    NotFinite,
+    /// Joint `joint` (0-based) has lower limit ≥ upper limit.
+    Limits {
+        /// Joint index.
+        joint: u8,
+    },
+    /// Joint `joint`'s servo curve is not monotonic.
+    ServoCurve {
+        /// Joint index.
+        joint: u8,
+    },
+    /// A compliance or mass is negative.
+    Negative,
+    /// The home pose is outside the joint limits.
+    Home,
+}
+
+impl core::fmt::Display for CalibrationFault {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::NotFinite => f.write_str("a value is NaN or infinite"),
+            Self::Limits { joint } => write!(f, "joint {}: lower limit not below upper limit", joint + 1),
+            Self::ServoCurve { joint } => write!(f, "joint {}: servo curve is not monotonic", joint + 1),
+            Self::Negative => f.write_str("a compliance or mass is negative"),
+            Self::Home => f.write_str("the home pose is outside the joint limits"),
+        }
+    }
+}
+
+impl Calibration {
+    /// Checks that the board can run on this calibration. Both ends call it:
+    /// the host before sending, the board before storing.
+    pub fn check(&self) -> Result<(), CalibrationFault> {
+        if !self.nominal.is_finite()
+            || !self.calibrated.is_finite()
+            || !self.home_rad.iter().all(|x| x.is_finite())
+        {
+            return Err(CalibrationFault::NotFinite);
+        }
+        for arm in [&self.nominal, &self.calibrated] {
+            if arm.base_compliance < 0.0 || arm.joints.iter().any(|j| j.compliance < 0.0 || j.mass < 0.0) {
+                return Err(CalibrationFault::Negative);
+            }
+        }
+        for (i, j) in self.calibrated.joints.iter().enumerate() {
+            let joint = i as u8;
+            if j.limits[0] >= j.limits[1] {
+                return Err(CalibrationFault::Limits { joint });
+            }
+            if !j.servo.is_monotonic() {
+                return Err(CalibrationFault::ServoCurve { joint });
+            }
+        }
+        if !self.calibrated.within_limits(&self.home_rad) {
+            return Err(CalibrationFault::Home);
+        }
+        Ok(())
+    }
+
+    /// Encodes the calibration for upload or storage; returns the bytes used in `buf`.
+    pub fn encode<'a>(&self, buf: &'a mut [u8; MAX_CALIBRATION_LEN]) -> Result<&'a [u8], postcard::Error> {
+        postcard::to_slice(self, buf).map(|used| &*used)
+    }
+
+    /// Decodes and checks a calibration; `None` if the bytes are not one or it fails [`Calibration::check`].
+    pub fn decode(bytes: &[u8]) -> Option<Self> {
+        match postcard::take_from_bytes::<Self>(bytes) {
+            Ok((c, [])) if c.check().is_ok() => Some(c),
+            _ => None,
+        }
+    }
+}
