@@ -20,11 +20,22 @@ const AIRCR_SYSRESETREQ = 0x05fa0004;
 /** Wall time one run-loop slice may take before yielding to Node's event loop. */
 const SLICE_MS = 10;
 
-/** rp2040js logs through this; warnings go to our log, debug chatter is dropped. */
-function makeLogger(log) {
+/**
+ * rp2040js logs through this; warnings go to our log, debug chatter is dropped.
+ *
+ * It also completes rp2040js's SEV, which only logs "SEV": on the chip SEV sets the event
+ * register, so that the next WFE falls through. embassy's executor pends a task with SEV and
+ * then sleeps with WFE; without the event a task spawned from thread mode would wait for an
+ * unrelated interrupt. The log call is the one hook rp2040js gives at that instruction.
+ */
+function makeLogger(core, log) {
   return {
     debug() {},
     info(component, message) {
+      if (component === 'CortexM0Core' && message === 'SEV') {
+        core.eventRegistered = true;
+        return;
+      }
       log(`[${component}] ${message}`);
     },
     warn(component, message) {
@@ -76,7 +87,7 @@ export class Board extends EventEmitter {
   /** Builds a chip, loads ROM and flash, and wires every hook. */
   powerOn(flashImage) {
     const mcu = new RP2040();
-    mcu.logger = makeLogger(this.log);
+    mcu.logger = makeLogger(mcu.core, this.log);
     mcu.loadBootrom(this.rom); // resets the core (which reads our vectors) and erases flash
     if (flashImage) mcu.flash.set(flashImage);
     else this.elf.writeFlash(mcu.flash);

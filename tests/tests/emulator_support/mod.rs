@@ -1,0 +1,223 @@
+//! Shared driver of the emulated-board tests: runs the real firmware ELF in the rp2040js
+//! harness (`tests/emulator/bin/lrm-emulator.js`) and speaks its JSON-lines control channel.
+//!
+//! Prerequisites, checked with a message that says how to get them: Node on the PATH (or
+//! `LRM_NODE`), `npm ci` done in `tests/emulator`, and the firmware built with `cargo firmware`
+//! (or `LRM_FIRMWARE_ELF` naming another ELF). When a test fails, the emulator's log (the
+//! firmware's defmt output included) is printed, so the failure shows what the board said.
+#![allow(dead_code)] // each test file uses its own part of this driver
+
+use std::io::{BufRead, BufReader, Write};
+use std::path::PathBuf;
+use std::process::{Child, ChildStdin, Command, Stdio};
+use std::sync::mpsc::{Receiver, RecvTimeoutError, channel};
+use std::sync::{Arc, Mutex};
+use std::thread;
+use std::time::{Duration, Instant};
+
+use serde_json::{Value, json};
+
+/// Wall-clock bound on one control request (waits inside are bounded in emulated time too).
+const REQUEST_TIMEOUT: Duration = Duration::from_secs(120);
+/// GPIOs of servos 1..6 on the board (firmware/src/board).
+pub const SERVO_PINS: [u32; 6] = [2, 3, 4, 5, 6, 7];
+
+/// The repository root.
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The firmware ELF the tests run.
+pub fn firmware_elf() -> PathBuf {
+    std::env::var_os("LRM_FIRMWARE_ELF")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo_root().join("target/thumbv6m-none-eabi/release/firmware"))
+}
+
+/// A running emulated board.
+pub struct EmulatedBoard {
+    child: Child,
+    stdin: ChildStdin,
+    replies: Receiver<Value>,
+    events: Arc<Mutex<Vec<Value>>>,
+    log: Arc<Mutex<String>>,
+    next_id: u64,
+    /// TCP port of the board's USB serial port on 127.0.0.1.
+    pub port: u16,
+}
+
+impl EmulatedBoard {
+    /// Starts the board on a free port, with a blank flash apart from the firmware.
+    pub fn start() -> Self {
+        let emulator = repo_root().join("tests/emulator");
+        let script = emulator.join("bin/lrm-emulator.js");
+        assert!(
+            emulator.join("node_modules/rp2040js").is_dir(),
+            "the emulator is not installed: run `npm ci` in {}",
+            emulator.display()
+        );
+        let elf = firmware_elf();
+        assert!(
+            elf.is_file(),
+            "no firmware ELF at {}: build it with `cargo firmware` \
+             (cargo build -p firmware --release --target thumbv6m-none-eabi)",
+            elf.display()
+        );
+        let node = std::env::var_os("LRM_NODE").unwrap_or_else(|| "node".into());
+        let mut child = Command::new(&node)
+            .arg(&script)
+            .args(["--control", "--port", "0", "--elf"])
+            .arg(&elf)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap_or_else(|e| panic!("cannot start {node:?} {}: {e} (is Node installed?)", script.display()));
+
+        let log = Arc::new(Mutex::new(String::new()));
+        let stderr = child.stderr.take().expect("piped stderr");
+        let log_writer = Arc::clone(&log);
+        thread::spawn(move || {
+            for line in BufReader::new(stderr).lines().map_while(Result::ok) {
+                let mut log = log_writer.lock().unwrap_or_else(|e| e.into_inner());
+                log.push_str(&line);
+                log.push('\n');
+            }
+        });
+
+        let (tx, replies) = channel();
+        let events = Arc::new(Mutex::new(Vec::new()));
+        let event_writer = Arc::clone(&events);
+        let stdout = child.stdout.take().expect("piped stdout");
+        thread::spawn(move || {
+            for line in BufReader::new(stdout).lines().map_while(Result::ok) {
+                let Ok(value) = serde_json::from_str::<Value>(&line) else { continue };
+                if value.get("event").is_some() {
+                    event_writer.lock().unwrap_or_else(|e| e.into_inner()).push(value.clone());
+                }
+                if tx.send(value).is_err() {
+                    break;
+                }
+            }
+        });
+        let stdin = child.stdin.take().expect("piped stdin");
+        let mut board = Self { child, stdin, replies, events, log, next_id: 1, port: 0 };
+        let listening = board.wait_event("listening");
+        board.port = listening["port"].as_u64().expect("listening event has a port") as u16;
+        board
+    }
+
+    /// The host-side port name of the board's USB serial port.
+    pub fn port_name(&self) -> String {
+        format!("socket://127.0.0.1:{}", self.port)
+    }
+
+    /// The emulator's log so far (its own messages and the firmware's).
+    pub fn log(&self) -> String {
+        self.log.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// Events (`configured`, `reset`, `halted`, ...) seen so far.
+    pub fn events(&self) -> Vec<Value> {
+        self.events.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    fn wait_event(&mut self, name: &str) -> Value {
+        let deadline = Instant::now() + REQUEST_TIMEOUT;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.replies.recv_timeout(left) {
+                Ok(v) if v["event"] == name => return v,
+                Ok(_) => {}
+                Err(RecvTimeoutError::Timeout) => panic!("no '{name}' event from the emulator\n{}", self.log()),
+                Err(RecvTimeoutError::Disconnected) => {
+                    panic!("the emulator exited before '{name}'\n{}", self.log())
+                }
+            }
+        }
+    }
+
+    /// Sends one control request and returns its reply; panics (with the log) on an error reply.
+    pub fn request(&mut self, mut request: Value) -> Value {
+        let reply = self.try_request(&mut request);
+        if reply["ok"] != true {
+            panic!("emulator request {request} failed: {}\n{}", reply["error"], self.log());
+        }
+        reply
+    }
+
+    /// Sends one control request and returns its reply, error replies included.
+    pub fn try_request(&mut self, request: &mut Value) -> Value {
+        let id = self.next_id;
+        self.next_id += 1;
+        request["id"] = json!(id);
+        writeln!(self.stdin, "{request}").unwrap_or_else(|e| panic!("emulator gone: {e}\n{}", self.log()));
+        self.stdin.flush().ok();
+        let deadline = Instant::now() + REQUEST_TIMEOUT;
+        loop {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match self.replies.recv_timeout(left) {
+                Ok(v) if v["id"] == json!(id) => return v,
+                Ok(_) => {}
+                Err(_) => panic!("no reply to {request} from the emulator\n{}", self.log()),
+            }
+        }
+    }
+
+    /// Waits until the board's USB serial port is enumerated.
+    pub fn wait_configured(&mut self) {
+        self.request(json!({"cmd": "wait_configured", "timeout_ms": 3000}));
+    }
+
+    /// Lets `micros` of emulated time pass.
+    pub fn run_us(&mut self, micros: u64) {
+        self.request(json!({"cmd": "run", "us": micros}));
+    }
+
+    /// The widths (µs) of the next `count` pulses on each servo pin, in servo order.
+    pub fn servo_pulses(&mut self, count: u32) -> (Vec<Vec<f64>>, Vec<Vec<Option<f64>>>) {
+        let reply = self.request(json!({"cmd": "pulses", "pins": SERVO_PINS, "count": count, "timeout_ms": 500}));
+        let widths = serde_json::from_value(reply["widths_us"].clone()).expect("widths_us");
+        let periods = serde_json::from_value(reply["periods_us"].clone()).expect("periods_us");
+        (widths, periods)
+    }
+
+    /// Resets the chip now; its flash survives.
+    pub fn reset(&mut self) {
+        self.request(json!({"cmd": "reset"}));
+    }
+
+    /// Status of the emulator: time, resets, halted reason, flash operation counts.
+    pub fn status(&mut self) -> Value {
+        self.request(json!({"cmd": "status"}))
+    }
+
+    /// The firmware's raw defmt bytes so far, and decoded lines when defmt-print is installed.
+    pub fn rtt(&mut self) -> (Vec<u8>, Vec<String>) {
+        let reply = self.request(json!({"cmd": "rtt"}));
+        let hex = reply["hex"].as_str().unwrap_or_default();
+        let bytes = (0..hex.len() / 2)
+            .map(|i| u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).expect("hex from the emulator"))
+            .collect();
+        let lines = serde_json::from_value(reply["lines"].clone()).unwrap_or_default();
+        (bytes, lines)
+    }
+}
+
+impl Drop for EmulatedBoard {
+    fn drop(&mut self) {
+        if thread::panicking() {
+            eprintln!("---- emulator log (serial port {}) ----\n{}", self.port_name(), self.log());
+        }
+        let _ = writeln!(self.stdin, "{}", json!({"id": 0, "cmd": "quit"}));
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            thread::sleep(Duration::from_millis(20));
+        }
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
