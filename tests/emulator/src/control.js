@@ -16,6 +16,7 @@
 //! | `cut_status` | | `armed`, `fired` |
 //! | `flash_read` | `offset`, `length` | `hex` |
 //! | `rtt` | | `hex` (all raw defmt bytes so far), `lines` (decoded, if defmt-print) |
+//! | `busy_cycles` | `windows`, `window_us` | CPU cycles executed (not asleep) in each window |
 //! | `probe` | `symbol` | adds a cycle probe; `functions` |
 //! | `probe_stats` | `symbol`, `clear` | `calls`, `min`, `mean`, `max`, `last` cycles |
 //! | `quit` | | the process exits |
@@ -145,6 +146,25 @@ export class Control {
       case 'rtt':
         board.drainRtt();
         return { hex: Buffer.from(this.logs.rttBytes()).toString('hex'), lines: this.logs.rttLines() };
+      case 'busy_cycles': {
+        const windows = request.windows ?? 10;
+        const windowUs = request.window_us ?? 20000;
+        const cycles = [];
+        const resetsAtStart = board.resets;
+        let last = board.mcu.core.cycles;
+        await new Promise((resolve) => {
+          const tick = () => {
+            const now = board.mcu.core.cycles;
+            cycles.push(now - last);
+            last = now;
+            if (cycles.length >= windows || board.halted || board.resets !== resetsAtStart) resolve();
+            else board.after(windowUs, tick);
+          };
+          board.after(windowUs, tick);
+        });
+        if (board.resets !== resetsAtStart) throw new Error('the board reset during the measurement');
+        return { window_us: windowUs, cycles };
+      }
       case 'probe': {
         const probe = board.addProbe(request.symbol);
         return { functions: probe.functions.map((f) => f.name) };
