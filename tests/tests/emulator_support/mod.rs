@@ -221,3 +221,45 @@ impl Drop for EmulatedBoard {
         let _ = self.child.wait();
     }
 }
+
+/// A bare protocol link to the board over its TCP serial port, for the fault tests that must
+/// stop a transfer part-way or put garbage between frames (the host client never does either).
+pub struct RawLink {
+    stream: std::net::TcpStream,
+    seq: u16,
+    reader: protocol::frame::FrameReader,
+}
+
+impl RawLink {
+    /// Connects to the board's serial port.
+    pub fn connect(board: &EmulatedBoard) -> Self {
+        let stream = std::net::TcpStream::connect(("127.0.0.1", board.port)).expect("connect to the board");
+        stream.set_read_timeout(Some(Duration::from_secs(20))).expect("read timeout");
+        stream.set_nodelay(true).ok();
+        Self { stream, seq: 0x4000, reader: protocol::frame::FrameReader::new() }
+    }
+
+    /// Writes raw bytes to the serial line.
+    pub fn send_bytes(&mut self, bytes: &[u8]) {
+        self.stream.write_all(bytes).expect("write to the board");
+    }
+
+    /// Sends one request frame and returns the response with the same sequence number.
+    pub fn request(&mut self, request: &protocol::Request) -> protocol::Response {
+        self.seq = self.seq.wrapping_add(1);
+        let mut frame = [0u8; protocol::frame::MAX_FRAME];
+        let n = protocol::frame::encode(self.seq, request, &mut frame).expect("encode request");
+        self.send_bytes(&frame[..n]);
+        let mut byte = [0u8; 1];
+        loop {
+            let got = std::io::Read::read(&mut self.stream, &mut byte).expect("read from the board");
+            assert!(got == 1, "the board closed the serial port");
+            if let protocol::frame::Feed::Frame(frame) = self.reader.feed(byte[0])
+                && let Ok((seq, response)) = protocol::frame::decode::<protocol::Response>(frame)
+                && seq == self.seq
+            {
+                return response;
+            }
+        }
+    }
+}
