@@ -39,7 +39,9 @@ impl ModelOption {
 
     /// The option called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::ElastoKinematic, Self::Kinematic, Self::Elastic].into_iter().find(|o| o.name() == name)
+        [Self::ElastoKinematic, Self::Kinematic, Self::Elastic]
+            .into_iter()
+            .find(|o| o.name() == name)
     }
 }
 
@@ -84,8 +86,12 @@ impl core::fmt::Display for CalibrationFault {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
             Self::NotFinite => f.write_str("a value is NaN or infinite"),
-            Self::Limits { joint } => write!(f, "joint {}: lower limit not below upper limit", joint + 1),
-            Self::ServoCurve { joint } => write!(f, "joint {}: servo curve is not monotonic", joint + 1),
+            Self::Limits { joint } => {
+                write!(f, "joint {}: lower limit not below upper limit", joint + 1)
+            }
+            Self::ServoCurve { joint } => {
+                write!(f, "joint {}: servo curve is not monotonic", joint + 1)
+            }
             Self::Negative => f.write_str("a compliance or mass is negative"),
             Self::Home => f.write_str("the home pose is outside the joint limits"),
         }
@@ -103,7 +109,12 @@ impl Calibration {
             return Err(CalibrationFault::NotFinite);
         }
         for arm in [&self.nominal, &self.calibrated] {
-            if arm.base_compliance < 0.0 || arm.joints.iter().any(|j| j.compliance < 0.0 || j.mass < 0.0) {
+            if arm.base_compliance < 0.0
+                || arm
+                    .joints
+                    .iter()
+                    .any(|j| j.compliance < 0.0 || j.mass < 0.0)
+            {
                 return Err(CalibrationFault::Negative);
             }
         }
@@ -123,7 +134,10 @@ impl Calibration {
     }
 
     /// Encodes the calibration for upload or storage; returns the bytes used in `buf`.
-    pub fn encode<'a>(&self, buf: &'a mut [u8; MAX_CALIBRATION_LEN]) -> Result<&'a [u8], postcard::Error> {
+    pub fn encode<'a>(
+        &self,
+        buf: &'a mut [u8; MAX_CALIBRATION_LEN],
+    ) -> Result<&'a [u8], postcard::Error> {
         postcard::to_slice(self, buf).map(|used| &*used)
     }
 

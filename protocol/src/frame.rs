@@ -132,7 +132,10 @@ pub fn decode<M: DeserializeOwned>(frame: &[u8]) -> Result<(u16, M), FrameError>
     let mut raw = [0u8; MAX_RAW];
     let (version, seq, body) = decode_raw(frame, &mut raw)?;
     if version != PROTOCOL_VERSION {
-        return Err(FrameError::Version { theirs: version, seq });
+        return Err(FrameError::Version {
+            theirs: version,
+            seq,
+        });
     }
     // Trailing bytes after a complete message mean the sender meant something else.
     match postcard::take_from_bytes::<M>(body) {
@@ -142,7 +145,10 @@ pub fn decode<M: DeserializeOwned>(frame: &[u8]) -> Result<(u16, M), FrameError>
 }
 
 /// Undoes COBS and checks the CRC; returns version, seq and the body inside `raw`.
-pub fn decode_raw<'a>(frame: &[u8], raw: &'a mut [u8; MAX_RAW]) -> Result<(u8, u16, &'a [u8]), FrameError> {
+pub fn decode_raw<'a>(
+    frame: &[u8],
+    raw: &'a mut [u8; MAX_RAW],
+) -> Result<(u8, u16, &'a [u8]), FrameError> {
     let frame = match frame.split_last() {
         Some((0, rest)) => rest,
         _ => frame,
@@ -196,7 +202,11 @@ pub struct FrameReader<const N: usize = MAX_FRAME> {
 
 impl<const N: usize> Default for FrameReader<N> {
     fn default() -> Self {
-        Self { buf: [0; N], len: 0, overflowed: false }
+        Self {
+            buf: [0; N],
+            len: 0,
+            overflowed: false,
+        }
     }
 }
 
