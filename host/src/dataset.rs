@@ -34,3 +34,12 @@ pub struct Prediction {
     /// Predicted tool point, world frame, m.
     pub position: Vector3<f64>,
 }
+
+/// One row of a pose list: a pose and, if the list says, the load to measure it with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseRow {
+    /// The commanded pose.
+    pub pose: Pose,
+    /// Payload mass at the tool, kg, when the list gives one.
+    pub load_kg: Option<f64>,
+}

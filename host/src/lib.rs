@@ -1,2 +1,13 @@
 //! `lrmcal`: calibrate a low-cost arm from 3D tool positions.
+//!
+//! The binary is a thin shell over [`main_impl`]; each subcommand lives in its
+//! own file under [`commands`], file formats under [`io`].
+
+pub mod cli;
+pub mod commands;
 pub mod dataset;
+pub mod error;
+pub mod io;
+
+pub use cli::main_impl;
+pub use error::Error;

@@ -1,0 +1,73 @@
+//! Command-line parsing and dispatch for `lrmcal`.
+//!
+//! Adding a subcommand is a three-line change plus one file:
+//! 1. write `src/commands/<name>.rs` with `pub struct Args` (`#[derive(clap::Args)]`,
+//!    doc comments become the help) and `pub fn run(args: &Args) -> Result<(), Error>`,
+//!    and add its `pub mod <name>;` line to `src/commands/mod.rs`;
+//! 2. add one variant to [`Command`] below, with a doc comment (the one-line help);
+//! 3. add one arm to the `match` in [`Command::run`].
+//!
+//! Errors are reported here, once: the message chain after "error: failed to",
+//! and the exit code of [`Error::exit_code`].
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::commands;
+use crate::error::Error;
+
+/// Calibrate a cheap 6-DOF arm (3D-printed links, hobby servos) from measured
+/// 3D tool positions, and predict where it really goes.
+#[derive(Debug, Parser)]
+#[command(
+    name = "lrmcal",
+    version,
+    about,
+    long_about = "Calibrate a cheap 6-DOF arm (3D-printed links, hobby RC servos, no encoders) \
+from measured 3D positions of its tool point.\n\n\
+The arm is described by a TOML file (geometry, masses, servo curves); measurements and \
+pose lists are CSV files with angles in degrees and positions in millimetres. Every \
+command that needs an arm uses the bundled LRM-like arm when --arm is omitted, so the \
+commands below work on a fresh checkout with no files of your own.",
+    after_help = "Examples:\n  \
+lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
+lrmcal predict --arm my_arm.toml --poses poses.csv --out predicted.csv\n  \
+lrmcal help predict\n\n\
+Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
+written, 5 model evaluation failed."
+)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands of `lrmcal`, one file each under `src/commands/`.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Predict tool positions of an arm (nominal or calibrated) for a pose list.
+    Predict(commands::predict::Args),
+}
+
+impl Command {
+    /// Runs the chosen subcommand.
+    pub fn run(&self) -> Result<(), Error> {
+        match self {
+            Self::Predict(args) => commands::predict::run(args),
+        }
+    }
+}
+
+/// Parses the process arguments, runs the command and turns its outcome into an
+/// exit code, printing any error with its causes to stderr.
+pub fn main_impl() -> ExitCode {
+    let cli = Cli::parse();
+    match cli.command.run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("{}", error.report());
+            ExitCode::from(error.exit_code())
+        }
+    }
+}

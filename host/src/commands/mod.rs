@@ -1,0 +1,5 @@
+//! One file per `lrmcal` subcommand: its clap `Args` and its `run`.
+//!
+//! See `crate::cli` for how to add one.
+
+pub mod predict;

@@ -1,0 +1,83 @@
+//! `lrmcal predict`: where an arm (nominal or calibrated) puts its tool point
+//! for each pose of a list, elastic deflection under the load included.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use model::SolverOptions;
+
+use crate::dataset::Prediction;
+use crate::error::{Error, InputError, Location, Problem};
+use crate::io::arm_source::ArmSource;
+use crate::io::{pose_list, predictions};
+
+/// Predict tool positions for a pose list.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
+lrmcal predict --arm my_arm.toml --poses poses.csv > predicted.csv\n\n\
+The pose list has columns pose,q1_deg..q6_deg and optionally load_kg. The output has \
+pose,x_mm,y_mm,z_mm: the tool point in the world frame of the deflected arm, as a \
+tracker would measure it.")]
+pub struct Args {
+    /// The arm: a bundled arm's name, or an arm description `.toml` file.
+    #[arg(long, value_name = "NAME|FILE", default_value = crate::io::arm_source::DEFAULT_ARM)]
+    pub arm: ArmSource,
+    /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).
+    #[arg(long, value_name = "FILE")]
+    pub poses: PathBuf,
+    /// Payload at the tool for every pose, kg [default: the list's `load_kg`, else 0].
+    #[arg(long, value_name = "KG", value_parser = parse_load)]
+    pub load_kg: Option<f64>,
+    /// Where to write the predictions CSV [default: standard output].
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+fn parse_load(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a load >= 0 in kg, found `{text}`")),
+    }
+}
+
+/// Runs `lrmcal predict`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let arm = args.arm.load()?;
+    let rows = pose_list::read(&args.poses)?;
+    let chain = arm.arm.chain();
+    let options = SolverOptions::default();
+    let mut out = Vec::with_capacity(rows.len());
+    let mut seen = HashMap::new();
+    for (i, row) in rows.iter().enumerate() {
+        let id = row.pose.id;
+        // The output has no load column, so one pose id must give one row.
+        if let Some(first) = seen.insert(id, i) {
+            let problem = Problem::DuplicatePoseId {
+                pose: id,
+                first_line: first as u64 + 1,
+            };
+            let location = Location::at(None, "pose");
+            let error = InputError::new(location, problem);
+            return Err(error.in_file(&args.poses));
+        }
+        let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
+        let position = chain
+            .tool_point(&row.pose.q, load_kg, &options)
+            .map_err(|reason| Error::Model {
+                pose: id,
+                load_kg,
+                reason,
+            })?;
+        out.push(Prediction { pose: id, position });
+    }
+    match &args.out {
+        Some(path) => predictions::write(path, &out),
+        None => predictions::write_to(&mut std::io::stdout().lock(), &out).map_err(|source| {
+            Error::Write {
+                path: "<stdout>".into(),
+                source,
+            }
+        }),
+    }
+}

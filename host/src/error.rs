@@ -1,0 +1,265 @@
+//! The one error type of `lrmcal`, and the exit code of each kind of failure.
+//!
+//! Messages are lowercase and read after "failed to …": `main_impl` prints
+//! `error: failed to <error>: <cause>: <cause>`. Errors about the content of an
+//! input file carry an [`InputError`] that names the line and the key or
+//! column, and says what was expected.
+
+use std::fmt;
+use std::path::PathBuf;
+
+/// Process exit codes, one per kind of failure (documented in `lrmcal --help`).
+pub mod exit_codes {
+    /// The command did what was asked.
+    pub const SUCCESS: u8 = 0;
+    /// The command line was wrong (clap's own code).
+    pub const USAGE: u8 = 2;
+    /// An input file exists but its content is invalid.
+    pub const INVALID_INPUT: u8 = 3;
+    /// A file could not be read or written.
+    pub const FILE_ACCESS: u8 = 4;
+    /// The model could not be evaluated (e.g. the elastic deflection did not converge).
+    pub const MODEL: u8 = 5;
+}
+
+/// Everything that can make an `lrmcal` command fail.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// A file could not be read.
+    #[error("read `{}`", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file could not be written (nothing is left half-written).
+    #[error("write `{}`", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// What the OS said.
+        #[source]
+        source: std::io::Error,
+    },
+    /// An input file was read but its content is invalid.
+    #[error("parse `{}`", path.display())]
+    Parse {
+        /// The file (or `bundled:<name>` for a bundled one).
+        path: PathBuf,
+        /// Where in the file and what was expected.
+        #[source]
+        source: InputError,
+    },
+    /// `--arm` named neither a bundled arm nor a file of a known kind.
+    #[error("load arm `{arm}`: {reason}")]
+    ArmSource {
+        /// What the user passed.
+        arm: String,
+        /// Why it could not be used.
+        reason: String,
+    },
+    /// The model could not be evaluated for one pose.
+    #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
+    Model {
+        /// Pose id.
+        pose: u32,
+        /// Payload, kg.
+        load_kg: f64,
+        /// The model's own error (it is `no_std`, so not a `std::error::Error`).
+        reason: model::DeflectionError,
+    },
+}
+
+impl Error {
+    /// The process exit code for this error (see [`exit_codes`]).
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Read { .. } | Self::Write { .. } => exit_codes::FILE_ACCESS,
+            Self::Parse { .. } | Self::ArmSource { .. } => exit_codes::INVALID_INPUT,
+            Self::Model { .. } => exit_codes::MODEL,
+        }
+    }
+
+    /// The full message: `error: failed to <this>: <cause>: …` on one line.
+    pub fn report(&self) -> String {
+        let mut out = format!("error: failed to {self}");
+        let mut cause = std::error::Error::source(self);
+        while let Some(c) = cause {
+            out.push_str(": ");
+            out.push_str(&c.to_string());
+            cause = c.source();
+        }
+        out
+    }
+}
+
+/// Where in an input file a problem is, and what the problem is.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{location}{problem}")]
+pub struct InputError {
+    /// Line and key/column, as far as known.
+    pub location: Location,
+    /// What is wrong and what was expected.
+    pub problem: Problem,
+}
+
+impl InputError {
+    /// A problem at a location.
+    pub fn new(location: Location, problem: Problem) -> Self {
+        Self { location, problem }
+    }
+
+    /// Attaches the file path, making a top-level [`Error`].
+    pub fn in_file(self, path: impl Into<PathBuf>) -> Error {
+        Error::Parse {
+            path: path.into(),
+            source: self,
+        }
+    }
+}
+
+/// A place in an input file: 1-based line and the key path (TOML, e.g.
+/// `joint[3].mass`, array positions counted from 1) or column name (CSV).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Location {
+    /// 1-based line number, when known.
+    pub line: Option<u64>,
+    /// Key path or column name, when known.
+    pub field: Option<String>,
+}
+
+impl Location {
+    /// A location with both a line and a field.
+    pub fn at(line: Option<u64>, field: impl Into<String>) -> Self {
+        Self {
+            line,
+            field: Some(field.into()),
+        }
+    }
+
+    /// A whole line.
+    pub fn line(line: u64) -> Self {
+        Self {
+            line: Some(line),
+            field: None,
+        }
+    }
+}
+
+impl fmt::Display for Location {
+    /// `line 4, `q3_deg`: ` (with the trailing separator) or nothing.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.line, &self.field) {
+            (Some(line), Some(field)) => write!(f, "line {line}, `{field}`: "),
+            (Some(line), None) => write!(f, "line {line}: "),
+            (None, Some(field)) => write!(f, "`{field}`: "),
+            (None, None) => Ok(()),
+        }
+    }
+}
+
+/// What is wrong with a value, a line or a file, and what was expected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum Problem {
+    /// The file is not valid TOML / CSV, or a value has the wrong type.
+    #[error("{message}")]
+    Syntax {
+        /// The parser's description.
+        message: String,
+    },
+    /// A number is NaN or infinite.
+    #[error("expected a finite number, found {found}")]
+    NotFinite {
+        /// The value as written.
+        found: String,
+    },
+    /// A number is outside its allowed range.
+    #[error("expected {expected}, found {found}")]
+    OutOfRange {
+        /// The allowed range in words, with units.
+        expected: &'static str,
+        /// The value found.
+        found: String,
+    },
+    /// The arm file does not have exactly six joints.
+    #[error("expected exactly 6 [[joint]] tables, found {found}")]
+    JointCount {
+        /// How many there are.
+        found: usize,
+    },
+    /// A required CSV column is absent from the header.
+    #[error("missing column `{column}` (expected columns: {expected})")]
+    MissingColumn {
+        /// The missing column.
+        column: &'static str,
+        /// All columns of this kind of file.
+        expected: String,
+    },
+    /// The header has a column this kind of file does not have.
+    #[error("unknown column `{column}` (expected columns: {expected})")]
+    UnknownColumn {
+        /// The unknown column.
+        column: String,
+        /// All columns of this kind of file.
+        expected: String,
+    },
+    /// The header names a column twice.
+    #[error("column `{column}` appears twice in the header")]
+    DuplicateColumn {
+        /// The repeated column.
+        column: String,
+    },
+    /// A cell is not a number.
+    #[error("expected {expected}, found `{found}`")]
+    NotANumber {
+        /// What kind of number, with units.
+        expected: &'static str,
+        /// The cell as written.
+        found: String,
+    },
+    /// A row has more or fewer cells than the header.
+    #[error("expected {expected} fields as in the header, found {found}")]
+    FieldCount {
+        /// Header width.
+        expected: usize,
+        /// This row's width.
+        found: usize,
+    },
+    /// The same (pose, load) pair appears twice.
+    #[error(
+        "pose {pose} with load {load_kg} kg already appears on line {first_line}; expected each (pose, load_kg) once"
+    )]
+    DuplicatePose {
+        /// Pose id.
+        pose: u32,
+        /// Load, kg.
+        load_kg: f64,
+        /// Line of the first occurrence.
+        first_line: u64,
+    },
+    /// A pose id appears twice in a file where ids are unique.
+    #[error("pose {pose} already appears on line {first_line}; expected each pose id once")]
+    DuplicatePoseId {
+        /// Pose id.
+        pose: u32,
+        /// Line of the first occurrence.
+        first_line: u64,
+    },
+    /// The same pose id appears with other joint angles.
+    #[error(
+        "pose {pose} has other joint angles on line {first_line}; expected one configuration per pose id"
+    )]
+    InconsistentPose {
+        /// Pose id.
+        pose: u32,
+        /// Line where the id first appeared.
+        first_line: u64,
+    },
+    /// A file with a header but no data.
+    #[error("expected at least one data row, found none")]
+    NoRows,
+}

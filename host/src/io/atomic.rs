@@ -1,0 +1,31 @@
+//! Whole-or-nothing file writes: write a temporary file in the target's folder,
+//! then rename it over the target, so a failure (bad data found half-way, full
+//! disk, Ctrl-C) never leaves a truncated output behind.
+
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use crate::error::Error;
+
+/// Writes `path` through `fill`; the file appears only if `fill` and the flush succeed.
+pub fn write(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<(), Error> {
+    let fail = |source| Error::Write {
+        path: path.to_owned(),
+        source,
+    };
+    // The temporary file must be on the same file system for the rename to be atomic.
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let temp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
+    let mut out = BufWriter::new(temp);
+    fill(&mut out).map_err(fail)?;
+    let temp = out.into_inner().map_err(|e| fail(e.into_error()))?;
+    temp.as_file().sync_all().map_err(fail)?;
+    temp.persist(path).map_err(|e| fail(e.error))?;
+    Ok(())
+}

@@ -1,0 +1,318 @@
+//! The CSV reading shared by measurements, pose lists and predictions.
+//!
+//! Accepted: a header line naming the columns in any order, `#` comment lines
+//! anywhere, blank lines, spaces around cells. Columns whose name starts with
+//! [`NOTE_PREFIX`] (`note_time`, `note_rms`, …) are carried along by other
+//! tools and ignored here. Any other column the file kind does not define is an
+//! error that lists the expected columns: we reject rather than ignore so that
+//! a misspelt optional column (`load_kg` in a pose list) cannot silently turn
+//! into its default. CONTRACTS.md lets readers accept extra columns; the
+//! `note_` prefix is how this reader does.
+
+use std::collections::HashMap;
+
+use csv::{ReaderBuilder, StringRecord, Trim};
+
+use crate::error::{InputError, Location, Problem};
+
+/// Columns starting with this are ignored by every reader.
+pub const NOTE_PREFIX: &str = "note_";
+
+/// The joint angle columns, in joint order.
+pub const Q_COLUMNS: [&str; model::JOINTS] =
+    ["q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg"];
+
+/// The position columns.
+pub const XYZ_COLUMNS: [&str; 3] = ["x_mm", "y_mm", "z_mm"];
+
+/// The columns of one kind of file.
+pub struct Schema {
+    /// Every column, in the order writers write them.
+    pub columns: &'static [&'static str],
+    /// Those of `columns` that may be absent.
+    pub optional: &'static [&'static str],
+}
+
+impl Schema {
+    fn expected(&self) -> String {
+        self.columns.join(",")
+    }
+}
+
+/// A parsed header: column name -> position.
+struct Header {
+    index: HashMap<&'static str, usize>,
+    width: usize,
+}
+
+/// One data row with its line number, read through the header.
+pub struct Row<'a> {
+    header: &'a Header,
+    record: &'a StringRecord,
+    /// 1-based line of the row in the file.
+    pub line: u64,
+}
+
+impl Row<'_> {
+    /// An error about a cell of this row.
+    pub fn error(&self, column: &str, problem: Problem) -> InputError {
+        InputError::new(Location::at(Some(self.line), column), problem)
+    }
+
+    /// Whether the file has this column.
+    pub fn has(&self, column: &str) -> bool {
+        self.header.index.contains_key(column)
+    }
+
+    fn cell(&self, column: &'static str) -> &str {
+        // Only called for columns the header check guaranteed, and rows of header width.
+        let i = self.header.index[column];
+        &self.record[i]
+    }
+
+    /// A finite number from `column`; `expected` says what kind (with units) for the error.
+    pub fn number(&self, column: &'static str, expected: &'static str) -> Result<f64, InputError> {
+        let text = self.cell(column);
+        let value: f64 = text.parse().map_err(|_| {
+            self.error(
+                column,
+                Problem::NotANumber {
+                    expected,
+                    found: text.to_owned(),
+                },
+            )
+        })?;
+        if value.is_finite() {
+            Ok(value)
+        } else {
+            Err(self.error(
+                column,
+                Problem::NotFinite {
+                    found: text.to_owned(),
+                },
+            ))
+        }
+    }
+
+    /// Like [`Row::number`], and also at least zero.
+    pub fn non_negative(
+        &self,
+        column: &'static str,
+        expected: &'static str,
+    ) -> Result<f64, InputError> {
+        let value = self.number(column, expected)?;
+        if value >= 0.0 {
+            Ok(value)
+        } else {
+            Err(self.error(
+                column,
+                Problem::OutOfRange {
+                    expected,
+                    found: value.to_string(),
+                },
+            ))
+        }
+    }
+
+    /// The `pose` id: a non-negative integer.
+    pub fn pose_id(&self) -> Result<u32, InputError> {
+        let text = self.cell("pose");
+        text.parse().map_err(|_| {
+            self.error(
+                "pose",
+                Problem::NotANumber {
+                    expected: "a pose id (integer from 0 to 4294967295)",
+                    found: text.to_owned(),
+                },
+            )
+        })
+    }
+
+    /// The six `q*_deg` columns, converted to radians.
+    pub fn joint_angles_rad(&self) -> Result<[f64; model::JOINTS], InputError> {
+        let mut q = [0.0; model::JOINTS];
+        for (qi, column) in q.iter_mut().zip(Q_COLUMNS) {
+            *qi = self
+                .number(column, "a joint angle in degrees")?
+                .to_radians();
+        }
+        Ok(q)
+    }
+}
+
+/// Calls `each` for every data row of `text`, after checking the header against
+/// `schema`. Returns the number of rows; a file without rows is an error.
+pub fn for_each_row(
+    text: &str,
+    schema: &Schema,
+    mut each: impl FnMut(&Row<'_>) -> Result<(), InputError>,
+) -> Result<usize, InputError> {
+    let mut reader = ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(Trim::All)
+        // Field counts are checked here, to name the line and both counts.
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header_record = reader.headers().map_err(csv_error)?.clone();
+    let header_line = header_record.position().map_or(1, |p| p.line());
+    let header = check_header(&header_record, header_line, schema)?;
+    let mut record = StringRecord::new();
+    let mut rows = 0;
+    while reader.read_record(&mut record).map_err(csv_error)? {
+        let line = record.position().map_or(0, |p| p.line());
+        if record.len() != header.width {
+            return Err(InputError::new(
+                Location::line(line),
+                Problem::FieldCount {
+                    expected: header.width,
+                    found: record.len(),
+                },
+            ));
+        }
+        each(&Row {
+            header: &header,
+            record: &record,
+            line,
+        })?;
+        rows += 1;
+    }
+    if rows == 0 {
+        return Err(InputError::new(
+            Location::line(header_line),
+            Problem::NoRows,
+        ));
+    }
+    Ok(rows)
+}
+
+fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Header, InputError> {
+    let at = |field: &str| Location::at(Some(line), field);
+    let mut index = HashMap::new();
+    for (i, name) in record.iter().enumerate() {
+        if name.starts_with(NOTE_PREFIX) {
+            continue;
+        }
+        let Some(&known) = schema.columns.iter().find(|&&c| c == name) else {
+            return Err(InputError::new(
+                at(name),
+                Problem::UnknownColumn {
+                    column: name.to_owned(),
+                    expected: schema.expected(),
+                },
+            ));
+        };
+        if index.insert(known, i).is_some() {
+            return Err(InputError::new(
+                at(name),
+                Problem::DuplicateColumn {
+                    column: name.to_owned(),
+                },
+            ));
+        }
+    }
+    if let Some(&missing) = schema
+        .columns
+        .iter()
+        .find(|c| !index.contains_key(*c) && !schema.optional.contains(c))
+    {
+        return Err(InputError::new(
+            at(missing),
+            Problem::MissingColumn {
+                column: missing,
+                expected: schema.expected(),
+            },
+        ));
+    }
+    Ok(Header {
+        index,
+        width: record.len(),
+    })
+}
+
+fn csv_error(error: csv::Error) -> InputError {
+    let line = error.position().map(|p| p.line());
+    InputError::new(
+        Location { line, field: None },
+        Problem::Syntax {
+            message: error.to_string(),
+        },
+    )
+}
+
+/// Tracks pose ids across rows: each (pose, load) once, and one configuration per id.
+#[derive(Default)]
+pub struct PoseBook {
+    seen_load: HashMap<(u32, Option<u64>), u64>,
+    seen_q: HashMap<u32, ([f64; model::JOINTS], u64)>,
+}
+
+impl PoseBook {
+    /// Records a row (`load_kg` None: the file has no loads); errors if its (pose, load) was seen, or its pose id had other angles.
+    pub fn record(
+        &mut self,
+        row: &Row<'_>,
+        pose: u32,
+        q: &[f64; model::JOINTS],
+        load_kg: Option<f64>,
+    ) -> Result<(), InputError> {
+        let key = (pose, load_kg.map(f64::to_bits));
+        if let Some(&first_line) = self.seen_load.get(&key) {
+            let problem = match load_kg {
+                Some(load_kg) => Problem::DuplicatePose {
+                    pose,
+                    load_kg,
+                    first_line,
+                },
+                None => Problem::DuplicatePoseId { pose, first_line },
+            };
+            return Err(row.error("pose", problem));
+        }
+        self.seen_load.insert(key, row.line);
+        match self.seen_q.get(&pose) {
+            // Angles parsed from the same text are bit-identical; a tolerance
+            // only forgives a tool that rounds differently between rows.
+            Some((q0, first_line)) if q0.iter().zip(q).any(|(a, b)| (a - b).abs() > 1e-9) => {
+                Err(row.error(
+                    "pose",
+                    Problem::InconsistentPose {
+                        pose,
+                        first_line: *first_line,
+                    },
+                ))
+            }
+            Some(_) => Ok(()),
+            None => {
+                self.seen_q.insert(pose, (*q, row.line));
+                Ok(())
+            }
+        }
+    }
+}
+
+/// A number with at most `decimals` decimals, trailing zeros dropped, never `-0`.
+///
+/// Files are read by people and spreadsheets: `540` beats `539.9999999999999`,
+/// and 1e-6 mm or 1e-9 deg is far below anything a tracker or servo resolves.
+pub fn format_fixed(value: f64, decimals: usize) -> String {
+    let text = format!("{value:.decimals$}");
+    let text = if text.contains('.') {
+        text.trim_end_matches('0').trim_end_matches('.')
+    } else {
+        &text
+    };
+    if text == "-0" {
+        "0".to_owned()
+    } else {
+        text.to_owned()
+    }
+}
+
+/// Millimetres as written to files (1 nm resolution).
+pub fn format_mm(value_m: f64) -> String {
+    format_fixed(value_m * 1000.0, 6)
+}
+
+/// Degrees as written to files (1e-9 deg resolution).
+pub fn format_deg(value_rad: f64) -> String {
+    format_fixed(value_rad.to_degrees(), 9)
+}
