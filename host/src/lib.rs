@@ -3,6 +3,7 @@
 //! The binary is a thin shell over [`main_impl`]; each subcommand lives in its
 //! own file under [`commands`], file formats under [`io`].
 
+pub mod calib;
 pub mod cli;
 pub mod commands;
 pub mod dataset;

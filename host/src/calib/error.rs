@@ -1,0 +1,117 @@
+//! What can go wrong in the calibration engine, with messages that name the
+//! input at fault and read after "failed to …".
+
+use std::path::PathBuf;
+
+/// An error of the calibration engine.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibError {
+    /// The elastic deflection could not be solved for one pose.
+    #[error("evaluate pose {pose} with {load_kg} kg: {message}")]
+    Deflection {
+        /// Pose id (or index when the poses carry no id).
+        pose: u32,
+        /// Payload, kg.
+        load_kg: f64,
+        /// The model's explanation.
+        message: String,
+    },
+    /// Fewer measured coordinates than parameters to fit.
+    #[error(
+        "identify {params} parameters from {poses} poses ({rows} coordinates): at least {params} coordinates are needed, and in practice several times more; measure more poses or choose fewer with --select"
+    )]
+    TooFewPoses {
+        /// Poses given.
+        poses: usize,
+        /// Measured coordinates (3 per measurement).
+        rows: usize,
+        /// Parameters to fit.
+        params: usize,
+    },
+    /// The chosen poses cannot identify every kept parameter.
+    #[error(
+        "identify the {option} model from this pose set: it is rank deficient (rank {rank} of {params}); the weakest directions involve {weakest}; add poses that move these joints or use `lrmcal select`"
+    )]
+    RankDeficient {
+        /// Model option name.
+        option: String,
+        /// Numerical rank of the scaled Jacobian.
+        rank: usize,
+        /// Number of parameters.
+        params: usize,
+        /// The parameters dominating the null space.
+        weakest: String,
+    },
+    /// A measured pose is not one of the candidate poses.
+    #[error(
+        "match measurements to candidates: pose {pose} of {file} is not in the candidate pose list ({detail})"
+    )]
+    PoseNotInCandidates {
+        /// Pose id.
+        pose: u32,
+        /// File the measurement came from.
+        file: String,
+        /// Why it does not match (missing id or different angles).
+        detail: String,
+    },
+    /// A measurement is implausible for this arm.
+    #[error("use measurement of pose {pose} ({load_kg} kg) from {file}: {problem}")]
+    BadMeasurement {
+        /// Pose id.
+        pose: u32,
+        /// Payload, kg.
+        load_kg: f64,
+        /// File it came from.
+        file: String,
+        /// What is wrong with it.
+        problem: String,
+    },
+    /// No measurement or pose to work with.
+    #[error("{what}: the set is empty")]
+    Empty {
+        /// What was empty.
+        what: String,
+    },
+    /// The arm in a calibration file is not the arm it is used with.
+    #[error("use calibration {file}: {problem}")]
+    ArmMismatch {
+        /// Calibration file.
+        file: String,
+        /// The difference found.
+        problem: String,
+    },
+    /// The solver ended without a usable result.
+    #[error("identify the {option} model: {reason}")]
+    Solver {
+        /// Model option name.
+        option: String,
+        /// What the solver said.
+        reason: String,
+    },
+    /// A file could not be read or written.
+    #[error("access {path}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A JSON file is malformed or of another schema.
+    #[error("read {path} as a calibration file: {message}")]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// What serde said, with line and column.
+        message: String,
+    },
+    /// A plot could not be drawn.
+    #[error("draw {path}: {message}")]
+    Plot {
+        /// The output file.
+        path: PathBuf,
+        /// What the plotting library said.
+        message: String,
+    },
+}
