@@ -282,7 +282,7 @@ impl Checker<'_> {
         }
         if !servo.is_monotonic() {
             return Err(self.fail(&k("servo"), raw.servo.span(), Problem::OutOfRange {
-                expected: "pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
+                expected: "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
                 found: format!("{} / {} / {}", servo.minus100, servo.zero, servo.plus100),
             }));
         }

@@ -1,0 +1,222 @@
+//! The arm description file: the fixture and the bundled arm parse, writing
+//! round-trips, and every kind of bad input gives an error that names the
+//! file, the key path and the line, and says what was expected.
+
+use host::error::InputError;
+use host::io::arm_source::{self, ArmSource};
+use host::io::arm_toml;
+
+const FIXTURE: &str = include_str!("data/arm.toml");
+
+/// Line of `joint[3].mass` in the fixture (joints start at line 18, 12 lines each).
+const J3_MASS_LINE: usize = 50;
+
+/// The fixture with its 1-based line `line` replaced by `text`.
+fn with_line(line: usize, text: &str) -> String {
+    let mut lines: Vec<&str> = FIXTURE.lines().collect();
+    lines[line - 1] = text;
+    lines.join("\n")
+}
+
+fn parse_err(text: &str) -> InputError {
+    arm_toml::parse(text).expect_err("the edited fixture must be rejected")
+}
+
+/// Asserts the message names the key and the line, and contains each of `words`.
+fn assert_names(err: &InputError, key: &str, line: usize, words: &[&str]) {
+    let msg = err.to_string();
+    assert!(
+        msg.contains(&format!("`{key}`")),
+        "no key `{key}` in: {msg}"
+    );
+    assert!(
+        msg.contains(&format!("line {line}")),
+        "no line {line} in: {msg}"
+    );
+    for w in words {
+        assert!(msg.contains(w), "no `{w}` in: {msg}");
+    }
+}
+
+#[test]
+fn fixture_parses_into_the_model() {
+    let d = arm_toml::parse(FIXTURE).unwrap();
+    assert_eq!(d.name, "fixture");
+    assert_eq!(d.joint_names[3], "j4");
+    assert_eq!(d.arm.joints[1].a, 0.17);
+    assert_eq!(d.arm.joints[2].mass, 0.1);
+    assert_eq!(d.arm.base_compliance, 0.02);
+    assert_eq!(d.arm.tool.xyz, [0.0, 0.0, 0.04]);
+    assert_eq!(d.arm.gravity, [0.0, 0.0, -9.80665]);
+    assert_eq!(d.arm.joints[5].servo.plus100, 2400.0);
+}
+
+#[test]
+fn bundled_arm_parses_and_is_the_default() {
+    let d = arm_source::bundled("lrm").unwrap();
+    assert!(d.arm.is_finite());
+    assert_eq!(
+        arm_source::DEFAULT_ARM.parse::<ArmSource>(),
+        Ok(ArmSource::Bundled("lrm"))
+    );
+    let loaded = ArmSource::Bundled("lrm").load().unwrap();
+    assert_eq!(loaded.arm, d.arm);
+}
+
+#[test]
+fn arm_source_rejects_unknown_kinds_of_file() {
+    let err = "calibration.yaml".parse::<ArmSource>().unwrap_err();
+    assert!(err.contains(".toml") && err.contains("lrm"), "{err}");
+    assert!(arm_source::bundled("nope").is_err());
+}
+
+#[test]
+fn writing_round_trips() {
+    let d = arm_toml::parse(FIXTURE).unwrap();
+    let text = arm_toml::to_toml(&d);
+    assert_eq!(arm_toml::parse(&text).unwrap(), d);
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("arm.toml");
+    arm_toml::write(&path, &d).unwrap();
+    assert_eq!(arm_toml::read(&path).unwrap(), d);
+    // Loaded through --arm as a user would.
+    let source: ArmSource = path.to_str().unwrap().parse().unwrap();
+    assert_eq!(source.load().unwrap().arm, d.arm);
+}
+
+#[test]
+fn file_errors_name_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("bad_arm.toml");
+    std::fs::write(&path, with_line(J3_MASS_LINE, "mass = -0.1")).unwrap();
+    let msg = arm_toml::read(&path).unwrap_err().report();
+    assert!(msg.contains("bad_arm.toml"), "{msg}");
+    assert!(
+        msg.contains("joint[3].mass") && msg.contains("line 50"),
+        "{msg}"
+    );
+
+    let missing = dir.path().join("absent.toml");
+    let err = arm_toml::read(&missing).unwrap_err();
+    assert_eq!(err.exit_code(), host::error::exit_codes::FILE_ACCESS);
+    assert!(err.report().contains("absent.toml"));
+}
+
+#[test]
+fn missing_field_names_the_joint_and_the_key() {
+    let err = parse_err(&with_line(J3_MASS_LINE, ""));
+    let msg = err.to_string();
+    assert!(msg.contains("`joint[3]`") && msg.contains("mass"), "{msg}");
+    assert!(err.location.line.is_some(), "{msg}");
+}
+
+#[test]
+fn missing_section_is_reported() {
+    let text = FIXTURE.replace("[payload]\ncom = [0.0, 0.0, 0.0]\n", "");
+    let msg = parse_err(&text).to_string();
+    assert!(msg.contains("payload"), "{msg}");
+}
+
+#[test]
+fn unknown_key_is_rejected() {
+    let err = parse_err(&with_line(J3_MASS_LINE, "mass = 0.1\nmasss = 0.2"));
+    let msg = err.to_string();
+    assert!(msg.contains("masss") && msg.contains("joint[3]"), "{msg}");
+    assert_eq!(err.location.line, Some(51), "{msg}");
+}
+
+#[test]
+fn wrong_number_of_joints_is_rejected() {
+    // Drop the sixth joint (its table starts at line 78).
+    let text: String = FIXTURE.lines().take(77).collect::<Vec<_>>().join("\n");
+    let msg = parse_err(&text).to_string();
+    assert!(
+        msg.contains("exactly 6 [[joint]]") && msg.contains("found 5"),
+        "{msg}"
+    );
+    assert!(msg.contains("`joint`"), "{msg}");
+
+    let first_joint: Vec<&str> = FIXTURE.lines().skip(17).take(12).collect();
+    let text = format!("{FIXTURE}\n{}\n", first_joint.join("\n"));
+    let msg = parse_err(&text).to_string();
+    assert!(msg.contains("found 7"), "{msg}");
+}
+
+#[test]
+fn nan_and_infinity_are_rejected() {
+    let err = parse_err(&with_line(J3_MASS_LINE, "mass = nan"));
+    assert_names(&err, "joint[3].mass", J3_MASS_LINE, &["finite", "NaN"]);
+
+    let err = parse_err(&with_line(7, "xyz = [0.0, inf, 0.0]"));
+    assert_names(&err, "base.xyz[2]", 7, &["finite", "inf"]);
+
+    let err = parse_err(&with_line(
+        J3_MASS_LINE + 2,
+        "servo = { minus100 = 900.0, zero = nan, plus100 = 2400.0 }",
+    ));
+    assert_names(&err, "joint[3].servo", J3_MASS_LINE + 2, &["finite"]);
+}
+
+#[test]
+fn negative_mass_and_compliance_are_rejected() {
+    let err = parse_err(&with_line(J3_MASS_LINE, "mass = -0.1"));
+    assert_names(
+        &err,
+        "joint[3].mass",
+        J3_MASS_LINE,
+        &["mass >= 0 kg", "-0.1"],
+    );
+
+    let err = parse_err(&with_line(J3_MASS_LINE - 2, "compliance = -0.01"));
+    assert_names(
+        &err,
+        "joint[3].compliance",
+        J3_MASS_LINE - 2,
+        &["compliance >= 0 rad/Nm"],
+    );
+
+    let err = parse_err(&with_line(9, "compliance = -1.0"));
+    assert_names(&err, "base.compliance", 9, &["compliance >= 0"]);
+}
+
+#[test]
+fn limits_must_be_ordered() {
+    let err = parse_err(&with_line(J3_MASS_LINE - 1, "limits = [1.0, -1.0]"));
+    assert_names(
+        &err,
+        "joint[3].limits",
+        J3_MASS_LINE - 1,
+        &["lo < hi", "[1, -1]"],
+    );
+}
+
+#[test]
+fn servo_curve_must_be_monotonic() {
+    let line = "servo = { minus100 = 900.0, zero = 2500.0, plus100 = 2400.0 }";
+    let err = parse_err(&with_line(J3_MASS_LINE + 2, line));
+    assert_names(
+        &err,
+        "joint[3].servo",
+        J3_MASS_LINE + 2,
+        &["monotonic", "900 / 2500 / 2400"],
+    );
+    // A servo mounted the other way round runs backwards: still monotonic, accepted.
+    let reversed = "servo = { minus100 = 2400.0, zero = 1650.0, plus100 = 900.0 }";
+    assert!(arm_toml::parse(&with_line(J3_MASS_LINE + 2, reversed)).is_ok());
+}
+
+#[test]
+fn wrong_type_names_key_and_line() {
+    let err = parse_err(&with_line(J3_MASS_LINE, "mass = \"heavy\""));
+    assert_names(&err, "joint[3].mass", J3_MASS_LINE, &["expected"]);
+
+    let err = parse_err(&with_line(7, "xyz = [0.0, 0.0]"));
+    assert_names(&err, "base.xyz", 7, &["3"]);
+}
+
+#[test]
+fn toml_syntax_error_names_the_line() {
+    let err = parse_err(&with_line(J3_MASS_LINE, "mass = "));
+    assert_eq!(err.location.line, Some(J3_MASS_LINE as u64), "{err}");
+}
