@@ -61,6 +61,17 @@ pub enum Error {
         /// Why it could not be used.
         reason: String,
     },
+    /// A pose list gives one pose id several loads, but the output has one row per id.
+    #[error(
+        "predict pose {pose} of `{}`: it is listed with several loads and a prediction file holds one position per pose; pass --load-kg or split the list by load",
+        path.display()
+    )]
+    AmbiguousLoad {
+        /// The pose list.
+        path: PathBuf,
+        /// The pose id.
+        pose: u32,
+    },
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -78,7 +89,9 @@ impl Error {
     pub fn exit_code(&self) -> u8 {
         match self {
             Self::Read { .. } | Self::Write { .. } => exit_codes::FILE_ACCESS,
-            Self::Parse { .. } | Self::ArmSource { .. } => exit_codes::INVALID_INPUT,
+            Self::Parse { .. } | Self::ArmSource { .. } | Self::AmbiguousLoad { .. } => {
+                exit_codes::INVALID_INPUT
+            }
             Self::Model { .. } => exit_codes::MODEL,
         }
     }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use model::SolverOptions;
 
 use crate::dataset::Prediction;
-use crate::error::{Error, InputError, Location, Problem};
+use crate::error::Error;
 use crate::io::arm_source::ArmSource;
 use crate::io::{pose_list, predictions};
 
@@ -48,20 +48,22 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let chain = arm.arm.chain();
     let options = SolverOptions::default();
     let mut out = Vec::with_capacity(rows.len());
-    let mut seen = HashMap::new();
-    for (i, row) in rows.iter().enumerate() {
+    // A prediction file holds one position per pose id: the same pose listed
+    // under several loads needs one load for all (`--load-kg`).
+    let mut load_of = HashMap::new();
+    for row in &rows {
         let id = row.pose.id;
-        // The output has no load column, so one pose id must give one row.
-        if let Some(first) = seen.insert(id, i) {
-            let problem = Problem::DuplicatePoseId {
-                pose: id,
-                first_line: first as u64 + 1,
-            };
-            let location = Location::at(None, "pose");
-            let error = InputError::new(location, problem);
-            return Err(error.in_file(&args.poses));
-        }
         let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
+        match load_of.insert(id, load_kg) {
+            Some(previous) if previous != load_kg => {
+                return Err(Error::AmbiguousLoad {
+                    path: args.poses.clone(),
+                    pose: id,
+                });
+            }
+            Some(_) => continue,
+            None => {}
+        }
         let position = chain
             .tool_point(&row.pose.q, load_kg, &options)
             .map_err(|reason| Error::Model {
@@ -72,7 +74,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
         out.push(Prediction { pose: id, position });
     }
     match &args.out {
-        Some(path) => predictions::write(path, &out),
+        Some(path) => {
+            predictions::write(path, &out)?;
+            eprintln!(
+                "predicted {} poses with {} ({}) into `{}`",
+                out.len(),
+                arm.origin,
+                arm.name,
+                path.display()
+            );
+            Ok(())
+        }
         None => predictions::write_to(&mut std::io::stdout().lock(), &out).map_err(|source| {
             Error::Write {
                 path: "<stdout>".into(),
