@@ -45,7 +45,10 @@ pub fn write(path: &Path, description: &ArmDescription) -> Result<(), Error> {
 pub fn to_toml(description: &ArmDescription) -> String {
     let raw = RawArm::from_description(description);
     // Serialising plain structs of numbers and strings cannot fail.
-    toml::to_string(&raw).expect("an arm description always serialises")
+    let body = toml::to_string(&raw).expect("an arm description always serialises");
+    format!(
+        "# Arm description (shared/CONTRACTS.md section 1): metres, radians, kilograms, µs.\n{body}"
+    )
 }
 
 /// Parses and checks the text of an arm description.
