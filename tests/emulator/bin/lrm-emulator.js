@@ -104,10 +104,26 @@ const board = new Board({ elf, flash: flashImage, servoPins, realtime: !args.fas
 
 const rawRtt = [];
 const rttLines = [];
+/** Wall time of the decoder's last output: lines arrive from a child process, a little late. */
+let lastDecoded = 0;
+/** Resolves once the decoder has been quiet for a moment (at once without a decoder). */
+function settle() {
+  if (!decoder) return Promise.resolve();
+  const start = Date.now();
+  return new Promise((resolve) => {
+    const check = () => {
+      const now = Date.now();
+      if ((now - lastDecoded > 150 && now - start > 150) || now - start > 2000) resolve();
+      else setTimeout(check, 25);
+    };
+    check();
+  });
+}
 const tool = findDefmtPrint();
 let decoder = tool
   ? new DefmtDecoder(tool, args.elf, (line) => {
       rttLines.push(line);
+      lastDecoded = Date.now();
       log(`firmware: ${line}`);
     })
   : null;
@@ -123,6 +139,7 @@ board.on('reset', () => {
     decoder.close();
     decoder = new DefmtDecoder(tool, args.elf, (line) => {
       rttLines.push(line);
+      lastDecoded = Date.now();
       log(`firmware: ${line}`);
     });
   }
@@ -155,7 +172,7 @@ process.on('SIGINT', quit);
 process.on('SIGTERM', quit);
 
 if (args.control) {
-  const control = new Control(board, { rttBytes: () => Uint8Array.from(rawRtt), rttLines: () => rttLines.slice(), quit });
+  const control = new Control(board, { rttBytes: () => Uint8Array.from(rawRtt), rttLines: () => rttLines.slice(), settle, quit });
   control.event({ event: 'listening', port: actualPort, elf: args.elf, defmt_print: tool });
   control.listen();
 } else {

@@ -72,6 +72,7 @@ export class Board extends EventEmitter {
     this.halted = null;
     this.running = false;
     this.probes = new Map();
+    this.capture = new PwmCapture(servoPins, () => this.nanos);
     /** Emulated nanoseconds carried across chip resets, so time stays monotonic. */
     this.baseNanos = 0;
     this.timers = [];
@@ -111,7 +112,7 @@ export class Board extends EventEmitter {
       onData: (bytes) => this.emit('serial', bytes),
       onConfigured: () => this.emit('configured'),
     });
-    this.capture = new PwmCapture(mcu, this.servoPins);
+    this.capture.attach(mcu);
     this.rtt = new RttReader(mcu, this.elf.symbol('_SEGGER_RTT'));
     this.pendingReset = null;
     for (const probe of this.probes.values()) probe.attach(mcu);

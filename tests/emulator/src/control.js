@@ -11,6 +11,7 @@
 //! | `wait_configured` | `timeout_ms` | `nanos` once USB is enumerated |
 //! | `run` | `us` | `nanos` after that much emulated time |
 //! | `pulses` | `pins`, `count`, `timeout_ms` | per pin `widths_us`, `periods_us` of the next `count` pulses |
+//! | `pulses_since` | `pins`, `since_ns` | per pin `widths_us` of every pulse since that time |
 //! | `reset` | | chip reset now, flash kept |
 //! | `cut_flash` | `op` (erase/program/any), `nth`, `bytes` | arms a power cut |
 //! | `cut_status` | | `armed`, `fired` |
@@ -27,7 +28,7 @@ import { createInterface } from 'node:readline';
 export class Control {
   /**
    * @param {import('./board.js').Board} board
-   * @param {{rttBytes:()=>Uint8Array, rttLines:()=>string[], quit:()=>void}} logs
+   * @param {{rttBytes:()=>Uint8Array, rttLines:()=>string[], settle:()=>Promise<void>, quit:()=>void}} logs
    */
   constructor(board, logs) {
     this.board = board;
@@ -125,6 +126,15 @@ export class Control {
           periods_us: per.map((p) => p.map((x) => (x.periodNs === null ? null : Math.round(x.periodNs) / 1000))),
         };
       }
+      case 'pulses_since': {
+        const pins = request.pins ?? board.servoPins;
+        const since = request.since_ns ?? 0;
+        return {
+          pins,
+          nanos: board.nanos,
+          widths_us: pins.map((pin) => board.capture.pulsesSince(pin, since).map((x) => Math.round(x.widthNs) / 1000)),
+        };
+      }
       case 'reset':
         board.requestReset('requested by the test');
         await this.waitFor(() => board.pendingReset === null, 1000, 'reset');
@@ -145,6 +155,7 @@ export class Control {
       }
       case 'rtt':
         board.drainRtt();
+        await this.logs.settle();
         return { hex: Buffer.from(this.logs.rttBytes()).toString('hex'), lines: this.logs.rttLines() };
       case 'busy_cycles': {
         const windows = request.windows ?? 10;

@@ -8,22 +8,26 @@ import { GPIOPinState } from 'rp2040js';
 /** How many pulses each pin keeps. */
 const HISTORY = 256;
 
-/** Edge recorder on a set of pins. */
+/** Edge recorder on a set of pins; it outlives chip resets (re-attach it to the new chip). */
 export class PwmCapture {
-  /** @param {import('rp2040js').RP2040} mcu @param {number[]} pins GPIO numbers */
-  constructor(mcu, pins) {
-    this.clock = mcu.clock;
+  /** @param {number[]} pins GPIO numbers @param {() => number} now emulated time, ns */
+  constructor(pins, now) {
+    this.now = now;
     /** @type {Map<number, {rise:number|null, lastRise:number|null, pulses:Array<{startNs:number,widthNs:number,periodNs:number|null}>}>} */
-    this.pins = new Map();
-    for (const pin of pins) {
-      const state = { rise: null, lastRise: null, pulses: [] };
-      this.pins.set(pin, state);
+    this.pins = new Map(pins.map((pin) => [pin, { rise: null, lastRise: null, pulses: [] }]));
+  }
+
+  /** Listens to the pins of a (new) chip; a pulse cut by a reset is not counted. */
+  attach(mcu) {
+    for (const [pin, state] of this.pins) {
+      state.rise = null;
+      state.lastRise = null;
       mcu.gpio[pin].addListener((value) => this.edge(state, value));
     }
   }
 
   edge(state, value) {
-    const now = this.clock.nanos;
+    const now = this.now();
     if (value === GPIOPinState.High) {
       state.lastRise = state.rise;
       state.rise = now;

@@ -9,8 +9,9 @@ import { PwmCapture } from '../src/pwm-capture.js';
 test('pulse widths and periods come from edge timestamps', () => {
   const listeners = [];
   const clock = { nanos: 0 };
-  const mcu = { clock, gpio: [{ addListener: (f) => listeners.push(f) }] };
-  const capture = new PwmCapture(mcu, [0]);
+  const mcu = { gpio: [{ addListener: (f) => listeners.push(f) }] };
+  const capture = new PwmCapture([0], () => clock.nanos);
+  capture.attach(mcu);
   const edge = (t, v) => {
     clock.nanos = t;
     listeners[0](v);
