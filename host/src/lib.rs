@@ -9,6 +9,8 @@ pub mod commands;
 pub mod dataset;
 pub mod error;
 pub mod io;
+pub mod plan;
+pub mod sim;
 
 pub use cli::main_impl;
 pub use error::Error;

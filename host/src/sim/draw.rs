@@ -1,0 +1,203 @@
+//! Drawing the seeded "true" arm around a nominal one.
+//!
+//! Every random number is drawn whatever the configuration says, in a fixed
+//! order, and only then scaled by it: switching an effect off (or changing its
+//! size) never changes the geometry drawn for the same seed.
+
+use model::{Arm, JOINTS, PARAM_COUNT, ParamId, params::ParamKind};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use super::{ServoError, SimConfig, SimError};
+
+/// RNG stream of the arm draw; the tracker noise uses [`NOISE_STREAM`].
+const DRAW_STREAM: u64 = 0;
+/// RNG stream of the tracker noise.
+pub(super) const NOISE_STREAM: u64 = 1;
+
+/// The simulated real arm: the nominal arm plus drawn errors, and the drawn
+/// effects that the calibration model does not contain.
+///
+/// Its file form is the truth file ([`TrueArm::truth_json`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrueArm {
+    /// The seed everything was drawn from.
+    pub seed: u64,
+    /// The configuration it was drawn with.
+    pub config: SimConfig,
+    /// The nominal arm it was drawn around.
+    pub nominal: Arm<f64>,
+    /// The true arm in the model's terms: `nominal.with_errors(all, errors)`.
+    pub arm: Arm<f64>,
+    /// The 43 true errors (true minus nominal), in [`ParamId::all`] order.
+    pub errors: [f64; PARAM_COUNT],
+    /// Each servo's smooth angle error (zero amplitude when switched off).
+    pub servo_errors: [ServoError; JOINTS],
+    /// Each joint's half width of direction-dependent play, rad (0 when off).
+    pub backlash_half_rad: [f64; JOINTS],
+}
+
+impl TrueArm {
+    /// Draws the true arm for `seed` around `nominal`.
+    ///
+    /// DH, base and tool parameters get Gaussian errors of the configured
+    /// sigmas; the true compliances are drawn log-uniformly from the
+    /// configured ranges (whatever the nominal compliances are).
+    pub fn draw(nominal: &Arm<f64>, seed: u64, config: &SimConfig) -> Result<Self, SimError> {
+        config.validate()?;
+        if !nominal.is_finite() {
+            return Err(SimError::NominalNotFinite);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        rng.set_stream(DRAW_STREAM);
+
+        let errors: [f64; PARAM_COUNT] = core::array::from_fn(|i| {
+            let id = ParamId::from_index(i).expect("index below PARAM_COUNT");
+            let normal: f64 = rng.sample(StandardNormal);
+            let unit: f64 = rng.random();
+            let dh = i < 4 * JOINTS;
+            match id.kind() {
+                ParamKind::Length if dh => normal * config.dh_length_sigma_m,
+                ParamKind::Length => normal * config.frame_length_sigma_m,
+                ParamKind::Angle if dh => normal * config.dh_angle_sigma_rad,
+                ParamKind::Angle => normal * config.frame_angle_sigma_rad,
+                ParamKind::Compliance => {
+                    let range = if id.name() == "k0" {
+                        config.base_compliance
+                    } else {
+                        config.joint_compliance
+                    };
+                    log_uniform(range, unit) - id.value(nominal)
+                }
+            }
+        });
+
+        let servo_errors = core::array::from_fn(|_| {
+            let (u, v, w, phase): (f64, f64, f64, f64) =
+                (rng.random(), rng.random(), rng.random(), rng.random());
+            let amplitude = config.servo_error_rad;
+            ServoError {
+                sine_rad: amplitude * (0.5 + 0.5 * u),
+                omega: 1.5 + 1.5 * w,
+                phase_rad: std::f64::consts::TAU * phase,
+                cubic_rad: amplitude * (v - 0.5),
+            }
+        });
+        let backlash_half_rad = core::array::from_fn(|_| {
+            let u: f64 = rng.random();
+            0.5 * config.backlash_rad * (0.5 + u)
+        });
+
+        let ids: Vec<ParamId> = ParamId::all().collect();
+        let arm = nominal.with_errors(&ids, &errors);
+        // `with_errors` clamps compliances at 0; recompute so `errors` stays exactly true - nominal.
+        let (truth, nominal_values) = (arm.param_values(), nominal.param_values());
+        let errors = core::array::from_fn(|i| truth[i] - nominal_values[i]);
+        Ok(Self {
+            seed,
+            config: *config,
+            nominal: *nominal,
+            arm,
+            errors,
+            servo_errors,
+            backlash_half_rad,
+        })
+    }
+
+    /// The 43 true errors with their stable names, in [`ParamId::all`] order.
+    pub fn named_errors(&self) -> impl Iterator<Item = (ParamId, f64)> + '_ {
+        ParamId::all().zip(self.errors)
+    }
+}
+
+/// `lo (hi/lo)^unit`: log-uniform in `[lo, hi]` for `unit` uniform in `[0, 1)`.
+fn log_uniform([lo, hi]: [f64; 2], unit: f64) -> f64 {
+    lo * (hi / lo).powf(unit)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sim::test_support::bundled_arm;
+
+    #[test]
+    fn same_seed_same_arm_and_other_seed_other_arm() {
+        let nominal = bundled_arm();
+        let config = SimConfig::default();
+        let a = TrueArm::draw(&nominal, 7, &config).unwrap();
+        let b = TrueArm::draw(&nominal, 7, &config).unwrap();
+        let c = TrueArm::draw(&nominal, 8, &config).unwrap();
+        assert_eq!(a, b);
+        assert_ne!(a.errors, c.errors);
+    }
+
+    #[test]
+    fn switching_effects_off_keeps_the_drawn_geometry() {
+        let nominal = bundled_arm();
+        let with = TrueArm::draw(&nominal, 3, &SimConfig::default()).unwrap();
+        let without = TrueArm::draw(&nominal, 3, &SimConfig::model_only()).unwrap();
+        assert_eq!(with.arm, without.arm);
+        assert!(
+            without
+                .servo_errors
+                .iter()
+                .all(|s| s.sine_rad == 0.0 && s.cubic_rad == 0.0)
+        );
+        assert!(without.backlash_half_rad.iter().all(|&b| b == 0.0));
+    }
+
+    #[test]
+    fn errors_are_true_minus_nominal_and_compliances_in_range() {
+        let nominal = bundled_arm();
+        let config = SimConfig::default();
+        for seed in 0..20 {
+            let t = TrueArm::draw(&nominal, seed, &config).unwrap();
+            let (truth, nom) = (t.arm.param_values(), nominal.param_values());
+            for (id, e) in t.named_errors() {
+                assert_eq!(truth[id.index()] - nom[id.index()], e, "{id}");
+            }
+            for j in &t.arm.joints {
+                assert!((0.05..=0.2).contains(&j.compliance), "{}", j.compliance);
+            }
+            assert!((0.01..=0.03).contains(&t.arm.base_compliance));
+            // Gaussian DH length errors of sigma 1 mm stay well inside 6 sigma.
+            assert!(
+                t.arm
+                    .joints
+                    .iter()
+                    .zip(&nominal.joints)
+                    .all(|(a, b)| (a.d - b.d).abs() < 6e-3)
+            );
+        }
+    }
+
+    #[test]
+    fn bad_configuration_is_rejected_with_the_field_named() {
+        let nominal = bundled_arm();
+        let config = SimConfig {
+            noise_sigma_m: -1.0,
+            ..SimConfig::default()
+        };
+        let err = TrueArm::draw(&nominal, 0, &config).unwrap_err().to_string();
+        assert!(
+            err.contains("noise_sigma_m") && err.contains(">= 0"),
+            "{err}"
+        );
+        let config = SimConfig {
+            joint_compliance: [0.2, 0.01],
+            ..SimConfig::default()
+        };
+        let err = TrueArm::draw(&nominal, 0, &config).unwrap_err().to_string();
+        assert!(
+            err.contains("joint_compliance") && err.contains("lo <= hi"),
+            "{err}"
+        );
+        let mut bad = nominal;
+        bad.joints[2].a = f64::NAN;
+        assert!(matches!(
+            TrueArm::draw(&bad, 0, &SimConfig::default()),
+            Err(SimError::NominalNotFinite)
+        ));
+    }
+}

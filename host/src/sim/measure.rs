@@ -1,0 +1,132 @@
+//! Measuring the true arm: commanded poses and loads in, tracker positions out.
+//!
+//! For each load the poses are visited once, in the order given, starting
+//! from home (the order sets the approach direction of every joint, see
+//! [`approach_directions`]). A commanded angle `q` becomes the angle the
+//! servo really drives to, `q + e(q) - dir * b` (smooth servo error `e`, half
+//! play `b`); the model of the true arm deflects that under gravity (with
+//! softened compliances if switched on); the tracker adds Gaussian noise.
+
+use std::collections::HashSet;
+
+use model::{JOINTS, SolverOptions};
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::StandardNormal;
+
+use super::draw::NOISE_STREAM;
+use super::{SimError, TrueArm, approach_directions, softened_deflection};
+use crate::dataset::{Measurement, Pose};
+
+/// What the simulated tracker saw, and what it would have seen without noise.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Simulation {
+    /// Measurements with tracker noise, load-major (all poses for the first load, then the next).
+    pub measurements: Vec<Measurement>,
+    /// The same rows without tracker noise (every other effect included).
+    pub noise_free: Vec<Measurement>,
+}
+
+impl TrueArm {
+    /// The angle each servo really drives to when commanded `q`, having
+    /// approached it in direction `direction` (±1 per joint), rad.
+    pub fn driven_angles(&self, q: &[f64; JOINTS], direction: &[f64; JOINTS]) -> [f64; JOINTS] {
+        core::array::from_fn(|i| {
+            q[i] + self.servo_errors[i].at(q[i]) - direction[i] * self.backlash_half_rad[i]
+        })
+    }
+
+    /// The true tool point, world frame, m, when the servos drive to `driven` (rad)
+    /// under `load_kg`; no tracker noise. With softening off this is exactly
+    /// the model's prediction for the true arm.
+    pub fn tool_point(
+        &self,
+        driven: &[f64; JOINTS],
+        load_kg: f64,
+    ) -> Result<Vector3<f64>, model::DeflectionError> {
+        if self.config.softening_per_nm > 0.0 {
+            softened_deflection(&self.arm, driven, load_kg, self.config.softening_per_nm)
+                .map(|(d, _)| d.tool_point())
+        } else {
+            self.arm
+                .chain()
+                .tool_point(driven, load_kg, &SolverOptions::default())
+        }
+    }
+
+    /// Measures every pose under every load: see the module docs for the order
+    /// and the effects. Deterministic: the same true arm, poses and loads give
+    /// the same numbers (the noise comes from the arm's seed).
+    pub fn simulate(&self, poses: &[Pose], loads_kg: &[f64]) -> Result<Simulation, SimError> {
+        check_inputs(poses, loads_kg)?;
+        let directions = approach_directions(poses);
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        rng.set_stream(NOISE_STREAM);
+        let capacity = poses.len() * loads_kg.len();
+        let (mut measurements, mut noise_free) =
+            (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
+        for &load_kg in loads_kg {
+            for (pose, direction) in poses.iter().zip(&directions) {
+                let driven = self.driven_angles(&pose.q, direction);
+                let point =
+                    self.tool_point(&driven, load_kg)
+                        .map_err(|reason| SimError::Model {
+                            pose: pose.id,
+                            load_kg,
+                            reason,
+                        })?;
+                let noise: [f64; 3] =
+                    core::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
+                let exact = Measurement {
+                    pose: *pose,
+                    load_kg,
+                    position: point,
+                };
+                noise_free.push(exact);
+                measurements.push(Measurement {
+                    position: point + Vector3::from(noise) * self.config.noise_sigma_m,
+                    ..exact
+                });
+            }
+        }
+        Ok(Simulation {
+            measurements,
+            noise_free,
+        })
+    }
+
+    /// The measurements of [`TrueArm::simulate`] (with tracker noise).
+    pub fn measure(&self, poses: &[Pose], loads_kg: &[f64]) -> Result<Vec<Measurement>, SimError> {
+        self.simulate(poses, loads_kg).map(|s| s.measurements)
+    }
+}
+
+/// Pose ids must be unique (a measurement file keys rows by (pose, load)),
+/// angles finite, loads finite, non-negative and unique.
+fn check_inputs(poses: &[Pose], loads_kg: &[f64]) -> Result<(), SimError> {
+    let mut ids = HashSet::new();
+    for pose in poses {
+        if !ids.insert(pose.id) {
+            return Err(SimError::DuplicatePose { pose: pose.id });
+        }
+        if pose.q.iter().any(|q| !q.is_finite()) {
+            return Err(SimError::NonFiniteAngle { pose: pose.id });
+        }
+    }
+    for (i, &load) in loads_kg.iter().enumerate() {
+        if !(load.is_finite() && load >= 0.0) {
+            return Err(SimError::Load {
+                load_kg: load,
+                reason: "expected a finite mass >= 0 kg",
+            });
+        }
+        if loads_kg[..i].contains(&load) {
+            return Err(SimError::Load {
+                load_kg: load,
+                reason: "each load may be given only once",
+            });
+        }
+    }
+    Ok(())
+}
