@@ -134,22 +134,38 @@ impl InputError {
     }
 }
 
-/// A place in an input file: 1-based line and the key path (TOML, e.g.
-/// `joint[3].mass`, array positions counted from 1) or column name (CSV).
+/// A place in an input file: 1-based line and the field there, as far as known.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Location {
     /// 1-based line number, when known.
     pub line: Option<u64>,
-    /// Key path or column name, when known.
-    pub field: Option<String>,
+    /// The key or column, when known.
+    pub field: Option<Field>,
+}
+
+/// A named place within a line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Field {
+    /// A TOML key path, e.g. `joint[3].mass` (array positions counted from 1).
+    Key(String),
+    /// A CSV column, by its header name.
+    Column(String),
 }
 
 impl Location {
-    /// A location with both a line and a field.
-    pub fn at(line: Option<u64>, field: impl Into<String>) -> Self {
+    /// A TOML key path, at a line if known.
+    pub fn key(line: Option<u64>, key: impl Into<String>) -> Self {
         Self {
             line,
-            field: Some(field.into()),
+            field: Some(Field::Key(key.into())),
+        }
+    }
+
+    /// A CSV column on a line.
+    pub fn column(line: u64, column: impl Into<String>) -> Self {
+        Self {
+            line: Some(line),
+            field: Some(Field::Column(column.into())),
         }
     }
 
@@ -162,13 +178,22 @@ impl Location {
     }
 }
 
+impl fmt::Display for Field {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Key(key) => write!(f, "key `{key}`"),
+            Self::Column(column) => write!(f, "column `{column}`"),
+        }
+    }
+}
+
 impl fmt::Display for Location {
-    /// `line 4, `q3_deg`: ` (with the trailing separator) or nothing.
+    /// `line 4, column `q3_deg`: ` (with the trailing separator), or as much as is known.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match (self.line, &self.field) {
-            (Some(line), Some(field)) => write!(f, "line {line}, `{field}`: "),
+            (Some(line), Some(field)) => write!(f, "line {line}, {field}: "),
             (Some(line), None) => write!(f, "line {line}: "),
-            (None, Some(field)) => write!(f, "`{field}`: "),
+            (None, Some(field)) => write!(f, "{field}: "),
             (None, None) => Ok(()),
         }
     }
@@ -205,7 +230,7 @@ pub enum Problem {
         found: usize,
     },
     /// A required CSV column is absent from the header.
-    #[error("missing column `{column}` (expected columns: {expected})")]
+    #[error("missing from the header (expected columns: {expected})")]
     MissingColumn {
         /// The missing column.
         column: &'static str,
@@ -213,7 +238,9 @@ pub enum Problem {
         expected: String,
     },
     /// The header has a column this kind of file does not have.
-    #[error("unknown column `{column}` (expected columns: {expected})")]
+    #[error(
+        "unknown column (expected columns: {expected}; name other columns note_* to carry them along)"
+    )]
     UnknownColumn {
         /// The unknown column.
         column: String,
@@ -221,7 +248,7 @@ pub enum Problem {
         expected: String,
     },
     /// The header names a column twice.
-    #[error("column `{column}` appears twice in the header")]
+    #[error("appears twice in the header")]
     DuplicateColumn {
         /// The repeated column.
         column: String,

@@ -26,7 +26,7 @@ fn parse_err(text: &str) -> InputError {
 fn assert_names(err: &InputError, key: &str, line: usize, words: &[&str]) {
     let msg = err.to_string();
     assert!(
-        msg.contains(&format!("`{key}`")),
+        msg.contains(&format!("key `{key}`")),
         "no key `{key}` in: {msg}"
     );
     assert!(
@@ -107,7 +107,10 @@ fn file_errors_name_the_file() {
 fn missing_field_names_the_joint_and_the_key() {
     let err = parse_err(&with_line(J3_MASS_LINE, ""));
     let msg = err.to_string();
-    assert!(msg.contains("`joint[3]`") && msg.contains("mass"), "{msg}");
+    assert!(
+        msg.contains("key `joint[3]`") && msg.contains("mass"),
+        "{msg}"
+    );
     assert!(err.location.line.is_some(), "{msg}");
 }
 
@@ -135,7 +138,7 @@ fn wrong_number_of_joints_is_rejected() {
         msg.contains("exactly 6 [[joint]]") && msg.contains("found 5"),
         "{msg}"
     );
-    assert!(msg.contains("`joint`"), "{msg}");
+    assert!(msg.contains("key `joint`"), "{msg}");
 
     let first_joint: Vec<&str> = FIXTURE.lines().skip(17).take(12).collect();
     let text = format!("{FIXTURE}\n{}\n", first_joint.join("\n"));

@@ -133,7 +133,7 @@ fn bad_input_gives_exit_codes_and_names_the_file() {
         "{msg}"
     );
     assert!(
-        msg.contains("line 2, `q3_deg`") && msg.contains("`zero`"),
+        msg.contains("line 2, column `q3_deg`") && msg.contains("`zero`"),
         "{msg}"
     );
 

@@ -30,7 +30,7 @@ fn assert_names(err: &InputError, line: u64, column: Option<&str>, words: &[&str
     assert!(msg.contains(&format!("line {line}")), "{msg}");
     if let Some(column) = column {
         assert!(
-            msg.contains(&format!("`{column}`")),
+            msg.contains(&format!("column `{column}`")),
             "no column `{column}` in: {msg}"
         );
     }
@@ -65,6 +65,13 @@ fn readers_accept_comments_any_order_spaces_and_note_columns() {
 }
 
 #[test]
+fn spreadsheet_exports_with_bom_and_crlf_are_read() {
+    let text = format!("\u{feff}{HEADER}\r\n{ROW_A}\r\n{ROW_B}\r\n");
+    let plain = measurements::parse(&measurement_file(&[ROW_A, ROW_B])).unwrap();
+    assert_eq!(measurements::parse(&text).unwrap(), plain);
+}
+
+#[test]
 fn line_numbers_count_comment_lines() {
     let text =
         format!("# one\n# two\n{HEADER}\n# three\n{ROW_A}\n17,0.0663,-100,0,abc,0,-100,0,1,2,3\n");
@@ -77,7 +84,7 @@ fn missing_column_lists_the_expected_ones() {
     let text =
         "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm\n1,0,0,0,0,0,0,0,1,2\n";
     let err = measurement_err(text);
-    assert_names(&err, 1, Some("z_mm"), &["missing column", HEADER]);
+    assert_names(&err, 1, Some("z_mm"), &["missing from the header", HEADER]);
 }
 
 #[test]
@@ -186,7 +193,7 @@ fn read_errors_name_the_file() {
     let msg = err.report();
     assert!(msg.starts_with("error: failed to parse `"), "{msg}");
     assert!(
-        msg.contains("tracker_export.csv") && msg.contains("line 2, `q2_deg`"),
+        msg.contains("tracker_export.csv") && msg.contains("line 2, column `q2_deg`"),
         "{msg}"
     );
 }

@@ -15,7 +15,7 @@ use model::{Arm, Frame, JOINTS, Joint, ServoCurve};
 use serde::{Deserialize, Serialize};
 use toml::Spanned;
 
-use crate::error::{Error, InputError, Location, Problem};
+use crate::error::{Error, Field, InputError, Location, Problem};
 use crate::io::{atomic, read_text};
 
 /// An arm description as read from (or written to) a TOML file.
@@ -67,7 +67,7 @@ fn toml_error(lines: &LineIndex, error: toml::de::Error, path: Option<String>) -
     let line = error.span().map(|s| lines.line_of(s.start));
     let location = Location {
         line,
-        field: path.filter(|p| !p.is_empty()),
+        field: path.filter(|p| !p.is_empty()).map(Field::Key),
     };
     InputError::new(
         location,
@@ -185,7 +185,7 @@ struct Checker<'a> {
 
 impl Checker<'_> {
     fn fail(&self, key: &str, span: Range<usize>, problem: Problem) -> InputError {
-        InputError::new(Location::at(self.lines.span_line(span), key), problem)
+        InputError::new(Location::key(self.lines.span_line(span), key), problem)
     }
 
     fn finite(&self, key: &str, value: &Spanned<f64>) -> Result<f64, InputError> {

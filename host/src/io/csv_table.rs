@@ -56,7 +56,7 @@ pub struct Row<'a> {
 impl Row<'_> {
     /// An error about a cell of this row.
     pub fn error(&self, column: &str, problem: Problem) -> InputError {
-        InputError::new(Location::at(Some(self.line), column), problem)
+        InputError::new(Location::column(self.line, column), problem)
     }
 
     /// Whether the file has this column.
@@ -186,7 +186,7 @@ pub fn for_each_row(
 }
 
 fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Header, InputError> {
-    let at = |field: &str| Location::at(Some(line), field);
+    let at = |column: &str| Location::column(line, column);
     let mut index = HashMap::new();
     for (i, name) in record.iter().enumerate() {
         if name.starts_with(NOTE_PREFIX) {
