@@ -72,7 +72,12 @@ impl EmulatedBoard {
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
-            .unwrap_or_else(|e| panic!("cannot start {node:?} {}: {e} (is Node installed?)", script.display()));
+            .unwrap_or_else(|e| {
+                panic!(
+                    "cannot start {node:?} {}: {e} (is Node installed?)",
+                    script.display()
+                )
+            });
 
         let log = Arc::new(Mutex::new(String::new()));
         let stderr = child.stderr.take().expect("piped stderr");
@@ -91,9 +96,14 @@ impl EmulatedBoard {
         let stdout = child.stdout.take().expect("piped stdout");
         thread::spawn(move || {
             for line in BufReader::new(stdout).lines().map_while(Result::ok) {
-                let Ok(value) = serde_json::from_str::<Value>(&line) else { continue };
+                let Ok(value) = serde_json::from_str::<Value>(&line) else {
+                    continue;
+                };
                 if value.get("event").is_some() {
-                    event_writer.lock().unwrap_or_else(|e| e.into_inner()).push(value.clone());
+                    event_writer
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner())
+                        .push(value.clone());
                 }
                 if tx.send(value).is_err() {
                     break;
@@ -101,9 +111,19 @@ impl EmulatedBoard {
             }
         });
         let stdin = child.stdin.take().expect("piped stdin");
-        let mut board = Self { child, stdin, replies, events, log, next_id: 1, port: 0 };
+        let mut board = Self {
+            child,
+            stdin,
+            replies,
+            events,
+            log,
+            next_id: 1,
+            port: 0,
+        };
         let listening = board.wait_event("listening");
-        board.port = listening["port"].as_u64().expect("listening event has a port") as u16;
+        board.port = listening["port"]
+            .as_u64()
+            .expect("listening event has a port") as u16;
         board
     }
 
@@ -119,7 +139,10 @@ impl EmulatedBoard {
 
     /// Events (`configured`, `reset`, `halted`, ...) seen so far.
     pub fn events(&self) -> Vec<Value> {
-        self.events.lock().unwrap_or_else(|e| e.into_inner()).clone()
+        self.events
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .clone()
     }
 
     fn wait_event(&mut self, name: &str) -> Value {
@@ -129,7 +152,9 @@ impl EmulatedBoard {
             match self.replies.recv_timeout(left) {
                 Ok(v) if v["event"] == name => return v,
                 Ok(_) => {}
-                Err(RecvTimeoutError::Timeout) => panic!("no '{name}' event from the emulator\n{}", self.log()),
+                Err(RecvTimeoutError::Timeout) => {
+                    panic!("no '{name}' event from the emulator\n{}", self.log())
+                }
                 Err(RecvTimeoutError::Disconnected) => {
                     panic!("the emulator exited before '{name}'\n{}", self.log())
                 }
@@ -141,7 +166,11 @@ impl EmulatedBoard {
     pub fn request(&mut self, mut request: Value) -> Value {
         let reply = self.try_request(&mut request);
         if reply["ok"] != true {
-            panic!("emulator request {request} failed: {}\n{}", reply["error"], self.log());
+            panic!(
+                "emulator request {request} failed: {}\n{}",
+                reply["error"],
+                self.log()
+            );
         }
         reply
     }
@@ -151,7 +180,8 @@ impl EmulatedBoard {
         let id = self.next_id;
         self.next_id += 1;
         request["id"] = json!(id);
-        writeln!(self.stdin, "{request}").unwrap_or_else(|e| panic!("emulator gone: {e}\n{}", self.log()));
+        writeln!(self.stdin, "{request}")
+            .unwrap_or_else(|e| panic!("emulator gone: {e}\n{}", self.log()));
         self.stdin.flush().ok();
         let deadline = Instant::now() + REQUEST_TIMEOUT;
         loop {
@@ -176,7 +206,11 @@ impl EmulatedBoard {
 
     /// The widths (µs) of the next `count` pulses on each servo pin, in servo order.
     pub fn servo_pulses(&mut self, count: u32) -> (Vec<Vec<f64>>, Vec<Vec<Option<f64>>>) {
-        let reply = self.request(json!({"cmd": "pulses", "pins": SERVO_PINS, "count": count, "timeout_ms": 500}));
+        // Each pulse takes a 20 ms frame; allow a few frames more for the first edge.
+        let timeout_ms = count * 20 + 300;
+        let reply = self.request(
+            json!({"cmd": "pulses", "pins": SERVO_PINS, "count": count, "timeout_ms": timeout_ms}),
+        );
         let widths = serde_json::from_value(reply["widths_us"].clone()).expect("widths_us");
         let periods = serde_json::from_value(reply["periods_us"].clone()).expect("periods_us");
         (widths, periods)
@@ -207,7 +241,11 @@ impl EmulatedBoard {
 impl Drop for EmulatedBoard {
     fn drop(&mut self) {
         if thread::panicking() {
-            eprintln!("---- emulator log (serial port {}) ----\n{}", self.port_name(), self.log());
+            eprintln!(
+                "---- emulator log (serial port {}) ----\n{}",
+                self.port_name(),
+                self.log()
+            );
         }
         let _ = writeln!(self.stdin, "{}", json!({"id": 0, "cmd": "quit"}));
         let deadline = Instant::now() + Duration::from_secs(5);
@@ -233,10 +271,17 @@ pub struct RawLink {
 impl RawLink {
     /// Connects to the board's serial port.
     pub fn connect(board: &EmulatedBoard) -> Self {
-        let stream = std::net::TcpStream::connect(("127.0.0.1", board.port)).expect("connect to the board");
-        stream.set_read_timeout(Some(Duration::from_secs(20))).expect("read timeout");
+        let stream =
+            std::net::TcpStream::connect(("127.0.0.1", board.port)).expect("connect to the board");
+        stream
+            .set_read_timeout(Some(Duration::from_secs(20)))
+            .expect("read timeout");
         stream.set_nodelay(true).ok();
-        Self { stream, seq: 0x4000, reader: protocol::frame::FrameReader::new() }
+        Self {
+            stream,
+            seq: 0x4000,
+            reader: protocol::frame::FrameReader::new(),
+        }
     }
 
     /// Writes raw bytes to the serial line.
@@ -252,7 +297,8 @@ impl RawLink {
         self.send_bytes(&frame[..n]);
         let mut byte = [0u8; 1];
         loop {
-            let got = std::io::Read::read(&mut self.stream, &mut byte).expect("read from the board");
+            let got =
+                std::io::Read::read(&mut self.stream, &mut byte).expect("read from the board");
             assert!(got == 1, "the board closed the serial port");
             if let protocol::frame::Feed::Frame(frame) = self.reader.feed(byte[0])
                 && let Ok((seq, response)) = protocol::frame::decode::<protocol::Response>(frame)
@@ -260,6 +306,126 @@ impl RawLink {
             {
                 return response;
             }
+        }
+    }
+}
+
+/// A calibration for the bundled arm with known errors and compliances, so that compensation
+/// has work to do; `id` tells two of them apart in `status`.
+pub fn test_calibration(id: u32) -> protocol::Calibration {
+    use model::ParamId;
+    let nominal = host::io::arm_source::bundled("lrm")
+        .expect("bundled arm")
+        .arm;
+    let names = [
+        "j2.theta", "j3.a", "j4.alpha", "tool.z", "k2", "k3", "k5", "k0",
+    ];
+    let scale = 1.0 + f64::from(id % 7) / 10.0;
+    let errors = [0.01, 0.002, -0.008, 0.003, 0.05, 0.08, 0.1, 0.02].map(|e| e * scale);
+    let ids: Vec<ParamId> = names
+        .iter()
+        .map(|n| ParamId::from_name(n).expect("known parameter"))
+        .collect();
+    let calibrated = nominal.with_errors(&ids, &errors);
+    let calibration = protocol::Calibration {
+        id,
+        option: protocol::ModelOption::ElastoKinematic,
+        nominal: nominal.map(|x| x as f32),
+        calibrated: calibrated.map(|x| x as f32),
+        home_rad: [0.0; model::JOINTS],
+    };
+    calibration.check().expect("the test calibration is valid");
+    calibration
+}
+
+/// The postcard bytes of a calibration, as pushed and stored.
+pub fn calibration_bytes(calibration: &protocol::Calibration) -> Vec<u8> {
+    let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+    calibration
+        .encode(&mut buf)
+        .expect("encode calibration")
+        .to_vec()
+}
+
+impl RawLink {
+    /// Sends one request; `None` if the board dropped the connection (it reset) instead.
+    pub fn request_or_closed(&mut self, request: &protocol::Request) -> Option<protocol::Response> {
+        self.seq = self.seq.wrapping_add(1);
+        let mut frame = [0u8; protocol::frame::MAX_FRAME];
+        let n = protocol::frame::encode(self.seq, request, &mut frame).expect("encode request");
+        if self.stream.write_all(&frame[..n]).is_err() {
+            return None;
+        }
+        let mut byte = [0u8; 1];
+        loop {
+            match std::io::Read::read(&mut self.stream, &mut byte) {
+                Ok(1) => {}
+                _ => return None,
+            }
+            if let protocol::frame::Feed::Frame(frame) = self.reader.feed(byte[0])
+                && let Ok((seq, response)) = protocol::frame::decode::<protocol::Response>(frame)
+                && seq == self.seq
+            {
+                return Some(response);
+            }
+        }
+    }
+
+    /// Announces a calibration and sends its first `chunks` chunks (all: `usize::MAX`).
+    pub fn push_chunks(&mut self, bytes: &[u8], chunks: usize) {
+        let begin = protocol::Request::CalibrationBegin {
+            len_bytes: bytes.len() as u32,
+            crc: protocol::frame::crc32(bytes),
+        };
+        assert_eq!(
+            self.request(&begin),
+            protocol::Response::CalibrationAck { received: 0 }
+        );
+        for (i, chunk) in bytes.chunks(protocol::CHUNK_LEN).take(chunks).enumerate() {
+            let offset = (i * protocol::CHUNK_LEN) as u32;
+            let data = heapless::Vec::from_slice(chunk).expect("chunk fits");
+            let ack = self.request(&protocol::Request::CalibrationChunk { offset, data });
+            let received = offset + chunk.len() as u32;
+            assert_eq!(ack, protocol::Response::CalibrationAck { received });
+        }
+    }
+
+    /// Pushes a whole calibration and checks that the board stored it.
+    pub fn push(&mut self, calibration: &protocol::Calibration) {
+        self.push_chunks(&calibration_bytes(calibration), usize::MAX);
+        match self.request(&protocol::Request::CalibrationCommit) {
+            protocol::Response::CalibrationStored(info) => assert_eq!(info.id, calibration.id),
+            other => panic!(
+                "commit of calibration {} answered {other:?}",
+                calibration.id
+            ),
+        }
+    }
+
+    /// Reads the stored calibration's bytes back.
+    pub fn pull(&mut self) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        loop {
+            let offset = bytes.len() as u32;
+            match self.request(&protocol::Request::CalibrationRead { offset }) {
+                protocol::Response::CalibrationData {
+                    len_bytes, data, ..
+                } => {
+                    bytes.extend_from_slice(&data);
+                    if data.is_empty() || bytes.len() as u32 >= len_bytes {
+                        return bytes;
+                    }
+                }
+                other => panic!("calib/read at {offset} answered {other:?}"),
+            }
+        }
+    }
+
+    /// The board's status.
+    pub fn status(&mut self) -> protocol::Status {
+        match self.request(&protocol::Request::Status) {
+            protocol::Response::Status(status) => status,
+            other => panic!("status answered {other:?}"),
         }
     }
 }
