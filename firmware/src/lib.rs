@@ -1,2 +1,46 @@
-//! Hardware-independent firmware logic.
-#![cfg_attr(not(test), no_std)]
+//! The firmware's hardware-independent logic, tested on the host.
+//!
+//! The embassy binary (`main.rs`, `board/`) only moves bytes and time in and
+//! out of a [`Device`]: it feeds USB bytes through a
+//! [`protocol::FrameReader`] into [`Device::handle_frame`], calls
+//! [`Device::servo_frame`] every 20 ms, and implements the two small traits
+//! [`ServoBus`] (PWM outputs) and [`FlashStorage`] (the two calibration
+//! sectors). Neither call blocks on I/O or panics, whatever the bytes.
+//!
+//! | module | what it holds |
+//! |---|---|
+//! | [`app`] | [`Device`]: state, start-up, the servo frame and the request dispatcher |
+//! | [`handlers`] | one function per endpoint of the `protocol` table |
+//! | [`servo`] | the servo bus trait, joint and pulse limits, angle → pulse |
+//! | [`motion`] | speed/acceleration-limited, synchronised joint motion |
+//! | [`compensator`] | the per-frame compensation step with warm start and fallback |
+//! | [`storage`] | two flash slots with sequence number and CRC |
+//! | [`config`] | limits and tuning with their defaults |
+//! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
+//!
+//! Start-up: every channel starts limp (no pulses), so power-on never jerks
+//! the arm. The first `motion/move`, `motion/home` or `servo/attach` assumes
+//! the arm rests at the calibration's home pose (all zeros without a
+//! calibration) and moves smoothly from there: park the arm at home
+//! (`lrmcal home`, then `lrmcal detach`) before switching it off.
+#![cfg_attr(not(any(test, feature = "sim")), no_std)]
+
+pub mod app;
+pub mod compensator;
+pub mod config;
+pub mod handlers;
+pub mod motion;
+pub mod servo;
+#[cfg(any(test, feature = "sim"))]
+pub mod sim;
+pub mod storage;
+#[cfg(test)]
+mod tests;
+
+pub use app::{Device, SystemAction};
+pub use config::Config;
+pub use servo::ServoBus;
+pub use storage::FlashStorage;
+
+/// Number of servo channels, one per joint.
+pub const CHANNELS: usize = model::JOINTS;

@@ -1,0 +1,243 @@
+//! The [`Device`]: everything the board knows, the servo frame, and the
+//! dispatch of request frames to the [`crate::handlers`].
+
+use protocol::calibration::MAX_CALIBRATION_LEN;
+use protocol::frame::{self, FrameError, MAX_FRAME, PROTOCOL_VERSION};
+use protocol::{
+    Calibration, CalibrationInfo, CompensationMode, DeviceInfo, Faults, Request, Response,
+    WireError,
+};
+
+use crate::compensator::Compensator;
+use crate::motion::{MotionLimits, Profile};
+use crate::servo::{self, pulse_for};
+use crate::storage::Storage;
+use crate::{CHANNELS, Config, FlashStorage, ServoBus, handlers};
+
+/// What the binary must do after a reply has gone out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SystemAction {
+    /// Reboot into the RP2040 ROM's USB (UF2) bootloader.
+    RebootToBootloader,
+}
+
+/// The calibration in use, prepared.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Active {
+    pub calibration: Calibration,
+    pub info: CalibrationInfo,
+    pub compensator: Compensator,
+}
+
+/// A calibration upload in progress.
+#[derive(Clone, Debug)]
+pub(crate) struct Transfer {
+    pub len: usize,
+    pub crc: u32,
+    pub received: usize,
+    pub buf: [u8; MAX_CALIBRATION_LEN],
+}
+
+/// The board: servo outputs, calibration storage, motion and compensation.
+///
+/// The binary calls [`Device::handle_frame`] for every frame that arrives and
+/// [`Device::servo_frame`] every 20 ms. Neither waits on anything but the
+/// flash (only `calib/commit` and `calib/erase` write it); neither panics.
+pub struct Device<B, F> {
+    pub(crate) config: Config,
+    pub(crate) bus: B,
+    pub(crate) storage: Storage<F>,
+    pub(crate) active: Option<Active>,
+    pub(crate) mode: CompensationMode,
+    pub(crate) payload_kg: f32,
+    pub(crate) motion: Profile,
+    /// Nominal joint angles of the last servo frame, rad.
+    pub(crate) position: [f32; CHANNELS],
+    pub(crate) moving: bool,
+    pub(crate) attached: [bool; CHANNELS],
+    /// Raw pulses of channels under `servo/raw`, µs.
+    pub(crate) raw: [Option<u16>; CHANNELS],
+    pub(crate) pulses: [u16; CHANNELS],
+    pub(crate) faults: Faults,
+    pub(crate) frames_dropped: u32,
+    pub(crate) transfer: Option<Transfer>,
+    pub(crate) boot_us: u64,
+    pub(crate) now_us: u64,
+    pub(crate) pending: Option<SystemAction>,
+}
+
+impl<B: ServoBus, F: FlashStorage> Device<B, F> {
+    /// Starts the board at `now_us`: loads the calibration and makes every channel limp.
+    pub fn new(bus: B, flash: F, config: Config, now_us: u64) -> Self {
+        let mut storage = Storage::new(flash);
+        let report = storage.load();
+        let mut device = Self {
+            config,
+            bus,
+            storage,
+            active: None,
+            mode: CompensationMode::Off,
+            payload_kg: 0.0,
+            motion: Profile::hold([0.0; CHANNELS]),
+            position: [0.0; CHANNELS],
+            moving: false,
+            attached: [false; CHANNELS],
+            raw: [None; CHANNELS],
+            pulses: [0; CHANNELS],
+            faults: Faults::default(),
+            frames_dropped: 0,
+            transfer: None,
+            boot_us: now_us,
+            now_us,
+            pending: None,
+        };
+        device.faults.set(Faults::STORAGE_DAMAGED, report.damaged);
+        if let Some(loaded) = report.loaded {
+            device.apply(loaded.calibration, loaded.sequence);
+        }
+        device.position = device.home();
+        device.motion = Profile::hold(device.position);
+        for channel in 0..CHANNELS {
+            device.bus.set_pulse(channel, None);
+        }
+        device
+    }
+
+    /// Gives back the servo bus and the flash (to "reboot" in tests).
+    pub fn release(self) -> (B, F) {
+        (self.bus, self.storage.into_flash())
+    }
+
+    /// The servo bus (to inspect a mock in tests).
+    pub fn bus(&self) -> &B {
+        &self.bus
+    }
+
+    /// What the binary must do next, once: call after the reply went out.
+    pub fn take_action(&mut self) -> Option<SystemAction> {
+        self.pending.take()
+    }
+
+    /// Makes `calibration` (stored under `sequence`) the one in use.
+    pub(crate) fn apply(&mut self, calibration: Calibration, sequence: u32) {
+        let c = &self.config;
+        self.active = Some(Active {
+            info: CalibrationInfo {
+                id: calibration.id,
+                option: calibration.option,
+                sequence,
+            },
+            compensator: Compensator::new(&calibration, c.compensation, c.max_correction_rad),
+            calibration,
+        });
+    }
+
+    /// The pose `motion/home` goes to and the one assumed at start-up, rad.
+    pub(crate) fn home(&self) -> [f32; CHANNELS] {
+        self.active
+            .as_ref()
+            .map_or([0.0; CHANNELS], |a| a.calibration.home_rad)
+    }
+
+    /// Joint ranges in force, rad.
+    pub(crate) fn limits(&self) -> [[f32; 2]; CHANNELS] {
+        let arm = self.active.as_ref().map(|a| &a.calibration.calibrated);
+        servo::joint_limits(
+            arm,
+            self.config.hard_limits_rad,
+            self.config.default_limits_rad,
+        )
+    }
+
+    /// Servo curves in force.
+    pub(crate) fn curves(&self) -> [model::ServoCurve<f32>; CHANNELS] {
+        servo::curves(self.active.as_ref().map(|a| &a.calibration.calibrated))
+    }
+
+    pub(crate) fn motion_limits(&self) -> MotionLimits {
+        MotionLimits {
+            max_speed_rad_s: self.config.max_speed_rad_s,
+            max_accel_rad_s2: self.config.max_accel_rad_s2,
+        }
+    }
+
+    /// Versions, for `link/hello` and `status/get`.
+    pub(crate) fn device_info(&self) -> DeviceInfo {
+        DeviceInfo {
+            protocol: PROTOCOL_VERSION,
+            firmware: self.config.firmware,
+        }
+    }
+
+    /// One servo frame at `now_us`: advance the motion, compensate, and put a
+    /// pulse (or none) on every channel.
+    pub fn servo_frame(&mut self, now_us: u64) {
+        self.now_us = now_us;
+        let (q_nominal, done) = self.motion.at(now_us);
+        self.position = q_nominal;
+        self.moving = !done;
+        let driven = (0..CHANNELS).any(|i| self.attached[i] && self.raw[i].is_none());
+        let (mode, payload) = (self.mode, self.payload_kg);
+        let command = match &mut self.active {
+            Some(a) if driven => a.compensator.step(&q_nominal, mode, payload),
+            _ => q_nominal,
+        };
+        let fell_back = driven
+            && mode != CompensationMode::Off
+            && self
+                .active
+                .as_ref()
+                .is_some_and(|a| !a.compensator.report().converged);
+        self.faults.set(Faults::COMPENSATION_FALLBACK, fell_back);
+        let (limits, curves) = (self.limits(), self.curves());
+        for i in 0..CHANNELS {
+            let pulse = match (self.raw[i], self.attached[i]) {
+                (Some(raw), _) => Some(raw),
+                (None, false) => None,
+                (None, true) => match pulse_for(
+                    &curves[i],
+                    command[i],
+                    limits[i],
+                    self.config.pulse_range_us,
+                ) {
+                    Some(p) => {
+                        if p.clamped {
+                            self.faults.set(Faults::LIMIT_CLAMPED, true);
+                        }
+                        Some(p.us)
+                    }
+                    // Never reached with finite targets; holding the last pulse is the safe answer.
+                    None => Some(self.pulses[i]).filter(|&p| p != 0),
+                },
+            };
+            self.pulses[i] = pulse.unwrap_or(0);
+            self.bus.set_pulse(i, pulse);
+        }
+    }
+
+    /// Handles one frame from the host (COBS bytes as cut by a
+    /// [`protocol::FrameReader`], with or without the 0x00) and writes the
+    /// reply frame into `out`; returns the reply's length, 0 for none.
+    pub fn handle_frame(&mut self, frame: &[u8], out: &mut [u8; MAX_FRAME]) -> usize {
+        let (seq, response) = match frame::decode::<Request>(frame) {
+            Ok((seq, request)) => (seq, handlers::dispatch(self, request)),
+            Err(FrameError::Version { seq, .. }) => {
+                (seq, Response::Error(WireError::VersionMismatch))
+            }
+            Err(FrameError::Body { seq }) => (seq, Response::Error(WireError::UnknownRequest)),
+            Err(_) => {
+                // Corrupt: its seq is not trustworthy, so no reply; the host retries.
+                self.frames_dropped = self.frames_dropped.saturating_add(1);
+                self.faults.set(Faults::FRAMES_DROPPED, true);
+                return 0;
+            }
+        };
+        frame::encode(seq, &response, out).unwrap_or(0)
+    }
+
+    /// Counts a frame the binary's [`protocol::FrameReader`] dropped as over-long.
+    pub fn frame_overflowed(&mut self) {
+        self.frames_dropped = self.frames_dropped.saturating_add(1);
+        self.faults.set(Faults::FRAMES_DROPPED, true);
+    }
+}

@@ -1,0 +1,123 @@
+//! The per-servo-frame compensation step: nominal joint targets in, joint
+//! commands for the calibrated, deflected arm out.
+//!
+//! Each frame solves `model::Chain::compensate` (f32) from the previous
+//! frame's solution, which is a few iterations away because the targets move
+//! by at most a few milliradians per frame. If a solve fails (no convergence,
+//! a non-finite value, or a correction larger than the configured bound) the
+//! frame commands the nominal targets plus the last good correction, so the
+//! arm moves on smoothly instead of jumping, and the failure is counted.
+
+use model::{Chain, Compensation, CompensationOptions};
+use nalgebra::Vector3;
+use protocol::{Calibration, CompensationMode, CompensationReport};
+
+use crate::CHANNELS;
+
+/// The compensation state carried from one servo frame to the next.
+#[derive(Clone, Copy, Debug)]
+pub struct Compensator {
+    nominal: Chain<f32>,
+    calibrated: Chain<f32>,
+    options: CompensationOptions<f32>,
+    max_correction_rad: f32,
+    warm: Option<Compensation<f32>>,
+    /// Command minus nominal of the last good solve, rad.
+    last_correction: [f32; CHANNELS],
+    report: CompensationReport,
+}
+
+impl Compensator {
+    /// Prepares both arms of `calibration` for evaluation.
+    pub fn new(
+        calibration: &Calibration,
+        options: CompensationOptions<f32>,
+        max_correction_rad: f32,
+    ) -> Self {
+        Self {
+            nominal: calibration.nominal.chain(),
+            calibrated: calibration.calibrated.chain(),
+            options,
+            max_correction_rad,
+            warm: None,
+            last_correction: [0.0; CHANNELS],
+            report: CompensationReport::default(),
+        }
+    }
+
+    /// How the last step went.
+    pub fn report(&self) -> CompensationReport {
+        self.report
+    }
+
+    /// Forgets the warm start and the last correction (after a mode change or a detach).
+    pub fn reset(&mut self) {
+        self.warm = None;
+        self.last_correction = [0.0; CHANNELS];
+    }
+
+    /// The tool point the user means by `q_nominal` in `mode`, or `None` when off.
+    fn target(
+        &self,
+        q_nominal: &[f32; CHANNELS],
+        mode: CompensationMode,
+        payload_kg: f32,
+    ) -> Option<Vector3<f32>> {
+        match mode {
+            CompensationMode::Off => None,
+            CompensationMode::ElasticOnly => Some(self.calibrated.rigid_tool_point(q_nominal)),
+            // The nominal arm as the user plans with it (rigid if its compliances are zero).
+            CompensationMode::Full => self
+                .nominal
+                .tool_point(q_nominal, payload_kg, &Default::default())
+                .ok(),
+        }
+    }
+
+    /// One servo frame: the joint commands for `q_nominal` (not yet clamped to limits).
+    pub fn step(
+        &mut self,
+        q_nominal: &[f32; CHANNELS],
+        mode: CompensationMode,
+        payload_kg: f32,
+    ) -> [f32; CHANNELS] {
+        if mode == CompensationMode::Off {
+            self.reset();
+            return *q_nominal;
+        }
+        let solved = self.target(q_nominal, mode, payload_kg).and_then(|target| {
+            self.calibrated
+                .compensate(
+                    q_nominal,
+                    &target,
+                    payload_kg,
+                    self.warm.as_ref(),
+                    &self.options,
+                )
+                .ok()
+        });
+        let sane = solved.filter(|c| {
+            c.q.iter()
+                .zip(q_nominal)
+                .all(|(q, n)| q.is_finite() && (q - n).abs() <= self.max_correction_rad)
+        });
+        // A finite but unconverged solve is still the best warm start for the next frame.
+        self.warm = sane;
+        match sane {
+            Some(c) if c.converged => {
+                self.last_correction = core::array::from_fn(|i| c.q[i] - q_nominal[i]);
+                self.report.converged = true;
+                self.report.iterations = c.iterations.min(u8::MAX as u32) as u8;
+                self.report.error_um = c.error_m * 1e6;
+                c.q
+            }
+            _ => {
+                self.report.converged = false;
+                self.report.iterations = sane.map_or(0, |c| c.iterations.min(u8::MAX as u32) as u8);
+                self.report.error_um = sane.map_or(f32::INFINITY, |c| c.error_m * 1e6);
+                self.report.fallbacks = self.report.fallbacks.saturating_add(1);
+                core::array::from_fn(|i| q_nominal[i] + self.last_correction[i])
+            }
+        }
+    }
+}

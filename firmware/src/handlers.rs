@@ -1,0 +1,326 @@
+//! One function per endpoint of the `protocol` table. Each checks its input
+//! completely before it changes anything, so a refused request leaves the
+//! board as it was.
+
+use heapless::Vec;
+use protocol::calibration::MAX_CALIBRATION_LEN;
+use protocol::frame::crc32;
+use protocol::{
+    CHUNK_LEN, Calibration, CompensationMode, CompensationReport, Faults, Request, Response,
+    Status, Timing, WireError,
+};
+
+use crate::app::{SystemAction, Transfer};
+use crate::motion::{PlanError, Profile};
+use crate::{CHANNELS, Device, FlashStorage, ServoBus};
+
+type Reply = Result<Response, WireError>;
+
+/// Routes a decoded request to its handler.
+pub fn dispatch<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, request: Request) -> Response {
+    let reply = match request {
+        Request::Hello => Ok(Response::Hello(d.device_info())),
+        Request::Status => Ok(Response::Status(status(d))),
+        Request::Move {
+            targets_rad,
+            timing,
+        } => move_to(d, targets_rad, timing),
+        Request::Home { timing } => move_to(d, d.home(), timing),
+        Request::Attach { channel } => attach(d, channel),
+        Request::Detach { channel } => detach(d, channel),
+        Request::RawPulse { channel, pulse_us } => raw_pulse(d, channel, pulse_us),
+        Request::SetPayload { mass_kg } => set_payload(d, mass_kg),
+        Request::SetCompensation { mode } => set_compensation(d, mode),
+        Request::CalibrationBegin { len_bytes, crc } => calibration_begin(d, len_bytes, crc),
+        Request::CalibrationChunk { offset, data } => calibration_chunk(d, offset, &data),
+        Request::CalibrationCommit => calibration_commit(d),
+        Request::CalibrationRead { offset } => calibration_read(d, offset),
+        Request::CalibrationErase => calibration_erase(d),
+        Request::RebootToBootloader => {
+            d.pending = Some(SystemAction::RebootToBootloader);
+            Ok(Response::Done)
+        }
+    };
+    reply.unwrap_or_else(Response::Error)
+}
+
+/// `status/get`; clears the flags that latch until read.
+fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Status {
+    let mut faults = d.faults;
+    faults.set(Faults::NO_CALIBRATION, d.active.is_none());
+    d.faults.set(Faults::LIMIT_CLAMPED, false);
+    d.faults.set(Faults::FRAMES_DROPPED, false);
+    Status {
+        device: d.device_info(),
+        calibration: d.active.as_ref().map(|a| a.info),
+        mode: d.mode,
+        compensation: d
+            .active
+            .as_ref()
+            .map_or(CompensationReport::default(), |a| a.compensator.report()),
+        payload_kg: d.payload_kg,
+        moving: d.moving,
+        targets_rad: d.motion.end(),
+        nominal_rad: d.position,
+        pulses_us: d.pulses,
+        faults,
+        frames_dropped: d.frames_dropped,
+        uptime_ms: d.now_us.saturating_sub(d.boot_us) / 1000,
+    }
+}
+
+/// The joint angle a channel under `servo/raw` is at, from its pulse.
+fn angle_of_raw<B: ServoBus, F: FlashStorage>(d: &Device<B, F>, channel: usize, pulse: u16) -> f32 {
+    let curve = d.curves()[channel];
+    let [lo, hi] = d.limits()[channel];
+    let a = curve.angle(f32::from(pulse));
+    if a.is_finite() {
+        a.clamp(lo, hi)
+    } else {
+        d.position[channel]
+    }
+}
+
+/// Ends raw tuning on `channel`, taking over the position its pulse gave.
+fn leave_raw<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: usize) {
+    if let Some(p) = d.raw[channel].take() {
+        d.position[channel] = angle_of_raw(d, channel, p);
+        d.attached[channel] = true;
+    }
+}
+
+/// `motion/move` and `motion/home`: attach every joint and start a move.
+fn move_to<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    targets: [f32; CHANNELS],
+    timing: Timing,
+) -> Reply {
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    if !targets.iter().all(|t| t.is_finite()) {
+        return Err(WireError::NotFinite);
+    }
+    let limits = d.limits();
+    if targets
+        .iter()
+        .zip(&limits)
+        .any(|(t, [lo, hi])| t < lo || t > hi)
+    {
+        return Err(WireError::OutOfRange);
+    }
+    let mut start = d.position;
+    for (i, s) in start.iter_mut().enumerate() {
+        if let Some(p) = d.raw[i] {
+            *s = angle_of_raw(d, i, p);
+        }
+    }
+    let max_s = d.config.max_duration_ms as f32 / 1000.0;
+    let profile = Profile::plan(start, targets, d.now_us, timing, d.motion_limits(), max_s)
+        .map_err(|e| match e {
+            PlanError::NotFinite => WireError::NotFinite,
+            PlanError::OutOfRange => WireError::OutOfRange,
+        })?;
+    for i in 0..CHANNELS {
+        leave_raw(d, i);
+        d.attached[i] = true;
+    }
+    d.position = start;
+    d.motion = profile;
+    d.moving = true;
+    Ok(Response::Done)
+}
+
+/// The channels a request names: one, or all for `None`.
+fn channels(channel: Option<u8>) -> Result<core::ops::Range<usize>, WireError> {
+    match channel {
+        None => Ok(0..CHANNELS),
+        Some(c) if (c as usize) < CHANNELS => Ok(c as usize..c as usize + 1),
+        Some(_) => Err(WireError::OutOfRange),
+    }
+}
+
+/// `servo/attach`: hold at the current position.
+fn attach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
+    for i in channels(channel)? {
+        leave_raw(d, i);
+        d.attached[i] = true;
+    }
+    d.motion = Profile::hold(d.position);
+    Ok(Response::Done)
+}
+
+/// `servo/detach`: stops any motion (a limp joint cannot follow it) and the pulses.
+fn detach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
+    for i in channels(channel)? {
+        d.raw[i] = None;
+        d.attached[i] = false;
+    }
+    d.motion = Profile::hold(d.position);
+    d.moving = false;
+    if let Some(a) = &mut d.active {
+        a.compensator.reset();
+    }
+    Ok(Response::Done)
+}
+
+/// `servo/raw`: a clamped raw pulse on one channel.
+fn raw_pulse<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    channel: u8,
+    pulse_us: u16,
+) -> Reply {
+    let i = channel as usize;
+    if i >= CHANNELS {
+        return Err(WireError::OutOfRange);
+    }
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    let [lo, hi] = d.config.pulse_range_us;
+    let applied = pulse_us.clamp(lo, hi);
+    d.raw[i] = Some(applied);
+    Ok(Response::Pulse {
+        applied_us: applied,
+    })
+}
+
+/// `comp/payload`.
+fn set_payload<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, mass_kg: f32) -> Reply {
+    if !mass_kg.is_finite() {
+        return Err(WireError::NotFinite);
+    }
+    if !(0.0..=d.config.max_payload_kg).contains(&mass_kg) {
+        return Err(WireError::OutOfRange);
+    }
+    d.payload_kg = mass_kg;
+    Ok(Response::Done)
+}
+
+/// `comp/mode`: refused while moving, since the correction would appear mid-path.
+fn set_compensation<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    mode: CompensationMode,
+) -> Reply {
+    if mode != CompensationMode::Off && d.active.is_none() {
+        return Err(WireError::NoCalibration);
+    }
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    d.mode = mode;
+    if let Some(a) = &mut d.active {
+        a.compensator.reset();
+    }
+    Ok(Response::Done)
+}
+
+/// `calib/begin`: a new upload replaces any unfinished one.
+fn calibration_begin<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    len: u32,
+    crc: u32,
+) -> Reply {
+    let len = len as usize;
+    if len == 0 || len > MAX_CALIBRATION_LEN {
+        return Err(WireError::OutOfRange);
+    }
+    d.transfer = Some(Transfer {
+        len,
+        crc,
+        received: 0,
+        buf: [0; MAX_CALIBRATION_LEN],
+    });
+    Ok(Response::CalibrationAck { received: 0 })
+}
+
+/// `calib/chunk`: a chunk may repeat bytes already received (a retry) but not leave a gap.
+fn calibration_chunk<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    offset: u32,
+    data: &[u8],
+) -> Reply {
+    let t = d.transfer.as_mut().ok_or(WireError::NoTransfer)?;
+    let offset = offset as usize;
+    let end = offset.checked_add(data.len()).ok_or(WireError::BadChunk)?;
+    if offset > t.received || end > t.len {
+        return Err(WireError::BadChunk);
+    }
+    t.buf[offset..end].copy_from_slice(data);
+    t.received = t.received.max(end);
+    Ok(Response::CalibrationAck {
+        received: t.received as u32,
+    })
+}
+
+/// `calib/commit`: the whole upload is checked, stored, read back and only then applied.
+fn calibration_commit<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
+    let t = d.transfer.as_ref().ok_or(WireError::NoTransfer)?;
+    if t.received < t.len {
+        return Err(WireError::TransferIncomplete);
+    }
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    let bytes = &t.buf[..t.len];
+    if crc32(bytes) != t.crc {
+        d.transfer = None;
+        return Err(WireError::CalibrationCrc);
+    }
+    let Some(calibration) = Calibration::decode(bytes) else {
+        d.transfer = None;
+        return Err(WireError::CalibrationInvalid);
+    };
+    let stored = d.storage.store(bytes);
+    d.transfer = None;
+    let Ok(sequence) = stored else {
+        // Only the slot not in use was touched; the calibration in use stays.
+        d.faults.set(Faults::FLASH_FAILED, true);
+        return Err(WireError::Flash);
+    };
+    d.faults.set(Faults::FLASH_FAILED, false);
+    d.apply(calibration, sequence);
+    Ok(Response::CalibrationStored(
+        d.active.as_ref().map(|a| a.info).ok_or(WireError::Flash)?,
+    ))
+}
+
+/// `calib/read`.
+fn calibration_read<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, offset: u32) -> Reply {
+    let (len, crc) = d.storage.active_payload().ok_or(WireError::NoCalibration)?;
+    let mut chunk = [0u8; CHUNK_LEN];
+    let n = d
+        .storage
+        .read_payload(offset as usize, &mut chunk)
+        .map_err(|_| WireError::OutOfRange)?;
+    let data = Vec::from_slice(&chunk[..n]).map_err(|_| WireError::OutOfRange)?;
+    Ok(Response::CalibrationData {
+        len_bytes: len,
+        crc,
+        offset,
+        data,
+    })
+}
+
+/// `calib/erase`: back to nominal curves, compensation off.
+fn calibration_erase<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    let erased = d.storage.erase();
+    if erased.is_err() {
+        d.faults.set(Faults::FLASH_FAILED, true);
+        // Whatever survived the failed erase is what a reboot would find; run on that.
+        let report = d.storage.load();
+        d.active = None;
+        if let Some(l) = report.loaded {
+            d.apply(l.calibration, l.sequence);
+        } else {
+            d.mode = CompensationMode::Off;
+        }
+        return Err(WireError::Flash);
+    }
+    d.active = None;
+    d.mode = CompensationMode::Off;
+    Ok(Response::Done)
+}

@@ -1,0 +1,282 @@
+//! Joint motion: every joint follows the same trapezoidal speed profile,
+//! scaled to its own distance, so all joints start and arrive together and
+//! none exceeds the speed or acceleration limit.
+//!
+//! The joint with the longest way `D` sets the pace. With acceleration `a`
+//! and a duration `T ≥ 2√(D/a)`, its peak speed is the smaller root of
+//! `D = v (T − v/a)`, i.e. `v = (aT − √(a²T² − 4aD)) / 2`; the other joints
+//! move by the same fraction of their way at every instant.
+
+use crate::CHANNELS;
+use protocol::Timing;
+
+/// Speed and acceleration limits of every joint.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionLimits {
+    /// rad/s.
+    pub max_speed_rad_s: f32,
+    /// rad/s².
+    pub max_accel_rad_s2: f32,
+}
+
+/// Why a move cannot be planned.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlanError {
+    /// A target, speed or the limits are not finite.
+    NotFinite,
+    /// A speed is not positive, or the move would take longer than allowed.
+    OutOfRange,
+}
+
+/// One planned move from `start` to `end`, starting at `t0_us`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Profile {
+    start: [f32; CHANNELS],
+    end: [f32; CHANNELS],
+    t0_us: u64,
+    /// Total duration, s.
+    duration_s: f32,
+    /// Acceleration (and deceleration) phase, s.
+    ramp_s: f32,
+}
+
+impl Profile {
+    /// Standing still at `q`.
+    pub fn hold(q: [f32; CHANNELS]) -> Self {
+        Self {
+            start: q,
+            end: q,
+            t0_us: 0,
+            duration_s: 0.0,
+            ramp_s: 0.0,
+        }
+    }
+
+    /// Plans a move; the duration is the requested one or the shortest the
+    /// limits allow, whichever is longer, and at most `max_duration_s`.
+    pub fn plan(
+        start: [f32; CHANNELS],
+        end: [f32; CHANNELS],
+        t0_us: u64,
+        timing: Timing,
+        limits: MotionLimits,
+        max_duration_s: f32,
+    ) -> Result<Self, PlanError> {
+        let a = limits.max_accel_rad_s2;
+        let finite = start.iter().chain(&end).all(|x| x.is_finite());
+        if !finite || !a.is_finite() || !limits.max_speed_rad_s.is_finite() {
+            return Err(PlanError::NotFinite);
+        }
+        let speed = match timing {
+            Timing::SpeedRadPerS(v) if !v.is_finite() => return Err(PlanError::NotFinite),
+            Timing::SpeedRadPerS(v) if v <= 0.0 => return Err(PlanError::OutOfRange),
+            Timing::SpeedRadPerS(v) => v.min(limits.max_speed_rad_s),
+            Timing::DurationMs(_) => limits.max_speed_rad_s,
+        };
+        let way = start
+            .iter()
+            .zip(&end)
+            .fold(0.0f32, |m, (s, e)| m.max((e - s).abs()));
+        let fastest = if way >= speed * speed / a {
+            way / speed + speed / a
+        } else {
+            2.0 * libm::sqrtf(way / a)
+        };
+        let wanted = match timing {
+            Timing::DurationMs(ms) => ms as f32 / 1000.0,
+            Timing::SpeedRadPerS(_) => 0.0,
+        };
+        let duration_s = fastest.max(wanted);
+        if duration_s > max_duration_s {
+            return Err(PlanError::OutOfRange);
+        }
+        if way == 0.0 || duration_s == 0.0 {
+            return Ok(Self {
+                t0_us,
+                ..Self::hold(end)
+            });
+        }
+        let disc = (a * a * duration_s * duration_s - 4.0 * a * way).max(0.0);
+        let peak = (a * duration_s - libm::sqrtf(disc)) / 2.0;
+        let ramp_s = (peak / a).min(duration_s / 2.0);
+        Ok(Self {
+            start,
+            end,
+            t0_us,
+            duration_s,
+            ramp_s,
+        })
+    }
+
+    /// Where every joint is at `now_us`, and whether the move is over.
+    pub fn at(&self, now_us: u64) -> ([f32; CHANNELS], bool) {
+        let t = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
+        if t >= self.duration_s {
+            return (self.end, true);
+        }
+        let s = self.fraction(t);
+        (
+            core::array::from_fn(|i| self.start[i] + (self.end[i] - self.start[i]) * s),
+            false,
+        )
+    }
+
+    /// Where the move ends.
+    pub fn end(&self) -> [f32; CHANNELS] {
+        self.end
+    }
+
+    /// Duration, s.
+    pub fn duration_s(&self) -> f32 {
+        self.duration_s
+    }
+
+    /// Fraction of the way done after `t` s: a trapezoidal speed, normalised.
+    fn fraction(&self, t: f32) -> f32 {
+        let (big_t, r) = (self.duration_s, self.ramp_s);
+        // Area of the unit trapezoid with ramps r and top (T − 2r): T − r.
+        let area = big_t - r;
+        let x = if t < r {
+            0.5 * t * t / r
+        } else if t <= big_t - r {
+            0.5 * r + (t - r)
+        } else {
+            let left = big_t - t;
+            area - 0.5 * left * left / r
+        };
+        (x / area).clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const LIMITS: MotionLimits = MotionLimits {
+        max_speed_rad_s: 1.5,
+        max_accel_rad_s2: 4.0,
+    };
+    const FRAME_US: u64 = 20_000;
+
+    /// Samples a profile every servo frame until it is over.
+    fn samples(p: &Profile) -> Vec<[f32; CHANNELS]> {
+        let mut out = vec![];
+        for k in 0.. {
+            let (q, done) = p.at(1_000 + k * FRAME_US);
+            out.push(q);
+            if done {
+                break;
+            }
+        }
+        out
+    }
+
+    fn check_limits(start: [f32; 6], end: [f32; 6], timing: Timing) -> Vec<[f32; 6]> {
+        let p = Profile::plan(start, end, 1_000, timing, LIMITS, 600.0).unwrap();
+        let mut q = vec![start];
+        q.extend(samples(&p));
+        let dt = FRAME_US as f32 * 1e-6;
+        for w in q.windows(3) {
+            let [a, b, c] = [w[0], w[1], w[2]];
+            for j in 0..6 {
+                let v1 = (b[j] - a[j]) / dt;
+                let v2 = (c[j] - b[j]) / dt;
+                assert!(
+                    v2.abs() <= LIMITS.max_speed_rad_s * 1.001,
+                    "joint {j} speed {v2}"
+                );
+                assert!(
+                    ((v2 - v1) / dt).abs() <= LIMITS.max_accel_rad_s2 * 1.01,
+                    "joint {j} accel"
+                );
+            }
+        }
+        assert_eq!(*q.last().unwrap(), end);
+        q
+    }
+
+    #[test]
+    fn long_and_short_moves_keep_speed_and_acceleration_limits() {
+        check_limits(
+            [0.0; 6],
+            [1.7, -1.2, 0.3, 0.0, -0.9, 0.5],
+            Timing::DurationMs(0),
+        );
+        check_limits(
+            [0.0; 6],
+            [0.05, -0.02, 0.0, 0.01, 0.0, 0.0],
+            Timing::DurationMs(0),
+        );
+        check_limits([0.3; 6], [-1.0; 6], Timing::SpeedRadPerS(100.0));
+    }
+
+    #[test]
+    fn all_joints_arrive_together() {
+        let start = [0.0, 0.2, -0.4, 0.1, 0.0, 1.0];
+        let end = [1.2, 0.25, 0.4, -0.1, 0.0, -0.2];
+        let q = check_limits(start, end, Timing::DurationMs(0));
+        // The fraction of the way done is the same for every moving joint at every frame.
+        for frame in &q {
+            let fractions: Vec<f32> = (0..6)
+                .filter(|&j| end[j] != start[j])
+                .map(|j| (frame[j] - start[j]) / (end[j] - start[j]))
+                .collect();
+            for f in &fractions {
+                assert!((f - fractions[0]).abs() < 1e-4, "{fractions:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn requested_duration_and_speed_are_honoured() {
+        let p = Profile::plan(
+            [0.0; 6],
+            [0.5; 6],
+            0,
+            Timing::DurationMs(3000),
+            LIMITS,
+            600.0,
+        )
+        .unwrap();
+        assert!((p.duration_s() - 3.0).abs() < 1e-6);
+        assert!(!p.at(2_990_000).1 && p.at(3_000_000).1);
+        // 1 rad at 0.5 rad/s: 2 s cruising plus one ramp of 0.125 s.
+        let p = Profile::plan(
+            [0.0; 6],
+            [1.0; 6],
+            0,
+            Timing::SpeedRadPerS(0.5),
+            LIMITS,
+            600.0,
+        )
+        .unwrap();
+        assert!((p.duration_s() - 2.125).abs() < 1e-5, "{}", p.duration_s());
+        // Too short a duration is stretched to what the limits allow.
+        let p =
+            Profile::plan([0.0; 6], [1.5; 6], 0, Timing::DurationMs(10), LIMITS, 600.0).unwrap();
+        assert!((p.duration_s() - (1.0 + 1.5 / 4.0)).abs() < 1e-5);
+    }
+
+    #[test]
+    fn bad_timings_are_refused() {
+        let plan = |t| Profile::plan([0.0; 6], [1.0; 6], 0, t, LIMITS, 600.0);
+        assert_eq!(plan(Timing::SpeedRadPerS(0.0)), Err(PlanError::OutOfRange));
+        assert_eq!(
+            plan(Timing::SpeedRadPerS(f32::NAN)),
+            Err(PlanError::NotFinite)
+        );
+        assert_eq!(
+            plan(Timing::DurationMs(u32::MAX)),
+            Err(PlanError::OutOfRange)
+        );
+        let nan_target = Profile::plan(
+            [0.0; 6],
+            [f32::NAN; 6],
+            0,
+            Timing::DurationMs(0),
+            LIMITS,
+            600.0,
+        );
+        assert_eq!(nan_target, Err(PlanError::NotFinite));
+    }
+}

@@ -1,0 +1,149 @@
+//! The servo outputs: the bus trait, and the pure maths from a joint angle to
+//! a pulse that can never leave the joint's limits or the safe pulse range.
+
+use model::ServoCurve;
+
+use crate::CHANNELS;
+
+/// The six PWM outputs.
+pub trait ServoBus {
+    /// Puts `pulse_us` on `channel` from the next PWM period on, or stops its
+    /// pulses (`None`: the servo goes limp). Must not block.
+    fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>);
+}
+
+/// What [`pulse_for`] did to a joint angle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pulse {
+    /// Pulse to send, µs.
+    pub us: u16,
+    /// Whether the angle or the pulse had to be clamped to a limit.
+    pub clamped: bool,
+}
+
+/// The pulse for `angle_rad` on a servo with `curve`: the angle is clamped to
+/// `limits_rad`, the pulse to `pulse_range_us`. `None` for a non-finite angle
+/// (the caller keeps the previous pulse).
+pub fn pulse_for(
+    curve: &ServoCurve<f32>,
+    angle_rad: f32,
+    limits_rad: [f32; 2],
+    pulse_range_us: [u16; 2],
+) -> Option<Pulse> {
+    if !angle_rad.is_finite() {
+        return None;
+    }
+    let angle = angle_rad.clamp(limits_rad[0], limits_rad[1]);
+    let raw = curve.pulse_us(angle);
+    if !raw.is_finite() {
+        return None;
+    }
+    let [lo, hi] = pulse_range_us.map(f32::from);
+    let us = raw.clamp(lo, hi);
+    // Round to the PWM's 1 µs resolution; the clamp keeps it inside u16.
+    let rounded = libm::roundf(us) as u16;
+    Some(Pulse {
+        us: rounded,
+        clamped: angle != angle_rad || us != raw,
+    })
+}
+
+/// The joint ranges in force: a calibration's limits cut to the hard range,
+/// or the default range without a calibration.
+pub fn joint_limits(
+    calibrated: Option<&model::Arm<f32>>,
+    hard: [f32; 2],
+    default: [f32; 2],
+) -> [[f32; 2]; CHANNELS] {
+    core::array::from_fn(|i| match calibrated {
+        Some(arm) => {
+            let [lo, hi] = arm.joints[i].limits;
+            let lo = lo.max(hard[0]);
+            let hi = hi.min(hard[1]);
+            // A calibration entirely outside the hard range pins the joint at its edge.
+            if lo <= hi { [lo, hi] } else { [hi, hi] }
+        }
+        None => default,
+    })
+}
+
+/// The servo curves in force: the calibration's, or the data-sheet curve.
+pub fn curves(calibrated: Option<&model::Arm<f32>>) -> [ServoCurve<f32>; CHANNELS] {
+    core::array::from_fn(|i| calibrated.map_or_else(ServoCurve::nominal, |arm| arm.joints[i].servo))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const RANGE: [u16; 2] = [500, 2500];
+    const LIMITS: [f32; 2] = [-1.7453293, 1.7453293];
+
+    #[test]
+    fn three_point_curve_gives_its_pulses() {
+        let c = ServoCurve {
+            minus100: 1000.0,
+            zero: 1500.0,
+            plus100: 2100.0,
+        };
+        let r = 100f32.to_radians();
+        assert_eq!(pulse_for(&c, -r, LIMITS, RANGE).unwrap().us, 1000);
+        assert_eq!(pulse_for(&c, 0.0, LIMITS, RANGE).unwrap().us, 1500);
+        assert_eq!(pulse_for(&c, r, LIMITS, RANGE).unwrap().us, 2100);
+        assert_eq!(pulse_for(&c, r / 2.0, LIMITS, RANGE).unwrap().us, 1800);
+        assert_eq!(pulse_for(&c, -r / 2.0, LIMITS, RANGE).unwrap().us, 1250);
+    }
+
+    #[test]
+    fn angles_and_pulses_are_clamped() {
+        let c = ServoCurve::nominal();
+        let p = pulse_for(&c, 3.0, [-1.0, 1.0], RANGE).unwrap();
+        assert_eq!(
+            p,
+            pulse_for(&c, 1.0, [-1.0, 1.0], RANGE)
+                .map(|p| Pulse { clamped: true, ..p })
+                .unwrap()
+        );
+        // A wild calibration curve cannot push the pulse out of the safe range.
+        let wild = ServoCurve {
+            minus100: -4000.0,
+            zero: 1500.0,
+            plus100: 9000.0,
+        };
+        assert_eq!(
+            pulse_for(&wild, 1.7, LIMITS, RANGE).unwrap(),
+            Pulse {
+                us: 2500,
+                clamped: true
+            }
+        );
+        assert_eq!(
+            pulse_for(&wild, -1.7, LIMITS, RANGE).unwrap(),
+            Pulse {
+                us: 500,
+                clamped: true
+            }
+        );
+        assert_eq!(pulse_for(&c, f32::NAN, LIMITS, RANGE), None);
+        assert_eq!(pulse_for(&c, f32::INFINITY, LIMITS, RANGE), None);
+    }
+
+    #[test]
+    fn calibration_limits_are_cut_to_the_hard_range() {
+        let mut arm = protocol_free_arm();
+        arm.joints[0].limits = [-9.0, 9.0];
+        arm.joints[1].limits = [4.0, 5.0];
+        let l = joint_limits(Some(&arm), [-2.0, 2.0], [-1.0, 1.0]);
+        assert_eq!(l[0], [-2.0, 2.0]);
+        assert_eq!(l[1], [2.0, 2.0]);
+        assert_eq!(l[2], arm.joints[2].limits);
+        assert_eq!(
+            joint_limits(None, [-2.0, 2.0], [-1.0, 1.0]),
+            [[-1.0, 1.0]; 6]
+        );
+    }
+
+    fn protocol_free_arm() -> model::Arm<f32> {
+        crate::sim::test_calibration(1).calibrated
+    }
+}

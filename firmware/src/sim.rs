@@ -1,0 +1,208 @@
+//! Test doubles for the firmware logic, on the host: a servo bus that records
+//! every pulse, a flash that can lose power at any byte, and a calibration to
+//! load. Used by this crate's tests and, with feature `sim`, by `tests/`.
+
+use model::{Arm, Frame, Joint, ServoCurve};
+use protocol::{Calibration, ModelOption};
+
+use crate::{CHANNELS, FlashStorage, ServoBus};
+
+/// Records every call to [`ServoBus::set_pulse`].
+#[derive(Clone, Debug, Default)]
+pub struct MockBus {
+    /// Every call in order: channel and pulse (µs) or `None` for limp.
+    pub log: Vec<(usize, Option<u16>)>,
+    /// What each channel outputs now.
+    pub now: [Option<u16>; CHANNELS],
+}
+
+impl ServoBus for MockBus {
+    fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>) {
+        self.log.push((channel, pulse_us));
+        if let Some(slot) = self.now.get_mut(channel) {
+            *slot = pulse_us;
+        }
+    }
+}
+
+/// Bytes of one simulated slot (one RP2040 erase sector).
+pub const SLOT_SIZE: usize = 4096;
+
+/// The flash lost power: the operation stopped part way.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PowerCut;
+
+/// Two NOR flash sectors that count every byte erased or programmed and can
+/// lose power after a given count, leaving the operation half done.
+#[derive(Clone, Debug)]
+pub struct SimFlash {
+    slots: [Vec<u8>; 2],
+    operations: usize,
+    budget: Option<usize>,
+    dead: bool,
+}
+
+impl Default for SimFlash {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl SimFlash {
+    /// Erased flash.
+    pub fn new() -> Self {
+        Self {
+            slots: [vec![0xFF; SLOT_SIZE], vec![0xFF; SLOT_SIZE]],
+            operations: 0,
+            budget: None,
+            dead: false,
+        }
+    }
+
+    /// Byte operations (erased or programmed bytes) so far.
+    pub fn operations(&self) -> usize {
+        self.operations
+    }
+
+    /// Power fails after `n` more byte operations; every operation after that fails.
+    pub fn cut_after(&mut self, n: usize) {
+        self.budget = Some(n);
+    }
+
+    /// Power returns (a reboot): operations work again, without a cut pending.
+    pub fn power_on(&mut self) {
+        self.dead = false;
+        self.budget = None;
+    }
+
+    /// Flips one bit, as a worn or disturbed cell would.
+    pub fn corrupt(&mut self, slot: u8, offset: usize) {
+        self.slots[slot as usize][offset] ^= 0x01;
+    }
+
+    /// Spends one byte operation; `Err` when the power is (or just went) off.
+    fn spend(&mut self) -> Result<(), PowerCut> {
+        if self.dead {
+            return Err(PowerCut);
+        }
+        if let Some(b) = &mut self.budget {
+            if *b == 0 {
+                self.dead = true;
+                return Err(PowerCut);
+            }
+            *b -= 1;
+        }
+        self.operations += 1;
+        Ok(())
+    }
+
+    fn slot(&mut self, slot: u8) -> Result<&mut Vec<u8>, PowerCut> {
+        self.slots.get_mut(slot as usize).ok_or(PowerCut)
+    }
+}
+
+impl FlashStorage for SimFlash {
+    type Error = PowerCut;
+
+    fn slot_size(&self) -> usize {
+        SLOT_SIZE
+    }
+
+    fn read(&mut self, slot: u8, offset: usize, buf: &mut [u8]) -> Result<(), PowerCut> {
+        if self.dead {
+            return Err(PowerCut);
+        }
+        let src = self
+            .slot(slot)?
+            .get(offset..offset + buf.len())
+            .ok_or(PowerCut)?;
+        buf.copy_from_slice(src);
+        Ok(())
+    }
+
+    fn erase(&mut self, slot: u8) -> Result<(), PowerCut> {
+        self.slot(slot)?;
+        for i in 0..SLOT_SIZE {
+            self.spend()?;
+            self.slots[slot as usize][i] = 0xFF;
+        }
+        Ok(())
+    }
+
+    fn write(&mut self, slot: u8, offset: usize, data: &[u8]) -> Result<(), PowerCut> {
+        if offset + data.len() > SLOT_SIZE {
+            return Err(PowerCut);
+        }
+        self.slot(slot)?;
+        for (i, &byte) in data.iter().enumerate() {
+            self.spend()?;
+            // NOR flash: programming only clears bits.
+            self.slots[slot as usize][offset + i] &= byte;
+        }
+        Ok(())
+    }
+}
+
+/// An elbow arm with a spherical wrist, ~0.44 m reach, with compliant joints
+/// (LRM-like; the real arm's numbers are not published).
+pub fn test_arm() -> Arm<f32> {
+    let h = core::f32::consts::FRAC_PI_2;
+    let joint = |theta: f32, d: f32, a: f32, alpha: f32, k: f32, mass: f32, com: [f32; 3]| Joint {
+        theta,
+        d,
+        a,
+        alpha,
+        compliance: k,
+        limits: [-1.75, 1.75],
+        mass,
+        com,
+        servo: ServoCurve::nominal(),
+    };
+    Arm {
+        gravity: [0.0, 0.0, -9.80665],
+        base: Frame::identity(),
+        base_compliance: 0.03,
+        tool: Frame {
+            xyz: [0.0, 0.0, 0.04],
+            rpy: [0.0; 3],
+        },
+        payload_com: [0.0; 3],
+        joints: [
+            joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
+            joint(h, 0.0, 0.17, 0.0, 0.12, 0.12, [-0.085, 0.0, 0.01]),
+            joint(h, 0.0, 0.0, h, 0.08, 0.10, [0.0, 0.0, 0.02]),
+            joint(0.0, 0.17, 0.0, -h, 0.05, 0.08, [0.0, 0.08, 0.0]),
+            joint(0.0, 0.0, 0.0, h, 0.06, 0.06, [0.0, 0.0, 0.01]),
+            joint(0.0, 0.06, 0.0, 0.0, 0.03, 0.05, [0.0, 0.0, -0.02]),
+        ],
+    }
+}
+
+/// A calibration of [`test_arm`]: millimetre and degree-level geometric
+/// errors, changed compliances and individual servo curves.
+pub fn test_calibration(id: u32) -> Calibration {
+    let nominal = test_arm();
+    let mut calibrated = nominal;
+    for (i, j) in calibrated.joints.iter_mut().enumerate() {
+        let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+        j.theta += s * 0.01;
+        j.d += 0.001 * s;
+        j.a += 0.0015 * s;
+        j.compliance *= 1.3;
+        j.servo = ServoCurve {
+            minus100: 880.0 + 10.0 * i as f32,
+            zero: 1640.0 + 5.0 * i as f32,
+            plus100: 2420.0 - 7.0 * i as f32,
+        };
+        j.limits = [-1.7, 1.7];
+    }
+    calibrated.base.rpy[1] += 0.005;
+    calibrated.tool.xyz[0] += 0.002;
+    Calibration {
+        id,
+        option: ModelOption::ElastoKinematic,
+        nominal,
+        calibrated,
+        home_rad: [0.0, 0.3, -0.3, 0.0, 0.5, 0.0],
+    }
+}
