@@ -2,17 +2,22 @@
 //!
 //! Everything here touches embassy-rp and exists only on the MCU
 //! (`target_os = "none"`). The peripherals are handed out once, in named groups
-//! (one group per long-lived task), by [`Resources::take`].
+//! (one group per long-lived job), by [`Resources::take`].
 //!
 //! | module | what it drives |
 //! |---|---|
-//! | [`servo_pwm`] | six 50 Hz servo outputs on three PWM slices |
+//! | [`servo_pwm`] | six 50 Hz servo outputs on three PWM slices (pin map there) |
+//! | [`flash`] | the two calibration slots at the end of flash |
+//! | [`usb`] | the USB CDC-ACM serial port |
 
+pub mod flash;
 pub mod servo_pwm;
+pub mod usb;
 
 use embassy_rp::Peri;
 use embassy_rp::peripherals::{
-    PIN_2, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7, PWM_SLICE1, PWM_SLICE2, PWM_SLICE3,
+    FLASH, PIN_2, PIN_3, PIN_4, PIN_5, PIN_6, PIN_7, PWM_SLICE1, PWM_SLICE2, PWM_SLICE3, USB,
+    WATCHDOG,
 };
 
 /// The peripherals of the six servo outputs (see the pin map in [`servo_pwm`]).
@@ -37,10 +42,16 @@ pub struct ServoResources {
     pub s6: Peri<'static, PIN_7>,
 }
 
-/// All peripherals the firmware uses, grouped by the task that owns them.
+/// All peripherals the firmware uses, grouped by the job that owns them.
 pub struct Resources {
-    /// The servo outputs.
+    /// The servo outputs (servo frame task).
     pub servo: ServoResources,
+    /// The flash holding the calibration slots (the device, via the library).
+    pub flash: Peri<'static, FLASH>,
+    /// The USB controller (USB device and serial tasks).
+    pub usb: Peri<'static, USB>,
+    /// The watchdog, fed by the servo frame task.
+    pub watchdog: Peri<'static, WATCHDOG>,
 }
 
 impl Resources {
@@ -58,6 +69,9 @@ impl Resources {
                 s5: p.PIN_6,
                 s6: p.PIN_7,
             },
+            flash: p.FLASH,
+            usb: p.USB,
+            watchdog: p.WATCHDOG,
         }
     }
 }

@@ -20,40 +20,23 @@
 //! GP0/GP1 stay free for a UART or a debug probe's serial. A detached
 //! (limp) servo gets no pulse at all: its output is held low.
 
-use embassy_rp::pwm::{Config, Pwm, PwmOutput, SetDutyCycle};
+use embassy_rp::pwm::{Config, Pwm, SetDutyCycle};
+use firmware::ServoBus;
 use fixed::FixedU16;
 use fixed::types::extra::U4;
 
 use super::ServoResources;
+use crate::layout::{PERIOD_US, divider_bits};
 
-/// Servo frame period, µs (50 Hz).
-pub const PERIOD_US: u16 = 20_000;
-/// PWM counter rate: one count per µs.
-const COUNT_HZ: u32 = 1_000_000;
 /// Number of servo outputs.
-pub const CHANNELS: usize = 6;
-
-/// Clock divider (8.4 fixed point, as the hardware holds it) that makes a
-/// slice count at 1 MHz from `clk_sys_hz`, or `None` if no divider gives
-/// exactly 1 MHz (the pulse widths would then be off).
-pub const fn divider_bits(clk_sys_hz: u32) -> Option<u16> {
-    let sixteenths = clk_sys_hz as u64 * 16;
-    if !sixteenths.is_multiple_of(COUNT_HZ as u64) {
-        return None;
-    }
-    let bits = sixteenths / COUNT_HZ as u64;
-    // The divider runs from 1.0 to 255 + 15/16.
-    if bits < 16 || bits > 0xFFF {
-        return None;
-    }
-    Some(bits as u16)
-}
+const CHANNELS: usize = firmware::CHANNELS;
 
 /// The six servo outputs.
 pub struct ServoPwm {
-    /// Outputs in servo order 1..6; the slices they belong to are kept
-    /// running by the `Pwm` handles below.
-    outputs: [PwmOutput<'static>; CHANNELS],
+    /// Slices 1, 2, 3: servo `2k + 1` is channel A of `slices[k]`, servo
+    /// `2k + 2` channel B. Kept whole (not split into outputs) because
+    /// dropping a `Pwm` stops its slice.
+    slices: [Pwm<'static>; CHANNELS / 2],
 }
 
 impl ServoPwm {
@@ -71,22 +54,31 @@ impl ServoPwm {
         config.compare_a = 0;
         config.compare_b = 0;
 
-        let (o1, o2) = Pwm::new_output_ab(r.slice1, r.s1, r.s2, config.clone()).split();
-        let (o3, o4) = Pwm::new_output_ab(r.slice2, r.s3, r.s4, config.clone()).split();
-        let (o5, o6) = Pwm::new_output_ab(r.slice3, r.s5, r.s6, config).split();
-        // `new_output_ab` always returns both channels.
-        let outputs = [o1, o2, o3, o4, o5, o6].map(|o| defmt::unwrap!(o));
-        Self { outputs }
+        let slices = [
+            Pwm::new_output_ab(r.slice1, r.s1, r.s2, config.clone()),
+            Pwm::new_output_ab(r.slice2, r.s3, r.s4, config.clone()),
+            Pwm::new_output_ab(r.slice3, r.s5, r.s6, config),
+        ];
+        Self { slices }
     }
+}
 
-    /// Sets servo `channel`'s (0-based) pulse width in µs from the next
-    /// period on; 0 detaches the servo. Widths are saturated to the period.
-    pub fn set_pulse_us(&mut self, channel: usize, pulse_us: u16) {
-        let Some(out) = self.outputs.get_mut(channel) else {
+impl ServoBus for ServoPwm {
+    /// Sets servo `channel`'s (0-based) pulse width from the next period on;
+    /// `None` holds the output low (limp). Widths are saturated to the period:
+    /// the library already keeps them in the safe pulse range.
+    fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>) {
+        let Some(slice) = self.slices.get_mut(channel / 2) else {
             defmt::warn!("no servo channel {}", channel);
             return;
         };
-        // Cannot fail: the width is at most TOP, the largest duty accepted.
-        let _ = out.set_duty_cycle(pulse_us.min(PERIOD_US - 1));
+        let (a, b) = slice.split_by_ref();
+        let output = if channel.is_multiple_of(2) { a } else { b };
+        let compare = pulse_us.unwrap_or(0).min(PERIOD_US - 1);
+        // Both channels exist (`new_output_ab`), and the compare value is at
+        // most TOP, the largest duty accepted: this cannot fail.
+        if let Some(Err(e)) = output.map(|mut o| o.set_duty_cycle(compare)) {
+            defmt::warn!("servo {}: {}", channel + 1, defmt::Debug2Format(&e));
+        }
     }
 }
