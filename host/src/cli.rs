@@ -48,6 +48,10 @@ pub struct Cli {
 pub enum Command {
     /// Predict tool positions of an arm (nominal or calibrated) for a pose list.
     Predict(commands::predict::Args),
+    /// Simulate tracker measurements of a real arm drawn around the nominal one.
+    Simulate(commands::simulate::Args),
+    /// Generate the candidate poses: a grid of joint levels without collisions.
+    Plan(commands::plan::Args),
 }
 
 impl Command {
@@ -55,6 +59,8 @@ impl Command {
     pub fn run(&self) -> Result<(), Error> {
         match self {
             Self::Predict(args) => commands::predict::run(args),
+            Self::Simulate(args) => commands::simulate::run(args),
+            Self::Plan(args) => commands::plan::run(args),
         }
     }
 }

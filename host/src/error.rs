@@ -72,6 +72,20 @@ pub enum Error {
         /// The pose id.
         pose: u32,
     },
+    /// The simulator could not run (`lrmcal simulate`).
+    #[error("simulate the arm")]
+    Simulate {
+        /// What the simulator said.
+        #[source]
+        source: crate::sim::SimError,
+    },
+    /// The candidate poses could not be planned (`lrmcal plan`).
+    #[error("plan candidate poses")]
+    Plan {
+        /// What the planner said.
+        #[source]
+        source: crate::plan::PlanError,
+    },
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -89,7 +103,11 @@ impl Error {
     pub fn exit_code(&self) -> u8 {
         match self {
             Self::Read { .. } | Self::Write { .. } => exit_codes::FILE_ACCESS,
-            Self::Parse { .. } | Self::ArmSource { .. } | Self::AmbiguousLoad { .. } => {
+            Self::Parse { .. }
+            | Self::ArmSource { .. }
+            | Self::AmbiguousLoad { .. }
+            | Self::Simulate { .. }
+            | Self::Plan { .. } => {
                 exit_codes::INVALID_INPUT
             }
             Self::Model { .. } => exit_codes::MODEL,

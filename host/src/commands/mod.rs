@@ -2,4 +2,6 @@
 //!
 //! See `crate::cli` for how to add one.
 
+pub mod plan;
 pub mod predict;
+pub mod simulate;

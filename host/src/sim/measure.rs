@@ -55,34 +55,30 @@ impl TrueArm {
         }
     }
 
-    /// Measures every pose under every load: see the module docs for the order
-    /// and the effects. Deterministic: the same true arm, poses and loads give
-    /// the same numbers (the noise comes from the arm's seed).
+    /// Measures every pose under every load: one [`Pass`] per load, in
+    /// order. See [`TrueArm::simulate_passes`].
     pub fn simulate(&self, poses: &[Pose], loads_kg: &[f64]) -> Result<Simulation, SimError> {
-        check_inputs(poses, loads_kg)?;
-        let directions = approach_directions(poses);
+        let passes: Vec<Pass<'_>> = loads_kg.iter().map(|&load_kg| Pass { load_kg, poses }).collect();
+        self.simulate_passes(&passes)
+    }
+
+    /// Runs the passes in order; each starts from home (see the module docs
+    /// for the effects). Deterministic: the same true arm and passes give the
+    /// same numbers (the noise comes from the arm's seed).
+    pub fn simulate_passes(&self, passes: &[Pass<'_>]) -> Result<Simulation, SimError> {
+        check_passes(passes)?;
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         rng.set_stream(NOISE_STREAM);
-        let capacity = poses.len() * loads_kg.len();
-        let (mut measurements, mut noise_free) =
-            (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
-        for &load_kg in loads_kg {
-            for (pose, direction) in poses.iter().zip(&directions) {
+        let capacity = passes.iter().map(|p| p.poses.len()).sum();
+        let (mut measurements, mut noise_free) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
+        for &Pass { load_kg, poses } in passes {
+            for (pose, direction) in poses.iter().zip(&approach_directions(poses)) {
                 let driven = self.driven_angles(&pose.q, direction);
-                let point =
-                    self.tool_point(&driven, load_kg)
-                        .map_err(|reason| SimError::Model {
-                            pose: pose.id,
-                            load_kg,
-                            reason,
-                        })?;
-                let noise: [f64; 3] =
-                    core::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
-                let exact = Measurement {
-                    pose: *pose,
-                    load_kg,
-                    position: point,
-                };
+                let point = self
+                    .tool_point(&driven, load_kg)
+                    .map_err(|reason| SimError::Model { pose: pose.id, load_kg, reason })?;
+                let noise: [f64; 3] = core::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
+                let exact = Measurement { pose: *pose, load_kg, position: point };
                 noise_free.push(exact);
                 measurements.push(Measurement {
                     position: point + Vector3::from(noise) * self.config.noise_sigma_m,
@@ -90,10 +86,7 @@ impl TrueArm {
                 });
             }
         }
-        Ok(Simulation {
-            measurements,
-            noise_free,
-        })
+        Ok(Simulation { measurements, noise_free })
     }
 
     /// The measurements of [`TrueArm::simulate`] (with tracker noise).
@@ -102,30 +95,34 @@ impl TrueArm {
     }
 }
 
-/// Pose ids must be unique (a measurement file keys rows by (pose, load)),
-/// angles finite, loads finite, non-negative and unique.
-fn check_inputs(poses: &[Pose], loads_kg: &[f64]) -> Result<(), SimError> {
-    let mut ids = HashSet::new();
-    for pose in poses {
-        if !ids.insert(pose.id) {
-            return Err(SimError::DuplicatePose { pose: pose.id });
-        }
-        if pose.q.iter().any(|q| !q.is_finite()) {
-            return Err(SimError::NonFiniteAngle { pose: pose.id });
-        }
-    }
-    for (i, &load) in loads_kg.iter().enumerate() {
+/// One pass of the tracker: poses measured in order under one load.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pass<'a> {
+    /// Payload at the tool for the whole pass, kg.
+    pub load_kg: f64,
+    /// The poses, in the order they are visited.
+    pub poses: &'a [Pose],
+}
+
+/// Pose ids must be unique within a pass (a measurement file keys rows by
+/// (pose, load)), angles finite, loads finite, non-negative and one per pass.
+fn check_passes(passes: &[Pass<'_>]) -> Result<(), SimError> {
+    for (i, pass) in passes.iter().enumerate() {
+        let load = pass.load_kg;
         if !(load.is_finite() && load >= 0.0) {
-            return Err(SimError::Load {
-                load_kg: load,
-                reason: "expected a finite mass >= 0 kg",
-            });
+            return Err(SimError::Load { load_kg: load, reason: "expected a finite mass >= 0 kg" });
         }
-        if loads_kg[..i].contains(&load) {
-            return Err(SimError::Load {
-                load_kg: load,
-                reason: "each load may be given only once",
-            });
+        if passes[..i].iter().any(|p| p.load_kg == load) {
+            return Err(SimError::Load { load_kg: load, reason: "each load may be given only once" });
+        }
+        let mut ids = HashSet::new();
+        for pose in pass.poses {
+            if !ids.insert(pose.id) {
+                return Err(SimError::DuplicatePose { pose: pose.id });
+            }
+            if pose.q.iter().any(|q| !q.is_finite()) {
+                return Err(SimError::NonFiniteAngle { pose: pose.id });
+            }
         }
     }
     Ok(())

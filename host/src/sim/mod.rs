@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! nominal Arm + seed + SimConfig --TrueArm::draw--> TrueArm
-//! TrueArm + poses + loads --simulate--> measurements (noisy) + noise-free positions
+//! TrueArm + passes (poses under a load) --simulate--> measurements (noisy) + noise-free positions
 //! ```
 //!
 //! The true arm has errors on all 43 parameters of the method (DH, base,
@@ -32,8 +32,11 @@ mod truth;
 pub use config::SimConfig;
 pub use draw::TrueArm;
 pub use effects::{ServoError, approach_directions, softened_deflection};
-pub use measure::Simulation;
+pub use measure::{Pass, Simulation};
 pub use truth::TRUTH_SCHEMA;
+
+/// The seed `lrmcal simulate` and the demo use when none is given.
+pub const DEFAULT_SEED: u64 = 1;
 
 /// Why a simulation could not be run.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -1,0 +1,105 @@
+//! `lrmcal plan`: the candidate poses a calibration may choose from, the grid
+//! of joint levels less the poses that leave the joint limits or collide.
+
+use std::path::PathBuf;
+
+use crate::dataset::PoseRow;
+use crate::error::Error;
+use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::io::pose_list;
+use crate::plan::{Levels, PlanConfig, candidates};
+
+/// Generate the candidate poses: a grid of joint levels, filtered for safety.
+#[derive(Debug, clap::Args)]
+#[command(
+    long_about = "Generate the candidate poses for a calibration: every joint at every level \
+(the paper's grid: -100, 0, +100 degrees, 3^6 = 729 poses), less the poses that would leave \
+a joint's limits, bring a link too close to the ground, or bring two links that do not share a \
+joint too close to each other.\n\n\
+The links are capsules (a segment with a radius) between the frames of the nominal arm's \
+model; the ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the \
+first test it fails (limits, ground, self-collision), so the counts on stderr add up to the \
+grid. Pose ids are grid indices (joint 1 the slowest digit, joint 6 the fastest) and stay the \
+same whatever is dropped.",
+    after_help = "Examples:\n  \
+lrmcal plan --out candidates.csv\n  \
+lrmcal plan --levels 5 --out fine.csv              # -100,-50,0,50,100 on every joint\n  \
+lrmcal plan --levels -90,-30,30,90 --clearance-mm 20 --out c.csv\n  \
+lrmcal plan --arm my_arm.toml --ground-z-mm -120 --out c.csv   # base 12 cm above the floor\n\n\
+The output is a pose list (pose,q1_deg..q6_deg) for `lrmcal simulate --poses`, `lrmcal select` \
+or a measurement session."
+)]
+pub struct Args {
+    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
+    pub arm: ArmSource,
+    /// Joint levels: a count N (N levels evenly from -100 to +100 degrees) or
+    /// comma-separated angles in degrees; the same for every joint.
+    #[arg(long, value_name = "N|DEG,...", default_value_t = Levels::paper(), allow_hyphen_values = true)]
+    pub levels: Levels,
+    /// Height of the ground plane in the world (measurement) frame, mm.
+    #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite)]
+    pub ground_z_mm: f64,
+    /// Do not test against the ground (e.g. an arm mounted at a table edge).
+    #[arg(long, conflicts_with = "ground_z_mm")]
+    pub no_ground: bool,
+    /// Smallest gap allowed between two links, or a link and the ground, mm.
+    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, value_parser = non_negative)]
+    pub clearance_mm: f64,
+    /// Where to write the candidate pose list [default: standard output].
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+fn finite(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("expected a finite height in mm, found `{text}`")),
+    }
+}
+
+fn non_negative(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a distance >= 0 in mm, found `{text}`")),
+    }
+}
+
+/// Runs `lrmcal plan`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let arm = args.arm.load()?;
+    let config = PlanConfig {
+        levels: args.levels.clone(),
+        ground_z_m: (!args.no_ground).then_some(args.ground_z_mm * 1e-3),
+        clearance_m: args.clearance_mm * 1e-3,
+        ..PlanConfig::default()
+    };
+    let report = candidates(&arm.arm, &config).map_err(|source| Error::Plan { source })?;
+    let rows: Vec<PoseRow> = report
+        .kept
+        .iter()
+        .map(|&pose| PoseRow {
+            pose,
+            load_kg: None,
+        })
+        .collect();
+    match &args.out {
+        Some(path) => pose_list::write(path, &rows)?,
+        None => pose_list::write_to(&mut std::io::stdout().lock(), &rows).map_err(|source| {
+            Error::Write {
+                path: "<stdout>".into(),
+                source,
+            }
+        })?,
+    }
+    eprintln!("{} ({}), levels {} deg:", arm.origin, arm.name, args.levels);
+    eprint!("{report}");
+    if let Some(path) = &args.out {
+        eprintln!(
+            "wrote {} candidate poses to `{}`",
+            rows.len(),
+            path.display()
+        );
+    }
+    Ok(())
+}
