@@ -11,8 +11,7 @@ use crate::plan::{Levels, PlanConfig, candidates};
 
 /// Generate the candidate poses: a grid of joint levels, filtered for safety.
 #[derive(Debug, clap::Args)]
-#[command(
-    long_about = "Generate the candidate poses for a calibration: every joint at every level \
+#[command(after_help = "The grid puts every joint at every level \
 (the paper's grid: -100, 0, +100 degrees, 3^6 = 729 poses), less the poses that would leave \
 a joint's limits, bring a link too close to the ground, or bring two links that do not share a \
 joint too close to each other.\n\n\
@@ -20,15 +19,14 @@ The links are capsules (a segment with a radius) between the frames of the nomin
 model; the ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the \
 first test it fails (limits, ground, self-collision), so the counts on stderr add up to the \
 grid. Pose ids are grid indices (joint 1 the slowest digit, joint 6 the fastest) and stay the \
-same whatever is dropped.",
-    after_help = "Examples:\n  \
+same whatever is dropped.\n\n\
+Examples:\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal plan --levels 5 --out fine.csv              # -100,-50,0,50,100 on every joint\n  \
 lrmcal plan --levels -90,-30,30,90 --clearance-mm 20 --out c.csv\n  \
 lrmcal plan --arm my_arm.toml --ground-z-mm -120 --out c.csv   # base 12 cm above the floor\n\n\
 The output is a pose list (pose,q1_deg..q6_deg) for `lrmcal simulate --poses`, `lrmcal select` \
-or a measurement session."
-)]
+or a measurement session.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
@@ -44,7 +42,7 @@ pub struct Args {
     #[arg(long, conflicts_with = "ground_z_mm")]
     pub no_ground: bool,
     /// Smallest gap allowed between two links, or a link and the ground, mm.
-    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, value_parser = non_negative)]
+    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, allow_negative_numbers = true, value_parser = non_negative)]
     pub clearance_mm: f64,
     /// Where to write the candidate pose list [default: standard output].
     #[arg(long, short, value_name = "FILE")]

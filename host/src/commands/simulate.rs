@@ -16,14 +16,14 @@ const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
 /// Simulate tracker measurements of a real arm drawn around the nominal one.
 #[derive(Debug, clap::Args)]
 #[command(
-    long_about = "Simulate tracker measurements of a \"true\" arm drawn (seeded) around the \
-nominal one: errors on every DH, base and tool parameter, joint and base compliances, and \
+    after_help = "The \"true\" arm is drawn (seeded) around the nominal one: errors on every \
+DH, base and tool parameter, joint and base compliances, and \
 effects the calibration model does not contain (a smooth servo angle error, direction-dependent \
 play, stiffness that softens with load, tracker noise), each switchable.\n\n\
 Every pose is measured under every load. Per load the poses are visited in the order of the \
 list, starting from home (all joints at 0), and each joint's play depends on the direction it \
-last moved in. The same seed and settings give byte-identical files.",
-    after_help = "Examples:\n  \
+last moved in. The same seed and settings give byte-identical files.\n\n\
+Examples:\n  \
 lrmcal simulate --out measurements.csv --truth truth.json\n  \
 lrmcal simulate --poses selection.csv --loads 0.0663 --seed 7 --out m.csv\n  \
 lrmcal simulate --model-only --out exact.csv      # the paper's model exactly, no noise\n  \
@@ -42,7 +42,7 @@ pub struct Args {
     pub poses: Option<PathBuf>,
     /// Loads at the tool, kg, comma-separated; every pose is measured with each
     /// [default: the list's `load_kg` column if it has one, else 0,0.0663].
-    #[arg(long, value_name = "KG,...", value_delimiter = ',', value_parser = parse_load)]
+    #[arg(long, value_name = "KG,...", value_delimiter = ',', allow_negative_numbers = true, value_parser = parse_load)]
     pub loads: Option<Vec<f64>>,
     /// Seed of the true arm and of the tracker noise.
     #[arg(long, default_value_t = DEFAULT_SEED)]
@@ -66,16 +66,16 @@ pub struct Args {
 #[command(next_help_heading = "True arm and effects (0 switches an effect off)")]
 pub struct SimArgs {
     /// Sigma of the DH length errors (d, a), mm.
-    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().dh_length_sigma_m), value_parser = non_negative)]
+    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().dh_length_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub dh_length_sigma_mm: f64,
     /// Sigma of the DH angle errors (theta, alpha), degrees.
-    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().dh_angle_sigma_rad), value_parser = non_negative)]
+    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().dh_angle_sigma_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub dh_angle_sigma_deg: f64,
     /// Sigma of the base and tool translation errors, mm.
-    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().frame_length_sigma_m), value_parser = non_negative)]
+    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().frame_length_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub frame_length_sigma_mm: f64,
     /// Sigma of the base and tool rotation errors, degrees.
-    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().frame_angle_sigma_rad), value_parser = non_negative)]
+    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().frame_angle_sigma_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub frame_angle_sigma_deg: f64,
     /// Range the six joint compliances are drawn from (log-uniform), rad/Nm.
     #[arg(long, value_name = "LO,HI", default_value_t = Range(SimConfig::default().joint_compliance))]
@@ -84,16 +84,16 @@ pub struct SimArgs {
     #[arg(long, value_name = "LO,HI", default_value_t = Range(SimConfig::default().base_compliance))]
     pub base_compliance: Range,
     /// Servo angle error that is not piecewise-linear (sine + cubic per servo), degrees.
-    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().servo_error_rad), value_parser = non_negative)]
+    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().servo_error_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub servo_error_deg: f64,
     /// Full width of each joint's direction-dependent play, degrees.
-    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().backlash_rad), value_parser = non_negative)]
+    #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().backlash_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub backlash_deg: f64,
     /// Stiffness softening: compliance k becomes k (1 + s |torque|), s in 1/Nm.
-    #[arg(long, value_name = "S", default_value_t = SimConfig::default().softening_per_nm, value_parser = non_negative)]
+    #[arg(long, value_name = "S", default_value_t = SimConfig::default().softening_per_nm, allow_negative_numbers = true, value_parser = non_negative)]
     pub softening_per_nm: f64,
     /// Sigma of the tracker noise on each axis, mm.
-    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().noise_sigma_m), value_parser = non_negative)]
+    #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().noise_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub noise_mm: f64,
     /// Switch off servo error, play, softening and noise: measurements are then
     /// exactly the calibration model's prediction for the true arm.

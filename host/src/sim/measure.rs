@@ -58,7 +58,10 @@ impl TrueArm {
     /// Measures every pose under every load: one [`Pass`] per load, in
     /// order. See [`TrueArm::simulate_passes`].
     pub fn simulate(&self, poses: &[Pose], loads_kg: &[f64]) -> Result<Simulation, SimError> {
-        let passes: Vec<Pass<'_>> = loads_kg.iter().map(|&load_kg| Pass { load_kg, poses }).collect();
+        let passes: Vec<Pass<'_>> = loads_kg
+            .iter()
+            .map(|&load_kg| Pass { load_kg, poses })
+            .collect();
         self.simulate_passes(&passes)
     }
 
@@ -70,15 +73,25 @@ impl TrueArm {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         rng.set_stream(NOISE_STREAM);
         let capacity = passes.iter().map(|p| p.poses.len()).sum();
-        let (mut measurements, mut noise_free) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
+        let (mut measurements, mut noise_free) =
+            (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
         for &Pass { load_kg, poses } in passes {
             for (pose, direction) in poses.iter().zip(&approach_directions(poses)) {
                 let driven = self.driven_angles(&pose.q, direction);
-                let point = self
-                    .tool_point(&driven, load_kg)
-                    .map_err(|reason| SimError::Model { pose: pose.id, load_kg, reason })?;
-                let noise: [f64; 3] = core::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
-                let exact = Measurement { pose: *pose, load_kg, position: point };
+                let point =
+                    self.tool_point(&driven, load_kg)
+                        .map_err(|reason| SimError::Model {
+                            pose: pose.id,
+                            load_kg,
+                            reason,
+                        })?;
+                let noise: [f64; 3] =
+                    core::array::from_fn(|_| rng.sample::<f64, _>(StandardNormal));
+                let exact = Measurement {
+                    pose: *pose,
+                    load_kg,
+                    position: point,
+                };
                 noise_free.push(exact);
                 measurements.push(Measurement {
                     position: point + Vector3::from(noise) * self.config.noise_sigma_m,
@@ -86,7 +99,10 @@ impl TrueArm {
                 });
             }
         }
-        Ok(Simulation { measurements, noise_free })
+        Ok(Simulation {
+            measurements,
+            noise_free,
+        })
     }
 
     /// The measurements of [`TrueArm::simulate`] (with tracker noise).
@@ -110,10 +126,16 @@ fn check_passes(passes: &[Pass<'_>]) -> Result<(), SimError> {
     for (i, pass) in passes.iter().enumerate() {
         let load = pass.load_kg;
         if !(load.is_finite() && load >= 0.0) {
-            return Err(SimError::Load { load_kg: load, reason: "expected a finite mass >= 0 kg" });
+            return Err(SimError::Load {
+                load_kg: load,
+                reason: "expected a finite mass >= 0 kg",
+            });
         }
         if passes[..i].iter().any(|p| p.load_kg == load) {
-            return Err(SimError::Load { load_kg: load, reason: "each load may be given only once" });
+            return Err(SimError::Load {
+                load_kg: load,
+                reason: "each load may be given only once",
+            });
         }
         let mut ids = HashSet::new();
         for pose in pass.poses {

@@ -240,6 +240,49 @@ mod tests {
     }
 
     #[test]
+    fn each_pass_draws_fresh_noise() {
+        let config = SimConfig {
+            noise_sigma_m: 0.2e-3,
+            ..SimConfig::model_only()
+        };
+        let truth = TrueArm::draw(&bundled_arm(), 2, &config).unwrap();
+        let poses = grid_poses();
+        let sim = truth.simulate(&poses, &[0.0, 0.0663]).unwrap();
+        let noise = |k: usize| sim.measurements[k].position - sim.noise_free[k].position;
+        for k in 0..poses.len() {
+            assert_ne!(noise(k), noise(poses.len() + k));
+        }
+    }
+
+    #[test]
+    fn play_makes_a_reading_depend_on_the_way_in() {
+        let config = SimConfig {
+            backlash_rad: 2f64.to_radians(),
+            ..SimConfig::model_only()
+        };
+        let truth = TrueArm::draw(&bundled_arm(), 4, &config).unwrap();
+        let target = Pose { id: 0, q: [0.2; 6] };
+        let (below, above) = (
+            Pose {
+                id: 1,
+                q: [-0.5; 6],
+            },
+            Pose { id: 2, q: [0.9; 6] },
+        );
+        let from_below = truth.measure(&[below, target], &[0.0]).unwrap()[1];
+        let from_above = truth.measure(&[above, target], &[0.0]).unwrap()[1];
+        let gap_mm = (from_below.position - from_above.position).norm() * 1e3;
+        // Six joints, each 1..3 degrees apart between the two ways in, at lever arms up to
+        // 0.54 m: at most 6 x 28 mm.
+        assert!((0.5..60.0).contains(&gap_mm), "{gap_mm} mm");
+        // Without play the way in does not matter.
+        let exact = TrueArm::draw(&bundled_arm(), 4, &SimConfig::model_only()).unwrap();
+        let a = exact.measure(&[below, target], &[0.0]).unwrap()[1];
+        let b = exact.measure(&[above, target], &[0.0]).unwrap()[1];
+        assert_eq!(a.position, b.position);
+    }
+
+    #[test]
     fn bad_poses_and_loads_are_named() {
         let truth = TrueArm::draw(&bundled_arm(), 1, &SimConfig::default()).unwrap();
         let p = Pose { id: 4, q: [0.0; 6] };
