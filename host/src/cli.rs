@@ -52,6 +52,8 @@ pub enum Command {
     Simulate(commands::simulate::Args),
     /// Generate the candidate poses: a grid of joint levels without collisions.
     Plan(commands::plan::Args),
+    /// Run the whole calibration on a simulated arm: select, identify, validate, plot.
+    Demo(commands::demo::Args),
 }
 
 impl Command {
@@ -61,6 +63,7 @@ impl Command {
             Self::Predict(args) => commands::predict::run(args),
             Self::Simulate(args) => commands::simulate::run(args),
             Self::Plan(args) => commands::plan::run(args),
+            Self::Demo(args) => commands::demo::run(args),
         }
     }
 }

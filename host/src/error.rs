@@ -86,6 +86,9 @@ pub enum Error {
         #[source]
         source: crate::plan::PlanError,
     },
+    /// The calibration engine refused its input or could not finish.
+    #[error(transparent)]
+    Calib(#[from] crate::calib::CalibError),
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -107,10 +110,15 @@ impl Error {
             | Self::ArmSource { .. }
             | Self::AmbiguousLoad { .. }
             | Self::Simulate { .. }
-            | Self::Plan { .. } => {
-                exit_codes::INVALID_INPUT
-            }
+            | Self::Plan { .. } => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
+            Self::Calib(e) => match e {
+                crate::calib::CalibError::Io { .. } | crate::calib::CalibError::Plot { .. } => {
+                    exit_codes::FILE_ACCESS
+                }
+                crate::calib::CalibError::Deflection { .. } => exit_codes::MODEL,
+                _ => exit_codes::INVALID_INPUT,
+            },
         }
     }
 

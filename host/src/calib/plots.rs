@@ -1,1 +1,280 @@
-//! (in progress)
+//! The figures a person looks at first, each written as SVG and PNG:
+//! the error distribution per option before/after (box and points, like the
+//! paper's figure 2), the error of every validation pose, and O1 against the
+//! number of selected poses.
+//!
+//! Text is drawn with DejaVu Sans embedded in the binary (the `dejavu` crate),
+//! so plotting needs no system fonts.
+
+use std::path::{Path, PathBuf};
+use std::sync::Once;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+use super::CalibError;
+
+const SIZE: (u32, u32) = (960, 600);
+static FONT: Once = Once::new();
+
+/// Registers the embedded font once per process.
+fn register_font() {
+    FONT.call_once(|| {
+        // The bytes are a valid TTF shipped by the `dejavu` crate; if they were
+        // not, text would be missing from the plots, nothing worse.
+        let _ = plotters::style::register_font(
+            "sans-serif",
+            FontStyle::Normal,
+            dejavu::sans::regular(),
+        );
+    });
+}
+
+/// One box of the distribution plot: a label and its values (mm).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Distribution {
+    /// Category label.
+    pub label: String,
+    /// Values, mm.
+    pub values_mm: Vec<f64>,
+}
+
+/// Something drawable on any plotters backend.
+trait Figure {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String>;
+}
+
+/// Draws `figure` into `<stem>.svg` and `<stem>.png`; returns both paths.
+fn both(stem: &Path, figure: &impl Figure) -> Result<Vec<PathBuf>, CalibError> {
+    register_font();
+    let svg = stem.with_extension("svg");
+    let png = stem.with_extension("png");
+    let fail = |path: &Path, message: String| CalibError::Plot {
+        path: path.to_owned(),
+        message,
+    };
+    figure
+        .draw(SVGBackend::new(&svg, SIZE).into_drawing_area())
+        .map_err(|m| fail(&svg, m))?;
+    figure
+        .draw(BitMapBackend::new(&png, SIZE).into_drawing_area())
+        .map_err(|m| fail(&png, m))?;
+    Ok(vec![svg, png])
+}
+
+fn quantile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let x = p * (sorted.len() - 1) as f64;
+    let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (x - lo as f64)
+}
+
+/// A deterministic jitter in [-1, 1] so the points of a box do not overlap.
+fn jitter(i: usize) -> f64 {
+    ((i as f64 * 0.618_033_988_75).fract() * 2.0) - 1.0
+}
+
+/// Box (quartiles, whiskers to min/max, median line) plus every point, per category.
+pub fn error_distribution(
+    stem: &Path,
+    title: &str,
+    boxes: &[Distribution],
+) -> Result<Vec<PathBuf>, CalibError> {
+    struct Fig<'a>(&'a str, &'a [Distribution]);
+    impl Figure for Fig<'_> {
+        fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
+            let Fig(title, boxes) = *self;
+            let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+            root.fill(&WHITE).map_err(e)?;
+            let top = boxes
+                .iter()
+                .flat_map(|b| b.values_mm.iter().copied())
+                .fold(1.0, f64::max)
+                * 1.05;
+            let n = boxes.len();
+            let mut chart = ChartBuilder::on(&root)
+                .caption(title, ("sans-serif", 24))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(-0.5..(n as f64 - 0.5), 0.0..top)
+                .map_err(e)?;
+            let labels: Vec<String> = boxes.iter().map(|b| b.label.clone()).collect();
+            chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .x_labels(n.max(1))
+                .x_label_formatter(&|x| {
+                    let i = x.round();
+                    if (x - i).abs() < 1e-6 && i >= 0.0 {
+                        labels.get(i as usize).cloned().unwrap_or_default()
+                    } else {
+                        String::new()
+                    }
+                })
+                .y_desc("3D error norm (mm)")
+                .label_style(("sans-serif", 15))
+                .draw()
+                .map_err(e)?;
+            for (i, b) in boxes.iter().enumerate() {
+                let mut v = b.values_mm.clone();
+                v.sort_by(f64::total_cmp);
+                let x = i as f64;
+                let (q1, med, q3) = (quantile(&v, 0.25), quantile(&v, 0.5), quantile(&v, 0.75));
+                let (lo, hi) = (
+                    v.first().copied().unwrap_or(0.0),
+                    v.last().copied().unwrap_or(0.0),
+                );
+                let colour = Palette99::pick(i).to_rgba();
+                chart
+                    .draw_series(v.iter().enumerate().map(|(k, y)| {
+                        Circle::new((x + 0.3 * jitter(k), *y), 2, colour.mix(0.45).filled())
+                    }))
+                    .map_err(e)?;
+                chart
+                    .draw_series([Rectangle::new(
+                        [(x - 0.2, q1), (x + 0.2, q3)],
+                        BLACK.stroke_width(2),
+                    )])
+                    .map_err(e)?;
+                chart
+                    .draw_series([
+                        PathElement::new(vec![(x - 0.2, med), (x + 0.2, med)], RED.stroke_width(3)),
+                        PathElement::new(vec![(x, q3), (x, hi)], BLACK.stroke_width(1)),
+                        PathElement::new(vec![(x, q1), (x, lo)], BLACK.stroke_width(1)),
+                        PathElement::new(
+                            vec![(x - 0.08, hi), (x + 0.08, hi)],
+                            BLACK.stroke_width(1),
+                        ),
+                        PathElement::new(
+                            vec![(x - 0.08, lo), (x + 0.08, lo)],
+                            BLACK.stroke_width(1),
+                        ),
+                    ])
+                    .map_err(e)?;
+            }
+            root.present().map_err(e)
+        }
+    }
+    both(stem, &Fig(title, boxes))
+}
+
+/// A named series of (x, y) points.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Series {
+    /// Legend label.
+    pub label: String,
+    /// Points.
+    pub points: Vec<(f64, f64)>,
+}
+
+/// Points (when `lines` is false) or lines with markers, one colour per series, with a legend.
+pub fn xy(
+    stem: &Path,
+    title: &str,
+    x_desc: &str,
+    y_desc: &str,
+    series: &[Series],
+    lines: bool,
+) -> Result<Vec<PathBuf>, CalibError> {
+    struct Fig<'a>((&'a str, &'a str, &'a str), &'a [Series], bool);
+    impl Figure for Fig<'_> {
+        fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
+            let Fig((title, x_desc, y_desc), series, lines) = *self;
+            let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+            root.fill(&WHITE).map_err(e)?;
+            let all = series.iter().flat_map(|s| s.points.iter().copied());
+            let (x0, x1, y1) = all.fold(
+                (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
+                |(a, b, c), (x, y)| (a.min(x), b.max(x), c.max(y)),
+            );
+            let (x0, x1) = if x0.is_finite() && x1 > x0 {
+                (x0, x1)
+            } else {
+                (0.0, 1.0)
+            };
+            let y1 = if y1 > 0.0 { y1 * 1.08 } else { 1.0 };
+            let mut chart = ChartBuilder::on(&root)
+                .caption(title, ("sans-serif", 24))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(60)
+                .build_cartesian_2d(x0..x1, 0.0..y1)
+                .map_err(e)?;
+            chart
+                .configure_mesh()
+                .x_desc(x_desc)
+                .y_desc(y_desc)
+                .label_style(("sans-serif", 15))
+                .draw()
+                .map_err(e)?;
+            for (i, s) in series.iter().enumerate() {
+                let colour = Palette99::pick(i).to_rgba();
+                if lines {
+                    chart
+                        .draw_series(LineSeries::new(
+                            s.points.iter().copied(),
+                            colour.stroke_width(2),
+                        ))
+                        .map_err(e)?;
+                }
+                chart
+                    .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, colour.filled())))
+                    .map_err(e)?
+                    .label(s.label.as_str())
+                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 15))
+                .draw()
+                .map_err(e)?;
+            root.present().map_err(e)
+        }
+    }
+    both(stem, &Fig((title, x_desc, y_desc), series, lines))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_svg_and_png_with_text() {
+        let dir = tempfile::tempdir().unwrap();
+        let boxes = vec![
+            Distribution {
+                label: "uncalibrated".into(),
+                values_mm: vec![30.0, 25.0, 41.0, 33.0],
+            },
+            Distribution {
+                label: "calibrated".into(),
+                values_mm: vec![5.0, 4.0, 7.5, 6.0],
+            },
+        ];
+        let files =
+            error_distribution(&dir.path().join("errors"), "Validation error", &boxes).unwrap();
+        let svg = std::fs::read_to_string(&files[0]).unwrap();
+        assert!(
+            svg.contains("uncalibrated") && svg.contains("<rect"),
+            "{svg}"
+        );
+        let png = std::fs::read(&files[1]).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        let series = vec![Series {
+            label: "DETMAX".into(),
+            points: vec![(10.0, 0.3), (50.0, 0.7)],
+        }];
+        let files = xy(&dir.path().join("o1"), "O1", "poses", "O1", &series, true).unwrap();
+        assert!(
+            std::fs::read_to_string(&files[0])
+                .unwrap()
+                .contains("DETMAX")
+        );
+    }
+}

@@ -2,6 +2,7 @@
 //!
 //! See `crate::cli` for how to add one.
 
+pub mod demo;
 pub mod plan;
 pub mod predict;
 pub mod simulate;
