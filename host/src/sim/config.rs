@@ -36,13 +36,14 @@ pub struct SimConfig {
     /// Servo angle error that is not piecewise-linear, rad: each servo gets
     /// `e(q) = A (u sin(w q + phi) + v (q / 100°)³)` with `u` in 0.5..1,
     /// `v` in -0.5..0.5, `w` in 1.5..3 and `phi` drawn per servo, `A` this
-    /// value. Default 1.5° (errors of up to about 2°). 0 switches it off.
+    /// value. Default 1° (errors of up to about 1.5°). 0 switches it off.
     pub servo_error_rad: f64,
     /// Full width of the direction-dependent play of each joint, rad: a joint
     /// that reached its pose moving up stops half a width short, moving down
     /// half a width beyond (per-servo widths drawn in 0.5..1.5 × this). See
     /// [`super::approach_directions`] for how the direction is found.
-    /// Default 1°. 0 switches it off.
+    /// Default 0.5° (a hobby servo's dead band of a few µs, plus horn play).
+    /// 0 switches it off.
     pub backlash_rad: f64,
     /// Softening of the stiffness with load, 1/Nm: the true compliance is
     /// `k (1 + s |tau|)` at torque `tau`. Default 0.3 (30 % more compliant at
@@ -62,8 +63,8 @@ impl Default for SimConfig {
             frame_angle_sigma_rad: 1f64.to_radians(),
             joint_compliance: [0.05, 0.2],
             base_compliance: [0.01, 0.03],
-            servo_error_rad: 1.5f64.to_radians(),
-            backlash_rad: 1f64.to_radians(),
+            servo_error_rad: 1f64.to_radians(),
+            backlash_rad: 0.5f64.to_radians(),
             softening_per_nm: 0.3,
             noise_sigma_m: 0.2e-3,
         }
