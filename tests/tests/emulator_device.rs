@@ -1,0 +1,192 @@
+//! The host's device client against the real firmware in the emulated RP2040, over the same
+//! link code as a USB serial port (`socket://`): status, push and pull bit-identical, a chip
+//! reset that keeps the flash, and moves whose servo pulses (measured from GPIO edges) are
+//! within 1 µs of the host's own servo curve + compensation, in every compensation mode.
+//!
+//! Needs `cargo firmware`, Node and `npm ci` in `tests/emulator`; run with
+//! `cargo test -p e2e --features emulator --test emulator_device`.
+
+mod emulator_support;
+
+use std::time::Duration;
+
+use emulator_support::{EmulatedBoard, RawLink, calibration_bytes, test_calibration};
+use host::device::{Client, DeviceArgs, Link};
+use model::{CompensationOptions, JOINTS};
+use protocol::{Calibration, CompensationMode, Faults, Timing};
+
+/// Servo pulse timing must match the host's computation to this (issue 5).
+const TOLERANCE_US: f64 = 1.0;
+/// The paper's payload, kg.
+const PAYLOAD_KG: f64 = 0.0663;
+
+fn connect(board: &EmulatedBoard) -> Client<Box<dyn Link>> {
+    let args = DeviceArgs {
+        port: board.port_name(),
+        timeout_ms: 2000,
+        retries: 3,
+    };
+    args.connect()
+        .expect("the host client connects to the emulated board")
+}
+
+/// The pulses the host expects for nominal targets `q` (the firmware's rule, in f64).
+fn expected_pulses(
+    calibration: &Calibration,
+    q: &[f64; JOINTS],
+    mode: CompensationMode,
+    payload_kg: f64,
+) -> [f64; JOINTS] {
+    let nominal = calibration.nominal.map(f64::from);
+    let calibrated = calibration.calibrated.map(f64::from);
+    let chain = calibrated.chain();
+    let command = match mode {
+        CompensationMode::Off => *q,
+        _ => {
+            let target = if mode == CompensationMode::Full {
+                nominal
+                    .chain()
+                    .tool_point(q, payload_kg, &Default::default())
+                    .expect("nominal tool point")
+            } else {
+                chain.rigid_tool_point(q)
+            };
+            let solved = chain
+                .compensate(
+                    q,
+                    &target,
+                    payload_kg,
+                    None,
+                    &CompensationOptions::default(),
+                )
+                .expect("host compensation");
+            assert!(
+                solved.converged,
+                "the host's compensation did not converge for {q:?}"
+            );
+            solved.q
+        }
+    };
+    let command = calibrated.clamp_to_limits(&command);
+    std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
+}
+
+#[test]
+fn status_push_pull_and_reset_keep_the_calibration() {
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    let mut client = connect(&board);
+    let status = client.status().expect("status");
+    assert!(
+        status.calibration.is_none(),
+        "a blank board has no calibration: {status:?}"
+    );
+
+    let calibration = test_calibration(41);
+    let info = client
+        .push_calibration(&calibration, |_, _| {})
+        .expect("push");
+    assert_eq!(info.id, calibration.id);
+    let pulled = client.pull_calibration().expect("pull");
+    assert_eq!(
+        calibration_bytes(&pulled),
+        calibration_bytes(&calibration),
+        "pull is not bit-identical"
+    );
+    drop(client);
+
+    board.reset();
+    board.wait_configured();
+    let mut client = connect(&board);
+    let status = client.status().expect("status after reset");
+    assert_eq!(
+        status.calibration.map(|c| c.id),
+        Some(calibration.id),
+        "{status:?}"
+    );
+    let pulled = client.pull_calibration().expect("pull after reset");
+    assert_eq!(calibration_bytes(&pulled), calibration_bytes(&calibration));
+    assert_eq!(board.status()["resets"], 1);
+}
+
+#[test]
+fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    let mut client = connect(&board);
+    let calibration = test_calibration(51);
+    client
+        .push_calibration(&calibration, |_, _| {})
+        .expect("push");
+
+    let poses: [[f64; JOINTS]; 3] = [
+        [0.0; JOINTS],
+        [0.4, -0.3, 0.5, 0.2, -0.6, 0.3],
+        [-0.8, 0.5, -0.4, -0.5, 0.7, -1.0],
+    ];
+    let cases = [
+        (CompensationMode::Off, 0.0),
+        (CompensationMode::ElasticOnly, PAYLOAD_KG),
+        (CompensationMode::Full, 0.0),
+        (CompensationMode::Full, PAYLOAD_KG),
+    ];
+    for (mode, payload) in cases {
+        client.set_compensation(mode).expect("compensation mode");
+        client.set_payload(payload as f32).expect("payload");
+        for q in &poses {
+            let targets = q.map(|x| x as f32);
+            client
+                .move_to(targets, Timing::DurationMs(300))
+                .expect("move");
+            let still = client
+                .wait_until_still(Duration::from_millis(50), Duration::from_secs(30))
+                .expect("the move ends");
+            if mode != CompensationMode::Off {
+                assert!(
+                    still.compensation.converged
+                        && still.faults.0 & Faults::COMPENSATION_FALLBACK.0 == 0,
+                    "{mode:?}, payload {payload} kg, targets {q:?}: the board's compensation fell back: {:?}",
+                    still.compensation
+                );
+            }
+            // The firmware works in f32 on the f32 calibration; the host redoes it in f64.
+            let q32 = targets.map(f64::from);
+            let expected = expected_pulses(&calibration, &q32, mode, f64::from(payload as f32));
+            if mode != CompensationMode::Off {
+                // Guard: the case must tell a compensating board from one that is not.
+                let uncompensated = expected_pulses(&calibration, &q32, CompensationMode::Off, 0.0);
+                let shift = (0..JOINTS)
+                    .map(|i| (expected[i] - uncompensated[i]).abs())
+                    .fold(0.0, f64::max);
+                assert!(
+                    shift > 3.0 * TOLERANCE_US,
+                    "{mode:?} at {q:?} moves the pulses by only {shift} µs"
+                );
+            }
+            let (widths, _) = board.servo_pulses(3);
+            for (servo, widths) in widths.iter().enumerate() {
+                for width in widths {
+                    assert!(
+                        (width - expected[servo]).abs() <= TOLERANCE_US,
+                        "{mode:?}, payload {payload} kg, targets {q:?}: servo {} pulse {width} µs, \
+                         host expects {:.2} µs (± {TOLERANCE_US})",
+                        servo + 1,
+                        expected[servo]
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn raw_link_and_client_see_the_same_board() {
+    // The bare protocol link of the fault tests agrees with the host client on the status.
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    let mut client = connect(&board);
+    let from_client = client.status().expect("status").device;
+    drop(client);
+    let mut link = RawLink::connect(&board);
+    assert_eq!(link.status().device, from_client);
+}
