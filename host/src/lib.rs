@@ -7,6 +7,7 @@ pub mod calib;
 pub mod cli;
 pub mod commands;
 pub mod dataset;
+pub mod device;
 pub mod error;
 pub mod io;
 pub mod plan;

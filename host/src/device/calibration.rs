@@ -1,0 +1,40 @@
+//! From a calibration file (JSON, `crate::calib::calibration_file`) to the
+//! payload the board stores, and back to readable form.
+
+use protocol::calibration::MAX_CALIBRATION_LEN;
+use protocol::{Calibration, CalibrationFault, ModelOption};
+
+use crate::calib::ModelOption as HostOption;
+use crate::calib::calibration_file::CalibrationFile;
+
+/// The board's name for a host model option.
+pub fn wire_option(option: HostOption) -> ModelOption {
+    match option {
+        HostOption::ElastoKinematic => ModelOption::ElastoKinematic,
+        HostOption::Kinematic => ModelOption::Kinematic,
+        HostOption::Elastic => ModelOption::Elastic,
+    }
+}
+
+/// The payload for `file`, in single precision, with the home pose `home_rad`.
+/// Its id is the CRC-32 of the payload encoded with id 0, so the same
+/// calibration always has the same id and `status` shows which one is in use.
+pub fn payload(
+    file: &CalibrationFile,
+    home_rad: [f32; 6],
+) -> Result<Calibration, CalibrationFault> {
+    let mut calibration = Calibration {
+        id: 0,
+        option: wire_option(file.option),
+        nominal: file.nominal.map(|x| x as f32),
+        calibrated: file.arm.map(|x| x as f32),
+        home_rad,
+    };
+    calibration.check()?;
+    let mut buf = [0u8; MAX_CALIBRATION_LEN];
+    let bytes = calibration
+        .encode(&mut buf)
+        .map_err(|_| CalibrationFault::NotFinite)?;
+    calibration.id = protocol::frame::crc32(bytes);
+    Ok(calibration)
+}

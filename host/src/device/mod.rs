@@ -1,0 +1,40 @@
+//! Talking to the board: the serial (or TCP) link, the typed client with one
+//! method per endpoint of the `protocol` table, and the conversion of a
+//! calibration file into the payload the board stores.
+//!
+//! Data flow: `lrmcal <device command>` → [`DeviceArgs::connect`] →
+//! [`Client`] → `protocol` frames → [`Link`] → board.
+
+pub mod calibration;
+pub mod client;
+pub mod link;
+
+use std::time::Duration;
+
+pub use client::{Client, ClientError, CommsError};
+pub use link::{Link, open};
+
+/// How every device command finds and talks to the board.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DeviceArgs {
+    /// Serial port of the board (`lrmcal ports` lists them), or
+    /// `socket://HOST:PORT` for the emulator.
+    #[arg(long, short, env = "LRMCAL_PORT")]
+    pub port: String,
+    /// How long to wait for each reply, ms.
+    #[arg(long, default_value_t = 500)]
+    pub timeout_ms: u64,
+    /// How often to resend a request that got no reply.
+    #[arg(long, default_value_t = 3)]
+    pub retries: u32,
+}
+
+impl DeviceArgs {
+    /// Opens the link and checks that the board speaks our protocol version.
+    pub fn connect(&self) -> Result<Client<Box<dyn Link>>, ClientError> {
+        let link = open(&self.port)?;
+        let mut client = Client::new(link, Duration::from_millis(self.timeout_ms), self.retries);
+        client.hello()?;
+        Ok(client)
+    }
+}

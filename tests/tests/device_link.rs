@@ -1,0 +1,331 @@
+//! The host client and the firmware library together, over an in-memory
+//! link, with the recording servo bus and a simulated flash that can lose
+//! power: push → store → reboot → status → move, and the failure paths a
+//! user meets (unplugged mid-upload, power cut while writing, garbage).
+
+use std::collections::VecDeque;
+use std::io::{self, Read, Write};
+use std::time::Duration;
+
+use firmware::sim::{MockBus, SimFlash};
+use firmware::{Config, Device};
+use host::calib::ModelOption;
+use host::calib::calibration_file::{CalibrationFile, SCHEMA, SCHEMA_VERSION};
+use host::calib::validate::ErrorStats;
+use host::device::{Client, ClientError, CommsError, Link, calibration};
+use model::{Arm, ParamId};
+use protocol::frame::{Feed, MAX_FRAME};
+use protocol::{CompensationMode, Faults, FrameReader, Timing, WireError};
+
+/// The board at the other end of a USB cable, run in-process. Every read by
+/// the host lets 20 ms of board time pass (one servo frame).
+struct Board {
+    device: Option<Device<MockBus, SimFlash>>,
+    reader: FrameReader<MAX_FRAME>,
+    replies: VecDeque<u8>,
+    now_us: u64,
+    /// Bytes the host may still send before the cable is pulled.
+    cable_bytes: Option<usize>,
+}
+
+impl Board {
+    fn new(flash: SimFlash) -> Self {
+        Self {
+            device: Some(Device::new(MockBus::default(), flash, Config::default(), 0)),
+            reader: FrameReader::new(),
+            replies: VecDeque::new(),
+            now_us: 0,
+            cable_bytes: None,
+        }
+    }
+
+    fn device(&mut self) -> &mut Device<MockBus, SimFlash> {
+        self.device.as_mut().expect("board is running")
+    }
+
+    /// Power off and on again, keeping the flash.
+    fn reboot(&mut self) {
+        let (_, mut flash) = self.device.take().expect("board is running").release();
+        flash.power_on();
+        self.now_us = 0;
+        self.replies.clear();
+        self.device = Some(Device::new(MockBus::default(), flash, Config::default(), 0));
+    }
+
+    fn unplugged() -> io::Error {
+        io::Error::new(io::ErrorKind::BrokenPipe, "device disconnected")
+    }
+}
+
+impl Write for Board {
+    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
+        for &b in bytes {
+            if let Some(left) = &mut self.cable_bytes {
+                if *left == 0 {
+                    return Err(Self::unplugged());
+                }
+                *left -= 1;
+            }
+            if let Feed::Frame(f) = self.reader.feed(b) {
+                let f = f.to_vec();
+                let mut out = [0u8; MAX_FRAME];
+                let n = self.device().handle_frame(&f, &mut out);
+                self.replies.extend(&out[..n]);
+            }
+        }
+        Ok(bytes.len())
+    }
+
+    fn flush(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Read for Board {
+    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
+        if self.cable_bytes == Some(0) {
+            return Err(Self::unplugged());
+        }
+        self.now_us += 20_000;
+        let now = self.now_us;
+        self.device().servo_frame(now);
+        if self.replies.is_empty() {
+            return Err(io::ErrorKind::TimedOut.into());
+        }
+        let n = buf.len().min(self.replies.len());
+        for (slot, b) in buf.iter_mut().zip(self.replies.drain(..n)) {
+            *slot = b;
+        }
+        Ok(n)
+    }
+}
+
+impl Link for Board {
+    fn set_timeout(&mut self, _: Duration) -> io::Result<()> {
+        Ok(())
+    }
+}
+
+fn client(board: Board) -> Client<Board> {
+    Client::new(board, Duration::from_millis(50), 2)
+}
+
+/// A calibration file as `lrmcal identify` writes it, for the bundled arm
+/// with millimetre/degree-level corrections and measured servo curves.
+fn calibration_file() -> CalibrationFile {
+    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let ids: Vec<ParamId> = ParamId::all().collect();
+    let errors: Vec<f64> = ids
+        .iter()
+        .enumerate()
+        .map(|(i, id)| {
+            let s = if i % 2 == 0 { 1.0 } else { -1.0 };
+            match id.kind() {
+                model::params::ParamKind::Length => 0.0015 * s,
+                model::params::ParamKind::Angle => 0.01 * s,
+                model::params::ParamKind::Compliance => 0.02,
+            }
+        })
+        .collect();
+    let mut arm: Arm<f64> = nominal.with_errors(&ids, &errors);
+    for (i, j) in arm.joints.iter_mut().enumerate() {
+        j.servo = model::ServoCurve {
+            minus100: 880.0 + 9.0 * i as f64,
+            zero: 1640.0,
+            plus100: 2410.0 - 5.0 * i as f64,
+        };
+    }
+    CalibrationFile {
+        schema: SCHEMA.into(),
+        schema_version: SCHEMA_VERSION,
+        option: ModelOption::ElastoKinematic,
+        nominal,
+        arm,
+        parameters: vec![],
+        at_bound: vec![],
+        removed: vec![],
+        poses_used: vec![],
+        loads_kg: vec![0.0663],
+        fit_residual: ErrorStats::of(&[0.001]),
+        validation: None,
+    }
+}
+
+#[test]
+fn push_store_reboot_status_move() {
+    let file = calibration_file();
+    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    let mut c = client(Board::new(SimFlash::new()));
+
+    let info = c.hello().unwrap();
+    assert_eq!(info.protocol, protocol::frame::PROTOCOL_VERSION);
+    let s = c.status().unwrap();
+    assert!(s.faults.contains(Faults::NO_CALIBRATION) && s.calibration.is_none());
+
+    let mut last = 0;
+    let stored = c.push_calibration(&payload, |sent, _| last = sent).unwrap();
+    assert_eq!(stored.id, payload.id);
+    assert!(
+        last > 600,
+        "the payload went in several chunks ({last} bytes)"
+    );
+    assert_eq!(c.pull_calibration().unwrap(), payload);
+
+    c.link_mut().reboot();
+    let s = c.status().unwrap();
+    assert_eq!(
+        s.calibration.map(|i| i.id),
+        Some(payload.id),
+        "calibration survives the reboot"
+    );
+    assert!(!s.faults.contains(Faults::NO_CALIBRATION));
+    assert_eq!(s.pulses_us, [0; 6], "starts limp after the reboot");
+
+    c.set_payload(0.0663).unwrap();
+    c.set_compensation(CompensationMode::Full).unwrap();
+    let target = [0.3f32, 0.5, -0.6, 0.2, 0.7, -0.1];
+    c.move_to(target, Timing::DurationMs(1500)).unwrap();
+    assert!(matches!(
+        c.move_to(target, Timing::DurationMs(1500)),
+        Err(ClientError::Endpoint {
+            error: WireError::Busy,
+            ..
+        })
+    ));
+    let s = c
+        .wait_until_still(Duration::ZERO, Duration::from_secs(5))
+        .unwrap();
+    assert_eq!(s.nominal_rad, target);
+    assert!(s.compensation.converged, "{:?}", s.compensation);
+
+    // The pulses are the calibrated curves of the compensated joint angles, and
+    // the compensated, deflected calibrated arm (f64) puts the tool where the
+    // nominal arm would be.
+    let arm64 = file.arm;
+    let pulses = s.pulses_us;
+    let commanded: [f64; 6] =
+        std::array::from_fn(|i| arm64.joints[i].servo.angle(pulses[i] as f64));
+    let opts = model::SolverOptions::default();
+    let want = file
+        .nominal
+        .chain()
+        .tool_point(&target.map(f64::from), 0.0663, &opts)
+        .unwrap();
+    let got = arm64.chain().tool_point(&commanded, 0.0663, &opts).unwrap();
+    // One microsecond of pulse is ~2.3 mrad of joint angle: the board's PWM resolution bounds this.
+    assert!(
+        (got - want).norm() < 2e-3,
+        "tool {:.3} mm off",
+        (got - want).norm() * 1e3
+    );
+    let uncompensated: [f64; 6] = target.map(f64::from);
+    let off = arm64
+        .chain()
+        .tool_point(&uncompensated, 0.0663, &opts)
+        .unwrap();
+    assert!(
+        (off - want).norm() > 3.0 * (got - want).norm(),
+        "compensation must help"
+    );
+}
+
+#[test]
+fn unplugged_mid_upload_keeps_the_old_calibration_and_says_so() {
+    let file = calibration_file();
+    let first = calibration::payload(&file, [0.0; 6]).unwrap();
+    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
+    assert_ne!(first.id, second.id);
+    let mut c = client(Board::new(SimFlash::new()));
+    c.push_calibration(&first, |_, _| {}).unwrap();
+
+    c.link_mut().cable_bytes = Some(400);
+    let err = c.push_calibration(&second, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(err, ClientError::Comms(CommsError::Io { .. })),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("unplugged"), "{err}");
+
+    c.link_mut().cable_bytes = None;
+    c.link_mut().reboot();
+    assert_eq!(
+        c.status().unwrap().calibration.map(|i| i.id),
+        Some(first.id)
+    );
+}
+
+#[test]
+fn power_cut_while_writing_flash_keeps_the_old_calibration() {
+    let file = calibration_file();
+    let first = calibration::payload(&file, [0.0; 6]).unwrap();
+    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
+    let mut flash = SimFlash::new();
+    {
+        let mut c = client(Board::new(flash));
+        c.push_calibration(&first, |_, _| {}).unwrap();
+        flash = c.link_mut().device.take().unwrap().release().1;
+    }
+    for cut in [0, 1, 500, 4095, 4096, 4200, 4700, 4900] {
+        let mut f = flash.clone();
+        f.cut_after(cut);
+        let mut c = client(Board::new(f));
+        let err = c.push_calibration(&second, |_, _| {}).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                ClientError::Endpoint {
+                    error: WireError::Flash,
+                    ..
+                }
+            ),
+            "cut {cut}: {err:?}"
+        );
+        c.link_mut().reboot();
+        assert_eq!(
+            c.status().unwrap().calibration.map(|i| i.id),
+            Some(first.id),
+            "cut {cut}"
+        );
+    }
+}
+
+#[test]
+fn garbage_on_the_line_is_survived_and_the_next_request_works() {
+    let mut c = client(Board::new(SimFlash::new()));
+    let mut rng_state = 0x1234_5678u32;
+    let garbage: Vec<u8> = (0..5000)
+        .map(|_| {
+            rng_state = rng_state
+                .wrapping_mul(1_664_525)
+                .wrapping_add(1_013_904_223);
+            (rng_state >> 24) as u8
+        })
+        .collect();
+    c.link_mut().write_all(&garbage).unwrap();
+    c.link_mut().write_all(&[0]).unwrap();
+    let s = c.status().unwrap();
+    assert!(s.frames_dropped > 0);
+}
+
+#[test]
+fn a_board_of_another_protocol_version_is_named_clearly() {
+    let mut board = Board::new(SimFlash::new());
+    // The board answers anything with a frame of version 9.
+    let mut out = [0u8; MAX_FRAME];
+    let n =
+        protocol::frame::encode_with_version(9, 1, &protocol::Response::Done, &mut out).unwrap();
+    board.device = Some(Device::new(
+        MockBus::default(),
+        SimFlash::new(),
+        Config::default(),
+        0,
+    ));
+    let mut c = client(board);
+    c.link_mut().replies.extend(&out[..n]);
+    let err = c.hello().unwrap_err();
+    assert!(
+        matches!(err, ClientError::Comms(CommsError::Version { board: 9 })),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("update lrmcal"), "{err}");
+}
