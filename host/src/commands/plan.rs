@@ -72,7 +72,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         clearance_m: args.clearance_mm * 1e-3,
         ..PlanConfig::default()
     };
-    let report = candidates(&arm.arm, &config).map_err(|source| Error::Plan { source })?;
+    let report = candidates(&arm.arm, &config)?;
     let rows: Vec<PoseRow> = report
         .kept
         .iter()

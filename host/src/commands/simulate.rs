@@ -8,7 +8,7 @@ use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::{atomic, measurements, pose_list};
 use crate::plan::{PlanConfig, candidates};
-use crate::sim::{DEFAULT_SEED, Pass, SimConfig, SimError, TrueArm};
+use crate::sim::{DEFAULT_SEED, Pass, SimConfig, TrueArm};
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
 const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
@@ -191,8 +191,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             poses,
         })
         .collect();
-    let truth = TrueArm::draw(&arm.arm, args.seed, &args.sim.config()).map_err(sim_error)?;
-    let simulation = truth.simulate_passes(&passes).map_err(sim_error)?;
+    let truth = TrueArm::draw(&arm.arm, args.seed, &args.sim.config())?;
+    let simulation = truth.simulate_passes(&passes)?;
 
     if let Some(path) = &args.truth {
         let json = truth.truth_json();
@@ -235,8 +235,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
 /// The poses to measure under each load, in order.
 fn passes(args: &Args, arm: &model::Arm<f64>) -> Result<Vec<(f64, Vec<Pose>)>, Error> {
     let Some(path) = &args.poses else {
-        let plan =
-            candidates(arm, &PlanConfig::default()).map_err(|source| Error::Plan { source })?;
+        let plan = candidates(arm, &PlanConfig::default())?;
         let loads = args.loads.clone().unwrap_or(DEFAULT_LOADS_KG.to_vec());
         return Ok(loads.into_iter().map(|l| (l, plan.kept.clone())).collect());
     };
@@ -289,20 +288,4 @@ fn mean_nominal_error_m(arm: &model::Arm<f64>, rows: &[&Measurement]) -> Result<
         sum += (predicted - m.position).norm();
     }
     Ok(sum / rows.len().max(1) as f64)
-}
-
-/// The model's own failure keeps its exit code; the rest are simulator errors.
-fn sim_error(error: SimError) -> Error {
-    match error {
-        SimError::Model {
-            pose,
-            load_kg,
-            reason,
-        } => Error::Model {
-            pose,
-            load_kg,
-            reason,
-        },
-        source => Error::Simulate { source },
-    }
 }
