@@ -1,0 +1,126 @@
+//! Cycle benchmark on the real firmware binary: CPU cycles of one compensation frame for six
+//! joints (`firmware::compensator::Compensator::step`) and of the whole servo frame
+//! (`run_servo_frame`), counted by the emulator's cycle counter from function entry to return
+//! (interrupt handlers excluded), for payload 0 and 66.3 g, against the 125,000-cycle budget
+//! (1 ms at 125 MHz, issue 4).
+//!
+//! `cargo bench -p e2e --features emulator --bench emulator_cycles` (after `cargo firmware` and
+//! `npm ci` in tests/emulator). The counts are deterministic: they do not depend on the host.
+
+#[path = "../tests/emulator_support/mod.rs"]
+mod emulator_support;
+
+use emulator_support::{EmulatedBoard, RawLink, test_calibration};
+use protocol::{CompensationMode, Request, Response, Timing};
+use serde_json::{Value, json};
+
+/// The budget of issue 4: 1 ms of the RP2040 at 125 MHz.
+const BUDGET_CYCLES: f64 = 125_000.0;
+/// The functions measured: (label, part of the mangled symbol name).
+const PROBES: [(&str, &str); 2] = [
+    ("compensation step", "Compensator4step"),
+    ("whole servo frame", "run_servo_frame"),
+];
+/// A move long enough to give a few dozen frames with moving targets.
+const MOVE_MS: u32 = 1500;
+
+fn ok(response: Response, what: &str) {
+    assert_eq!(response, Response::Done, "{what}");
+}
+
+fn stats(board: &mut EmulatedBoard, symbol: &str) -> Value {
+    board.request(json!({"cmd": "probe_stats", "symbol": symbol, "clear": true}))
+}
+
+fn main() {
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    for (_, symbol) in PROBES {
+        board.request(json!({"cmd": "probe", "symbol": symbol}));
+    }
+    let mut link = RawLink::connect(&board);
+    link.push(&test_calibration(1));
+    ok(
+        link.request(&Request::SetCompensation {
+            mode: CompensationMode::Full,
+        }),
+        "full compensation",
+    );
+    ok(link.request(&Request::Attach { channel: None }), "attach");
+
+    println!("cycles per call on the real firmware (rp2040js cycle count, ISRs excluded)");
+    println!("budget: {BUDGET_CYCLES:.0} cycles = 1 ms at 125 MHz");
+    println!(
+        "{:<10} {:<22} {:<8} {:>6} {:>9} {:>9} {:>9} {:>9}",
+        "payload", "function", "phase", "calls", "min", "mean", "max", "max/budget"
+    );
+    let mut worst: f64 = 0.0;
+    let poses = [
+        [0.5f32, -0.4, 0.6, 0.3, -0.5, 0.4],
+        [-0.6, 0.3, -0.5, -0.4, 0.6, -0.8],
+    ];
+    for payload_kg in [0.0f32, 0.0663] {
+        ok(
+            link.request(&Request::SetPayload {
+                mass_kg: payload_kg,
+            }),
+            "payload",
+        );
+        for (phase, pose) in [("moving", poses[0]), ("moving", poses[1])]
+            .into_iter()
+            .chain([("holding", poses[1])])
+        {
+            for (_, symbol) in PROBES {
+                stats(&mut board, symbol);
+            }
+            if phase == "moving" {
+                ok(
+                    link.request(&Request::Move {
+                        targets_rad: pose,
+                        timing: Timing::DurationMs(MOVE_MS),
+                    }),
+                    "move",
+                );
+                board.run_us(u64::from(MOVE_MS) * 1000);
+            } else {
+                board.run_us(500_000);
+            }
+            let status = link.status();
+            assert!(
+                !status.moving || phase == "moving",
+                "still moving while holding"
+            );
+            for (label, symbol) in PROBES {
+                let s = stats(&mut board, symbol);
+                let calls = s["calls"].as_u64().unwrap_or(0);
+                assert!(
+                    calls > 0,
+                    "no call of {symbol} during the {phase} phase\n{}",
+                    board.log()
+                );
+                let max = s["max"].as_f64().expect("max");
+                worst = worst.max(if symbol == PROBES[0].1 { max } else { worst });
+                println!(
+                    "{:<10} {:<22} {:<8} {:>6} {:>9} {:>9} {:>9} {:>8.1}%",
+                    format!("{:.1} g", payload_kg * 1000.0),
+                    label,
+                    phase,
+                    calls,
+                    s["min"],
+                    s["mean"],
+                    s["max"],
+                    100.0 * max / BUDGET_CYCLES
+                );
+            }
+            let report = status.compensation;
+            println!(
+                "{:<10} last solve: converged {}, {} iterations, {:.1} µm, {} fallbacks",
+                "", report.converged, report.iterations, report.error_um, report.fallbacks
+            );
+        }
+    }
+    println!(
+        "worst compensation step: {worst:.0} cycles = {:.1}% of the budget",
+        100.0 * worst / BUDGET_CYCLES
+    );
+}
