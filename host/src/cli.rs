@@ -35,7 +35,7 @@ lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
 lrmcal predict --arm my_arm.toml --poses poses.csv --out predicted.csv\n  \
 lrmcal help predict\n\n\
 Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
-written, 5 model evaluation failed."
+written, 5 model evaluation failed, 6 the board could not be reached or refused."
 )]
 pub struct Cli {
     /// What to do.
@@ -54,6 +54,36 @@ pub enum Command {
     Plan(commands::plan::Args),
     /// Run the whole calibration on a simulated arm: select, identify, validate, plot.
     Demo(commands::demo::Args),
+    /// Identify the error parameters from measurements and write a calibration file.
+    Identify(commands::identify::Args),
+    /// Choose the poses to measure: D-optimal selection (DETMAX) from candidates.
+    Select(commands::select::Args),
+    /// Check a calibration against another measurement file.
+    Validate(commands::validate::Args),
+    /// List the serial ports a board could be on.
+    Ports(commands::ports::Args),
+    /// Show the board's versions, calibration, compensation, joints and faults.
+    Status(commands::status::Args),
+    /// Send a calibration file to the board (stored in flash, used at once).
+    Push(commands::push::Args),
+    /// Read the calibration stored on the board.
+    Pull(commands::pull::Args),
+    /// Move the arm to nominal joint angles (degrees).
+    Move(commands::move_::Args),
+    /// Move the arm to its home pose.
+    Home(commands::home::Args),
+    /// Make servos limp (or drive them again with --attach).
+    Detach(commands::detach::Args),
+    /// Tell the board the payload mass at the tool.
+    Payload(commands::payload::Args),
+    /// Switch real-time compensation off, to elastic only, or to full.
+    Compensation(commands::compensation::Args),
+    /// Tune one servo's pulse curve at the terminal (level-1 calibration).
+    ServoTune(commands::servo_tune::Args),
+    /// Drive the board through a pose list and record tracker positions.
+    Measure(commands::measure::Args),
+    /// Put a firmware image (UF2) on the board through its USB bootloader.
+    Flash(commands::flash::Args),
 }
 
 impl Command {
@@ -64,6 +94,21 @@ impl Command {
             Self::Simulate(args) => commands::simulate::run(args),
             Self::Plan(args) => commands::plan::run(args),
             Self::Demo(args) => commands::demo::run(args),
+            Self::Identify(args) => commands::identify::run(args),
+            Self::Select(args) => commands::select::run(args),
+            Self::Validate(args) => commands::validate::run(args),
+            Self::Ports(args) => commands::ports::run(args),
+            Self::Status(args) => commands::status::run(args),
+            Self::Push(args) => commands::push::run(args),
+            Self::Pull(args) => commands::pull::run(args),
+            Self::Move(args) => commands::move_::run(args),
+            Self::Home(args) => commands::home::run(args),
+            Self::Detach(args) => commands::detach::run(args),
+            Self::Payload(args) => commands::payload::run(args),
+            Self::Compensation(args) => commands::compensation::run(args),
+            Self::ServoTune(args) => commands::servo_tune::run(args),
+            Self::Measure(args) => commands::measure::run(args),
+            Self::Flash(args) => commands::flash::run(args),
         }
     }
 }

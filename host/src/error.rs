@@ -20,6 +20,8 @@ pub mod exit_codes {
     pub const FILE_ACCESS: u8 = 4;
     /// The model could not be evaluated (e.g. the elastic deflection did not converge).
     pub const MODEL: u8 = 5;
+    /// The board could not be reached, or it refused a request.
+    pub const DEVICE: u8 = 6;
 }
 
 /// Everything that can make an `lrmcal` command fail.
@@ -89,6 +91,21 @@ pub enum Error {
     /// The calibration engine refused its input or could not finish.
     #[error(transparent)]
     Calib(#[from] crate::calib::CalibError),
+    /// Talking to the board failed, or the board refused a request.
+    #[error("talk to the board")]
+    Device {
+        /// The link's or the board's reason.
+        #[source]
+        source: crate::device::ClientError,
+    },
+    /// A device command got something it cannot send or use.
+    #[error("{what}: {reason}")]
+    DeviceInput {
+        /// What was being prepared, e.g. "prepare the calibration of `cal.json` for the board".
+        what: String,
+        /// Why it cannot be used.
+        reason: String,
+    },
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -99,6 +116,12 @@ pub enum Error {
         /// The model's own error (it is `no_std`, so not a `std::error::Error`).
         reason: model::DeflectionError,
     },
+}
+
+impl From<crate::device::ClientError> for Error {
+    fn from(source: crate::device::ClientError) -> Self {
+        Self::Device { source }
+    }
 }
 
 impl Error {
@@ -112,6 +135,8 @@ impl Error {
             | Self::Simulate { .. }
             | Self::Plan { .. } => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
+            Self::Device { .. } => exit_codes::DEVICE,
+            Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
             Self::Calib(e) => match e {
                 crate::calib::CalibError::Io { .. } | crate::calib::CalibError::Plot { .. } => {
                     exit_codes::FILE_ACCESS

@@ -106,6 +106,12 @@ pub enum CalibError {
         /// What serde said, with line and column.
         message: String,
     },
+    /// The input leaves a choice open that the user must make.
+    #[error("{what}")]
+    Ambiguous {
+        /// What to choose and how.
+        what: String,
+    },
     /// A plot could not be drawn.
     #[error("draw {path}: {message}")]
     Plot {

@@ -11,6 +11,7 @@
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
 //! | [`identify`] | Levenberg–Marquardt fit with non-negative compliances, robust option |
 //! | [`validate`] | error statistics before/after on held-out poses |
+//! | [`checks`] | measurements that cannot be right, poses that are not candidates |
 //! | [`calibration_file`] | the calibration JSON the firmware receives |
 //! | [`report`] | the machine-readable report and the paper-style table |
 //! | [`plots`] | the figures a person looks at first (SVG + PNG) |
@@ -21,6 +22,7 @@
 //! call these and write files.
 
 pub mod calibration_file;
+pub mod checks;
 pub mod detmax;
 pub mod error;
 pub mod identifiability;

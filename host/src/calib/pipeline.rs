@@ -9,7 +9,7 @@ use indicatif::ProgressBar;
 use model::Arm;
 use nalgebra::DMatrix;
 
-use super::detmax::{Design, DetmaxOptions, detmax, split_blocks, stack};
+use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use super::identifiability::{Identifiability, analyse_jacobian};
 use super::identify::{Identified, IdentifyOptions, identify};
 use super::jacobian::{JacobianOptions, jacobian};
@@ -92,17 +92,49 @@ pub struct Selection {
     pub observability: Observability,
 }
 
-/// Selects `options.n` of `candidates` for `option`, measured under `loads_kg`.
+/// How the poses to identify from are chosen.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Choice {
+    /// D-optimal selection by DETMAX.
+    Detmax(DetmaxOptions),
+    /// The poses with these ids, as given by the user.
+    Given(Vec<u32>),
+}
+
+/// Chooses poses among `candidates` for `option`, measured under `loads_kg`.
 pub fn select(
     nominal: &Arm<f64>,
     option: ModelOption,
     candidates: &[Pose],
     loads_kg: &[f64],
-    options: &DetmaxOptions,
+    choice: &Choice,
     progress: &ProgressBar,
 ) -> Result<Selection, CalibError> {
     let blocks = CandidateBlocks::build(nominal, option, candidates, loads_kg)?;
-    let design = detmax(&blocks.blocks, options, progress)?;
+    let design = match choice {
+        Choice::Detmax(options) => detmax(&blocks.blocks, options, progress)?,
+        Choice::Given(ids) => {
+            let chosen = ids
+                .iter()
+                .map(|id| {
+                    candidates.iter().position(|p| p.id == *id).ok_or_else(|| {
+                        CalibError::PoseNotInCandidates {
+                            pose: *id,
+                            file: "the pose selection".into(),
+                            detail: "no candidate (measured pose) has this id".into(),
+                        }
+                    })
+                })
+                .collect::<Result<Vec<usize>, _>>()?;
+            let log_det = log_det(&blocks.blocks, &chosen);
+            Design {
+                chosen,
+                log_det,
+                excursions: 0,
+                start_log_dets: vec![log_det],
+            }
+        }
+    };
     let observability = blocks.observability(&design.chosen);
     let poses = design.chosen.iter().map(|&c| candidates[c]).collect();
     Ok(Selection {
@@ -146,8 +178,9 @@ pub struct OptionResult {
     pub selection: Selection,
     /// The identification on the selected poses.
     pub identified: Identified,
-    /// Validation on the other candidates under the identification load.
-    pub validation: Validation,
+    /// Validation on the other candidates under the identification load
+    /// (none when every candidate was used for the fit).
+    pub validation: Option<Validation>,
     /// Validation on the other candidates under the other load, if measured.
     pub cross_load: Option<(f64, Validation)>,
 }
@@ -163,7 +196,7 @@ pub fn calibrate_option(
     measurements: &[Measurement],
     identify_load_kg: f64,
     other_load_kg: Option<f64>,
-    detmax_options: &DetmaxOptions,
+    choice: &Choice,
     identify_options: &IdentifyOptions,
     progress: &ProgressBar,
 ) -> Result<OptionResult, CalibError> {
@@ -172,7 +205,7 @@ pub fn calibrate_option(
         option,
         candidates,
         &[identify_load_kg],
-        detmax_options,
+        choice,
         progress,
     )?;
     let index = MeasurementIndex::new(measurements);
@@ -194,21 +227,17 @@ pub fn calibrate_option(
         .map(|p| p.id)
         .filter(|id| !chosen.contains(id))
         .collect();
-    let validation = validate(
-        nominal,
-        &identified.arm,
-        &index.of(rest.iter().copied(), identify_load_kg),
-    )?;
-    let cross_load = match other_load_kg {
-        Some(load) => Some((
-            load,
-            validate(
-                nominal,
-                &identified.arm,
-                &index.of(rest.iter().copied(), load),
-            )?,
-        )),
-        None => None,
+    let held_out = index.of(rest.iter().copied(), identify_load_kg);
+    let validation = if held_out.is_empty() {
+        None
+    } else {
+        Some(validate(nominal, &identified.arm, &held_out)?)
+    };
+    let cross_load = match other_load_kg.map(|load| (load, index.of(rest.iter().copied(), load))) {
+        Some((load, set)) if !set.is_empty() => {
+            Some((load, validate(nominal, &identified.arm, &set)?))
+        }
+        _ => None,
     };
     Ok(OptionResult {
         selection,

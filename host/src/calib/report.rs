@@ -173,8 +173,8 @@ pub struct OptionReport {
     pub observability: Observability,
     /// The fit.
     pub fit: FitReport,
-    /// Validation on held-out poses under the identification load.
-    pub validation: ValidationReport,
+    /// Validation on held-out poses under the identification load, if any were held out.
+    pub validation: Option<ValidationReport>,
     /// Validation under the other load.
     pub cross_load: Option<ValidationReport>,
 }
@@ -190,7 +190,10 @@ impl OptionReport {
             start_log_dets: r.selection.design.start_log_dets.clone(),
             observability: r.selection.observability,
             fit: (&r.identified).into(),
-            validation: ValidationReport::new(load_kg, &r.validation),
+            validation: r
+                .validation
+                .as_ref()
+                .map(|v| ValidationReport::new(load_kg, v)),
             cross_load: r
                 .cross_load
                 .as_ref()
@@ -256,19 +259,26 @@ pub fn table(options: &[OptionReport]) -> String {
         "model", "params", "mean error before -> after", "reduction", "cross-load"
     ));
     for o in options {
-        let v = &o.validation;
         let cross = o
             .cross_load
             .as_ref()
             .map(|c| format!("{:.1} %", c.reduction_pct))
             .unwrap_or("-".into());
+        let (before, after, reduction) = match &o.validation {
+            Some(v) => (
+                format!("{:.2}", v.before.mean_m * 1e3),
+                format!("{:.2}", v.after.mean_m * 1e3),
+                format!("{:.1} %", v.reduction_pct),
+            ),
+            None => ("-".into(), "-".into(), "-".into()),
+        };
         s.push_str(&format!(
-            "{:<18} {:>6} {:>12.2} -> {:>6.2} mm {:>8.1} % {:>11}\n",
+            "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
             o.option.name(),
             o.identifiability.kept.len(),
-            v.before.mean_m * 1e3,
-            v.after.mean_m * 1e3,
-            v.reduction_pct,
+            before,
+            after,
+            reduction,
             cross
         ));
     }

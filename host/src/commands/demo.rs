@@ -13,10 +13,12 @@ use crate::calib::ModelOption;
 use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::detmax::{DetmaxOptions, detmax, random_design};
 use crate::calib::identify::{IdentifyOptions, identify};
-use crate::calib::pipeline::{CandidateBlocks, MeasurementIndex, OptionResult, calibrate_option};
+use crate::calib::pipeline::{
+    CandidateBlocks, Choice, MeasurementIndex, OptionResult, calibrate_option,
+};
 use crate::calib::plots::{self, Distribution, Series};
 use crate::calib::report::{OptionReport, RandomBaseline, Report, table};
-use crate::calib::validate::{ErrorStats, validate};
+use crate::calib::validate::{ErrorStats, Validation, validate};
 use crate::dataset::Measurement;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
@@ -137,11 +139,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             &all,
             PAPER_LOAD_KG,
             Some(0.0),
-            &detmax_options,
+            &Choice::Detmax(detmax_options),
             &identify_options,
             &pb,
         )?;
         pb.finish_and_clear();
+        if r.validation.is_none() {
+            return Err(no_held_out());
+        }
         results.push(r);
     }
     // The other direction of the cross-load check: fit without load, validate with it.
@@ -156,7 +161,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &all,
         0.0,
         Some(PAPER_LOAD_KG),
-        &detmax_options,
+        &Choice::Detmax(detmax_options),
         &identify_options,
         &pb,
     )?;
@@ -189,6 +194,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let o1_curve = o1_vs_poses(&nominal, &poses)?;
 
     for (r, rep) in results.iter().zip(&reports) {
+        let validation = held_out(r)?;
         let file = CalibrationFile::new(
             &nominal,
             &r.identified,
@@ -204,8 +210,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             fit_residual(&r.identified.arm, &all, &rep.selected_poses)?,
             Some(ValidationSummary {
                 load_kg: PAPER_LOAD_KG,
-                before: r.validation.before,
-                after: r.validation.after,
+                before: validation.before,
+                after: validation.after,
             }),
         );
         write_text(
@@ -237,7 +243,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
     println!(
         "\nValidation on the {} poses not selected, {} kg load (mean 3D error):",
-        ek.validation.before.count, PAPER_LOAD_KG
+        held_out(ek)?.before.count,
+        PAPER_LOAD_KG
     );
     print!("{}", table(&reports[..results.len()]));
     println!(
@@ -294,6 +301,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+fn no_held_out() -> Error {
+    crate::calib::CalibError::Empty {
+        what: "validate: every candidate was selected, none is left to validate on".into(),
+    }
+    .into()
+}
+
+/// The held-out validation of a demo run (always present: checked after each run).
+fn held_out(r: &OptionResult) -> Result<&Validation, Error> {
+    r.validation.as_ref().ok_or_else(no_held_out)
 }
 
 /// The 3D error of `arm` on the measurements it was fitted to.
@@ -353,7 +372,7 @@ fn random_baseline(
         sets,
         detmax_o1: ek.selection.observability.o1,
         random_o1_median: median(o1s),
-        detmax_mean_m: ek.validation.after.mean_m,
+        detmax_mean_m: held_out(ek)?.after.mean_m,
         random_mean_median_m: median(means),
     })
 }
@@ -407,7 +426,7 @@ fn write_plots(
             let v = if cross {
                 first.cross_load.as_ref().map(|c| &c.1)
             } else {
-                Some(&first.validation)
+                first.validation.as_ref()
             };
             if let Some(v) = v {
                 boxes.push(Distribution {
@@ -420,7 +439,7 @@ fn write_plots(
             let v = if cross {
                 r.cross_load.as_ref().map(|c| &c.1)
             } else {
-                Some(&r.validation)
+                r.validation.as_ref()
             };
             if let Some(v) = v {
                 boxes.push(Distribution {
@@ -446,8 +465,9 @@ fn write_plots(
         .find(|r| r.selection.option == ModelOption::ElastoKinematic)
     {
         let pts = |f: fn(&(u32, f64, f64, f64)) -> f64| {
-            ek.validation
-                .per_measurement
+            held_out(ek)
+                .map(|v| v.per_measurement.as_slice())
+                .unwrap_or_default()
                 .iter()
                 .map(|p| (p.0 as f64, f(p) * 1e3))
                 .collect::<Vec<_>>()

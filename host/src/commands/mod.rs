@@ -2,7 +2,22 @@
 //!
 //! See `crate::cli` for how to add one.
 
+pub mod compensation;
 pub mod demo;
+pub mod detach;
+pub mod flash;
+pub mod home;
+pub mod identify;
+pub mod measure;
+pub mod move_;
+pub mod payload;
 pub mod plan;
+pub mod ports;
 pub mod predict;
+pub mod pull;
+pub mod push;
+pub mod select;
+pub mod servo_tune;
 pub mod simulate;
+pub mod status;
+pub mod validate;

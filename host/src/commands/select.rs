@@ -1,0 +1,133 @@
+//! `lrmcal select`: choose the poses to measure. Rank analysis of the option's
+//! parameters over the candidates, then DETMAX for the N poses that maximise
+//! O1; prints O1..O5 and how a random choice of N compares, writes the pose list.
+
+use std::path::PathBuf;
+
+use indicatif::ProgressBar;
+
+use crate::calib::detmax::{DetmaxOptions, random_design};
+use crate::calib::pipeline::{Choice, select};
+use crate::commands::identify::OptionChoice;
+use crate::dataset::{Pose, PoseRow};
+use crate::error::Error;
+use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::io::pose_list;
+
+/// Choose the N candidate poses that identify the model best (D-optimal, DETMAX).
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+lrmcal plan --out candidates.csv && lrmcal select --candidates candidates.csv --out selection.csv\n  \
+lrmcal select --candidates candidates.csv --n 60 --option all --out selection.csv\n\n\
+The Jacobian is taken on the nominal arm under each --load-kg (default: the paper's \
+0.0663 kg). With --option all, one list per option is written, named \
+<out stem>-<option>.csv.")]
+pub struct Args {
+    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
+    pub arm: ArmSource,
+    /// Candidate pose list CSV (`pose,q1_deg..q6_deg`), e.g. from `lrmcal plan`.
+    #[arg(long, value_name = "FILE")]
+    pub candidates: PathBuf,
+    /// Poses to select.
+    #[arg(long, default_value_t = 50)]
+    pub n: usize,
+    /// Model option: elasto-kinematic, kinematic, elastic or all.
+    #[arg(long, default_value = "elasto-kinematic")]
+    pub option: OptionChoice,
+    /// Loads each pose will be measured under, kg (repeat or comma-separate).
+    #[arg(long, value_name = "KG", value_delimiter = ',', default_values_t = [0.0663])]
+    pub load_kg: Vec<f64>,
+    /// DETMAX random starts.
+    #[arg(long, default_value_t = DetmaxOptions::default().starts)]
+    pub starts: usize,
+    /// Seed of the first DETMAX start.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Random N-pose sets to compare O1 with; 0 skips the comparison.
+    #[arg(long, default_value_t = 20)]
+    pub compare_random: usize,
+    /// Where to write the selected pose list CSV.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: PathBuf,
+}
+
+/// Runs `lrmcal select`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let nominal = args.arm.load()?.arm;
+    let candidates: Vec<Pose> = pose_list::read(&args.candidates)?
+        .into_iter()
+        .map(|r| r.pose)
+        .collect();
+    let options = args.option.options();
+    for option in &options {
+        let pb = ProgressBar::new(args.starts as u64);
+        pb.set_message(format!("{option}: DETMAX"));
+        let choice = Choice::Detmax(DetmaxOptions {
+            n: args.n,
+            starts: args.starts,
+            seed: args.seed,
+            ..Default::default()
+        });
+        let s = select(&nominal, *option, &candidates, &args.load_kg, &choice, &pb)?;
+        pb.finish_and_clear();
+        let ident = &s.candidates.identifiability;
+        println!(
+            "{option}: {} of {} candidate parameters identifiable over {} candidate poses (SVD rank {})",
+            ident.kept.len(),
+            ident.kept.len() + ident.removed.len(),
+            candidates.len(),
+            ident.svd_rank
+        );
+        for line in ident.explain() {
+            println!("  removed {line}");
+        }
+        let o = s.observability;
+        println!(
+            "  {} poses selected: O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4} (column-scaled Jacobian)",
+            s.poses.len(),
+            o.o1,
+            o.o2,
+            o.o3,
+            o.o4,
+            o.o5
+        );
+        if args.compare_random > 0 {
+            let mut o1: Vec<f64> = (0..args.compare_random)
+                .map(|k| {
+                    s.candidates
+                        .observability(&random_design(candidates.len(), args.n, 1000 + k as u64))
+                        .o1
+                })
+                .collect();
+            o1.sort_by(f64::total_cmp);
+            println!(
+                "  median O1 of {} random {}-pose sets: {:.4}",
+                o1.len(),
+                args.n,
+                o1[o1.len() / 2]
+            );
+        }
+        let out = if options.len() > 1 {
+            let stem = args
+                .out
+                .file_stem()
+                .and_then(|s| s.to_str())
+                .unwrap_or("selection");
+            args.out.with_file_name(format!("{stem}-{option}.csv"))
+        } else {
+            args.out.clone()
+        };
+        let rows: Vec<PoseRow> = s
+            .poses
+            .iter()
+            .map(|p| PoseRow {
+                pose: *p,
+                load_kg: None,
+            })
+            .collect();
+        pose_list::write(&out, &rows)?;
+        println!("  wrote {}", out.display());
+    }
+    Ok(())
+}

@@ -1,0 +1,79 @@
+//! `lrmcal validate`: how well a calibration predicts another measurement
+//! file, per load, against the nominal model it was identified from.
+
+use std::path::PathBuf;
+
+use crate::calib::calibration_file::CalibrationFile;
+use crate::calib::checks::check_plausible;
+use crate::calib::validate::validate;
+use crate::commands::identify::loads_of;
+use crate::error::Error;
+use crate::io::arm_source::ArmSource;
+use crate::io::measurements;
+
+/// Check a calibration against measurements it was not identified from.
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Examples:\n  \
+lrmcal validate --calibration cal/calibration-elasto-kinematic.json --measurements other.csv\n  \
+lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
+Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
+before (nominal arm) and after (calibrated). With --arm, the calibration must have been \
+identified from that arm.")]
+pub struct Args {
+    /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
+    #[arg(long, value_name = "FILE")]
+    pub calibration: PathBuf,
+    /// Measurement CSV to validate on.
+    #[arg(long, value_name = "FILE")]
+    pub measurements: PathBuf,
+    /// The nominal arm the calibration must belong to [default: the one recorded in it].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub arm: Option<ArmSource>,
+}
+
+/// Runs `lrmcal validate`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let cal = CalibrationFile::read(&args.calibration)?;
+    if let Some(source) = &args.arm {
+        cal.check_nominal(&source.load()?.arm, &args.calibration)?;
+    }
+    let rows = measurements::read(&args.measurements)?;
+    let file = args.measurements.display().to_string();
+    check_plausible(&cal.nominal, &rows, &file)?;
+    println!(
+        "{} calibration {} on {file}:",
+        cal.option,
+        args.calibration.display()
+    );
+    println!(
+        "{:>8} {:>6} | {:>31} | {:>31} | {:>9}",
+        "load kg",
+        "poses",
+        "before: mean median rms p95 max",
+        "after: mean median rms p95 max",
+        "reduction"
+    );
+    for load in loads_of(&rows) {
+        let set: Vec<_> = rows.iter().filter(|m| m.load_kg == load).copied().collect();
+        let v = validate(&cal.nominal, &cal.arm, &set)?;
+        let fmt = |s: &crate::calib::validate::ErrorStats| {
+            format!(
+                "{:5.2} {:5.2} {:5.2} {:5.2} {:6.2}",
+                s.mean_m * 1e3,
+                s.median_m * 1e3,
+                s.rms_m * 1e3,
+                s.p95_m * 1e3,
+                s.max_m * 1e3
+            )
+        };
+        println!(
+            "{load:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",
+            set.len(),
+            fmt(&v.before),
+            fmt(&v.after),
+            v.reduction_pct
+        );
+    }
+    println!("(errors in mm; 3D distance between measured and predicted tool point)");
+    Ok(())
+}
