@@ -318,7 +318,10 @@ mod tests {
         let chain = arm.chain();
         for pose in candidates(&arm, &config).unwrap().kept {
             let frames = chain.frames(&pose.q, 0.0);
-            assert_eq!(self_contact(&config.bodies, &frames, config.clearance_m), None);
+            assert_eq!(
+                self_contact(&config.bodies, &frames, config.clearance_m),
+                None
+            );
             for b in config.bodies.iter().filter(|b| b.above_ground) {
                 for end in [b.from, b.to] {
                     assert!(
