@@ -60,6 +60,12 @@ pub enum Command {
     Select(commands::select::Args),
     /// Check a calibration against another measurement file.
     Validate(commands::validate::Args),
+    /// Identify the error parameters from measurements and write a calibration file.
+    Identify(commands::identify::Args),
+    /// Choose the poses to measure: D-optimal selection (DETMAX) from candidates.
+    Select(commands::select::Args),
+    /// Check a calibration against another measurement file.
+    Validate(commands::validate::Args),
     /// List the serial ports a board could be on.
     Ports(commands::ports::Args),
     /// Show the board's versions, calibration, compensation, joints and faults.
@@ -94,6 +100,9 @@ impl Command {
             Self::Simulate(args) => commands::simulate::run(args),
             Self::Plan(args) => commands::plan::run(args),
             Self::Demo(args) => commands::demo::run(args),
+            Self::Identify(args) => commands::identify::run(args),
+            Self::Select(args) => commands::select::run(args),
+            Self::Validate(args) => commands::validate::run(args),
             Self::Identify(args) => commands::identify::run(args),
             Self::Select(args) => commands::select::run(args),
             Self::Validate(args) => commands::validate::run(args),

@@ -4,6 +4,7 @@
 
 pub mod compensation;
 pub mod demo;
+pub mod identify;
 pub mod detach;
 pub mod flash;
 pub mod home;
@@ -14,10 +15,12 @@ pub mod payload;
 pub mod plan;
 pub mod ports;
 pub mod predict;
+pub mod select;
 pub mod pull;
 pub mod push;
 pub mod select;
 pub mod servo_tune;
 pub mod simulate;
+pub mod validate;
 pub mod status;
 pub mod validate;
