@@ -4,23 +4,17 @@
 
 pub mod compensation;
 pub mod demo;
-pub mod identify;
 pub mod detach;
 pub mod flash;
 pub mod home;
-pub mod identify;
 pub mod measure;
 pub mod move_;
 pub mod payload;
 pub mod plan;
 pub mod ports;
 pub mod predict;
-pub mod select;
 pub mod pull;
 pub mod push;
-pub mod select;
 pub mod servo_tune;
 pub mod simulate;
-pub mod validate;
 pub mod status;
-pub mod validate;

@@ -17,20 +17,25 @@ pub fn wire_option(option: HostOption) -> ModelOption {
 }
 
 /// The payload for `file`, in single precision, with the home pose `home_rad`.
-/// Its id is the CRC-32 of the payload encoded with id 0, so the same
-/// calibration always has the same id and `status` shows which one is in use.
 pub fn payload(
     file: &CalibrationFile,
     home_rad: [f32; 6],
 ) -> Result<Calibration, CalibrationFault> {
-    let mut calibration = Calibration {
+    identified(Calibration {
         id: 0,
         option: wire_option(file.option),
         nominal: file.nominal.map(|x| x as f32),
         calibrated: file.arm.map(|x| x as f32),
         home_rad,
-    };
+    })
+}
+
+/// Checks `calibration` and gives it its id: the CRC-32 of the payload
+/// encoded with id 0, so the same calibration always has the same id and
+/// `status` shows which one is in use.
+pub fn identified(mut calibration: Calibration) -> Result<Calibration, CalibrationFault> {
     calibration.check()?;
+    calibration.id = 0;
     let mut buf = [0u8; MAX_CALIBRATION_LEN];
     let bytes = calibration
         .encode(&mut buf)

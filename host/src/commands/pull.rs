@@ -1,0 +1,57 @@
+//! `lrmcal pull`: read the calibration stored on the board.
+
+use std::path::PathBuf;
+
+use protocol::Calibration;
+
+use crate::device::DeviceArgs;
+use crate::error::Error;
+use crate::io::atomic;
+
+/// Read the board's calibration back (JSON: id, option, both arms, home pose).
+#[derive(Debug, clap::Args)]
+#[command(after_help = "Example:\n  lrmcal pull --port /dev/ttyACM0 --out on-board.json")]
+pub struct Args {
+    /// Where to write it [default: standard output].
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// The board.
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// The board's calibration as written by `lrmcal pull` (single precision, as stored).
+#[derive(Debug, serde::Serialize)]
+struct Pulled<'a> {
+    schema: &'static str,
+    id: String,
+    option: &'static str,
+    home_deg: [f32; 6],
+    nominal: &'a model::Arm<f32>,
+    calibrated: &'a model::Arm<f32>,
+}
+
+/// Runs `lrmcal pull`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let mut client = args.device.connect()?;
+    let c: Calibration = client.pull_calibration()?;
+    let pulled = Pulled {
+        schema: "lrmcal-board-calibration",
+        id: format!("{:08x}", c.id),
+        option: c.option.name(),
+        home_deg: c.home_rad.map(f32::to_degrees),
+        nominal: &c.nominal,
+        calibrated: &c.calibrated,
+    };
+    let text = serde_json::to_string_pretty(&pulled).map_err(|e| Error::DeviceInput {
+        what: "write the calibration as JSON".into(),
+        reason: e.to_string(),
+    })? + "\n";
+    match &args.out {
+        Some(path) => atomic::write(path, |w| w.write_all(text.as_bytes())),
+        None => {
+            print!("{text}");
+            Ok(())
+        }
+    }
+}

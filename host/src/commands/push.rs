@@ -1,0 +1,58 @@
+//! `lrmcal push`: send a calibration file to the board, which stores it in
+//! flash and uses it from then on.
+
+use std::path::PathBuf;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::calib::calibration_file::CalibrationFile;
+use crate::device::{DeviceArgs, calibration};
+use crate::error::Error;
+
+/// Send a calibration to the board (stored in flash, used at once).
+#[derive(Debug, clap::Args)]
+#[command(
+    after_help = "Example:\n  lrmcal push calibration.json --port /dev/ttyACM0\n\n\
+The board checks the whole calibration (length, CRC, finite values, limits, monotonic servo \
+curves) before it stores it in the flash slot not in use; if the transfer breaks off or the \
+check fails, it keeps the calibration it had."
+)]
+pub struct Args {
+    /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
+    pub calibration: PathBuf,
+    /// Home pose for `lrmcal home` and start-up, six angles in degrees [default: all 0].
+    #[arg(long, num_args = 6, value_name = "DEG", allow_negative_numbers = true)]
+    pub home_deg: Option<Vec<f64>>,
+    /// The board.
+    #[command(flatten)]
+    pub device: DeviceArgs,
+}
+
+/// Runs `lrmcal push`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let file = CalibrationFile::read(&args.calibration)?;
+    let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; 6]);
+    let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
+    let payload = calibration::payload(&file, home_rad).map_err(|fault| Error::DeviceInput {
+        what: format!("prepare `{}` for the board", args.calibration.display()),
+        reason: fault.to_string(),
+    })?;
+    let mut client = args.device.connect()?;
+    let bar = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {bytes}/{total_bytes}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    bar.set_message("sending");
+    let info = client.push_calibration(&payload, |sent, total| {
+        bar.set_length(total as u64);
+        bar.set_position(sent as u64);
+    })?;
+    bar.finish_and_clear();
+    println!(
+        "calibration {:08x} ({}) stored in flash (sequence {}) and in use",
+        info.id,
+        info.option.name(),
+        info.sequence
+    );
+    Ok(())
+}
