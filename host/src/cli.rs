@@ -54,6 +54,12 @@ pub enum Command {
     Plan(commands::plan::Args),
     /// Run the whole calibration on a simulated arm: select, identify, validate, plot.
     Demo(commands::demo::Args),
+    /// Identify the error parameters from measurements and write a calibration file.
+    Identify(commands::identify::Args),
+    /// Choose the poses to measure: D-optimal selection (DETMAX) from candidates.
+    Select(commands::select::Args),
+    /// Check a calibration against another measurement file.
+    Validate(commands::validate::Args),
     /// List the serial ports a board could be on.
     Ports(commands::ports::Args),
     /// Show the board's versions, calibration, compensation, joints and faults.
@@ -88,6 +94,9 @@ impl Command {
             Self::Simulate(args) => commands::simulate::run(args),
             Self::Plan(args) => commands::plan::run(args),
             Self::Demo(args) => commands::demo::run(args),
+            Self::Identify(args) => commands::identify::run(args),
+            Self::Select(args) => commands::select::run(args),
+            Self::Validate(args) => commands::validate::run(args),
             Self::Ports(args) => commands::ports::run(args),
             Self::Status(args) => commands::status::run(args),
             Self::Push(args) => commands::push::run(args),
