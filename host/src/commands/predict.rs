@@ -15,12 +15,14 @@ use crate::io::{pose_list, predictions};
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
 lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
-lrmcal predict --arm my_arm.toml --poses poses.csv > predicted.csv\n\n\
+lrmcal predict --arm my_arm.toml --poses poses.csv > predicted.csv\n  \
+lrmcal predict --arm calibration.json --poses poses.csv --out calibrated.csv\n\n\
 The pose list has columns pose,q1_deg..q6_deg and optionally load_kg. The output has \
 pose,x_mm,y_mm,z_mm: the tool point in the world frame of the deflected arm, as a \
 tracker would measure it.")]
 pub struct Args {
-    /// The arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// calibration `.json` file from `lrmcal identify` or `lrmcal demo` (its calibrated arm).
     #[arg(long, value_name = "NAME|FILE", default_value = crate::io::arm_source::DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).

@@ -1,10 +1,10 @@
 //! Which arm a command works on, as given by `--arm`: the name of a bundled arm
 //! (`lrm`, the default, so a new user needs no files) or a file whose extension
-//! says what it holds (`.toml`: a nominal arm description).
+//! says what it holds: `.toml` a nominal arm description, `.json` a calibration
+//! file written by `lrmcal identify` or `lrmcal demo` (its corrected arm is used).
 //!
-//! To accept another kind of file (a calibration result), add a variant to
-//! [`ArmSource`], its extension in [`ArmSource::from_str`] and its loader in
-//! [`ArmSource::load`].
+//! To accept another kind of file, add a variant to [`ArmSource`], its
+//! extension in [`ArmSource::from_str`] and its loader in [`ArmSource::load`].
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -12,6 +12,7 @@ use std::str::FromStr;
 
 use model::Arm;
 
+use crate::calib::calibration_file::CalibrationFile;
 use crate::error::Error;
 use crate::io::arm_toml::{self, ArmDescription};
 
@@ -28,6 +29,8 @@ pub enum ArmSource {
     Bundled(&'static str),
     /// A nominal arm description file (TOML).
     Description(PathBuf),
+    /// A calibration file (JSON): the calibrated arm it carries.
+    Calibration(PathBuf),
 }
 
 /// An arm ready for use, with a human-readable origin for reports.
@@ -54,8 +57,10 @@ impl FromStr for ArmSource {
         }
         match path.extension().and_then(|e| e.to_str()) {
             Some("toml") => Ok(Self::Description(path.to_owned())),
+            Some("json") => Ok(Self::Calibration(path.to_owned())),
             _ => Err(format!(
-                "expected the name of a bundled arm ({}) or an arm description file ending in .toml, found `{spec}`",
+                "expected the name of a bundled arm ({}), an arm description file ending in .toml \
+                 or a calibration file ending in .json, found `{spec}`",
                 BUNDLED
                     .iter()
                     .map(|(n, _)| *n)
@@ -71,21 +76,36 @@ impl fmt::Display for ArmSource {
         match self {
             Self::Bundled(name) => write!(f, "bundled arm `{name}`"),
             Self::Description(path) => write!(f, "`{}`", path.display()),
+            Self::Calibration(path) => write!(f, "calibration `{}`", path.display()),
         }
     }
 }
 
 impl ArmSource {
     /// Reads and checks the arm.
+    ///
+    /// A calibration file is read by its own module (schema and version
+    /// checked there); it names no arm, so the name says which model option
+    /// calibrated it.
     pub fn load(&self) -> Result<LoadedArm, Error> {
-        let description = match self {
-            Self::Bundled(name) => bundled(name)?,
-            Self::Description(path) => arm_toml::read(path)?,
+        let (name, arm) = match self {
+            Self::Bundled(name) => {
+                let d = bundled(name)?;
+                (d.name, d.arm)
+            }
+            Self::Description(path) => {
+                let d = arm_toml::read(path)?;
+                (d.name, d.arm)
+            }
+            Self::Calibration(path) => {
+                let file = CalibrationFile::read(path)?;
+                (format!("calibrated, {} model", file.option), file.arm)
+            }
         };
         Ok(LoadedArm {
             origin: self.to_string(),
-            name: description.name,
-            arm: description.arm,
+            name,
+            arm,
         })
     }
 }
@@ -106,4 +126,109 @@ pub fn bundled(name: &str) -> Result<ArmDescription, Error> {
         });
     };
     arm_toml::parse(text).map_err(|e| e.in_file(format!("bundled:{name}")))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::ModelOption;
+    use crate::calib::calibration_file::{SCHEMA, SCHEMA_VERSION};
+    use crate::calib::validate::ErrorStats;
+    use crate::error::exit_codes;
+
+    /// A calibration file of the bundled arm whose joint 2 compliance was identified.
+    fn calibration() -> CalibrationFile {
+        let nominal = bundled(DEFAULT_ARM).unwrap().arm;
+        let mut arm = nominal;
+        arm.joints[1].compliance = 0.1;
+        CalibrationFile {
+            schema: SCHEMA.into(),
+            schema_version: SCHEMA_VERSION,
+            option: ModelOption::Elastic,
+            nominal,
+            arm,
+            parameters: vec![],
+            at_bound: vec![],
+            removed: vec![],
+            poses_used: vec![1, 2, 3],
+            loads_kg: vec![0.0663],
+            fit_residual: ErrorStats::of(&[1e-4]),
+            validation: None,
+        }
+    }
+
+    fn load_text(text: &str) -> Result<LoadedArm, Error> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("cal.json");
+        std::fs::write(&path, text).unwrap();
+        path.to_str().unwrap().parse::<ArmSource>().unwrap().load()
+    }
+
+    #[test]
+    fn the_extension_says_what_a_file_holds() {
+        assert_eq!(
+            "a/cal.json".parse::<ArmSource>(),
+            Ok(ArmSource::Calibration("a/cal.json".into()))
+        );
+        assert_eq!(
+            "a/arm.toml".parse::<ArmSource>(),
+            Ok(ArmSource::Description("a/arm.toml".into()))
+        );
+        assert_eq!("lrm".parse::<ArmSource>(), Ok(ArmSource::Bundled("lrm")));
+        let e = "arm.yaml".parse::<ArmSource>().unwrap_err();
+        assert!(
+            e.contains(".toml") && e.contains(".json") && e.contains("arm.yaml"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_calibration_file_gives_its_calibrated_arm() {
+        let file = calibration();
+        let loaded = load_text(&file.to_json()).unwrap();
+        assert_eq!(loaded.arm, file.arm);
+        assert_ne!(loaded.arm, file.nominal);
+        assert!(loaded.origin.contains("cal.json"), "{}", loaded.origin);
+        assert!(loaded.name.contains("elastic"), "{}", loaded.name);
+    }
+
+    #[test]
+    fn other_json_and_other_versions_are_refused_as_invalid_input() {
+        let e = load_text("{\"schema\": \"lrmcal-sim-truth/1\", \"seed\": 1}").unwrap_err();
+        let msg = e.report();
+        assert_eq!(e.exit_code(), exit_codes::INVALID_INPUT, "{msg}");
+        assert!(
+            msg.contains("cal.json") && msg.contains("calibration") && msg.contains(SCHEMA),
+            "{msg}"
+        );
+
+        let json = calibration().to_json().replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 99",
+        );
+        let e = load_text(&json).unwrap_err();
+        let msg = e.report();
+        assert_eq!(e.exit_code(), exit_codes::INVALID_INPUT, "{msg}");
+        assert!(
+            msg.contains("schema_version") && msg.contains("99"),
+            "{msg}"
+        );
+
+        let e = load_text("pose,x_mm\n1,2\n").unwrap_err();
+        assert_eq!(e.exit_code(), exit_codes::INVALID_INPUT);
+        assert!(e.report().contains("not JSON"), "{}", e.report());
+    }
+
+    #[test]
+    fn a_missing_calibration_file_is_a_file_access_error() {
+        let e = ArmSource::Calibration("/nonexistent/cal.json".into())
+            .load()
+            .unwrap_err();
+        assert_eq!(e.exit_code(), exit_codes::FILE_ACCESS);
+        assert!(
+            e.report().contains("/nonexistent/cal.json"),
+            "{}",
+            e.report()
+        );
+    }
 }
