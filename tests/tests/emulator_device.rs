@@ -10,10 +10,12 @@ mod emulator_support;
 
 use std::time::Duration;
 
-use emulator_support::{EmulatedBoard, RawLink, calibration_bytes, test_calibration};
+use emulator_support::{
+    EmulatedBoard, RawLink, calibration_bytes, expected_pulses, test_calibration,
+};
 use host::device::{Client, DeviceArgs, Link};
-use model::{CompensationOptions, JOINTS};
-use protocol::{Calibration, CompensationMode, Faults, Timing};
+use model::JOINTS;
+use protocol::{CompensationMode, Faults, Timing};
 
 /// Servo pulse timing must match the host's computation to this (issue 5).
 const TOLERANCE_US: f64 = 1.0;
@@ -28,47 +30,6 @@ fn connect(board: &EmulatedBoard) -> Client<Box<dyn Link>> {
     };
     args.connect()
         .expect("the host client connects to the emulated board")
-}
-
-/// The pulses the host expects for nominal targets `q` (the firmware's rule, in f64).
-fn expected_pulses(
-    calibration: &Calibration,
-    q: &[f64; JOINTS],
-    mode: CompensationMode,
-    payload_kg: f64,
-) -> [f64; JOINTS] {
-    let nominal = calibration.nominal.map(f64::from);
-    let calibrated = calibration.calibrated.map(f64::from);
-    let chain = calibrated.chain();
-    let command = match mode {
-        CompensationMode::Off => *q,
-        _ => {
-            let target = if mode == CompensationMode::Full {
-                nominal
-                    .chain()
-                    .tool_point(q, payload_kg, &Default::default())
-                    .expect("nominal tool point")
-            } else {
-                chain.rigid_tool_point(q)
-            };
-            let solved = chain
-                .compensate(
-                    q,
-                    &target,
-                    payload_kg,
-                    None,
-                    &CompensationOptions::default(),
-                )
-                .expect("host compensation");
-            assert!(
-                solved.converged,
-                "the host's compensation did not converge for {q:?}"
-            );
-            solved.q
-        }
-    };
-    let command = calibrated.clamp_to_limits(&command);
-    std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
 }
 
 #[test]

@@ -429,3 +429,44 @@ impl RawLink {
         }
     }
 }
+
+/// The pulses the host expects for nominal targets `q` (the firmware's rule, in f64).
+pub fn expected_pulses(
+    calibration: &protocol::Calibration,
+    q: &[f64; model::JOINTS],
+    mode: protocol::CompensationMode,
+    payload_kg: f64,
+) -> [f64; model::JOINTS] {
+    let nominal = calibration.nominal.map(f64::from);
+    let calibrated = calibration.calibrated.map(f64::from);
+    let chain = calibrated.chain();
+    let command = match mode {
+        protocol::CompensationMode::Off => *q,
+        _ => {
+            let target = if mode == protocol::CompensationMode::Full {
+                nominal
+                    .chain()
+                    .tool_point(q, payload_kg, &Default::default())
+                    .expect("nominal tool point")
+            } else {
+                chain.rigid_tool_point(q)
+            };
+            let solved = chain
+                .compensate(
+                    q,
+                    &target,
+                    payload_kg,
+                    None,
+                    &model::CompensationOptions::default(),
+                )
+                .expect("host compensation");
+            assert!(
+                solved.converged,
+                "the host's compensation did not converge for {q:?}"
+            );
+            solved.q
+        }
+    };
+    let command = calibrated.clamp_to_limits(&command);
+    std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
+}
