@@ -150,11 +150,14 @@ fn attach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8
     Ok(Response::Done)
 }
 
-/// `servo/detach`: stops any motion (a limp joint cannot follow it) and the pulses.
+/// `servo/detach`: stops any motion (a limp joint cannot follow it) and, at
+/// once rather than at the next servo frame, the pulses.
 fn detach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
     for i in channels(channel)? {
         d.raw[i] = None;
         d.attached[i] = false;
+        d.pulses[i] = 0;
+        d.bus.set_pulse(i, None);
     }
     d.motion = Profile::hold(d.position);
     d.moving = false;

@@ -1,0 +1,230 @@
+//! The `lrmcal` device commands against the firmware library served on a
+//! local TCP socket (`socket://127.0.0.1:PORT`, the same code path the
+//! emulator uses): push, status, payload, compensation, move, pull, detach,
+//! and the error a user sees when the board refuses.
+
+use std::io::{ErrorKind, Read, Write};
+use std::net::TcpListener;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use firmware::sim::{MockBus, SimFlash};
+use firmware::{Config, Device};
+use host::calib::ModelOption;
+use host::calib::calibration_file::{CalibrationFile, SCHEMA, SCHEMA_VERSION};
+use host::calib::validate::ErrorStats;
+use host::commands::{compensation, detach, move_, payload, pull, push};
+use host::device::DeviceArgs;
+use protocol::frame::{Feed, MAX_FRAME};
+use protocol::{CompensationMode, FrameReader};
+
+/// A board on a local socket: one connection at a time (each command opens
+/// its own), servo frames every 20 ms of wall time. Stops when dropped.
+struct SocketBoard {
+    port: String,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl SocketBoard {
+    fn start() -> Self {
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let port = format!("socket://{}", listener.local_addr().unwrap());
+        listener.set_nonblocking(true).unwrap();
+        let stop = Arc::new(AtomicBool::new(false));
+        let stopped = stop.clone();
+        let thread = std::thread::spawn(move || {
+            let t0 = Instant::now();
+            let now_us = || t0.elapsed().as_micros() as u64;
+            let mut device = Device::new(MockBus::default(), SimFlash::new(), Config::default(), 0);
+            let mut next_frame = 0u64;
+            // Bounded: a test that forgets to stop the board still ends.
+            while !stopped.load(Ordering::Relaxed) && t0.elapsed() < Duration::from_secs(120) {
+                let Ok((mut stream, _)) = listener.accept() else {
+                    std::thread::sleep(Duration::from_millis(2));
+                    continue;
+                };
+                stream
+                    .set_read_timeout(Some(Duration::from_millis(2)))
+                    .unwrap();
+                let mut reader = FrameReader::<MAX_FRAME>::new();
+                let mut buf = [0u8; 512];
+                loop {
+                    if now_us() >= next_frame {
+                        next_frame = now_us() + 20_000;
+                        device.servo_frame(now_us());
+                    }
+                    let n = match stream.read(&mut buf) {
+                        Ok(0) => break,
+                        Ok(n) => n,
+                        Err(e)
+                            if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut) =>
+                        {
+                            continue;
+                        }
+                        Err(_) => break,
+                    };
+                    for &b in &buf[..n] {
+                        if let Feed::Frame(f) = reader.feed(b) {
+                            let f = f.to_vec();
+                            let mut out = [0u8; MAX_FRAME];
+                            let m = device.handle_frame(&f, &mut out);
+                            if stream.write_all(&out[..m]).is_err() {
+                                break;
+                            }
+                        }
+                    }
+                }
+            }
+        });
+        Self {
+            port,
+            stop,
+            thread: Some(thread),
+        }
+    }
+
+    fn args(&self) -> DeviceArgs {
+        DeviceArgs {
+            port: self.port.clone(),
+            timeout_ms: 500,
+            retries: 2,
+        }
+    }
+}
+
+impl Drop for SocketBoard {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
+    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let mut arm = nominal;
+    arm.joints[1].theta += 0.01;
+    arm.joints[2].compliance += 0.05;
+    arm.joints[0].servo.zero = 1630.0;
+    let file = CalibrationFile {
+        schema: SCHEMA.into(),
+        schema_version: SCHEMA_VERSION,
+        option: ModelOption::ElastoKinematic,
+        nominal,
+        arm,
+        parameters: vec![],
+        at_bound: vec![],
+        removed: vec![],
+        poses_used: vec![],
+        loads_kg: vec![],
+        fit_residual: ErrorStats::of(&[0.001]),
+        validation: None,
+    };
+    let path = dir.join("calibration.json");
+    std::fs::write(&path, file.to_json()).unwrap();
+    path
+}
+
+#[test]
+fn device_commands_drive_a_board_on_a_socket() {
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+
+    // Refused before a calibration exists: a clear message and exit code 6.
+    let err = compensation::run(&compensation::Args {
+        mode: compensation::Mode::Full,
+        device: board.args(),
+    })
+    .unwrap_err();
+    assert_eq!(err.exit_code(), 6);
+    assert_eq!(
+        err.report(),
+        "error: failed to talk to the board: `comp/mode`: the board said: no valid calibration on the board"
+    );
+
+    let cal = calibration_json(dir.path());
+    push::run(&push::Args {
+        calibration: cal.clone(),
+        home_deg: None,
+        device: board.args(),
+    })
+    .unwrap();
+    payload::run(&payload::Args {
+        kg: 0.0663,
+        device: board.args(),
+    })
+    .unwrap();
+    compensation::run(&compensation::Args {
+        mode: compensation::Mode::Full,
+        device: board.args(),
+    })
+    .unwrap();
+    move_::run(&move_::Args {
+        angles_deg: vec![10.0, 20.0, -30.0, 0.0, 40.0, 0.0],
+        duration_ms: Some(300),
+        speed_deg_s: None,
+        no_wait: false,
+        device: board.args(),
+    })
+    .unwrap();
+
+    let mut client = board.args().connect().unwrap();
+    let s = client.status().unwrap();
+    assert!(!s.moving);
+    assert_eq!(s.mode, CompensationMode::Full);
+    assert!((s.payload_kg - 0.0663).abs() < 1e-7);
+    let want = [10.0f32, 20.0, -30.0, 0.0, 40.0, 0.0].map(f32::to_radians);
+    assert_eq!(s.nominal_rad, want);
+    assert!(s.pulses_us.iter().all(|&p| (500..=2500).contains(&p)));
+    drop(client);
+
+    let out = dir.path().join("pulled.json");
+    pull::run(&pull::Args {
+        out: Some(out.clone()),
+        device: board.args(),
+    })
+    .unwrap();
+    let pulled: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    assert_eq!(pulled["option"], "elasto-kinematic");
+    assert_eq!(pulled["calibrated"]["joints"][0]["servo"]["zero"], 1630.0);
+    let id = s.calibration.unwrap().id;
+    assert_eq!(pulled["id"], format!("{id:08x}"));
+
+    detach::run(&detach::Args {
+        joint: None,
+        attach: false,
+        device: board.args(),
+    })
+    .unwrap();
+    let s = board.args().connect().unwrap().status().unwrap();
+    assert_eq!(s.pulses_us, [0; 6]);
+}
+
+#[test]
+fn a_port_nobody_listens_on_says_so() {
+    let port = {
+        let l = TcpListener::bind("127.0.0.1:0").unwrap();
+        l.local_addr().unwrap()
+    };
+    let args = DeviceArgs {
+        port: format!("socket://{port}"),
+        timeout_ms: 100,
+        retries: 0,
+    };
+    let err = payload::run(&payload::Args {
+        kg: 0.0,
+        device: args,
+    })
+    .unwrap_err();
+    assert_eq!(err.exit_code(), 6);
+    assert!(
+        err.report().contains("is the board plugged in?"),
+        "{}",
+        err.report()
+    );
+}
