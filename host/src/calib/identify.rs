@@ -401,7 +401,14 @@ pub fn identify(
     }
 
     let arm = nominal_plus(nominal, ids, &errors, &fixed);
-    let norms = residual_norms(&arm, &samples, &measured)?;
+    let norms = residual_norms(&arm, &samples, &measured).map_err(|e| CalibError::Solver {
+        option: option.name().into(),
+        reason: format!(
+            "the fit ended where the model cannot be evaluated ({e}); {} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
+            samples.len(),
+            ids.len()
+        ),
+    })?;
     let free: Vec<ParamId> = ids.iter().copied().filter(|p| !fixed.contains(p)).collect();
     let mut j = jacobian(&arm, &free, &samples, &JacobianOptions::default())?;
     for (k, w) in weights.iter().enumerate() {

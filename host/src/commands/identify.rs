@@ -11,7 +11,9 @@ use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::checks::{check_in_candidates, check_plausible};
 use crate::calib::detmax::DetmaxOptions;
 use crate::calib::identify::IdentifyOptions;
-use crate::calib::pipeline::{Choice, MeasurementIndex, OptionResult, calibrate_option};
+use crate::calib::pipeline::{
+    CandidateBlocks, Choice, MeasurementIndex, OptionResult, calibrate_option,
+};
 use crate::calib::report::{OptionReport, Report, table};
 use crate::calib::validate::{ErrorStats, error_norms};
 use crate::calib::{CalibError, ModelOption};
@@ -191,7 +193,29 @@ pub fn run(args: &Args) -> Result<(), Error> {
     })?;
 
     let mut results: Vec<OptionResult> = Vec::new();
+    // What the arm's structure lets positions identify, over the whole
+    // -100/0/+100° grid: the measured poses must identify no less.
+    let grid: Vec<Pose> = crate::plan::Levels::paper().grid().collect();
     for option in args.option.options() {
+        let structural = CandidateBlocks::build(&nominal, option, &grid, &[load])?
+            .identifiability
+            .kept;
+        let measured_blocks = CandidateBlocks::build(&nominal, option, &measured, &[load])?;
+        let kept = &measured_blocks.identifiability.kept;
+        if kept.len() < structural.len() {
+            let missing: Vec<&str> = structural
+                .iter()
+                .filter(|p| !kept.contains(p))
+                .map(|p| p.name())
+                .collect();
+            return Err(CalibError::RankDeficient {
+                option: option.name().into(),
+                rank: kept.len(),
+                params: structural.len(),
+                weakest: missing.join(", "),
+            }
+            .into());
+        }
         let pb = ProgressBar::new(args.starts as u64);
         if let Ok(style) = ProgressStyle::with_template("{msg:<30} {bar:30} {pos}/{len} {elapsed}")
         {

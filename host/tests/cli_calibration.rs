@@ -1,0 +1,325 @@
+//! `lrmcal select`, `identify`, `validate` and `demo` run as a user runs them,
+//! and the bad inputs of issue 3: each a clear error naming the problem.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use host::calib::calibration_file::CalibrationFile;
+use host::dataset::Measurement;
+use host::io::measurements;
+
+fn lrmcal(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
+        .args(args)
+        .output()
+        .expect("lrmcal runs")
+}
+
+fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+fn p(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
+}
+
+/// Plans candidates and simulates both loads on them into `dir`.
+fn simulated(dir: &Path) -> (String, String) {
+    let cand = dir.join("cand.csv");
+    let meas = dir.join("m.csv");
+    assert!(lrmcal(&["plan", "--out", p(&cand)]).status.success());
+    let out = lrmcal(&["simulate", "--loads", "0,0.0663", "--out", p(&meas)]);
+    assert!(out.status.success(), "{}", text(&out));
+    (p(&cand).to_owned(), p(&meas).to_owned())
+}
+
+#[test]
+fn select_identify_validate_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cand, meas) = simulated(dir.path());
+    let sel = dir.path().join("sel.csv");
+    let out = lrmcal(&[
+        "select",
+        "--candidates",
+        &cand,
+        "--out",
+        p(&sel),
+        "--compare-random",
+        "5",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains("O1") && text(&out).contains("tool.roll"),
+        "{}",
+        text(&out)
+    );
+    let cal = dir.path().join("cal");
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        &meas,
+        "--load-kg",
+        "0.0663",
+        "--poses",
+        p(&sel),
+        "--candidates",
+        &cand,
+        "--out",
+        p(&cal),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let file = cal.join("calibration-elasto-kinematic.json");
+    let parsed = CalibrationFile::read(&file).expect("a valid calibration file");
+    assert_eq!(parsed.poses_used.len(), 50);
+    let v = parsed.validation.expect("validated on the other poses");
+    assert!(v.after.mean_m < 0.2 * v.before.mean_m, "{v:?}");
+    assert!(cal.join("report.json").exists());
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        &meas,
+        "--arm",
+        "lrm",
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(text(&out).contains("0.0663"), "{}", text(&out));
+}
+
+#[test]
+fn bad_inputs_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let (cand, meas) = simulated(dir.path());
+    // Several loads and no --load-kg: the user must choose.
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        &meas,
+        "--select",
+        "50",
+        "--out",
+        p(&dir.path().join("a")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(text(&out).contains("--load-kg"), "{}", text(&out));
+    // Too few poses for the parameters.
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        &meas,
+        "--load-kg",
+        "0",
+        "--select",
+        "5",
+        "--out",
+        p(&dir.path().join("b")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out).contains("32 parameters from 5 poses"),
+        "{}",
+        text(&out)
+    );
+    // Metres where millimetres are expected.
+    let rows = measurements::read(Path::new(&meas)).unwrap();
+    let metres: Vec<Measurement> = rows
+        .iter()
+        .map(|m| Measurement {
+            position: m.position / 1000.0,
+            ..*m
+        })
+        .collect();
+    let bad = dir.path().join("metres.csv");
+    measurements::write(&bad, &metres).unwrap();
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&bad),
+        "--load-kg",
+        "0",
+        "--out",
+        p(&dir.path().join("c")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out).contains("metres.csv") && text(&out).contains("look like metres"),
+        "{}",
+        text(&out)
+    );
+    assert!(
+        !dir.path()
+            .join("c")
+            .join("calibration-elasto-kinematic.json")
+            .exists()
+    );
+    // A measured pose that is not a candidate.
+    let mut moved = rows.clone();
+    let id = moved[0].pose.id;
+    for m in moved.iter_mut().filter(|m| m.pose.id == id) {
+        m.pose.q[0] += 0.2;
+    }
+    let shifted = dir.path().join("shifted.csv");
+    measurements::write(&shifted, &moved).unwrap();
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&shifted),
+        "--candidates",
+        &cand,
+        "--load-kg",
+        "0",
+        "--out",
+        p(&dir.path().join("d")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out).contains("not in the candidate pose list"),
+        "{}",
+        text(&out)
+    );
+    // Too few poses to pin the compliances down: the fit says so instead of
+    // returning a calibration.
+    let three = dir.path().join("three.csv");
+    let few: Vec<Measurement> = rows
+        .iter()
+        .filter(|m| m.load_kg == 0.0)
+        .take(3)
+        .copied()
+        .collect();
+    measurements::write(&three, &few).unwrap();
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&three),
+        "--option",
+        "elastic",
+        "--out",
+        p(&dir.path().join("e")),
+    ]);
+    assert!(!out.status.success());
+    assert!(text(&out).contains("poses"), "{}", text(&out));
+    // A rank-deficient selection: twelve measurements of one configuration.
+    let same = dir.path().join("same.csv");
+    let copies: Vec<Measurement> = (1..=12)
+        .map(|id| Measurement {
+            pose: host::dataset::Pose { id, ..rows[0].pose },
+            ..rows[0]
+        })
+        .collect();
+    measurements::write(&same, &copies).unwrap();
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&same),
+        "--out",
+        p(&dir.path().join("f")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(text(&out).contains("rank deficient"), "{}", text(&out));
+}
+
+#[test]
+fn validate_refuses_a_calibration_of_another_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, meas) = simulated(dir.path());
+    let cal = dir.path().join("cal");
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        &meas,
+        "--load-kg",
+        "0.0663",
+        "--select",
+        "40",
+        "--option",
+        "elastic",
+        "--out",
+        p(&cal),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let other = dir.path().join("other.toml");
+    let arm_text = host::io::arm_source::BUNDLED[0]
+        .1
+        .replacen("d = 0.09", "d = 0.10", 1);
+    assert_ne!(
+        arm_text,
+        host::io::arm_source::BUNDLED[0].1,
+        "the bundled arm has a d = 0.09 line"
+    );
+    std::fs::write(&other, arm_text).unwrap();
+    let file = cal.join("calibration-elastic.json");
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        &meas,
+        "--arm",
+        p(&other),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out).contains("another nominal arm") && text(&out).contains("j1.d"),
+        "{}",
+        text(&out)
+    );
+    // A truncated calibration file.
+    let json = std::fs::read_to_string(&file).unwrap();
+    let cut = dir.path().join("cut.json");
+    std::fs::write(&cut, &json[..json.len() / 3]).unwrap();
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&cut),
+        "--measurements",
+        &meas,
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(
+        text(&out).contains("cut.json") && text(&out).contains("not JSON"),
+        "{}",
+        text(&out)
+    );
+}
+
+#[test]
+fn demo_writes_its_folder_and_prints_the_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let out_dir = dir.path().join("demo");
+    let out = lrmcal(&[
+        "demo",
+        "--compare-random",
+        "2",
+        "--starts",
+        "2",
+        "--out",
+        p(&out_dir),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let t = text(&out);
+    for needle in [
+        "kinematic",
+        "elastic",
+        "elasto-kinematic",
+        "reduction",
+        "cross-load",
+    ] {
+        assert!(t.contains(needle), "{needle} missing from {t}");
+    }
+    for f in [
+        "calibration-elasto-kinematic.json",
+        "report.json",
+        "errors.svg",
+        "errors.png",
+        "per-pose.svg",
+        "o1-vs-poses.png",
+        "measurements.csv",
+    ] {
+        assert!(out_dir.join(f).exists(), "{f} not written");
+    }
+}
