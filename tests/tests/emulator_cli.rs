@@ -20,7 +20,13 @@ use serde_json::json;
 const TOLERANCE_US: f64 = 1.0;
 
 /// Runs one `lrmcal` command line in this process, exactly as the binary would.
+/// Device commands get `--timeout-ms 5000`: the emulated board answers in emulated time, which
+/// runs slower than the wall clock while the CPU is busy (and CI machines are small).
 fn lrmcal(args: &[&str]) {
+    let mut args = args.to_vec();
+    if args.contains(&"--port") {
+        args.extend(["--timeout-ms", "5000"]);
+    }
     let argv = std::iter::once("lrmcal").chain(args.iter().copied());
     let cli = host::cli::Cli::try_parse_from(argv)
         .unwrap_or_else(|e| panic!("lrmcal {}: {e}", args.join(" ")));
