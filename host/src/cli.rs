@@ -27,13 +27,18 @@ use crate::error::Error;
     long_about = "Calibrate a cheap 6-DOF arm (3D-printed links, hobby RC servos, no encoders) \
 from measured 3D positions of its tool point.\n\n\
 The arm is described by a TOML file (geometry, masses, servo curves); measurements and \
-pose lists are CSV files with angles in degrees and positions in millimetres. Every \
-command that needs an arm uses the bundled LRM-like arm when --arm is omitted, so the \
-commands below work on a fresh checkout with no files of your own.",
+pose lists are CSV files with angles in degrees and positions in millimetres; a \
+calibration is a JSON file holding the calibrated arm. Every command that needs an arm \
+uses the bundled LRM-like arm when --arm is omitted, so the commands below work on a \
+fresh checkout with no files of your own. The formats are described in docs/FORMATS.md \
+of the source tree.",
     after_help = "Examples:\n  \
-lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
-lrmcal predict --arm my_arm.toml --poses poses.csv --out predicted.csv\n  \
-lrmcal help predict\n\n\
+lrmcal demo                       # the whole method on a simulated arm\n  \
+lrmcal plan --out candidates.csv\n  \
+lrmcal simulate --poses candidates.csv --out measurements.csv\n  \
+lrmcal identify --measurements measurements.csv --load-kg 0.0663 --select 50 --out cal\n  \
+lrmcal predict --arm cal/calibration-elasto-kinematic.json --poses poses.csv --out predicted.csv\n  \
+lrmcal help identify\n\n\
 Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
 written, 5 model evaluation failed, 6 the board could not be reached or refused."
 )]

@@ -142,9 +142,14 @@ fn bad_input_gives_exit_codes_and_names_the_file() {
     assert_eq!(run.status.code(), Some(4));
     assert!(stderr(&run).contains("absent.csv"));
 
-    let run = lrmcal(&["predict", "--arm", "arm.json", "--poses", "x.csv"]);
+    let run = lrmcal(&["predict", "--arm", "arm.yaml", "--poses", "x.csv"]);
     assert_eq!(run.status.code(), Some(2));
-    assert!(stderr(&run).contains(".toml"));
+    assert!(stderr(&run).contains(".toml") && stderr(&run).contains(".json"));
+
+    // A calibration file (.json) is a kind of arm file: a missing one is a file error.
+    let run = lrmcal(&["predict", "--arm", "absent.json", "--poses", "x.csv"]);
+    assert_eq!(run.status.code(), Some(4));
+    assert!(stderr(&run).contains("absent.json"));
 
     let run = lrmcal(&["predict", "--poses", "x.csv", "--load-kg", "-1"]);
     assert_eq!(run.status.code(), Some(2));
