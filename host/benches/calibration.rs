@@ -1,1 +1,155 @@
-fn main() {}
+//! Cost of the calibration engine on the bundled arm: DETMAX over the ~400
+//! planner candidates and over the 5^6 = 15,625-pose grid, how DETMAX grows
+//! with the number of candidates and with N, the Jacobian over the
+//! candidates, one identification from 50 poses, and the whole demo pipeline
+//! (three options plus the reverse cross-load fit).
+//!
+//! Run: `cargo bench -p host --bench calibration`.
+
+#![allow(
+    missing_docs,
+    reason = "the criterion macros generate an undocumented public function"
+)]
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use host::calib::ModelOption;
+use host::calib::detmax::{DetmaxOptions, detmax};
+use host::calib::identify::{IdentifyOptions, identify};
+use host::calib::pipeline::{CandidateBlocks, Choice, MeasurementIndex, calibrate_option};
+use host::dataset::{Measurement, Pose};
+use host::plan::{Levels, PlanConfig, candidates};
+use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
+use indicatif::ProgressBar;
+use model::Arm;
+
+const LOAD: f64 = 0.0663;
+
+fn setup() -> (Arm<f64>, Vec<Pose>, Vec<Measurement>) {
+    let nominal = host::io::arm_source::bundled("lrm")
+        .expect("bundled arm")
+        .arm;
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
+    let all = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    (nominal, poses, all)
+}
+
+/// One DETMAX start (the demo runs 8), N = 50, elasto-kinematic.
+fn one_start(n: usize) -> DetmaxOptions {
+    DetmaxOptions {
+        n,
+        starts: 1,
+        ..Default::default()
+    }
+}
+
+fn benches(c: &mut Criterion) {
+    let (nominal, poses, all) = setup();
+    let ek = ModelOption::ElastoKinematic;
+
+    let mut g = c.benchmark_group("candidates");
+    g.sample_size(10);
+    g.bench_function("jacobian_405_candidates_ek", |b| {
+        b.iter(|| CandidateBlocks::build(&nominal, ek, black_box(&poses), &[LOAD]).expect("blocks"))
+    });
+    let blocks = CandidateBlocks::build(&nominal, ek, &poses, &[LOAD]).expect("blocks");
+    g.bench_function("detmax_405_candidates_n50_one_start", |b| {
+        b.iter(|| {
+            detmax(
+                black_box(&blocks.blocks),
+                &one_start(50),
+                &ProgressBar::hidden(),
+            )
+            .expect("detmax")
+        })
+    });
+    for n in [25, 50, 100] {
+        g.bench_with_input(
+            BenchmarkId::new("detmax_405_candidates_one_start_n", n),
+            &n,
+            |b, &n| {
+                b.iter(|| {
+                    detmax(&blocks.blocks, &one_start(n), &ProgressBar::hidden()).expect("detmax")
+                })
+            },
+        );
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("grid");
+    g.sample_size(10).measurement_time(Duration::from_secs(20));
+    for levels in [3, 4, 5] {
+        let grid: Vec<Pose> = Levels::even(levels).expect("levels").grid().collect();
+        let grid_blocks = CandidateBlocks::build(&nominal, ek, &grid, &[LOAD]).expect("blocks");
+        g.bench_with_input(
+            BenchmarkId::new("detmax_grid_candidates_n50_one_start", grid.len()),
+            &grid_blocks,
+            |b, gb| {
+                b.iter(|| {
+                    detmax(&gb.blocks, &one_start(50), &ProgressBar::hidden()).expect("detmax")
+                })
+            },
+        );
+    }
+    g.finish();
+
+    let mut g = c.benchmark_group("identify");
+    g.sample_size(10);
+    let design = detmax(
+        &blocks.blocks,
+        &DetmaxOptions::default(),
+        &ProgressBar::hidden(),
+    )
+    .expect("detmax");
+    let ids: Vec<u32> = design.chosen.iter().map(|&i| poses[i].id).collect();
+    let fit = MeasurementIndex::new(&all).of(ids, LOAD);
+    let kept = blocks.identifiability.kept.clone();
+    g.bench_function("identify_ek_50_poses", |b| {
+        b.iter(|| {
+            identify(
+                &nominal,
+                ek,
+                &kept,
+                black_box(&fit),
+                &IdentifyOptions::default(),
+            )
+            .expect("fit")
+        })
+    });
+    g.finish();
+
+    let mut g = c.benchmark_group("pipeline");
+    g.sample_size(10).measurement_time(Duration::from_secs(40));
+    g.bench_function("demo_three_options_and_reverse_cross_load", |b| {
+        b.iter(|| {
+            let choice = Choice::Detmax(DetmaxOptions::default());
+            let run = |option, load, other| {
+                calibrate_option(
+                    &nominal,
+                    option,
+                    &poses,
+                    &all,
+                    load,
+                    Some(other),
+                    &choice,
+                    &IdentifyOptions::default(),
+                    &ProgressBar::hidden(),
+                )
+                .expect("calibrate")
+            };
+            for option in ModelOption::ALL {
+                black_box(run(option, LOAD, 0.0));
+            }
+            black_box(run(ek, 0.0, LOAD))
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(calibration, benches);
+criterion_main!(calibration);

@@ -170,7 +170,7 @@ pub fn analyse_jacobian(option: ModelOption, ids: &[ParamId], j: &DMatrix<f64>) 
     let smax = sv.max();
     let svd_rank = sv.iter().filter(|&&s| s > smax * RANK_TOLERANCE).count();
     let kept_sv = &kept_svd.singular_values;
-    let kept_condition = if kept_sv.len() > 0 {
+    let kept_condition = if !kept_sv.is_empty() {
         kept_sv.max() / kept_sv.min()
     } else {
         1.0

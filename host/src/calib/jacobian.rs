@@ -146,13 +146,12 @@ mod tests {
         let samples = small_samples(6);
         let j1 = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
         let j2 = jacobian(&arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
-        for c in 0..ids.len() {
+        for (c, id) in ids.iter().enumerate() {
             let scale = j1.column(c).norm().max(1e-3);
             let diff = (j1.column(c) - j2.column(c)).norm();
             assert!(
                 diff < 1e-6 * scale,
-                "{}: |dJ| = {diff:e}, |J| = {scale:e}",
-                ids[c]
+                "{id}: |dJ| = {diff:e}, |J| = {scale:e}"
             );
         }
     }
