@@ -100,7 +100,12 @@ if (args.flash && existsSync(args.flash)) {
   log(`flash loaded from ${args.flash}`);
 }
 
-const board = new Board({ elf, flash: flashImage, servoPins, realtime: !args.fast, log: emulatorLog });
+let board;
+try {
+  board = new Board({ elf, flash: flashImage, servoPins, realtime: !args.fast, log: emulatorLog });
+} catch (e) {
+  fail(`${args.elf}: ${e.message}`);
+}
 
 const rawRtt = [];
 const rttLines = [];

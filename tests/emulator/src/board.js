@@ -5,7 +5,6 @@
 
 import { EventEmitter } from 'node:events';
 import { RP2040 } from 'rp2040js';
-import { FLASH_BASE } from './elf.js';
 import { FlashServices } from './flash.js';
 import { PwmCapture } from './pwm-capture.js';
 import { buildRom, FAULT_TRAP, LOOKUP_TRAP, ROM_CODE_END, serviceAddress, serviceName } from './rom.js';
@@ -92,6 +91,11 @@ export class Board extends EventEmitter {
     mcu.loadBootrom(this.rom); // resets the core (which reads our vectors) and erases flash
     if (flashImage) mcu.flash.set(flashImage);
     else this.elf.writeFlash(mcu.flash);
+    if (mcu.flashView.getUint32(0, true) === 0xffffffff) {
+      throw new Error(
+        'flash is blank at 0x10000000: the ELF has no boot2 (link the firmware with embassy-rp\'s link-rp.x)',
+      );
+    }
     mcu.peripherals[XIP_CTRL_KEY] = new XipCtrlStub(mcu);
     mcu.core.reset(); // vectors are in ROM; reset again now that flash holds boot2
 
@@ -258,10 +262,5 @@ export class Board extends EventEmitter {
     const due = this.timers.filter((t) => t.at <= now);
     this.timers = this.timers.filter((t) => t.at > now);
     for (const t of due) t.fn();
-  }
-
-  /** Where the firmware's image ends in flash, for messages. */
-  imageEnd() {
-    return this.elf.segments.reduce((end, s) => Math.max(end, s.paddr + s.data.length - FLASH_BASE), 0);
   }
 }
