@@ -18,7 +18,8 @@ use crate::io::pose_list;
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
 lrmcal plan --out candidates.csv && lrmcal select --candidates candidates.csv --out selection.csv\n  \
-lrmcal select --candidates candidates.csv --n 60 --option all --out selection.csv\n\n\
+lrmcal select --candidates candidates.csv --n 60 --option all --out selection.csv\n  \
+lrmcal select --candidates candidates.csv --evaluate my_poses.csv   # O1..O5 of your own set\n\n\
 The Jacobian is taken on the nominal arm under each --load-kg (default: the paper's \
 0.0663 kg). With --option all, one list per option is written, named \
 <out stem>-<option>.csv.")]
@@ -47,9 +48,13 @@ pub struct Args {
     /// Random N-pose sets to compare O1 with; 0 skips the comparison.
     #[arg(long, default_value_t = 20)]
     pub compare_random: usize,
+    /// Instead of selecting, print the observability indices of this pose
+    /// list (a subset of the candidates) and compare it with random sets.
+    #[arg(long, value_name = "FILE", conflicts_with = "out")]
+    pub evaluate: Option<PathBuf>,
     /// Where to write the selected pose list CSV.
-    #[arg(long, short, value_name = "FILE")]
-    pub out: PathBuf,
+    #[arg(long, short, value_name = "FILE", required_unless_present = "evaluate")]
+    pub out: Option<PathBuf>,
 }
 
 /// Runs `lrmcal select`.
@@ -63,12 +68,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
     for option in &options {
         let pb = ProgressBar::new(args.starts as u64);
         pb.set_message(format!("{option}: DETMAX"));
-        let choice = Choice::Detmax(DetmaxOptions {
-            n: args.n,
-            starts: args.starts,
-            seed: args.seed,
-            ..Default::default()
-        });
+        let choice = match &args.evaluate {
+            Some(path) => Choice::Given(pose_list::read(path)?.iter().map(|r| r.pose.id).collect()),
+            None => Choice::Detmax(DetmaxOptions {
+                n: args.n,
+                starts: args.starts,
+                seed: args.seed,
+                ..Default::default()
+            }),
+        };
         let s = select(&nominal, *option, &candidates, &args.load_kg, &choice, &pb)?;
         pb.finish_and_clear();
         let ident = &s.candidates.identifiability;
@@ -84,39 +92,44 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         let o = s.observability;
         println!(
-            "  {} poses selected: O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4} (column-scaled Jacobian)",
+            "  {} poses {}: O1 {:.4}  O2 {:.4}  O3 {:.4}  O4 {:.4}  O5 {:.4} (column-scaled Jacobian)",
             s.poses.len(),
+            if args.evaluate.is_some() {
+                "given"
+            } else {
+                "selected"
+            },
             o.o1,
             o.o2,
             o.o3,
             o.o4,
             o.o5
         );
+        let n = s.poses.len();
         if args.compare_random > 0 {
             let mut o1: Vec<f64> = (0..args.compare_random)
                 .map(|k| {
                     s.candidates
-                        .observability(&random_design(candidates.len(), args.n, 1000 + k as u64))
+                        .observability(&random_design(candidates.len(), n, 1000 + k as u64))
                         .o1
                 })
                 .collect();
             o1.sort_by(f64::total_cmp);
             println!(
-                "  median O1 of {} random {}-pose sets: {:.4}",
+                "  median O1 of {} random {n}-pose sets: {:.4}",
                 o1.len(),
-                args.n,
                 o1[o1.len() / 2]
             );
         }
+        let Some(out) = &args.out else { continue };
         let out = if options.len() > 1 {
-            let stem = args
-                .out
+            let stem = out
                 .file_stem()
                 .and_then(|s| s.to_str())
                 .unwrap_or("selection");
-            args.out.with_file_name(format!("{stem}-{option}.csv"))
+            out.with_file_name(format!("{stem}-{option}.csv"))
         } else {
-            args.out.clone()
+            out.clone()
         };
         let rows: Vec<PoseRow> = s
             .poses
