@@ -5,7 +5,10 @@
 //! [`protocol::FrameReader`] into [`Device::handle_frame`], calls
 //! [`Device::servo_frame`] every 20 ms, and implements the two small traits
 //! [`ServoBus`] (PWM outputs) and [`FlashStorage`] (the two calibration
-//! sectors). Neither call blocks on I/O or panics, whatever the bytes.
+//! sectors). Neither call waits on I/O or panics, whatever the bytes; the
+//! one slow step is `calib/commit` / `calib/erase`, which erase and program
+//! one 4 KiB flash sector inside `handle_frame` (tens of ms on the RP2040,
+//! during which the PWM hardware keeps the last pulses).
 //!
 //! | module | what it holds |
 //! |---|---|
