@@ -234,3 +234,69 @@ fn detmax_beats_random_selection() {
         "validation {detmax_mean} vs {mean:?}"
     );
 }
+
+/// Why the bundled arm keeps the parameters it keeps: every removal is one of
+/// the arm's known structural redundancies, and the greedy choice and the SVD
+/// agree on the rank.
+#[test]
+fn bundled_arm_removals_are_the_structural_redundancies() {
+    let nominal = bundled();
+    let poses = candidate_poses(&nominal);
+    let name = |n: &str| ParamId::from_name(n).expect("parameter name");
+    let a = host::calib::identifiability::analyse(
+        &nominal,
+        ModelOption::ElastoKinematic,
+        &poses
+            .iter()
+            .map(|p| Sample {
+                id: p.id,
+                q: p.q,
+                load_kg: LOAD,
+            })
+            .collect::<Vec<_>>(),
+    )
+    .expect("analyse");
+    assert_eq!(a.kept.len(), a.svd_rank, "{:?}", a.explain());
+    let removed = |n: &str| a.removed.iter().find(|r| r.id == name(n));
+    // The measured point is the tool frame's origin: its rotation has no effect.
+    for n in ["tool.roll", "tool.pitch", "tool.yaw"] {
+        assert!(
+            removed(n).is_some_and(|r| r.confounded_with.is_empty()),
+            "{n}: {:?}",
+            a.explain()
+        );
+    }
+    // On the level nominal base, gravity has no torque about joint 1's vertical axis.
+    assert!(removed("k1").is_some_and(|r| r.confounded_with.is_empty()));
+    // Base yaw and height repeat joint 1's theta and d.
+    assert_eq!(
+        removed("base.yaw").map(|r| r.confounded_with[0].0),
+        Some(name("j1.theta"))
+    );
+    assert_eq!(
+        removed("base.z").map(|r| r.confounded_with[0].0),
+        Some(name("j1.d"))
+    );
+    // Every other removal is confounded with kept parameters, not dropped for noise.
+    for r in &a.removed {
+        assert!(r.residual < 1e-6, "{}: residual {}", r.id, r.residual);
+    }
+    let kin = host::calib::identifiability::analyse(
+        &nominal,
+        ModelOption::Kinematic,
+        &poses
+            .iter()
+            .map(|p| Sample {
+                id: p.id,
+                q: p.q,
+                load_kg: LOAD,
+            })
+            .collect::<Vec<_>>(),
+    )
+    .expect("analyse");
+    assert_eq!(
+        kin.kept.len() + 6,
+        a.kept.len(),
+        "the kinematic set plus six compliances"
+    );
+}
