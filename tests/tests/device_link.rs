@@ -26,6 +26,8 @@ struct Board {
     now_us: u64,
     /// Bytes the host may still send before the cable is pulled.
     cable_bytes: Option<usize>,
+    /// Replies to lose on the way back, by the request path that caused them.
+    lose_reply_to: Vec<&'static str>,
 }
 
 impl Board {
@@ -36,6 +38,7 @@ impl Board {
             replies: VecDeque::new(),
             now_us: 0,
             cable_bytes: None,
+            lose_reply_to: Vec::new(),
         }
     }
 
@@ -68,9 +71,14 @@ impl Write for Board {
             }
             if let Feed::Frame(f) = self.reader.feed(b) {
                 let f = f.to_vec();
+                let path = protocol::frame::decode::<protocol::Request>(&f).map(|(_, r)| r.path());
                 let mut out = [0u8; MAX_FRAME];
                 let n = self.device().handle_frame(&f, &mut out);
-                self.replies.extend(&out[..n]);
+                if let Some(i) = self.lose_reply_to.iter().position(|p| Ok(*p) == path) {
+                    self.lose_reply_to.remove(i);
+                } else {
+                    self.replies.extend(&out[..n]);
+                }
             }
         }
         Ok(bytes.len())
@@ -328,4 +336,38 @@ fn a_board_of_another_protocol_version_is_named_clearly() {
         "{err:?}"
     );
     assert!(err.to_string().contains("update lrmcal"), "{err}");
+}
+
+#[test]
+fn lost_replies_are_retried_and_a_lost_commit_answer_is_recovered() {
+    let file = calibration_file();
+    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    let mut c = client(Board::new(SimFlash::new()));
+    c.link_mut().lose_reply_to = vec!["status/get", "calib/chunk", "calib/chunk", "calib/commit"];
+    assert!(c.status().unwrap().calibration.is_none(), "status retried");
+    // Chunks are re-sent (harmless), and the commit's lost answer is
+    // recovered from the status: the board did store it.
+    let info = c.push_calibration(&payload, |_, _| {}).unwrap();
+    assert_eq!(info.id, payload.id);
+    assert!(c.link_mut().lose_reply_to.is_empty());
+    c.link_mut().reboot();
+    assert_eq!(
+        c.status().unwrap().calibration.map(|i| i.id),
+        Some(payload.id)
+    );
+}
+
+#[test]
+fn a_silent_board_times_out_after_the_retries() {
+    let mut c = client(Board::new(SimFlash::new()));
+    c.link_mut().lose_reply_to = vec!["status/get"; 3];
+    let err = c.status().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ClientError::Comms(CommsError::Timeout { attempts: 3, .. })
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("after 3 attempts"), "{err}");
 }
