@@ -64,6 +64,10 @@ pub struct Device<B, F> {
     pub(crate) boot_us: u64,
     pub(crate) now_us: u64,
     pub(crate) pending: Option<SystemAction>,
+    /// Correction (command minus nominal) on the servos now, rad.
+    pub(crate) applied_correction: [f32; CHANNELS],
+    /// Time of the last servo frame, µs.
+    pub(crate) last_frame_us: u64,
 }
 
 impl<B: ServoBus, F: FlashStorage> Device<B, F> {
@@ -90,6 +94,8 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             boot_us: now_us,
             now_us,
             pending: None,
+            applied_correction: [0.0; CHANNELS],
+            last_frame_us: now_us,
         };
         device.faults.set(Faults::STORAGE_DAMAGED, report.damaged);
         if let Some(loaded) = report.loaded {
@@ -178,10 +184,28 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         self.moving = !done;
         let driven = (0..CHANNELS).any(|i| self.attached[i] && self.raw[i].is_none());
         let (mode, payload) = (self.mode, self.payload_kg);
-        let command = match &mut self.active {
+        let wanted = match &mut self.active {
             Some(a) if driven => a.compensator.step(&q_nominal, mode, payload),
             _ => q_nominal,
         };
+        // Fade the correction towards the wanted one at a bounded rate; a limp
+        // arm starts again from none.
+        let dt_s = now_us.saturating_sub(self.last_frame_us).min(100_000) as f32 * 1e-6;
+        self.last_frame_us = now_us;
+        let step = self.config.max_correction_rate_rad_s * dt_s;
+        let command: [f32; CHANNELS] = core::array::from_fn(|i| {
+            let target = if driven {
+                wanted[i] - q_nominal[i]
+            } else {
+                0.0
+            };
+            let delta = target - self.applied_correction[i];
+            // A non-finite wish leaves the correction where it is.
+            if delta.is_finite() {
+                self.applied_correction[i] += delta.clamp(-step, step);
+            }
+            q_nominal[i] + self.applied_correction[i]
+        });
         let fell_back = driven
             && mode != CompensationMode::Off
             && self

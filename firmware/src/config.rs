@@ -25,13 +25,18 @@ pub struct Config {
     /// A compensation that moves any joint further than this from its nominal
     /// angle is treated as failed, rad.
     pub max_correction_rad: f32,
+    /// How fast the correction on the servos may change, rad/s: switching
+    /// compensation on or off, a new payload or a new calibration fade in
+    /// instead of jerking the arm. Far above what a move itself needs.
+    pub max_correction_rate_rad_s: f32,
     /// The per-frame compensation solve (warm-started, so few iterations).
     pub compensation: CompensationOptions<f32>,
 }
 
 impl Default for Config {
     /// 500–2500 µs, ±150° hard and ±100° default limits, 1.5 rad/s, 4 rad/s²,
-    /// 0.5 kg, 0.35 rad largest correction, 5 µm / 4 iterations per frame.
+    /// 0.5 kg, 0.35 rad largest correction changing at most 0.5 rad/s,
+    /// 5 µm / 4 iterations per frame.
     fn default() -> Self {
         Self {
             firmware: FirmwareVersion {
@@ -47,6 +52,7 @@ impl Default for Config {
             max_duration_ms: 600_000,
             max_payload_kg: 0.5,
             max_correction_rad: 0.35,
+            max_correction_rate_rad_s: 0.5,
             // f32 carries ~0.05 µm at arm scale and the deflection solve stops at
             // ~4e-6 rad, so a few µm is the tightest tolerance f32 reaches reliably.
             compensation: CompensationOptions {

@@ -423,6 +423,57 @@ fn compensation_runs_every_frame_and_reports() {
     );
 }
 
+#[test]
+fn switching_compensation_fades_the_correction_in_and_out() {
+    let mut h = Harness::boot(SimFlash::new());
+    h.push(&test_calibration(4));
+    h.request(&Request::SetPayload { mass_kg: 0.0663 });
+    h.request(&Request::Home {
+        timing: Timing::DurationMs(0),
+    });
+    h.frames(100);
+    let off = h.dev.bus().now;
+    // µs per rad of the steepest curve, times the largest correction change per 20 ms frame.
+    let cal = test_calibration(4);
+    let slope = cal
+        .calibrated
+        .joints
+        .iter()
+        .map(|j| (j.servo.plus100 - j.servo.minus100) / 200f32.to_radians())
+        .fold(0.0, f32::max);
+    let per_frame = slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    for mode in [CompensationMode::Full, CompensationMode::Off] {
+        assert_eq!(
+            h.request(&Request::SetCompensation { mode }),
+            Response::Done
+        );
+        let mut last = h.dev.bus().now;
+        for _ in 0..100 {
+            h.frames(1);
+            let now = h.dev.bus().now;
+            for i in 0..6 {
+                let jump = (f32::from(now[i].unwrap()) - f32::from(last[i].unwrap())).abs();
+                assert!(
+                    jump <= per_frame,
+                    "{mode:?} joint {i}: {jump} µs in one frame"
+                );
+            }
+            last = now;
+        }
+        if mode == CompensationMode::Full {
+            let moved = (0..6)
+                .map(|i| (i32::from(last[i].unwrap()) - i32::from(off[i].unwrap())).abs())
+                .max();
+            assert!(
+                moved.unwrap() as f32 > 2.0 * per_frame,
+                "the correction spans several frames"
+            );
+        } else {
+            assert_eq!(last, off, "off again: back to the plain curves");
+        }
+    }
+}
+
 /// The firmware's f32 compensation against the host's f64 model: the
 /// calibrated arm (f64) commanded with the f32 solution reaches the nominal
 /// target within 0.05 mm, over 1000 random reachable targets, both payloads.
