@@ -148,3 +148,47 @@ fn garbage_on_the_serial_line_does_not_stop_the_servo_frames() {
     ));
     assert!(board.status()["halted"].is_null());
 }
+
+#[test]
+fn a_peer_of_another_protocol_version_is_refused_clearly() {
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    let mut link = RawLink::connect(&board);
+    let theirs = protocol::PROTOCOL_VERSION.wrapping_add(1);
+    let reply = link.exchange(theirs, &Request::Status);
+    assert_eq!(
+        reply,
+        Some(Response::Error(protocol::WireError::VersionMismatch))
+    );
+    // The board is none the worse for it.
+    assert!(matches!(
+        link.request(&Request::Status),
+        Response::Status(_)
+    ));
+}
+
+#[test]
+fn reboot_to_the_usb_bootloader_goes_through_the_rom() {
+    let mut board = EmulatedBoard::start();
+    board.wait_configured();
+    let mut link = RawLink::connect(&board);
+    // The board may answer before it leaves, or leave first; either way it ends in the ROM.
+    let reply = link.request_or_closed(&Request::RebootToBootloader);
+    assert!(matches!(reply, None | Some(Response::Done)), "{reply:?}");
+    // The emulator stops the clock when the chip leaves for its bootloader: poll its status.
+    let mut halted = String::new();
+    for _ in 0..100 {
+        halted = board.status()["halted"]
+            .as_str()
+            .unwrap_or_default()
+            .to_owned();
+        if !halted.is_empty() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    assert!(
+        halted.contains("USB bootloader"),
+        "the board did not call reset_to_usb_boot: {halted:?}"
+    );
+}

@@ -144,6 +144,10 @@ export class Board extends EventEmitter {
     this.halted = reason;
     this.log(`board halted: ${reason}`);
     this.emit('halted', { reason });
+    // Time stops with the board: let every waiter look now (and see the halt) instead of never.
+    const waiting = this.timers;
+    this.timers = [];
+    setImmediate(() => waiting.forEach((t) => t.fn()));
   }
 
   /** A BKPT/UDF: a ROM service if it sits in our ROM, else the firmware stopping (panic, fault). */

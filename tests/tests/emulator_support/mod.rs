@@ -291,22 +291,8 @@ impl RawLink {
 
     /// Sends one request frame and returns the response with the same sequence number.
     pub fn request(&mut self, request: &protocol::Request) -> protocol::Response {
-        self.seq = self.seq.wrapping_add(1);
-        let mut frame = [0u8; protocol::frame::MAX_FRAME];
-        let n = protocol::frame::encode(self.seq, request, &mut frame).expect("encode request");
-        self.send_bytes(&frame[..n]);
-        let mut byte = [0u8; 1];
-        loop {
-            let got =
-                std::io::Read::read(&mut self.stream, &mut byte).expect("read from the board");
-            assert!(got == 1, "the board closed the serial port");
-            if let protocol::frame::Feed::Frame(frame) = self.reader.feed(byte[0])
-                && let Ok((seq, response)) = protocol::frame::decode::<protocol::Response>(frame)
-                && seq == self.seq
-            {
-                return response;
-            }
-        }
+        self.request_or_closed(request)
+            .expect("the board closed the serial port")
     }
 }
 
@@ -350,9 +336,19 @@ pub fn calibration_bytes(calibration: &protocol::Calibration) -> Vec<u8> {
 impl RawLink {
     /// Sends one request; `None` if the board dropped the connection (it reset) instead.
     pub fn request_or_closed(&mut self, request: &protocol::Request) -> Option<protocol::Response> {
+        self.exchange(protocol::PROTOCOL_VERSION, request)
+    }
+
+    /// Sends one request in a frame of protocol `version` (a peer of another version).
+    pub fn exchange(
+        &mut self,
+        version: u8,
+        request: &protocol::Request,
+    ) -> Option<protocol::Response> {
         self.seq = self.seq.wrapping_add(1);
         let mut frame = [0u8; protocol::frame::MAX_FRAME];
-        let n = protocol::frame::encode(self.seq, request, &mut frame).expect("encode request");
+        let n = protocol::frame::encode_with_version(version, self.seq, request, &mut frame)
+            .expect("encode request");
         if self.stream.write_all(&frame[..n]).is_err() {
             return None;
         }
