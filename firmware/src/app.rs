@@ -54,6 +54,9 @@ pub struct Device<B, F> {
     /// Nominal joint angles of the last servo frame, rad.
     pub(crate) position: [f32; CHANNELS],
     pub(crate) moving: bool,
+    /// Whether the correction is still fading towards the wanted one (the
+    /// servos still move although the motion is over).
+    pub(crate) settling: bool,
     pub(crate) attached: [bool; CHANNELS],
     /// Raw pulses of channels under `servo/raw`, µs.
     pub(crate) raw: [Option<u16>; CHANNELS],
@@ -85,6 +88,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             motion: Profile::hold([0.0; CHANNELS]),
             position: [0.0; CHANNELS],
             moving: false,
+            settling: false,
             attached: [false; CHANNELS],
             raw: [None; CHANNELS],
             pulses: [0; CHANNELS],
@@ -193,6 +197,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         let dt_s = now_us.saturating_sub(self.last_frame_us).min(100_000) as f32 * 1e-6;
         self.last_frame_us = now_us;
         let step = self.config.max_correction_rate_rad_s * dt_s;
+        let mut settling = false;
         let command: [f32; CHANNELS] = core::array::from_fn(|i| {
             let target = if driven {
                 wanted[i] - q_nominal[i]
@@ -203,9 +208,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             // A non-finite wish leaves the correction where it is.
             if delta.is_finite() {
                 self.applied_correction[i] += delta.clamp(-step, step);
+                settling |= delta.abs() > step;
             }
             q_nominal[i] + self.applied_correction[i]
         });
+        self.settling = settling;
         let fell_back = driven
             && mode != CompensationMode::Off
             && self

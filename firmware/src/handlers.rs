@@ -59,7 +59,8 @@ fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Status {
             .as_ref()
             .map_or(CompensationReport::default(), |a| a.compensator.report()),
         payload_kg: d.payload_kg,
-        moving: d.moving,
+        // The servos still move while a correction fades in, though no motion runs.
+        moving: d.moving || d.settling,
         targets_rad: d.motion.end(),
         nominal_rad: d.position,
         pulses_us: d.pulses,

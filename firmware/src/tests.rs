@@ -447,6 +447,11 @@ fn switching_compensation_fades_the_correction_in_and_out() {
             h.request(&Request::SetCompensation { mode }),
             Response::Done
         );
+        h.frames(1);
+        assert!(
+            h.status().moving,
+            "{mode:?}: the servos move while the correction fades"
+        );
         let mut last = h.dev.bus().now;
         for _ in 0..100 {
             h.frames(1);
@@ -460,6 +465,7 @@ fn switching_compensation_fades_the_correction_in_and_out() {
             }
             last = now;
         }
+        assert!(!h.status().moving, "{mode:?}: the fade is over");
         if mode == CompensationMode::Full {
             let moved = (0..6)
                 .map(|i| (i32::from(last[i].unwrap()) - i32::from(off[i].unwrap())).abs())

@@ -271,7 +271,8 @@ pub struct Status {
     pub compensation: CompensationReport,
     /// Payload mass, kg.
     pub payload_kg: f32,
-    /// Whether a motion is running.
+    /// Whether the servos are still moving: a motion runs, or a change of
+    /// compensation (mode, payload, calibration) is still fading in.
     pub moving: bool,
     /// Nominal targets of the current (or last) move, rad.
     pub targets_rad: [f32; JOINTS],
