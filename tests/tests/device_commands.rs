@@ -228,3 +228,67 @@ fn a_port_nobody_listens_on_says_so() {
         err.report()
     );
 }
+
+#[test]
+fn measure_records_each_pose_and_resumes_after_an_interruption() {
+    use host::commands::measure;
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+    let poses = dir.path().join("poses.csv");
+    std::fs::write(
+        &poses,
+        "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n\
+         1,0,10,-20,0,30,0\n\
+         2,5,15,-25,0,35,0\n\
+         3,-5,5,-15,0,25,0\n",
+    )
+    .unwrap();
+    let out = dir.path().join("measured.csv");
+    let tracker = dir.path().join("tracker.txt");
+    let args = |tracker: &std::path::Path| measure::Args {
+        poses: poses.clone(),
+        out: out.clone(),
+        load_kg: Some(0.0663),
+        tracker: Some(tracker.display().to_string()),
+        settle_ms: 0,
+        device: board.args(),
+    };
+
+    // The tracker file runs out after two poses: the run stops, both rows are kept.
+    std::fs::write(
+        &tracker,
+        "x_mm,y_mm,z_mm\n200.5 -30.25 180\n201,-31,181.5\n",
+    )
+    .unwrap();
+    let err = measure::run(&args(&tracker)).unwrap_err();
+    assert!(
+        err.report().contains("ended before pose 3"),
+        "{}",
+        err.report()
+    );
+    let rows = host::io::measurements::read(&out).unwrap();
+    assert_eq!(
+        rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(),
+        vec![1, 2]
+    );
+    assert!((rows[0].position.x - 0.2005).abs() < 1e-12 && rows[1].load_kg == 0.0663);
+
+    // Run again: only pose 3 is measured (its line names it), rows 1 and 2 stay.
+    std::fs::write(&tracker, "3 199 -29 179\n").unwrap();
+    measure::run(&args(&tracker)).unwrap();
+    let rows = host::io::measurements::read(&out).unwrap();
+    assert_eq!(
+        rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(),
+        vec![1, 2, 3]
+    );
+    assert!((rows[2].position.z - 0.179).abs() < 1e-12);
+    // The board ended at pose 3.
+    let s = board.args().connect().unwrap().status().unwrap();
+    let want = [-5.0f32, 5.0, -15.0, 0.0, 25.0, 0.0].map(f32::to_radians);
+    assert!(
+        s.nominal_rad
+            .iter()
+            .zip(&want)
+            .all(|(a, b)| (a - b).abs() < 1e-6)
+    );
+}
