@@ -100,3 +100,49 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn args(image: PathBuf, mount: PathBuf) -> Args {
+        Args {
+            image,
+            port: None,
+            mount: Some(mount),
+            wait_s: 0,
+        }
+    }
+
+    #[test]
+    fn copies_the_image_onto_the_bootloader_drive() {
+        let dir = tempfile::tempdir().unwrap();
+        let drive = dir.path().join("RPI-RP2");
+        std::fs::create_dir(&drive).unwrap();
+        std::fs::write(drive.join(MARKER), "UF2 Bootloader v3.0\n").unwrap();
+        let image = dir.path().join("fw.uf2");
+        std::fs::write(&image, [0x55u8; 1024]).unwrap();
+        run(&args(image, drive.clone())).unwrap();
+        assert_eq!(
+            std::fs::read(drive.join("firmware.uf2")).unwrap(),
+            vec![0x55u8; 1024]
+        );
+    }
+
+    #[test]
+    fn refuses_an_elf_and_a_missing_drive_with_the_way_forward() {
+        let dir = tempfile::tempdir().unwrap();
+        let elf = dir.path().join("firmware");
+        std::fs::write(&elf, b"\x7fELF").unwrap();
+        let err = run(&args(elf, dir.path().into())).unwrap_err();
+        assert!(err.report().contains("elf2uf2-rs") && err.report().contains("cargo firmware-run"));
+        let image = dir.path().join("fw.uf2");
+        std::fs::write(&image, [0u8; 512]).unwrap();
+        let err = run(&args(image, dir.path().join("nowhere"))).unwrap_err();
+        assert!(
+            err.report().contains("no RPI-RP2 drive"),
+            "{}",
+            err.report()
+        );
+    }
+}
