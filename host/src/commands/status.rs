@@ -1,6 +1,6 @@
 //! `lrmcal status`: what the board runs on and what it is doing.
 
-use protocol::{Faults, Status};
+use protocol::{CompensationMode, Faults, Status};
 
 use crate::device::DeviceArgs;
 use crate::error::Error;
@@ -42,19 +42,26 @@ pub fn render(s: &Status) -> String {
         None => out += "calibration none: nominal servo curves and ±100° limits\n",
     }
     let c = s.compensation;
-    out += &format!(
-        "compensation {:?}, payload {:.4} kg, last solve {} ({} iterations, {:.2} µm), {} fallbacks\n",
-        s.mode,
-        s.payload_kg,
-        if c.converged {
-            "converged"
-        } else {
-            "not converged"
-        },
-        c.iterations,
-        c.error_um,
-        c.fallbacks
-    );
+    out += &match s.mode {
+        CompensationMode::Off => format!("compensation off, payload {:.4} kg\n", s.payload_kg),
+        mode => format!(
+            "compensation {}, payload {:.4} kg, last solve {} ({} iterations, {:.2} µm), {} fallbacks\n",
+            if mode == CompensationMode::Full {
+                "full"
+            } else {
+                "elastic only"
+            },
+            s.payload_kg,
+            if c.converged {
+                "converged"
+            } else {
+                "not converged"
+            },
+            c.iterations,
+            c.error_um,
+            c.fallbacks
+        ),
+    };
     out += &format!("motion {}\n", if s.moving { "running" } else { "still" });
     out += "joint  target°   now°      pulse µs\n";
     for i in 0..6 {
@@ -84,4 +91,64 @@ pub fn render(s: &Status) -> String {
         s.frames_dropped
     );
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use protocol::{CalibrationInfo, CompensationReport, DeviceInfo, FirmwareVersion, ModelOption};
+
+    #[test]
+    fn status_reads_for_people() {
+        let mut s = Status {
+            device: DeviceInfo {
+                protocol: 1,
+                firmware: FirmwareVersion {
+                    major: 0,
+                    minor: 1,
+                    patch: 0,
+                },
+            },
+            calibration: Some(CalibrationInfo {
+                id: 0xABC,
+                option: ModelOption::Elastic,
+                sequence: 4,
+            }),
+            mode: CompensationMode::Full,
+            compensation: CompensationReport {
+                converged: true,
+                iterations: 2,
+                error_um: 1.25,
+                fallbacks: 0,
+            },
+            payload_kg: 0.0663,
+            moving: false,
+            targets_rad: [0.5; 6],
+            nominal_rad: [0.5; 6],
+            pulses_us: [1865, 0, 1865, 1865, 1865, 1865],
+            faults: Faults::LIMIT_CLAMPED,
+            frames_dropped: 2,
+            uptime_ms: 1500,
+        };
+        let text = render(&s);
+        assert!(
+            text.contains("calibration 00000abc (elastic), flash sequence 4"),
+            "{text}"
+        );
+        assert!(text.contains(
+            "compensation full, payload 0.0663 kg, last solve converged (2 iterations, 1.25 µm)"
+        ));
+        assert!(
+            text.contains("    2     28.65     28.65      limp"),
+            "{text}"
+        );
+        assert!(text.contains("faults a command was clamped to a limit; 2 frames dropped"));
+        s.mode = CompensationMode::Off;
+        s.calibration = None;
+        let text = render(&s);
+        assert!(
+            text.contains("compensation off, payload") && text.contains("calibration none"),
+            "{text}"
+        );
+    }
 }
