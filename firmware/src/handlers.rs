@@ -141,9 +141,14 @@ fn channels(channel: Option<u8>) -> Result<core::ops::Range<usize>, WireError> {
     }
 }
 
-/// `servo/attach`: hold at the current position.
+/// `servo/attach`: hold at the current position; refused mid-motion, where
+/// holding would be an abrupt stop.
 fn attach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
-    for i in channels(channel)? {
+    let range = channels(channel)?;
+    if d.moving {
+        return Err(WireError::Busy);
+    }
+    for i in range {
         leave_raw(d, i);
         d.attached[i] = true;
     }

@@ -150,6 +150,8 @@ fn moves_are_refused_outside_limits_or_with_nan_and_change_nothing() {
     assert!(h.dev.bus().log.iter().all(|(_, p)| p.is_none()));
     assert_eq!(h.move_to([0.1; 6]), Response::Done);
     assert_eq!(h.move_to([0.2; 6]), Response::Error(WireError::Busy));
+    let attach = Request::Attach { channel: None };
+    assert_eq!(h.request(&attach), Response::Error(WireError::Busy), "no abrupt stop");
 }
 
 #[test]
