@@ -265,7 +265,11 @@ mod boundary_tests {
             .compensate(&q, &target, 0.0, None, &CompensationOptions::default())
             .unwrap();
         assert!(!c.converged);
-        assert!((c.error_m - 0.004).abs() < 1e-4, "closest approach {:e} m", c.error_m);
+        assert!(
+            (c.error_m - 0.004).abs() < 1e-4,
+            "closest approach {:e} m",
+            c.error_m
+        );
         assert!(c.q.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.2));
     }
 }
