@@ -142,6 +142,28 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         });
     }
 
+    /// Replaces the calibration in use without a step on the servos: what the
+    /// new curves would change in a driven joint's pulse is folded into the
+    /// correction, which then fades out at the bounded rate.
+    pub(crate) fn switch_calibration(&mut self, next: Option<(Calibration, u32)>) {
+        match next {
+            Some((calibration, sequence)) => self.apply(calibration, sequence),
+            None => self.active = None,
+        }
+        let (curves, limits) = (self.curves(), self.limits());
+        for i in 0..CHANNELS {
+            if !self.attached[i] || self.raw[i].is_some() || self.pulses[i] == 0 {
+                continue;
+            }
+            let [lo, hi] = limits[i];
+            let angle = curves[i].angle(f32::from(self.pulses[i])).clamp(lo, hi);
+            let keep = angle - self.position[i];
+            if keep.is_finite() {
+                self.applied_correction[i] = keep;
+            }
+        }
+    }
+
     /// The pose `motion/home` goes to and the one assumed at start-up, rad.
     pub(crate) fn home(&self) -> [f32; CHANNELS] {
         self.active

@@ -288,7 +288,7 @@ fn calibration_commit<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Rep
         return Err(WireError::Flash);
     };
     d.faults.set(Faults::FLASH_FAILED, false);
-    d.apply(calibration, sequence);
+    d.switch_calibration(Some((calibration, sequence)));
     Ok(Response::CalibrationStored(
         d.active.as_ref().map(|a| a.info).ok_or(WireError::Flash)?,
     ))
@@ -321,15 +321,14 @@ fn calibration_erase<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Repl
         d.faults.set(Faults::FLASH_FAILED, true);
         // Whatever survived the failed erase is what a reboot would find; run on that.
         let report = d.storage.load();
-        d.active = None;
-        if let Some(l) = report.loaded {
-            d.apply(l.calibration, l.sequence);
-        } else {
+        let survivor = report.loaded.map(|l| (l.calibration, l.sequence));
+        if survivor.is_none() {
             d.mode = CompensationMode::Off;
         }
+        d.switch_calibration(survivor);
         return Err(WireError::Flash);
     }
-    d.active = None;
+    d.switch_calibration(None);
     d.mode = CompensationMode::Off;
     Ok(Response::Done)
 }

@@ -151,7 +151,11 @@ fn moves_are_refused_outside_limits_or_with_nan_and_change_nothing() {
     assert_eq!(h.move_to([0.1; 6]), Response::Done);
     assert_eq!(h.move_to([0.2; 6]), Response::Error(WireError::Busy));
     let attach = Request::Attach { channel: None };
-    assert_eq!(h.request(&attach), Response::Error(WireError::Busy), "no abrupt stop");
+    assert_eq!(
+        h.request(&attach),
+        Response::Error(WireError::Busy),
+        "no abrupt stop"
+    );
 }
 
 #[test]
@@ -479,6 +483,48 @@ fn switching_compensation_fades_the_correction_in_and_out() {
         } else {
             assert_eq!(last, off, "off again: back to the plain curves");
         }
+    }
+}
+
+#[test]
+fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
+    let mut h = Harness::boot(SimFlash::new());
+    h.push(&test_calibration(1));
+    h.request(&Request::Home {
+        timing: Timing::DurationMs(0),
+    });
+    h.frames(100);
+    // Calibration 2: every servo curve shifted by 40 µs (≈ 0.09 rad).
+    let mut next = test_calibration(2);
+    for j in &mut next.calibrated.joints {
+        j.servo.minus100 += 40.0;
+        j.servo.zero += 40.0;
+        j.servo.plus100 += 40.0;
+    }
+    let per_frame = 440.0 * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    for step in [Request::CalibrationErase, Request::Status] {
+        let before = h.dev.bus().now;
+        if step == Request::CalibrationErase {
+            assert_eq!(h.request(&step), Response::Done);
+        } else {
+            assert!(matches!(h.push(&next), Response::CalibrationStored(_)));
+        }
+        let mut last = before;
+        for _ in 0..100 {
+            h.frames(1);
+            let now = h.dev.bus().now;
+            for i in 0..6 {
+                let jump = (f32::from(now[i].unwrap()) - f32::from(last[i].unwrap())).abs();
+                assert!(jump <= per_frame, "{step:?}: joint {i} jumped {jump} µs");
+            }
+            last = now;
+        }
+        assert!(!h.status().moving);
+    }
+    // In the end the servos sit where calibration 2's curves put the home pose.
+    for (i, (joint, home)) in next.calibrated.joints.iter().zip(next.home_rad).enumerate() {
+        let expected = joint.servo.pulse_us(home).round() as u16;
+        assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i}");
     }
 }
 
