@@ -119,12 +119,15 @@ impl<L: Link> Client<L> {
         let io = |source| CommsError::Io { path, source };
         for _ in 0..=self.retries {
             self.seq = self.seq.wrapping_add(1);
-            let mut out = [0u8; MAX_FRAME];
-            let n =
-                frame::encode(self.seq, request, &mut out).map_err(|e| CommsError::Unexpected {
+            // A leading 0x00 ends whatever half frame the board may hold (line
+            // noise, an interrupted session), so this one is read from its start.
+            let mut out = [0u8; MAX_FRAME + 1];
+            let n = 1 + frame::encode(self.seq, request, &mut out[1..]).map_err(|e| {
+                CommsError::Unexpected {
                     path,
                     got: format!("request does not fit a frame: {e}"),
-                })?;
+                }
+            })?;
             self.link
                 .write_all(&out[..n])
                 .and_then(|()| self.link.flush())
