@@ -292,3 +292,31 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
             .all(|(a, b)| (a - b).abs() < 1e-6)
     );
 }
+
+#[test]
+fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = calibration_json(dir.path());
+    let mut file = host::calib::calibration_file::CalibrationFile::read(&path).unwrap();
+    file.arm.joints[1].servo.zero = 2500.0;
+    std::fs::write(&path, file.to_json()).unwrap();
+    // Nobody listens on this port: the check must come first.
+    let device = DeviceArgs {
+        port: "socket://127.0.0.1:1".into(),
+        timeout_ms: 100,
+        retries: 0,
+    };
+    let err = push::run(&push::Args {
+        calibration: path,
+        home_deg: None,
+        device,
+    })
+    .unwrap_err();
+    assert_eq!(err.exit_code(), 3);
+    assert!(
+        err.report()
+            .ends_with("joint 2: servo curve is not monotonic"),
+        "{}",
+        err.report()
+    );
+}
