@@ -17,7 +17,11 @@ import { Elf, ElfError } from '../src/elf.js';
 import { SerialServer } from '../src/serial-server.js';
 
 const HERE = dirname(fileURLToPath(import.meta.url));
-const DEFAULT_ELF = resolve(HERE, '../../../target/thumbv6m-none-eabi/release/firmware');
+/** Where `cargo firmware` puts the ELF (under CARGO_TARGET_DIR when set, as cargo does). */
+const DEFAULT_ELF = resolve(
+  process.env.CARGO_TARGET_DIR ?? resolve(HERE, '../../../target'),
+  'thumbv6m-none-eabi/release/firmware',
+);
 /** GPIOs of servos 1..6 (firmware/src/board: slices 1-3, channels A/B). */
 const DEFAULT_SERVO_PINS = '2,3,4,5,6,7';
 /** The board's flash chip (2 MiB, as memory.x says); saved images are this size. */

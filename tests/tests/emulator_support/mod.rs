@@ -27,11 +27,16 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
 }
 
-/// The firmware ELF the tests run.
+/// The firmware ELF the tests run: `LRM_FIRMWARE_ELF`, else where `cargo firmware` puts it
+/// (under `CARGO_TARGET_DIR` when that is set, as cargo does).
 pub fn firmware_elf() -> PathBuf {
-    std::env::var_os("LRM_FIRMWARE_ELF")
+    if let Some(elf) = std::env::var_os("LRM_FIRMWARE_ELF") {
+        return PathBuf::from(elf);
+    }
+    let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(PathBuf::from)
-        .unwrap_or_else(|| repo_root().join("target/thumbv6m-none-eabi/release/firmware"))
+        .unwrap_or_else(|| repo_root().join("target"));
+    target.join("thumbv6m-none-eabi/release/firmware")
 }
 
 /// A running emulated board.
