@@ -18,7 +18,10 @@
 //!
 //! with `e` the remaining position error and `λ² = |e|² + λ₀²` a damping that
 //! keeps steps bounded near singular poses (Sugihara's Levenberg–Marquardt IK)
-//! and fades with the error, so it does not bias the result. The base tilt is
+//! and fades with the error, so it does not bias the result. A step that
+//! increases the error is halved (a few times at most), so near singular or
+//! unreachable targets the solve ends at the closest state it found instead of
+//! wandering; a warm-started servo frame almost never needs it. The base tilt is
 //! solved in the same Newton step: linearising `beta = k0 τ0(qa, beta)` gives
 //! `Δbeta` in terms of `Δqa`, which turns `J` and `e` into their rank-one
 //! corrected forms, so both converge quadratically together.
@@ -28,6 +31,9 @@ use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
 use crate::elastic::{Deflection, DeflectionError};
 use crate::kinematics::{Chain, ChainFrames};
 use crate::{JOINTS, Real, real};
+
+/// How often a step that increased the error is halved before giving up.
+const MAX_HALVINGS: u32 = 4;
 
 /// Stopping rules and damping of the compensation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,6 +102,8 @@ impl<T: Real> Chain<T> {
             Some(w) => (w.deflection.qa, w.deflection.beta),
             None => (*q_nominal, T::zero()),
         };
+        let mut best: Option<Compensation<T>> = None;
+        let mut halvings = 0;
         let mut iterations = 0;
         loop {
             let frames = self.frames(&qa, beta);
@@ -108,22 +116,44 @@ impl<T: Real> Chain<T> {
             if !error_m.is_finite() {
                 return Err(DeflectionError::NotFinite);
             }
-            let converged = error_m <= options.tolerance_m;
-            if converged || iterations >= options.max_iterations {
-                let q = core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]);
-                let deflection = Deflection {
+            let current = Compensation {
+                q: core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]),
+                deflection: Deflection {
                     qa,
                     beta,
                     frames,
                     iterations,
-                };
-                return Ok(Compensation {
-                    q,
-                    deflection,
-                    error_m,
-                    iterations,
-                    converged,
-                });
+                },
+                error_m,
+                iterations,
+                converged: error_m <= options.tolerance_m,
+            };
+            if current.converged {
+                return Ok(current);
+            }
+            // A step that makes things worse (near singular or unreachable
+            // targets) is halved back towards the last accepted state; if that
+            // does not help, the best state found is the answer.
+            if let Some(accepted) = best
+                && error_m > accepted.error_m
+            {
+                if halvings >= MAX_HALVINGS || iterations >= options.max_iterations {
+                    return Ok(Compensation {
+                        iterations,
+                        ..accepted
+                    });
+                }
+                halvings += 1;
+                iterations += 1;
+                let half: T = real(0.5);
+                qa = core::array::from_fn(|i| (accepted.deflection.qa[i] + qa[i]) * half);
+                beta = (accepted.deflection.beta + beta) * half;
+                continue;
+            }
+            halvings = 0;
+            best = Some(current);
+            if iterations >= options.max_iterations {
+                return Ok(current);
             }
             iterations += 1;
             // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
