@@ -236,6 +236,44 @@ mod tests {
         }
     }
 
+    /// Whatever the pose (stretched, singular wrist, out of reach), the answer
+    /// is never further from the target than the nominal command was.
+    #[test]
+    fn compensation_never_ends_worse_than_it_started() {
+        let mut rng = StdRng::seed_from_u64(9);
+        let nominal = lrm_like_arm::<f64>().chain();
+        let calibrated = perturbed(&mut rng).chain();
+        let opts = CompensationOptions::default();
+        for k in 0..500 {
+            let mut q: [f64; 6] = random_q(&mut rng);
+            if k % 3 == 0 {
+                q[2] = 0.0; // straight elbow: the edge of the workspace
+            }
+            if k % 5 == 0 {
+                q[4] = 0.0; // wrist singularity
+            }
+            let target = nominal
+                .tool_point(&q, 0.0663, &crate::SolverOptions::default())
+                .unwrap();
+            let start = CompensationOptions {
+                max_iterations: 0,
+                ..opts
+            };
+            let initial = calibrated
+                .compensate(&q, &target, 0.0663, None, &start)
+                .unwrap();
+            let c = calibrated
+                .compensate(&q, &target, 0.0663, None, &opts)
+                .unwrap();
+            assert!(
+                c.error_m <= initial.error_m,
+                "{q:?}: {} > {}",
+                c.error_m,
+                initial.error_m
+            );
+        }
+    }
+
     #[test]
     fn warm_start_gives_the_same_command_as_a_cold_start() {
         let mut rng = StdRng::seed_from_u64(4);
