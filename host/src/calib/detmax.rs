@@ -82,15 +82,16 @@ pub fn log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
 #[derive(Clone)]
 struct State<'a> {
     blocks: &'a [DMatrix<f64>],
-    /// All blocks stacked (`r·C × m`), for the one-product scan of additions.
-    stacked: &'a DMatrix<f64>,
+    /// All blocks stacked and transposed (`m × r·C`, so each candidate row is a
+    /// contiguous column), for the one-product scan of additions.
+    stacked_t: &'a DMatrix<f64>,
     member: Vec<bool>,
     minv: DMatrix<f64>,
     log_det: f64,
 }
 
 impl<'a> State<'a> {
-    fn new(blocks: &'a [DMatrix<f64>], stacked: &'a DMatrix<f64>, chosen: &[usize]) -> Self {
+    fn new(blocks: &'a [DMatrix<f64>], stacked_t: &'a DMatrix<f64>, chosen: &[usize]) -> Self {
         let mut member = vec![false; blocks.len()];
         for &c in chosen {
             member[c] = true;
@@ -98,7 +99,7 @@ impl<'a> State<'a> {
         let m = blocks[0].ncols();
         let mut s = Self {
             blocks,
-            stacked,
+            stacked_t,
             member,
             minv: DMatrix::zeros(m, m),
             log_det: 0.0,
@@ -171,19 +172,17 @@ impl<'a> State<'a> {
             .map(|(c, _)| c)
     }
 
-    /// The best addition, scanning every candidate with one product `A M⁻¹`
+    /// The best addition, scanning every candidate with one product `M⁻¹ Aᵀ`
     /// over all stacked blocks (one GEMM instead of an allocation per
-    /// candidate), then each r×r capacitance `I + (A M⁻¹)_c A_cᵀ`.
+    /// candidate), then each r×r capacitance `I + A_c (M⁻¹ A_cᵀ)` from
+    /// contiguous columns.
     fn best_addition(&self) -> Option<usize> {
         let r = self.blocks.first()?.nrows();
-        let p = self.stacked * &self.minv;
-        let m = self.minv.ncols();
+        let pt = &self.minv * self.stacked_t;
         let mut best: Option<(usize, f64)> = None;
         for c in (0..self.blocks.len()).filter(|&c| !self.member[c]) {
             let s = DMatrix::from_fn(r, r, |i, j| {
-                let dot: f64 = (0..m)
-                    .map(|k| p[(r * c + i, k)] * self.stacked[(r * c + j, k)])
-                    .sum();
+                let dot = pt.column(r * c + i).dot(&self.stacked_t.column(r * c + j));
                 if i == j { 1.0 + dot } else { dot }
             });
             let det = s.determinant();
@@ -244,14 +243,14 @@ pub fn detmax(
         });
     }
     let all: Vec<usize> = (0..blocks.len()).collect();
-    let stacked = stack(blocks, &all);
+    let stacked_t = stack(blocks, &all).transpose();
     progress.set_length(options.starts.max(1) as u64);
     let mut best: Option<Design> = None;
     let mut start_log_dets = Vec::new();
     for s in 0..options.starts.max(1) {
         let mut rng = StdRng::seed_from_u64(options.seed.wrapping_add(s as u64));
         let start = sample(&mut rng, blocks.len(), options.n).into_vec();
-        let mut state = State::new(blocks, &stacked, &start);
+        let mut state = State::new(blocks, &stacked_t, &start);
         let mut excursions = 0;
         'search: loop {
             for k in 1..=options.max_excursion {
@@ -331,8 +330,8 @@ mod tests {
     fn rank_three_updates_match_refactoring() {
         let blocks = random_blocks(40, 8, 3);
         let all: Vec<usize> = (0..blocks.len()).collect();
-        let stacked = stack(&blocks, &all);
-        let mut s = State::new(&blocks, &stacked, &[0, 1, 2, 3, 4]);
+        let stacked_t = stack(&blocks, &all).transpose();
+        let mut s = State::new(&blocks, &stacked_t, &[0, 1, 2, 3, 4]);
         s.update(10, 1.0);
         s.update(2, -1.0);
         s.update(20, 1.0);
@@ -347,8 +346,8 @@ mod tests {
     fn stacked_scan_agrees_with_the_determinant_lemma() {
         let blocks = random_blocks(60, 8, 4);
         let all: Vec<usize> = (0..blocks.len()).collect();
-        let stacked = stack(&blocks, &all);
-        let s = State::new(&blocks, &stacked, &[1, 5, 9, 13, 17]);
+        let stacked_t = stack(&blocks, &all).transpose();
+        let s = State::new(&blocks, &stacked_t, &[1, 5, 9, 13, 17]);
         let by_lemma = (0..blocks.len())
             .filter(|&c| !s.member[c])
             .max_by(|&a, &b| s.gain(a, 1.0).total_cmp(&s.gain(b, 1.0)));
