@@ -2,8 +2,11 @@
 //! commands for the calibrated, deflected arm out.
 //!
 //! Each frame solves `model::Chain::compensate` (f32) from the previous
-//! frame's solution, which is a few iterations away because the targets move
-//! by at most a few milliradians per frame. If a solve fails (no convergence,
+//! frame's solution, shifted by how far the nominal targets moved since, which
+//! is a few iterations away at most because the targets move by a few
+//! milliradians per frame. A frame whose inputs (targets, mode, payload) equal
+//! the last converged frame's reuses its answer: the model is deterministic,
+//! so a holding arm costs no solve at all. If a solve fails (no convergence,
 //! a non-finite value, or a correction larger than the configured bound) the
 //! frame commands the nominal targets plus the last good correction, so the
 //! arm moves on smoothly instead of jumping, and the failure is counted.
@@ -14,6 +17,14 @@ use protocol::{Calibration, CompensationMode, CompensationReport};
 
 use crate::CHANNELS;
 
+/// What a frame's answer depends on.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Inputs {
+    q_nominal: [f32; CHANNELS],
+    mode: CompensationMode,
+    payload_kg: f32,
+}
+
 /// The compensation state carried from one servo frame to the next.
 #[derive(Clone, Copy, Debug)]
 pub struct Compensator {
@@ -21,7 +32,10 @@ pub struct Compensator {
     calibrated: Chain<f32>,
     options: CompensationOptions<f32>,
     max_correction_rad: f32,
-    warm: Option<Compensation<f32>>,
+    /// The last usable solution and the nominal targets it was solved for.
+    warm: Option<(Compensation<f32>, [f32; CHANNELS])>,
+    /// Inputs of the last converged frame and the command it gave.
+    settled: Option<(Inputs, [f32; CHANNELS])>,
     /// Command minus nominal of the last good solve, rad.
     last_correction: [f32; CHANNELS],
     report: CompensationReport,
@@ -40,6 +54,7 @@ impl Compensator {
             options,
             max_correction_rad,
             warm: None,
+            settled: None,
             last_correction: [0.0; CHANNELS],
             report: CompensationReport::default(),
         }
@@ -53,6 +68,7 @@ impl Compensator {
     /// Forgets the warm start and the last correction (after a mode change or a detach).
     pub fn reset(&mut self) {
         self.warm = None;
+        self.settled = None;
         self.last_correction = [0.0; CHANNELS];
     }
 
@@ -85,24 +101,39 @@ impl Compensator {
             self.reset();
             return *q_nominal;
         }
+        let inputs = Inputs {
+            q_nominal: *q_nominal,
+            mode,
+            payload_kg,
+        };
+        if let Some((settled, q)) = self.settled
+            && settled == inputs
+        {
+            return q;
+        }
+        // Start from the last solution moved along with the nominal targets.
+        let warm = self.warm.map(|(mut w, solved_for)| {
+            for i in 0..CHANNELS {
+                w.deflection.qa[i] += q_nominal[i] - solved_for[i];
+            }
+            w
+        });
         let solved = self.target(q_nominal, mode, payload_kg).and_then(|target| {
             self.calibrated
-                .compensate(
-                    q_nominal,
-                    &target,
-                    payload_kg,
-                    self.warm.as_ref(),
-                    &self.options,
-                )
+                .compensate(q_nominal, &target, payload_kg, warm.as_ref(), &self.options)
                 .ok()
         });
-        let sane = solved.filter(|c| {
+        let finite = solved.filter(|c| c.q.iter().all(|q| q.is_finite()));
+        // A finite solve, converged or not and even past the correction bound on
+        // its way, is the best warm start for the next frame; the bound only
+        // decides what may be commanded.
+        self.warm = finite.map(|c| (c, *q_nominal));
+        let sane = finite.filter(|c| {
             c.q.iter()
                 .zip(q_nominal)
-                .all(|(q, n)| q.is_finite() && (q - n).abs() <= self.max_correction_rad)
+                .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
         });
-        // A finite but unconverged solve is still the best warm start for the next frame.
-        self.warm = sane;
+        self.settled = sane.filter(|c| c.converged).map(|c| (inputs, c.q));
         match sane {
             Some(c) if c.converged => {
                 self.last_correction = core::array::from_fn(|i| c.q[i] - q_nominal[i]);

@@ -19,9 +19,11 @@
 //! with `e` the remaining position error and `λ² = |e|² + λ₀²` a damping that
 //! keeps steps bounded near singular poses (Sugihara's Levenberg–Marquardt IK)
 //! and fades with the error, so it does not bias the result. A step that
-//! increases the error is halved (a few times at most), so near singular or
-//! unreachable targets the solve ends at the closest state it found instead of
-//! wandering; a warm-started servo frame almost never needs it. The base tilt is
+//! increases the error (near singular or unreachable targets, where the pull
+//! back to the nominal shape can fight the error) is retried from the last
+//! accepted state as a purely corrective, more strongly damped step, a descent
+//! direction of the error (Levenberg–Marquardt); the solve thus never ends
+//! worse than it started and never wanders. The base tilt is
 //! solved in the same Newton step: linearising `beta = k0 τ0(qa, beta)` gives
 //! `Δbeta` in terms of `Δqa`, which turns `J` and `e` into their rank-one
 //! corrected forms, so both converge quadratically together.
@@ -32,8 +34,8 @@ use crate::elastic::{Deflection, DeflectionError};
 use crate::kinematics::{Chain, ChainFrames};
 use crate::{JOINTS, Real, real};
 
-/// How often a step that increased the error is halved before giving up.
-const MAX_HALVINGS: u32 = 4;
+/// How many steps in a row may fail to reduce the error before the solve stops.
+const MAX_REJECTIONS: u32 = 6;
 
 /// Stopping rules and damping of the compensation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -102,8 +104,9 @@ impl<T: Real> Chain<T> {
             Some(w) => (w.deflection.qa, w.deflection.beta),
             None => (*q_nominal, T::zero()),
         };
-        let mut best: Option<Compensation<T>> = None;
-        let mut halvings = 0;
+        // The last accepted state and the linear model of the error around it.
+        let mut accepted: Option<(Compensation<T>, Linearisation<T>)> = None;
+        let mut rejections = 0;
         let mut iterations = 0;
         loop {
             let frames = self.frames(&qa, beta);
@@ -131,55 +134,114 @@ impl<T: Real> Chain<T> {
             if current.converged {
                 return Ok(current);
             }
-            // A step that makes things worse (near singular or unreachable
-            // targets) is halved back towards the last accepted state; if that
-            // does not help, the best state found is the answer.
-            if let Some(accepted) = best
-                && error_m > accepted.error_m
-            {
-                if halvings >= MAX_HALVINGS || iterations >= options.max_iterations {
-                    return Ok(Compensation {
-                        iterations,
-                        ..accepted
-                    });
+            let lin = match accepted {
+                // Worse than the accepted state (near singular or unreachable
+                // targets): retry from there with a more strongly damped,
+                // purely corrective step; out of tries, the accepted state is the answer.
+                Some((best, lin)) if error_m > best.error_m => {
+                    if rejections >= MAX_REJECTIONS || iterations >= options.max_iterations {
+                        return Ok(Compensation { iterations, ..best });
+                    }
+                    rejections += 1;
+                    lin
                 }
-                halvings += 1;
-                iterations += 1;
-                let half: T = real(0.5);
-                qa = core::array::from_fn(|i| (accepted.deflection.qa[i] + qa[i]) * half);
-                beta = (accepted.deflection.beta + beta) * half;
-                continue;
-            }
-            halvings = 0;
-            best = Some(current);
-            if iterations >= options.max_iterations {
-                return Ok(current);
-            }
+                _ => {
+                    if iterations >= options.max_iterations {
+                        return Ok(current);
+                    }
+                    rejections = 0;
+                    let lin = self.linearise(&current, &moments, beta_residual, error, q_nominal);
+                    accepted = Some((current, lin));
+                    lin
+                }
+            };
             iterations += 1;
-            // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
-            let g = self.gravity;
-            let y0 = frames.base_tilt_axis();
-            let g_cross_y0 = g.cross(&y0);
-            let dtau0_dqa =
-                Vector6::from_fn(|c, _| frames.joint_axis(c).cross(&moments[c]).dot(&g_cross_y0));
-            let dtau0_dbeta = -y0.cross(&g).dot(&y0.cross(&moments[0]));
-            let s = T::one() / (T::one() - self.base_compliance * dtau0_dbeta);
-            let tilt_gain = dtau0_dqa * (s * self.base_compliance);
-            let tilt_column = y0.cross(&lever);
-            let j = self.position_jacobian(&frames) + tilt_column * tilt_gain.transpose();
-            let error = error - tilt_column * (s * beta_residual);
-            let delta = Vector6::from_fn(|i, _| qa[i] - q_nominal[i]);
-            let lambda2 = error_m * error_m + options.damping_m * options.damping_m;
-            let jjt = j * j.transpose() + Matrix3::identity() * lambda2;
-            let solved = jjt
-                .cholesky()
-                .ok_or(DeflectionError::NotFinite)?
-                .solve(&(error + j * delta));
-            let next_delta = j.transpose() * solved;
-            let step = next_delta - delta;
-            qa = core::array::from_fn(|i| q_nominal[i] + next_delta[i]);
-            beta += s * beta_residual + tilt_gain.dot(&step);
+            let damping2 = options.damping_m * options.damping_m;
+            let step = lin
+                .step(rejections, damping2)
+                .ok_or(DeflectionError::NotFinite)?;
+            qa = core::array::from_fn(|i| lin.qa[i] + step[i]);
+            beta = lin.beta + lin.tilt_offset + lin.tilt_gain.dot(&step);
         }
+    }
+
+    /// The linear model of the tool-point error around an accepted state, with
+    /// the base tilt's fixed point folded in.
+    fn linearise(
+        &self,
+        state: &Compensation<T>,
+        moments: &[Vector3<T>; JOINTS],
+        beta_residual: T,
+        error: Vector3<T>,
+        q_nominal: &[T; JOINTS],
+    ) -> Linearisation<T> {
+        let frames = &state.deflection.frames;
+        // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
+        let g = self.gravity;
+        let y0 = frames.base_tilt_axis();
+        let g_cross_y0 = g.cross(&y0);
+        let dtau0_dqa =
+            Vector6::from_fn(|c, _| frames.joint_axis(c).cross(&moments[c]).dot(&g_cross_y0));
+        let dtau0_dbeta = -y0.cross(&g).dot(&y0.cross(&moments[0]));
+        let s = T::one() / (T::one() - self.base_compliance * dtau0_dbeta);
+        let tilt_gain = dtau0_dqa * (s * self.base_compliance);
+        let tilt_offset = s * beta_residual;
+        let tilt_column = y0.cross(&(frames.tool_point() - frames.joint_origin(0)));
+        let (qa, beta) = (state.deflection.qa, state.deflection.beta);
+        Linearisation {
+            j: self.position_jacobian(frames) + tilt_column * tilt_gain.transpose(),
+            error: error - tilt_column * tilt_offset,
+            error_m: state.error_m,
+            delta: Vector6::from_fn(|i, _| qa[i] - q_nominal[i]),
+            tilt_gain,
+            tilt_offset,
+            qa,
+            beta,
+        }
+    }
+}
+
+/// The error around an accepted state as a linear function of the change in `qa`.
+#[derive(Clone, Copy, Debug)]
+struct Linearisation<T: Real> {
+    /// `∂e/∂qa` with the base tilt folded in, m/rad.
+    j: Matrix3x6<T>,
+    /// The error to remove, with the tilt residual's share taken out, m.
+    error: Vector3<T>,
+    /// The accepted state's error measure, m.
+    error_m: T,
+    /// Deflected angles minus nominal command at the accepted state, rad.
+    delta: Vector6<T>,
+    /// `∂beta/∂qa` of the linearised tilt.
+    tilt_gain: Vector6<T>,
+    /// Change of beta that settles its residual at fixed `qa`, rad.
+    tilt_offset: T,
+    /// The accepted state.
+    qa: [T; JOINTS],
+    /// The accepted state's base tilt, rad.
+    beta: T,
+}
+
+impl<T: Real> Linearisation<T> {
+    /// The change of `qa` to try.
+    ///
+    /// First try: reach the target and move the null-space part of `δ` to zero
+    /// (`δ' = Jᵀ (J Jᵀ + λ²)⁻¹ (e + J δ)`). After `rejections` failed tries:
+    /// only reduce the error, with the damping multiplied by `4^rejections`; a
+    /// damped Gauss–Newton step is a descent direction of `|e|²`, so this
+    /// always makes progress once small enough.
+    fn step(&self, rejections: u32, damping2: T) -> Option<Vector6<T>> {
+        let mut lambda2 = self.error_m * self.error_m + damping2;
+        for _ in 0..rejections {
+            lambda2 *= real::<T>(4.0);
+        }
+        let jjt = self.j * self.j.transpose() + Matrix3::identity() * lambda2;
+        let cholesky = jjt.cholesky()?;
+        Some(if rejections == 0 {
+            self.j.transpose() * cholesky.solve(&(self.error + self.j * self.delta)) - self.delta
+        } else {
+            self.j.transpose() * cholesky.solve(&self.error)
+        })
     }
 }
 

@@ -100,6 +100,15 @@ impl<T: Real> Chain<T> {
         (mut qa, mut beta): ([T; JOINTS], T),
         options: &SolverOptions<T>,
     ) -> Result<Deflection<T>, DeflectionError> {
+        if self.is_rigid() {
+            let frames = self.frames(q, T::zero());
+            return Ok(Deflection {
+                qa: *q,
+                beta: T::zero(),
+                frames,
+                iterations: 0,
+            });
+        }
         let mut last_step = T::zero();
         for iteration in 1..=options.max_iterations {
             let frames = self.frames(&qa, beta);
@@ -127,6 +136,12 @@ impl<T: Real> Chain<T> {
             iterations: options.max_iterations,
             last_step: nalgebra::try_convert(last_step).unwrap_or(f64::NAN),
         })
+    }
+
+    /// Whether no joint and not the base yields: the deflection is then nothing,
+    /// and one pass of forward kinematics is the whole answer.
+    pub fn is_rigid(&self) -> bool {
+        self.base_compliance == T::zero() && self.links.iter().all(|l| l.compliance == T::zero())
     }
 
     /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the given frames.
@@ -190,6 +205,23 @@ mod tests {
         let rigid = chain.rigid_tool_point(&q);
         assert!(light.z < rigid.z, "own weight must sag the arm");
         assert!(heavy.z < light.z, "a payload must sag it further");
+    }
+
+    #[test]
+    fn rigid_arm_takes_the_shortcut_and_matches_the_iteration() {
+        let mut arm = lrm_like_arm::<f64>();
+        arm.base_compliance = 0.0;
+        arm.joints.iter_mut().for_each(|j| j.compliance = 0.0);
+        let chain = arm.chain();
+        assert!(chain.is_rigid());
+        let q = [0.2, 0.9, -0.5, 0.4, -0.7, 0.1];
+        let d = chain
+            .deflect(&q, 0.0663, &SolverOptions::default())
+            .unwrap();
+        assert_eq!(d.iterations, 0);
+        assert_eq!(d.tool_point(), chain.rigid_tool_point(&q));
+        assert!(chain.fixed_point_residual(&q, 0.0663, &d) == 0.0);
+        assert!(!lrm_like_arm::<f64>().chain().is_rigid());
     }
 
     #[test]
