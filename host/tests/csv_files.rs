@@ -377,3 +377,18 @@ fn failed_write_leaves_the_old_file_and_no_debris() {
     let nowhere = dir.path().join("no_such_dir").join("out.csv");
     assert!(predictions::write(&nowhere, &[]).is_err());
 }
+
+/// Outputs are created like ordinary files (0666 less the umask), not with the
+/// temporary file's private 0600: a lab shares its calibrations.
+#[cfg(unix)]
+#[test]
+fn written_files_get_the_mode_of_an_ordinary_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let mode = |p: &std::path::Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+    let ordinary = dir.path().join("ordinary.csv");
+    std::fs::write(&ordinary, "x").unwrap();
+    let path = dir.path().join("out.csv");
+    atomic::write(&path, |w| w.write_all(b"pose,x_mm,y_mm,z_mm\n")).unwrap();
+    assert_eq!(mode(&path), mode(&ordinary), "mode {:o}", mode(&path));
+}

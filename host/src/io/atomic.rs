@@ -21,11 +21,21 @@ pub fn write(
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let temp = tempfile::NamedTempFile::new_in(dir).map_err(fail)?;
+    let temp = temp_builder().tempfile_in(dir).map_err(fail)?;
     let mut out = BufWriter::new(temp);
     fill(&mut out).map_err(fail)?;
     let temp = out.into_inner().map_err(|e| fail(e.into_error()))?;
     temp.as_file().sync_all().map_err(fail)?;
     temp.persist(path).map_err(|e| fail(e.error))?;
     Ok(())
+}
+
+/// A temporary file created like any other output file: on Unix with mode
+/// 0666 less the umask (tempfile's own default, 0600, would leave calibrations
+/// and reports unreadable to the rest of a lab).
+fn temp_builder() -> tempfile::Builder<'static, 'static> {
+    let mut builder = tempfile::Builder::new();
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    builder
 }
