@@ -13,7 +13,7 @@ use std::path::Path;
 use model::{Arm, ParamId};
 use serde::{Deserialize, Serialize};
 
-use super::identify::Identified;
+use super::identify::{Estimate, Identified};
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption};
 
@@ -34,6 +34,17 @@ pub struct FittedParam {
     pub value: f64,
     /// One standard deviation of the correction; null when held at a bound.
     pub std: Option<f64>,
+}
+
+impl From<&Estimate> for FittedParam {
+    fn from(e: &Estimate) -> Self {
+        Self {
+            name: e.id.name().into(),
+            error: e.error,
+            value: e.value,
+            std: e.std,
+        }
+    }
 }
 
 /// The calibration of one arm for one model option.
@@ -95,16 +106,7 @@ impl CalibrationFile {
             option: identified.option,
             nominal: *nominal,
             arm: identified.arm,
-            parameters: identified
-                .estimates
-                .iter()
-                .map(|e| FittedParam {
-                    name: e.id.name().into(),
-                    error: e.error,
-                    value: e.value,
-                    std: e.std,
-                })
-                .collect(),
+            parameters: identified.estimates.iter().map(FittedParam::from).collect(),
             at_bound: identified
                 .diagnostics
                 .at_bound

@@ -112,16 +112,7 @@ impl From<&Identified> for FitReport {
             rms_after_mm: d.rms_after_m * 1e3,
             sigma_mm: d.sigma_m * 1e3,
             condition: d.condition,
-            parameters: f
-                .estimates
-                .iter()
-                .map(|e| FittedParam {
-                    name: e.id.name().into(),
-                    error: e.error,
-                    value: e.value,
-                    std: e.std,
-                })
-                .collect(),
+            parameters: f.estimates.iter().map(FittedParam::from).collect(),
             outliers: f
                 .outliers
                 .iter()
