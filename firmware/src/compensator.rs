@@ -17,6 +17,9 @@ use protocol::{Calibration, CompensationMode, CompensationReport};
 
 use crate::CHANNELS;
 
+/// How many times a frame's iteration allowance a cold start gets.
+const COLD_START_ITERATIONS: u32 = 3;
+
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Inputs {
@@ -118,21 +121,30 @@ impl Compensator {
             }
             w
         });
+        // A cold start is rare (after a mode change, a new calibration or a
+        // failed frame) and further from the answer: it may iterate longer, so
+        // that the same cut-short solve is not repeated frame after frame.
+        let options = match warm {
+            Some(_) => self.options,
+            None => CompensationOptions {
+                max_iterations: self.options.max_iterations * COLD_START_ITERATIONS,
+                ..self.options
+            },
+        };
         let solved = self.target(q_nominal, mode, payload_kg).and_then(|target| {
             self.calibrated
-                .compensate(q_nominal, &target, payload_kg, warm.as_ref(), &self.options)
+                .compensate(q_nominal, &target, payload_kg, warm.as_ref(), &options)
                 .ok()
         });
-        let finite = solved.filter(|c| c.q.iter().all(|q| q.is_finite()));
-        // A finite solve, converged or not and even past the correction bound on
-        // its way, is the best warm start for the next frame; the bound only
-        // decides what may be commanded.
-        self.warm = finite.map(|c| (c, *q_nominal));
-        let sane = finite.filter(|c| {
+        let sane = solved.filter(|c| {
             c.q.iter()
                 .zip(q_nominal)
-                .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
+                .all(|(q, n)| q.is_finite() && (q - n).abs() <= self.max_correction_rad)
         });
+        // Only a solve near the nominal command is a good start for the next
+        // frame: one that strayed past the bound (from a singular pose, say)
+        // would lead the next frames astray, so they start afresh instead.
+        self.warm = sane.map(|c| (c, *q_nominal));
         self.settled = sane.filter(|c| c.converged).map(|c| (inputs, c.q));
         match sane {
             Some(c) if c.converged => {
