@@ -118,7 +118,8 @@ fn exact_data_gives_exact_parameters() {
 
 /// The demo's numbers with the simulator's defaults (unmodelled effects and
 /// noise on): the elasto-kinematic model removes at least 85 % of the mean
-/// error, beats both partial models, and keeps at least 80 % across loads.
+/// error, the models rank as in the paper (elasto-kinematic < elastic <
+/// kinematic), and at least 80 % holds across loads.
 #[test]
 fn default_simulation_meets_the_issue_targets() {
     let nominal = bundled();
@@ -148,8 +149,14 @@ fn default_simulation_meets_the_issue_targets() {
         "elasto-kinematic reduction {:.1} %",
         v(&ek).reduction_pct
     );
+    let (ek_mm, ela_mm, kin_mm) = (
+        v(&ek).after.mean_m * 1e3,
+        v(&ela).after.mean_m * 1e3,
+        v(&kin).after.mean_m * 1e3,
+    );
     assert!(
-        v(&ek).after.mean_m < v(&kin).after.mean_m && v(&ek).after.mean_m < v(&ela).after.mean_m
+        ek_mm < ela_mm && ela_mm < kin_mm,
+        "elasto-kinematic {ek_mm:.2}, elastic {ela_mm:.2}, kinematic {kin_mm:.2} mm"
     );
     let cross = ek.cross_load.as_ref().expect("cross-load").1.reduction_pct;
     assert!(
