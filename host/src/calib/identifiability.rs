@@ -78,6 +78,11 @@ pub struct Identifiability {
 }
 
 impl Identifiability {
+    /// The removed parameters' ids, in preference order.
+    pub fn removed_ids(&self) -> Vec<ParamId> {
+        self.removed.iter().map(|r| r.id).collect()
+    }
+
     /// Human-readable lines: one per removed parameter with what it is confounded with.
     pub fn explain(&self) -> Vec<String> {
         self.removed
@@ -207,10 +212,6 @@ mod tests {
         ParamId::from_name(p).unwrap()
     }
 
-    fn removed(a: &Identifiability) -> Vec<ParamId> {
-        a.removed.iter().map(|r| r.id).collect()
-    }
-
     #[test]
     fn removes_tool_rotation_and_known_redundancies() {
         let samples = small_samples(40);
@@ -219,7 +220,7 @@ mod tests {
         // The tool point is the tool frame's origin: its rotation cannot be seen.
         for p in ["tool.roll", "tool.pitch", "tool.yaw"] {
             assert!(
-                removed(&a).contains(&name(p)),
+                a.removed_ids().contains(&name(p)),
                 "{p} should be removed: {:?}",
                 a.explain()
             );
@@ -232,7 +233,7 @@ mod tests {
             .expect("base.yaw removed");
         assert_eq!(yaw.confounded_with[0].0, name("j1.theta"));
         // Gravity makes no torque about joint 1's vertical axis.
-        assert!(removed(&a).contains(&name("k1")));
+        assert!(a.removed_ids().contains(&name("k1")));
         assert_eq!(a.kept.len(), a.svd_rank, "greedy and SVD ranks agree");
         assert!(a.kept_condition < 1e4);
     }

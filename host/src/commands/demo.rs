@@ -198,13 +198,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let file = CalibrationFile::new(
             &nominal,
             &r.identified,
-            &r.selection
-                .candidates
-                .identifiability
-                .removed
-                .iter()
-                .map(|x| x.id)
-                .collect::<Vec<_>>(),
+            &r.selection.candidates.identifiability.removed_ids(),
             rep.selected_poses.clone(),
             vec![PAPER_LOAD_KG],
             fit_residual(&r.identified.arm, &all, &rep.selected_poses)?,

@@ -245,13 +245,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let cal = CalibrationFile::new(
             &nominal,
             &r.identified,
-            &r.selection
-                .candidates
-                .identifiability
-                .removed
-                .iter()
-                .map(|x| x.id)
-                .collect::<Vec<_>>(),
+            &r.selection.candidates.identifiability.removed_ids(),
             used,
             vec![load],
             ErrorStats::of(&error_norms(&r.identified.arm, &fit)?),
