@@ -14,6 +14,9 @@ use crate::servo::{self, pulse_for};
 use crate::storage::Storage;
 use crate::{CHANNELS, Config, FlashStorage, ServoBus, handlers};
 
+/// A command that changes by less than this from one frame to the next has settled, rad.
+const SETTLED_RAD: f32 = 1e-6;
+
 /// What the binary must do after a reply has gone out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SystemAction {
@@ -54,9 +57,12 @@ pub struct Device<B, F> {
     /// Nominal joint angles of the last servo frame, rad.
     pub(crate) position: [f32; CHANNELS],
     pub(crate) moving: bool,
-    /// Whether the correction is still fading towards the wanted one (the
-    /// servos still move although the motion is over).
+    /// Whether the correction is still fading towards the wanted one, or the
+    /// compensation still converging (the servos still move although the
+    /// motion is over).
     pub(crate) settling: bool,
+    /// The compensated commands of the last servo frame, rad.
+    pub(crate) wanted: [f32; CHANNELS],
     pub(crate) attached: [bool; CHANNELS],
     /// Raw pulses of channels under `servo/raw`, µs.
     pub(crate) raw: [Option<u16>; CHANNELS],
@@ -89,6 +95,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             position: [0.0; CHANNELS],
             moving: false,
             settling: false,
+            wanted: [0.0; CHANNELS],
             attached: [false; CHANNELS],
             raw: [None; CHANNELS],
             pulses: [0; CHANNELS],
@@ -234,13 +241,19 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             }
             q_nominal[i] + self.applied_correction[i]
         });
-        self.settling = settling;
+        // One Newton step per frame: after a move the last steps still change the command.
+        let converging = wanted
+            .iter()
+            .zip(&self.wanted)
+            .any(|(now, before)| (now - before).abs() > SETTLED_RAD);
+        self.wanted = wanted;
+        self.settling = settling || (done && converging);
         let fell_back = driven
             && mode != CompensationMode::Off
             && self
                 .active
                 .as_ref()
-                .is_some_and(|a| !a.compensator.report().converged);
+                .is_some_and(|a| a.compensator.fell_back());
         self.faults.set(Faults::COMPENSATION_FALLBACK, fell_back);
         let (limits, curves) = (self.limits(), self.curves());
         for i in 0..CHANNELS {

@@ -1,24 +1,41 @@
 //! The per-servo-frame compensation step: nominal joint targets in, joint
 //! commands for the calibrated, deflected arm out.
 //!
-//! Each frame solves `model::Chain::compensate` (f32) from the previous
-//! frame's solution, shifted by how far the nominal targets moved since, which
-//! is a few iterations away at most because the targets move by a few
-//! milliradians per frame. A frame whose inputs (targets, mode, payload) equal
-//! the last converged frame's reuses its answer: the model is deterministic,
-//! so a holding arm costs no solve at all. If a solve fails (no convergence,
-//! a non-finite value, or a correction larger than the configured bound) the
-//! frame commands the nominal targets plus the last good correction, so the
-//! arm moves on smoothly instead of jumping, and the failure is counted.
+//! The solve of `model::Chain::compensate` is spread over the servo frames,
+//! one Newton step per frame, so a frame costs one pass of kinematics and
+//! gravity whatever happens (the budget is 1 ms at 125 MHz):
+//!
+//! 1. *Evaluate* the state the previous frame's step led to, moved along with
+//!    the nominal targets and the correction's own rate of change. This
+//!    gives a command and its exact remaining error, and that command is
+//!    what the frame sends: the reported error is measured, not predicted.
+//! 2. *Step* from it towards this frame's target; the result is the next
+//!    frame's state to evaluate. Newton converges quadratically, and the
+//!    targets move by at most a few milliradians per frame, so a move is
+//!    followed to micrometres and a new target from rest is reached in two or
+//!    three frames.
+//!
+//! A state worse than the last accepted one would have been (near singular
+//! or unreachable targets), not finite, or correcting a joint by more than
+//! the configured bound is not commanded: the frame falls back to the
+//! nominal targets plus the last good correction, counts the fallback, and
+//! the next frame retries from the accepted state with a more strongly
+//! damped, purely corrective step (as `compensate` does within one solve).
+//! A frame whose inputs (targets, mode, payload) equal the last converged
+//! frame's reuses its answer: the model is deterministic, so a holding arm
+//! costs no solve at all.
 
-use model::{Chain, Compensation, CompensationOptions};
+use model::{Chain, CompensationOptions, Linearisation};
 use nalgebra::Vector3;
 use protocol::{Calibration, CompensationMode, CompensationReport};
 
 use crate::CHANNELS;
 
-/// How many times a frame's iteration allowance a cold start gets.
-const COLD_START_ITERATIONS: u32 = 3;
+/// How many failed steps in a row raise the damping (by 4× each).
+const MAX_REJECTIONS: u32 = 6;
+/// Below this error on two frames in a row the solve follows a moving
+/// target, and the change of its correction is a rate to extrapolate, m.
+const TRACKING_M: f32 = 1e-4;
 
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +45,26 @@ struct Inputs {
     payload_kg: f32,
 }
 
+/// The last accepted state: its linear model and what it was solved for.
+#[derive(Clone, Copy, Debug)]
+struct Accepted {
+    linear: Linearisation<f32>,
+    target: Vector3<f32>,
+    /// Deflected angles minus nominal targets of the step taken from it, rad.
+    correction: [f32; CHANNELS],
+}
+
+/// The state the next frame evaluates, before it is moved along with the targets.
+#[derive(Clone, Copy, Debug)]
+struct Next {
+    qa: [f32; CHANNELS],
+    beta: f32,
+    /// The nominal targets it was stepped for.
+    q_nominal: [f32; CHANNELS],
+    /// How much the correction changed over the last frame, rad.
+    correction_rate: [f32; CHANNELS],
+}
+
 /// The compensation state carried from one servo frame to the next.
 #[derive(Clone, Copy, Debug)]
 pub struct Compensator {
@@ -35,12 +72,16 @@ pub struct Compensator {
     calibrated: Chain<f32>,
     options: CompensationOptions<f32>,
     max_correction_rad: f32,
-    /// The last usable solution and the nominal targets it was solved for.
-    warm: Option<(Compensation<f32>, [f32; CHANNELS])>,
+    accepted: Option<Accepted>,
+    next: Option<Next>,
+    rejections: u32,
+    /// Steps since the solve last started from the nominal targets.
+    steps: u32,
     /// Inputs of the last converged frame and the command it gave.
     settled: Option<(Inputs, [f32; CHANNELS])>,
-    /// Command minus nominal of the last good solve, rad.
+    /// Command minus nominal of the last accepted frame, rad.
     last_correction: [f32; CHANNELS],
+    fell_back: bool,
     report: CompensationReport,
 }
 
@@ -56,9 +97,13 @@ impl Compensator {
             calibrated: calibration.calibrated.chain(),
             options,
             max_correction_rad,
-            warm: None,
+            accepted: None,
+            next: None,
+            rejections: 0,
+            steps: 0,
             settled: None,
             last_correction: [0.0; CHANNELS],
+            fell_back: false,
             report: CompensationReport::default(),
         }
     }
@@ -68,11 +113,20 @@ impl Compensator {
         self.report
     }
 
-    /// Forgets the warm start and the last correction (after a mode change or a detach).
+    /// Whether the last frame commanded the fallback instead of a solution.
+    pub fn fell_back(&self) -> bool {
+        self.fell_back
+    }
+
+    /// Forgets the solve and the last correction (after a mode change or a detach).
     pub fn reset(&mut self) {
-        self.warm = None;
+        self.accepted = None;
+        self.next = None;
+        self.rejections = 0;
+        self.steps = 0;
         self.settled = None;
         self.last_correction = [0.0; CHANNELS];
+        self.fell_back = false;
     }
 
     /// The tool point the user means by `q_nominal` in `mode`, or `None` when off.
@@ -90,6 +144,21 @@ impl Compensator {
                 .nominal
                 .tool_point(q_nominal, payload_kg, &Default::default())
                 .ok(),
+        }
+    }
+
+    /// The state to evaluate this frame: the last step's result moved along
+    /// with the targets and the correction's rate, or the nominal targets.
+    fn guess(&self, q_nominal: &[f32; CHANNELS]) -> ([f32; CHANNELS], f32) {
+        match (&self.next, &self.accepted) {
+            (Some(next), Some(accepted)) => {
+                let shift: [f32; CHANNELS] = core::array::from_fn(|i| {
+                    q_nominal[i] - next.q_nominal[i] + next.correction_rate[i]
+                });
+                let qa = core::array::from_fn(|i| next.qa[i] + shift[i]);
+                (qa, next.beta + accepted.linear.tilt_change(&shift))
+            }
+            _ => (*q_nominal, 0.0),
         }
     }
 
@@ -114,53 +183,101 @@ impl Compensator {
         {
             return q;
         }
-        // Start from the last solution moved along with the nominal targets.
-        let warm = self.warm.map(|(mut w, solved_for)| {
-            for i in 0..CHANNELS {
-                w.deflection.qa[i] += q_nominal[i] - solved_for[i];
-            }
-            w
-        });
-        // A cold start is rare (after a mode change, a new calibration or a
-        // failed frame) and further from the answer: it may iterate longer, so
-        // that the same cut-short solve is not repeated frame after frame.
-        let options = match warm {
-            Some(_) => self.options,
-            None => CompensationOptions {
-                max_iterations: self.options.max_iterations * COLD_START_ITERATIONS,
-                ..self.options
-            },
+        self.settled = None;
+        let Some(target) = self.target(q_nominal, mode, payload_kg) else {
+            return self.fall_back(q_nominal);
         };
-        let solved = self.target(q_nominal, mode, payload_kg).and_then(|target| {
-            self.calibrated
-                .compensate(q_nominal, &target, payload_kg, warm.as_ref(), &options)
-                .ok()
-        });
-        let sane = solved.filter(|c| {
-            c.q.iter()
-                .zip(q_nominal)
-                .all(|(q, n)| q.is_finite() && (q - n).abs() <= self.max_correction_rad)
-        });
-        // Only a solve near the nominal command is a good start for the next
-        // frame: one that strayed past the bound (from a singular pose, say)
-        // would lead the next frames astray, so they start afresh instead.
-        self.warm = sane.map(|c| (c, *q_nominal));
-        self.settled = sane.filter(|c| c.converged).map(|c| (inputs, c.q));
-        match sane {
-            Some(c) if c.converged => {
-                self.last_correction = core::array::from_fn(|i| c.q[i] - q_nominal[i]);
-                self.report.converged = true;
-                self.report.iterations = c.iterations.min(u8::MAX as u32) as u8;
-                self.report.error_um = c.error_m * 1e6;
-                c.q
+        let (qa, beta) = self.guess(q_nominal);
+        let tolerance = self.options.tolerance_m;
+        let evaluated = self
+            .calibrated
+            .evaluate(qa, beta, &target, payload_kg, tolerance)
+            .ok()
+            .filter(|e| {
+                e.state
+                    .q
+                    .iter()
+                    .zip(q_nominal)
+                    .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
+            });
+        // The accepted state's own error at this frame's target: a step must not do worse.
+        let anchor = self
+            .accepted
+            .map(|a| a.linear.retarget(&(target - a.target), q_nominal));
+        let better = |e: f32| anchor.is_none_or(|a| e <= a.error_m() + tolerance);
+        match evaluated {
+            Some(evaluation) if better(evaluation.state.error_m) => {
+                let state = evaluation.state;
+                let linear = self.calibrated.linearise(&evaluation, q_nominal);
+                self.rejections = 0;
+                self.steps = self.steps.saturating_add(1);
+                self.report = CompensationReport {
+                    converged: state.converged,
+                    iterations: self.steps.min(u32::from(u8::MAX)) as u8,
+                    error_um: state.error_m * 1e6,
+                    fallbacks: self.report.fallbacks,
+                };
+                self.last_correction = core::array::from_fn(|i| state.q[i] - q_nominal[i]);
+                self.fell_back = false;
+                if state.converged {
+                    self.settled = Some((inputs, state.q));
+                }
+                // Converging from afar, the correction changes by the solve's
+                // own steps, which are no rate of the target's motion.
+                let previous = self
+                    .accepted
+                    .filter(|a| a.linear.error_m() <= TRACKING_M && state.error_m <= TRACKING_M)
+                    .map(|a| a.correction);
+                self.take_step(linear, target, q_nominal, previous);
+                state.q
             }
             _ => {
-                self.report.converged = false;
-                self.report.iterations = sane.map_or(0, |c| c.iterations.min(u8::MAX as u32) as u8);
-                self.report.error_um = sane.map_or(f32::INFINITY, |c| c.error_m * 1e6);
-                self.report.fallbacks = self.report.fallbacks.saturating_add(1);
-                core::array::from_fn(|i| q_nominal[i] + self.last_correction[i])
+                self.rejections = (self.rejections + 1).min(MAX_REJECTIONS);
+                match anchor {
+                    Some(linear) => self.take_step(linear, target, q_nominal, None),
+                    None => self.next = None,
+                }
+                self.fall_back(q_nominal)
             }
         }
+    }
+
+    /// Steps from `linear` (solved for `target`) and keeps the result for the next frame.
+    fn take_step(
+        &mut self,
+        linear: Linearisation<f32>,
+        target: Vector3<f32>,
+        q_nominal: &[f32; CHANNELS],
+        previous_correction: Option<[f32; CHANNELS]>,
+    ) {
+        let Some((qa, beta)) = linear.next_state(self.rejections, self.options.damping_m) else {
+            self.accepted = None;
+            self.next = None;
+            return;
+        };
+        let correction = core::array::from_fn(|i| qa[i] - q_nominal[i]);
+        let correction_rate = match previous_correction {
+            Some(p) => core::array::from_fn(|i| correction[i] - p[i]),
+            None => [0.0; CHANNELS],
+        };
+        self.accepted = Some(Accepted {
+            linear,
+            target,
+            correction,
+        });
+        self.next = Some(Next {
+            qa,
+            beta,
+            q_nominal: *q_nominal,
+            correction_rate,
+        });
+    }
+
+    /// Commands the nominal targets plus the last good correction and says so.
+    fn fall_back(&mut self, q_nominal: &[f32; CHANNELS]) -> [f32; CHANNELS] {
+        self.fell_back = true;
+        self.report.converged = false;
+        self.report.fallbacks = self.report.fallbacks.saturating_add(1);
+        core::array::from_fn(|i| q_nominal[i] + self.last_correction[i])
     }
 }

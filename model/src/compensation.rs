@@ -16,7 +16,10 @@
 //!
 //! `δ ← Jᵀ (J Jᵀ + λ² I)⁻¹ (e + J δ)`, `qa = q_nominal + δ`,
 //!
-//! with `e` the remaining position error and `λ² = |e|² + λ₀²` a damping that
+//! a Newton step on the position that also removes the part of `δ` the
+//! position does not see (far from the target only half of it, see
+//! `HALF_PULL_ABOVE_M`). `e` is the remaining position
+//! error and `λ² = |e|² + λ₀²` a damping that
 //! keeps steps bounded near singular poses (Sugihara's Levenberg–Marquardt IK)
 //! and fades with the error, so it does not bias the result. A step that
 //! increases the error (near singular or unreachable targets, where the pull
@@ -36,6 +39,11 @@ use crate::{JOINTS, Real, real};
 
 /// How many steps in a row may fail to reduce the error before the solve stops.
 const MAX_REJECTIONS: u32 = 6;
+/// Above this position error (m), a step removes only half of the null-space
+/// offset from the nominal shape: all of it, with the large steps far from the
+/// target, makes the solve oscillate where the null space turns quickly with
+/// the pose. Close to the target the steps are small and remove all of it.
+const HALF_PULL_ABOVE_M: f64 = 1e-4;
 
 /// Stopping rules and damping of the compensation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,6 +84,20 @@ pub struct Compensation<T: Real> {
     pub converged: bool,
 }
 
+/// One state of the solve, evaluated: its command and its exact error, and
+/// what linearising around it needs.
+#[derive(Clone, Copy, Debug)]
+pub struct Evaluation<T: Real> {
+    /// The state as a result: command, deflection, error.
+    pub state: Compensation<T>,
+    /// Load moments at the state.
+    moments: [Vector3<T>; JOINTS],
+    /// `k0 τ0 − beta`, rad.
+    beta_residual: T,
+    /// Target minus tool point, m.
+    error: Vector3<T>,
+}
+
 impl<T: Real> Chain<T> {
     /// Position Jacobian of the tool point w.r.t. the deflected joint angles, m/rad.
     pub fn position_jacobian(&self, f: &ChainFrames<T>) -> Matrix3x6<T> {
@@ -87,11 +109,52 @@ impl<T: Real> Chain<T> {
         j
     }
 
+    /// The state with deflected angles `qa` and base tilt `beta`: the command
+    /// that produces it, `q = qa − K τ(qa, beta)`, and how far its tool point
+    /// is from `target`. One pass of kinematics and gravity, no iteration.
+    pub fn evaluate(
+        &self,
+        qa: [T; JOINTS],
+        beta: T,
+        target: &Vector3<T>,
+        payload_kg: T,
+        tolerance_m: T,
+    ) -> Result<Evaluation<T>, DeflectionError> {
+        let frames = self.frames(&qa, beta);
+        let moments = self.load_moments(&frames, payload_kg);
+        let tau = self.torques_from_moments(&frames, &moments);
+        let beta_residual = self.base_compliance * tau.base - beta;
+        let error = target - frames.tool_point();
+        let lever = frames.tool_point() - frames.joint_origin(0);
+        let error_m = error.norm() + beta_residual.abs() * lever.norm();
+        if !error_m.is_finite() {
+            return Err(DeflectionError::NotFinite);
+        }
+        let state = Compensation {
+            q: core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]),
+            deflection: Deflection {
+                qa,
+                beta,
+                frames,
+                iterations: 0,
+            },
+            error_m,
+            iterations: 0,
+            converged: error_m <= tolerance_m,
+        };
+        Ok(Evaluation {
+            state,
+            moments,
+            beta_residual,
+            error,
+        })
+    }
+
     /// Commands that bring this (calibrated) arm's deflected tool point to `target`,
     /// keeping its deflected joint angles as close as possible to `q_nominal`.
     ///
-    /// `warm` is a previous solution to start from (the previous servo frame's);
-    /// without it the solve starts at the nominal command.
+    /// `warm` is a previous solution to start from; without it the solve
+    /// starts at the nominal command.
     pub fn compensate(
         &self,
         q_nominal: &[T; JOINTS],
@@ -109,28 +172,10 @@ impl<T: Real> Chain<T> {
         let mut rejections = 0;
         let mut iterations = 0;
         loop {
-            let frames = self.frames(&qa, beta);
-            let moments = self.load_moments(&frames, payload_kg);
-            let tau = self.torques_from_moments(&frames, &moments);
-            let beta_residual = self.base_compliance * tau.base - beta;
-            let lever = frames.tool_point() - frames.joint_origin(0);
-            let error = target - frames.tool_point();
-            let error_m = error.norm() + beta_residual.abs() * lever.norm();
-            if !error_m.is_finite() {
-                return Err(DeflectionError::NotFinite);
-            }
-            let current = Compensation {
-                q: core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]),
-                deflection: Deflection {
-                    qa,
-                    beta,
-                    frames,
-                    iterations,
-                },
-                error_m,
-                iterations,
-                converged: error_m <= options.tolerance_m,
-            };
+            let evaluation = self.evaluate(qa, beta, target, payload_kg, options.tolerance_m)?;
+            let mut current = evaluation.state;
+            current.iterations = iterations;
+            current.deflection.iterations = iterations;
             if current.converged {
                 return Ok(current);
             }
@@ -138,7 +183,7 @@ impl<T: Real> Chain<T> {
                 // Worse than the accepted state (near singular or unreachable
                 // targets): retry from there with a more strongly damped,
                 // purely corrective step; out of tries, the accepted state is the answer.
-                Some((best, lin)) if error_m > best.error_m => {
+                Some((best, lin)) if current.error_m > best.error_m => {
                     if rejections >= MAX_REJECTIONS || iterations >= options.max_iterations {
                         return Ok(Compensation { iterations, ..best });
                     }
@@ -150,31 +195,27 @@ impl<T: Real> Chain<T> {
                         return Ok(current);
                     }
                     rejections = 0;
-                    let lin = self.linearise(&current, &moments, beta_residual, error, q_nominal);
+                    let lin = self.linearise(&evaluation, q_nominal);
                     accepted = Some((current, lin));
                     lin
                 }
             };
             iterations += 1;
-            let damping2 = options.damping_m * options.damping_m;
-            let step = lin
-                .step(rejections, damping2)
+            (qa, beta) = lin
+                .next_state(rejections, options.damping_m)
                 .ok_or(DeflectionError::NotFinite)?;
-            qa = core::array::from_fn(|i| lin.qa[i] + step[i]);
-            beta = lin.beta + lin.tilt_offset + lin.tilt_gain.dot(&step);
         }
     }
 
-    /// The linear model of the tool-point error around an accepted state, with
-    /// the base tilt's fixed point folded in.
-    fn linearise(
+    /// The linear model of the tool-point error around an evaluated state,
+    /// with the base tilt's fixed point folded in.
+    pub fn linearise(
         &self,
-        state: &Compensation<T>,
-        moments: &[Vector3<T>; JOINTS],
-        beta_residual: T,
-        error: Vector3<T>,
+        evaluation: &Evaluation<T>,
         q_nominal: &[T; JOINTS],
     ) -> Linearisation<T> {
+        let state = &evaluation.state;
+        let (moments, beta_residual) = (&evaluation.moments, evaluation.beta_residual);
         let frames = &state.deflection.frames;
         // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
         let g = self.gravity;
@@ -188,9 +229,12 @@ impl<T: Real> Chain<T> {
         let tilt_offset = s * beta_residual;
         let tilt_column = y0.cross(&(frames.tool_point() - frames.joint_origin(0)));
         let (qa, beta) = (state.deflection.qa, state.deflection.beta);
+        let tool_error = evaluation.error;
         Linearisation {
             j: self.position_jacobian(frames) + tilt_column * tilt_gain.transpose(),
-            error: error - tilt_column * tilt_offset,
+            error: tool_error - tilt_column * tilt_offset,
+            tool_error,
+            tilt_error_m: state.error_m - tool_error.norm(),
             error_m: state.error_m,
             delta: Vector6::from_fn(|i, _| qa[i] - q_nominal[i]),
             tilt_gain,
@@ -201,32 +245,68 @@ impl<T: Real> Chain<T> {
     }
 }
 
-/// The error around an accepted state as a linear function of the change in `qa`.
+/// The error around an evaluated state as a linear function of the change in `qa`.
 #[derive(Clone, Copy, Debug)]
-struct Linearisation<T: Real> {
+pub struct Linearisation<T: Real> {
     /// `∂e/∂qa` with the base tilt folded in, m/rad.
     j: Matrix3x6<T>,
     /// The error to remove, with the tilt residual's share taken out, m.
     error: Vector3<T>,
-    /// The accepted state's error measure, m.
+    /// Target minus tool point at the state, m.
+    tool_error: Vector3<T>,
+    /// The tilt residual's share of `error_m`, m.
+    tilt_error_m: T,
+    /// The state's error measure, m.
     error_m: T,
-    /// Deflected angles minus nominal command at the accepted state, rad.
+    /// Deflected angles minus nominal command at the state, rad.
     delta: Vector6<T>,
     /// `∂beta/∂qa` of the linearised tilt.
     tilt_gain: Vector6<T>,
     /// Change of beta that settles its residual at fixed `qa`, rad.
     tilt_offset: T,
-    /// The accepted state.
+    /// The state.
     qa: [T; JOINTS],
-    /// The accepted state's base tilt, rad.
+    /// The state's base tilt, rad.
     beta: T,
 }
 
 impl<T: Real> Linearisation<T> {
+    /// The state's error measure, m (as [`Compensation::error_m`]).
+    pub fn error_m(&self) -> T {
+        self.error_m
+    }
+
+    /// The same state seen from a target moved by `target_shift` and a new
+    /// nominal command: its tool point stays put, so its error is exact.
+    pub fn retarget(&self, target_shift: &Vector3<T>, q_nominal: &[T; JOINTS]) -> Self {
+        let tool_error = self.tool_error + target_shift;
+        Self {
+            error: self.error + target_shift,
+            tool_error,
+            error_m: tool_error.norm() + self.tilt_error_m,
+            delta: Vector6::from_fn(|i, _| self.qa[i] - q_nominal[i]),
+            ..*self
+        }
+    }
+
+    /// The change of the base tilt that goes with a change `dqa` of the deflected angles, rad.
+    pub fn tilt_change(&self, dqa: &[T; JOINTS]) -> T {
+        self.tilt_gain.dot(&Vector6::from_column_slice(dqa))
+    }
+
+    /// The state to try next, deflected angles and base tilt, after one step
+    /// (see [`Linearisation::step`]); `None` if the step is not finite.
+    pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<([T; JOINTS], T)> {
+        let step = self.step(rejections, damping_m * damping_m)?;
+        let qa = core::array::from_fn(|i| self.qa[i] + step[i]);
+        Some((qa, self.beta + self.tilt_offset + self.tilt_gain.dot(&step)))
+    }
+
     /// The change of `qa` to try.
     ///
     /// First try: reach the target and move the null-space part of `δ` to zero
-    /// (`δ' = Jᵀ (J Jᵀ + λ²)⁻¹ (e + J δ)`). After `rejections` failed tries:
+    /// (`δ' = Jᵀ (J Jᵀ + λ²)⁻¹ (e + J δ)`; halfway only while the error exceeds
+    /// `HALF_PULL_ABOVE_M`). After `rejections` failed tries:
     /// only reduce the error, with the damping multiplied by `4^rejections`; a
     /// damped Gauss–Newton step is a descent direction of `|e|²`, so this
     /// always makes progress once small enough.
@@ -235,10 +315,24 @@ impl<T: Real> Linearisation<T> {
         for _ in 0..rejections {
             lambda2 *= real::<T>(4.0);
         }
-        let jjt = self.j * self.j.transpose() + Matrix3::identity() * lambda2;
+        // J Jᵀ + λ² I is symmetric: six dot products, mirrored.
+        let dot = |r: usize, c: usize| self.j.row(r).dot(&self.j.row(c));
+        let (a01, a02, a12) = (dot(0, 1), dot(0, 2), dot(1, 2));
+        #[rustfmt::skip]
+        let jjt = Matrix3::new(
+            dot(0, 0) + lambda2, a01, a02,
+            a01, dot(1, 1) + lambda2, a12,
+            a02, a12, dot(2, 2) + lambda2,
+        );
         let cholesky = jjt.cholesky()?;
         Some(if rejections == 0 {
-            self.j.transpose() * cholesky.solve(&(self.error + self.j * self.delta)) - self.delta
+            let gain = if self.error_m > real(HALF_PULL_ABOVE_M) {
+                real(0.5)
+            } else {
+                T::one()
+            };
+            let pull = self.delta * gain;
+            self.j.transpose() * cholesky.solve(&(self.error + self.j * pull)) - pull
         } else {
             self.j.transpose() * cholesky.solve(&self.error)
         })

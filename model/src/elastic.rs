@@ -171,6 +171,9 @@ impl<T: Real> Chain<T> {
         payload_kg: T,
         options: &SolverOptions<T>,
     ) -> Result<Vector3<T>, DeflectionError> {
+        if self.is_rigid() {
+            return Ok(self.rigid_tool_point(q));
+        }
         self.deflect(q, payload_kg, options).map(|d| d.tool_point())
     }
 }
@@ -219,7 +222,8 @@ mod tests {
             .deflect(&q, 0.0663, &SolverOptions::default())
             .unwrap();
         assert_eq!(d.iterations, 0);
-        assert_eq!(d.tool_point(), chain.rigid_tool_point(&q));
+        assert_eq!(d.tool_point(), chain.frames(&q, 0.0).tool_point());
+        assert!((d.tool_point() - chain.rigid_tool_point(&q)).norm() < 1e-15);
         assert!(chain.fixed_point_residual(&q, 0.0663, &d) == 0.0);
         assert!(!lrm_like_arm::<f64>().chain().is_rigid());
     }

@@ -26,12 +26,15 @@ impl<T: Real> Chain<T> {
     /// `v_i × g` is the gravity moment of links `i..6` and the payload about
     /// `o(i-1)`; joint 1's moment (index 0) is also the whole arm's about the base.
     pub fn load_moments(&self, f: &ChainFrames<T>, payload_kg: T) -> [Vector3<T>; JOINTS] {
-        let mut weighted: Vector3<T> = (f.tool * self.payload_com).coords * payload_kg;
+        let last = &f.frames[JOINTS];
+        let mut weighted: Vector3<T> =
+            (last.rotation * self.payload_com + last.translation.vector) * payload_kg;
         let mut mass = payload_kg;
         let mut moments = [Vector3::zeros(); JOINTS];
         for i in (0..JOINTS).rev() {
             let link = &self.links[i];
-            weighted += (f.frames[i + 1] * link.com).coords * link.mass;
+            let frame = &f.frames[i + 1];
+            weighted += frame.rotation * link.mass_com + frame.translation.vector * link.mass;
             mass += link.mass;
             moments[i] = weighted - f.joint_origin(i) * mass;
         }

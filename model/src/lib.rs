@@ -13,6 +13,7 @@
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
 //! | [`servo`] | the three-point piecewise-linear servo curve (angle -> pulse) |
+//! | [`trig`] | the f32 sine and cosine of the joint angles, fast without an FPU |
 //!
 //! Conventions follow `shared/CONTRACTS.md`: metres, radians, kilograms,
 //! microseconds; `T(i-1,i) = Rz(q_i + theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`.
@@ -30,17 +31,34 @@ pub mod params;
 pub mod servo;
 #[cfg(test)]
 mod test_arms;
+pub mod trig;
 
 pub use arm::{Arm, Frame, JOINTS, Joint};
-pub use compensation::{Compensation, CompensationOptions};
+pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
 pub use params::{PARAM_COUNT, ParamId};
 pub use servo::ServoCurve;
 
 /// The float type the model is generic over: `f32` on the MCU, `f64` on the host.
-pub trait Real: nalgebra::RealField + Copy {}
-impl<T: nalgebra::RealField + Copy> Real for T {}
+pub trait Real: nalgebra::RealField + Copy {
+    /// `(sin x, cos x)` of a joint angle as the model evaluates it: libm in
+    /// f64, [`trig::sin_cos_f32`] in f32 (libm's f32 functions compute in f64,
+    /// which costs the FPU-less MCU ten times more).
+    fn joint_sin_cos(self) -> (Self, Self);
+}
+
+impl Real for f64 {
+    fn joint_sin_cos(self) -> (f64, f64) {
+        (libm::sin(self), libm::cos(self))
+    }
+}
+
+impl Real for f32 {
+    fn joint_sin_cos(self) -> (f32, f32) {
+        trig::sin_cos_f32(self)
+    }
+}
 
 /// Converts an `f64` constant into the model's float type.
 #[inline]

@@ -205,11 +205,12 @@ pub struct CalibrationInfo {
 /// How the last compensation solve went.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CompensationReport {
-    /// Whether the last servo frame's solve converged.
+    /// Whether the last servo frame's command reached the tolerance.
     pub converged: bool,
-    /// Its iterations.
+    /// Solver steps (one per servo frame) since the solve last started from
+    /// the nominal targets, at most 255.
     pub iterations: u8,
-    /// Its remaining tool-point error, µm.
+    /// The last command's remaining tool-point error, µm (evaluated, not predicted).
     pub error_um: f32,
     /// Servo frames since boot whose solve failed and fell back to the last good correction.
     pub fallbacks: u32,
@@ -224,7 +225,7 @@ impl Faults {
     pub const NO_CALIBRATION: Faults = Faults(1 << 0);
     /// A flash slot held a damaged calibration at boot (the other one, if valid, is in use).
     pub const STORAGE_DAMAGED: Faults = Faults(1 << 1);
-    /// The last servo frame's compensation did not converge; a fallback was commanded.
+    /// The last servo frame's compensation step failed; a fallback was commanded.
     pub const COMPENSATION_FALLBACK: Faults = Faults(1 << 2);
     /// A joint command was clamped to a joint or pulse limit since the last status read.
     pub const LIMIT_CLAMPED: Faults = Faults(1 << 3);
