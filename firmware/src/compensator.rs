@@ -23,7 +23,9 @@
 //! damped, purely corrective step (as `compensate` does within one solve).
 //! A frame whose inputs (targets, mode, payload) equal the last converged
 //! frame's reuses its answer: the model is deterministic, so a holding arm
-//! costs no solve at all.
+//! costs no solve at all. Holding still at a target the solve cannot reach
+//! (three steps in a row gain less than 10 %, or six fail), the solve ends too,
+//! on its best command, reported as not converged.
 
 use model::{Chain, CompensationOptions, Linearisation};
 use nalgebra::Vector3;
@@ -33,9 +35,12 @@ use crate::CHANNELS;
 
 /// How many failed steps in a row raise the damping (by 4× each).
 const MAX_REJECTIONS: u32 = 6;
-/// Below this error on two frames in a row the solve follows a moving
-/// target, and the change of its correction is a rate to extrapolate, m.
-const TRACKING_M: f32 = 1e-4;
+/// Holding still, a step that keeps more than this share of the error is slow;
+/// [`STALLED_STEPS`] slow steps in a row end the solve (an unreachable or
+/// singular target), and the arm stays put.
+const SLOW_RATIO: f32 = 0.9;
+/// See [`SLOW_RATIO`].
+const STALLED_STEPS: u32 = 3;
 
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,6 +55,8 @@ struct Inputs {
 struct Accepted {
     linear: Linearisation<f32>,
     target: Vector3<f32>,
+    /// The nominal targets it was solved for.
+    q_nominal: [f32; CHANNELS],
     /// Deflected angles minus nominal targets of the step taken from it, rad.
     correction: [f32; CHANNELS],
 }
@@ -75,9 +82,13 @@ pub struct Compensator {
     accepted: Option<Accepted>,
     next: Option<Next>,
     rejections: u32,
+    /// Slow steps in a row while holding still.
+    slow_steps: u32,
     /// Steps since the solve last started from the nominal targets.
     steps: u32,
-    /// Inputs of the last converged frame and the command it gave.
+    /// Inputs of the last frame that solved.
+    last_inputs: Option<Inputs>,
+    /// Inputs of the last frame that ended the solve (converged or stalled) and the command it gave.
     settled: Option<(Inputs, [f32; CHANNELS])>,
     /// Command minus nominal of the last accepted frame, rad.
     last_correction: [f32; CHANNELS],
@@ -100,7 +111,9 @@ impl Compensator {
             accepted: None,
             next: None,
             rejections: 0,
+            slow_steps: 0,
             steps: 0,
+            last_inputs: None,
             settled: None,
             last_correction: [0.0; CHANNELS],
             fell_back: false,
@@ -123,7 +136,9 @@ impl Compensator {
         self.accepted = None;
         self.next = None;
         self.rejections = 0;
+        self.slow_steps = 0;
         self.steps = 0;
+        self.last_inputs = None;
         self.settled = None;
         self.last_correction = [0.0; CHANNELS];
         self.fell_back = false;
@@ -152,9 +167,14 @@ impl Compensator {
     fn guess(&self, q_nominal: &[f32; CHANNELS]) -> ([f32; CHANNELS], f32) {
         match (&self.next, &self.accepted) {
             (Some(next), Some(accepted)) => {
-                let shift: [f32; CHANNELS] = core::array::from_fn(|i| {
-                    q_nominal[i] - next.q_nominal[i] + next.correction_rate[i]
-                });
+                // The correction goes on changing only while the targets move.
+                let rate = if *q_nominal == next.q_nominal {
+                    [0.0; CHANNELS]
+                } else {
+                    next.correction_rate
+                };
+                let shift: [f32; CHANNELS] =
+                    core::array::from_fn(|i| q_nominal[i] - next.q_nominal[i] + rate[i]);
                 let qa = core::array::from_fn(|i| next.qa[i] + shift[i]);
                 (qa, next.beta + accepted.linear.tilt_change(&shift))
             }
@@ -184,6 +204,8 @@ impl Compensator {
             return q;
         }
         self.settled = None;
+        let holding = self.last_inputs == Some(inputs);
+        self.last_inputs = Some(inputs);
         let Some(target) = self.target(q_nominal, mode, payload_kg) else {
             return self.fall_back(q_nominal);
         };
@@ -219,14 +241,17 @@ impl Compensator {
                 };
                 self.last_correction = core::array::from_fn(|i| state.q[i] - q_nominal[i]);
                 self.fell_back = false;
-                if state.converged {
+                let slow =
+                    holding && anchor.is_some_and(|a| state.error_m > a.error_m() * SLOW_RATIO);
+                self.slow_steps = if slow { self.slow_steps + 1 } else { 0 };
+                if state.converged || self.slow_steps >= STALLED_STEPS {
                     self.settled = Some((inputs, state.q));
                 }
-                // Converging from afar, the correction changes by the solve's
-                // own steps, which are no rate of the target's motion.
+                // A rate only between two frames of a move: holding, the
+                // correction changes by the solve's own steps.
                 let previous = self
                     .accepted
-                    .filter(|a| a.linear.error_m() <= TRACKING_M && state.error_m <= TRACKING_M)
+                    .filter(|a| a.q_nominal != *q_nominal)
                     .map(|a| a.correction);
                 self.take_step(linear, target, q_nominal, previous);
                 state.q
@@ -237,7 +262,19 @@ impl Compensator {
                     Some(linear) => self.take_step(linear, target, q_nominal, None),
                     None => self.next = None,
                 }
-                self.fall_back(q_nominal)
+                let command = self.fall_back(q_nominal);
+                if self.rejections == MAX_REJECTIONS {
+                    if holding {
+                        self.settled = Some((inputs, command));
+                    } else {
+                        // Lost while the targets move: start afresh from them.
+                        self.accepted = None;
+                        self.next = None;
+                        self.rejections = 0;
+                        self.steps = 0;
+                    }
+                }
+                command
             }
         }
     }
@@ -263,6 +300,7 @@ impl Compensator {
         self.accepted = Some(Accepted {
             linear,
             target,
+            q_nominal: *q_nominal,
             correction,
         });
         self.next = Some(Next {

@@ -528,6 +528,28 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
     }
 }
 
+/// Holding at a target the calibrated arm cannot reach exactly (the stretched,
+/// singular zero pose), the per-frame solve ends on its best command instead
+/// of creeping on: the command stops changing, and the report says so.
+#[test]
+fn an_unreachable_holding_target_ends_the_solve() {
+    let cal = test_calibration(3);
+    let mut comp = crate::compensator::Compensator::new(&cal, Config::default().compensation, 0.35);
+    let q = [0.0f32; 6];
+    let mut commands = std::vec::Vec::new();
+    for _ in 0..60 {
+        commands.push(comp.step(&q, CompensationMode::Full, 0.0663));
+    }
+    let last = commands[commands.len() - 1];
+    assert!(
+        commands[40..].iter().all(|c| *c == last),
+        "{:?}",
+        &commands[40..]
+    );
+    let report = comp.report();
+    assert!(!report.converged && report.error_um > 100.0, "{report:?}");
+}
+
 /// The firmware's f32 compensation against the host's f64 model: the
 /// calibrated arm (f64) commanded with the f32 solution reaches the nominal
 /// target within 0.05 mm, over 1000 random reachable targets, both payloads.
