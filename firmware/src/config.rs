@@ -29,14 +29,15 @@ pub struct Config {
     /// compensation on or off, a new payload or a new calibration fade in
     /// instead of jerking the arm. Far above what a move itself needs.
     pub max_correction_rate_rad_s: f32,
-    /// The per-frame compensation solve (warm-started, so few iterations).
+    /// Tolerance and damping of the per-frame compensation step (one Newton
+    /// step per servo frame: `max_iterations` is not used on the board).
     pub compensation: CompensationOptions<f32>,
 }
 
 impl Default for Config {
     /// 500–2500 µs, ±150° hard and ±100° default limits, 1.5 rad/s, 4 rad/s²,
     /// 0.5 kg, 0.35 rad largest correction changing at most 0.5 rad/s,
-    /// 5 µm / 4 iterations per frame.
+    /// 5 µm tolerance.
     fn default() -> Self {
         Self {
             firmware: FirmwareVersion {
@@ -58,7 +59,7 @@ impl Default for Config {
             compensation: CompensationOptions {
                 tolerance_m: 5e-6,
                 damping_m: 1e-6,
-                max_iterations: 4,
+                max_iterations: 1,
             },
         }
     }

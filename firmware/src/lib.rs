@@ -16,7 +16,7 @@
 //! | [`handlers`] | one function per endpoint of the `protocol` table |
 //! | [`servo`] | the servo bus trait, joint and pulse limits, angle → pulse |
 //! | [`motion`] | speed/acceleration-limited, synchronised joint motion |
-//! | [`compensator`] | the per-frame compensation step with warm start and fallback |
+//! | [`compensator`] | one Newton step of compensation per servo frame, with fallback |
 //! | [`storage`] | two flash slots with sequence number and CRC |
 //! | [`config`] | limits and tuning with their defaults |
 //! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
