@@ -520,3 +520,47 @@ mod jacobian_tests {
         }
     }
 }
+
+#[cfg(test)]
+mod linearisation_tests {
+    use super::*;
+    use crate::test_arms::lrm_like_arm;
+
+    /// Seen from a moved target, the linear model's error is the state's exact
+    /// error there, and its tilt gain predicts how the base tilt's fixed point moves.
+    #[test]
+    fn retarget_and_tilt_change_match_a_fresh_evaluation() {
+        let chain = lrm_like_arm::<f64>().chain();
+        let (qa, payload) = ([0.3, 0.7, -0.9, 0.4, 1.1, -0.2], 0.0663);
+        let beta = chain
+            .deflect(&qa, payload, &crate::SolverOptions::default())
+            .unwrap()
+            .beta;
+        let t1 = chain.frames(&qa, beta).tool_point() + Vector3::new(0.002, -0.001, 0.003);
+        let t2 = t1 + Vector3::new(-0.004, 0.002, 0.001);
+        let q_nominal = [0.31, 0.69, -0.9, 0.41, 1.1, -0.2];
+        let at = |t: &Vector3<f64>| chain.evaluate(qa, beta, t, payload, 1e-9).unwrap();
+        let lin = chain.linearise(&at(&t1), &q_nominal);
+        let moved = lin.retarget(&(t2 - t1), &q_nominal);
+        assert!((moved.error_m() - at(&t2).state.error_m).abs() < 1e-12);
+
+        // Move qa a little; the base tilt's own fixed point (with qa fixed) moves by tilt_change.
+        let dqa = [1e-4, -2e-4, 1.5e-4, 0.0, 1e-4, 0.0];
+        let qa2: [f64; 6] = core::array::from_fn(|i| qa[i] + dqa[i]);
+        let fixed_beta = |qa: &[f64; 6]| {
+            let mut b = beta;
+            for _ in 0..50 {
+                let f = chain.frames(qa, b);
+                b = chain.base_compliance * chain.gravity_torques(&f, payload).base;
+            }
+            b
+        };
+        let change = fixed_beta(&qa2) - fixed_beta(&qa);
+        let predicted = lin.tilt_change(&dqa);
+        // First order: what is left is second order in dqa.
+        assert!(
+            (change - predicted).abs() < 0.01 * change.abs(),
+            "{predicted:e} vs {change:e}"
+        );
+    }
+}
