@@ -2,25 +2,26 @@
 //! commands for the calibrated, deflected arm out.
 //!
 //! The solve of `model::Chain::compensate` is spread over the servo frames,
-//! one Newton step per frame, so a frame costs one pass of kinematics and
-//! gravity whatever happens (the budget is 1 ms at 125 MHz):
+//! one Newton step per frame, so a frame costs one evaluation, one
+//! linearisation and one step whatever happens:
 //!
 //! 1. *Evaluate* the state the previous frame's step led to, moved along with
 //!    the nominal targets and the correction's own rate of change. This
 //!    gives a command and its exact remaining error, and that command is
 //!    what the frame sends: the reported error is measured, not predicted.
 //! 2. *Step* from it towards this frame's target; the result is the next
-//!    frame's state to evaluate. Newton converges quadratically, and the
-//!    targets move by at most a few milliradians per frame, so a move is
-//!    followed to micrometres and a new target from rest is reached in two or
-//!    three frames.
+//!    frame's state to evaluate. Newton converges quadratically and the
+//!    targets move by at most 30 mrad per frame, so a move is followed to
+//!    about 10 µm and a new target from rest is reached in about three frames
+//!    (a dozen for corrections near the bound).
 //!
 //! A state worse than the last accepted one would have been (near singular
 //! or unreachable targets), not finite, or correcting a joint by more than
 //! the configured bound is not commanded: the frame falls back to the
 //! nominal targets plus the last good correction, counts the fallback, and
 //! the next frame retries from the accepted state with a more strongly
-//! damped, purely corrective step (as `compensate` does within one solve).
+//! damped, purely corrective step (as `compensate` does within one solve);
+//! six failures in a row while the targets move start the solve afresh.
 //! A frame whose inputs (targets, mode, payload) equal the last converged
 //! frame's reuses its answer: the model is deterministic, so a holding arm
 //! costs no solve at all. Holding still at a target the solve cannot reach
