@@ -134,11 +134,7 @@ impl Compensator {
 
     /// Forgets the solve and the last correction (after a mode change or a detach).
     pub fn reset(&mut self) {
-        self.accepted = None;
-        self.next = None;
-        self.rejections = 0;
-        self.slow_steps = 0;
-        self.steps = 0;
+        self.restart();
         self.last_inputs = None;
         self.settled = None;
         self.last_correction = [0.0; CHANNELS];
@@ -269,15 +265,21 @@ impl Compensator {
                         self.settled = Some((inputs, command));
                     } else {
                         // Lost while the targets move: start afresh from them.
-                        self.accepted = None;
-                        self.next = None;
-                        self.rejections = 0;
-                        self.steps = 0;
+                        self.restart();
                     }
                 }
                 command
             }
         }
+    }
+
+    /// Forgets the solve: the next frame starts from the nominal targets.
+    fn restart(&mut self) {
+        self.accepted = None;
+        self.next = None;
+        self.rejections = 0;
+        self.slow_steps = 0;
+        self.steps = 0;
     }
 
     /// Steps from `linear` (solved for `target`) and keeps the result for the next frame.

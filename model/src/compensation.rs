@@ -96,6 +96,8 @@ pub struct Evaluation<T: Real> {
     beta_residual: T,
     /// Target minus tool point, m.
     error: Vector3<T>,
+    /// The tilt residual's share of the error measure, m.
+    tilt_error_m: T,
 }
 
 impl<T: Real> Chain<T> {
@@ -126,7 +128,8 @@ impl<T: Real> Chain<T> {
         let beta_residual = self.base_compliance * tau.base - beta;
         let error = target - frames.tool_point();
         let lever = frames.tool_point() - frames.joint_origin(0);
-        let error_m = error.norm() + beta_residual.abs() * lever.norm();
+        let tilt_error_m = beta_residual.abs() * lever.norm();
+        let error_m = error.norm() + tilt_error_m;
         if !error_m.is_finite() {
             return Err(DeflectionError::NotFinite);
         }
@@ -147,6 +150,7 @@ impl<T: Real> Chain<T> {
             moments,
             beta_residual,
             error,
+            tilt_error_m,
         })
     }
 
@@ -234,7 +238,7 @@ impl<T: Real> Chain<T> {
             j: self.position_jacobian(frames) + tilt_column * tilt_gain.transpose(),
             error: tool_error - tilt_column * tilt_offset,
             tool_error,
-            tilt_error_m: state.error_m - tool_error.norm(),
+            tilt_error_m: evaluation.tilt_error_m,
             error_m: state.error_m,
             delta: Vector6::from_fn(|i, _| qa[i] - q_nominal[i]),
             tilt_gain,

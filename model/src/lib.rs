@@ -42,15 +42,15 @@ pub use servo::ServoCurve;
 
 /// The float type the model is generic over: `f32` on the MCU, `f64` on the host.
 pub trait Real: nalgebra::RealField + Copy {
-    /// `(sin x, cos x)` of a joint angle as the model evaluates it: libm in
-    /// f64, [`trig::sin_cos_f32`] in f32 (libm's f32 functions compute in f64,
-    /// which costs the FPU-less MCU ten times more).
+    /// `(sin x, cos x)` of a joint angle as the model evaluates it: the float's
+    /// own in f64, [`trig::sin_cos_f32`] in f32 (libm's f32 functions compute
+    /// in f64, which costs the FPU-less MCU ten times more).
     fn joint_sin_cos(self) -> (Self, Self);
 }
 
 impl Real for f64 {
     fn joint_sin_cos(self) -> (f64, f64) {
-        (libm::sin(self), libm::cos(self))
+        nalgebra::ComplexField::sin_cos(self)
     }
 }
 

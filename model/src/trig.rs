@@ -18,7 +18,7 @@
 //!
 //! The result is within 1.5e-7 of the exact value for any angle up to
 //! [`REDUCTION_LIMIT`] (see the tests); beyond it, or for a non-finite angle,
-//! libm answers.
+//! libm answers (through nalgebra).
 
 /// Largest angle the fixed-point kernel takes, rad.
 pub const REDUCTION_LIMIT: f32 = 4096.0;
@@ -44,7 +44,7 @@ pub fn sin_cos_f32(x: f32) -> (f32, f32) {
     // Finite floats of one sign order like their bits; NaN's bits exceed every finite magnitude.
     let magnitude = bits & 0x7fff_ffff;
     if magnitude > REDUCTION_LIMIT.to_bits() {
-        return (libm::sinf(x), libm::cosf(x));
+        return nalgebra::ComplexField::sin_cos(x);
     }
     // Below 2⁻¹², sin x = x and cos x = 1 to f32 precision.
     if magnitude < 0x3980_0000 {
