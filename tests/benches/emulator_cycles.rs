@@ -71,6 +71,14 @@ fn main() {
             .into_iter()
             .chain([("holding", poses[1])])
         {
+            // A move ends on a frame boundary, which may lie just past the
+            // emulated time run for it: let it end before the next one starts.
+            for _ in 0..10 {
+                if !link.status().moving {
+                    break;
+                }
+                board.run_us(20_000);
+            }
             for (_, symbol) in PROBES {
                 stats(&mut board, symbol);
             }
