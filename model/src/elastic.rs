@@ -111,8 +111,7 @@ impl<T: Real> Chain<T> {
         }
         let mut last_step = T::zero();
         for iteration in 1..=options.max_iterations {
-            let frames = self.frames(&qa, beta);
-            let (next_qa, next_beta) = self.elastic_map(q, &frames, payload_kg);
+            let (next_qa, next_beta) = self.elastic_map(q, &qa, beta, payload_kg);
             last_step = (next_beta - beta).abs();
             for (n, o) in next_qa.iter().zip(&qa) {
                 last_step = last_step.max((*n - *o).abs());
@@ -144,21 +143,23 @@ impl<T: Real> Chain<T> {
         self.base_compliance == T::zero() && self.links.iter().all(|l| l.compliance == T::zero())
     }
 
-    /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the given frames.
+    /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the
+    /// deflected angles `qa` and base tilt `beta`.
     pub fn elastic_map(
         &self,
         q: &[T; JOINTS],
-        frames: &ChainFrames<T>,
+        qa: &[T; JOINTS],
+        beta: T,
         payload_kg: T,
     ) -> ([T; JOINTS], T) {
-        let tau = self.gravity_torques(frames, payload_kg);
+        let tau = self.gravity_torques(qa, beta, payload_kg);
         let qa = core::array::from_fn(|i| q[i] + self.links[i].compliance * tau.joints[i]);
         (qa, self.base_compliance * tau.base)
     }
 
     /// Largest violation of the fixed-point equation by a solution, rad.
     pub fn fixed_point_residual(&self, q: &[T; JOINTS], payload_kg: T, d: &Deflection<T>) -> T {
-        let (qa, beta) = self.elastic_map(q, &self.frames(&d.qa, d.beta), payload_kg);
+        let (qa, beta) = self.elastic_map(q, &d.qa, d.beta, payload_kg);
         qa.iter()
             .zip(&d.qa)
             .fold((beta - d.beta).abs(), |m, (a, b)| m.max((*a - *b).abs()))

@@ -40,8 +40,8 @@ pub struct Chain<T: Real> {
     pub links: [Link<T>; JOINTS],
     /// Base tilt compliance about y0, rad/Nm.
     pub base_compliance: T,
-    /// Gravity, world frame, m/s².
-    pub gravity: Vector3<T>,
+    /// Gravity in the base frame (before the elastic tilt), m/s².
+    pub base_gravity: Vector3<T>,
     /// Payload centre of mass in frame 6, m.
     pub payload_com: Vector3<T>,
 }
@@ -101,12 +101,46 @@ pub fn dh_child<T: Real>(
     )
 }
 
+impl<T: Real> Link<T> {
+    /// A point or moment of frame i+1 in frame i: `Rz(angle) (Rx(alpha) v + (x, 0, z))`,
+    /// with `(x, z)` the link's `(a, d)` for a point or `m (a, d)` for a moment
+    /// of mass `m`; `(sin, cos)` of the joint's DH angle. 14 operations.
+    #[inline]
+    pub fn to_parent(&self, v: &Vector3<T>, (s, c): (T, T), (x, z): (T, T)) -> Vector3<T> {
+        let wx = v.x + x;
+        let wy = v.y * self.cos_alpha - v.z * self.sin_alpha;
+        let wz = v.y * self.sin_alpha + v.z * self.cos_alpha + z;
+        Vector3::new(c * wx - s * wy, s * wx + c * wy, wz)
+    }
+
+    /// A direction of frame i+1 in frame i: `Rz(angle) Rx(alpha) v`. 12 operations.
+    #[inline]
+    pub fn rotate_to_parent(&self, v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {
+        let wy = v.y * self.cos_alpha - v.z * self.sin_alpha;
+        let wz = v.y * self.sin_alpha + v.z * self.cos_alpha;
+        Vector3::new(c * v.x - s * wy, s * v.x + c * wy, wz)
+    }
+
+    /// A direction of frame i in frame i+1: `Rx(alpha)ᵀ Rz(angle)ᵀ v`. 12 operations.
+    #[inline]
+    pub fn rotate_to_child(&self, v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {
+        let hx = c * v.x + s * v.y;
+        let hy = c * v.y - s * v.x;
+        Vector3::new(
+            hx,
+            hy * self.cos_alpha + v.z * self.sin_alpha,
+            v.z * self.cos_alpha - hy * self.sin_alpha,
+        )
+    }
+}
+
 impl<T: Real> Arm<T> {
     /// Prepares the arm for evaluation.
     pub fn chain(&self) -> Chain<T> {
         let tool = self.tool.isometry();
+        let base = self.base.isometry();
         Chain {
-            base: self.base.isometry(),
+            base,
             tool_point: tool.translation.vector,
             links: self.joints.map(|j| {
                 let (sin_alpha, cos_alpha) = j.alpha.sin_cos();
@@ -122,7 +156,7 @@ impl<T: Real> Arm<T> {
                 }
             }),
             base_compliance: self.base_compliance,
-            gravity: self.gravity_vector(),
+            base_gravity: base.rotation.inverse() * self.gravity_vector(),
             payload_com: (tool * Point3::from(self.payload_com)).coords,
         }
     }
@@ -131,7 +165,7 @@ impl<T: Real> Arm<T> {
 impl<T: Real> Chain<T> {
     /// Frames of the chain at actual joint angles `qa` and elastic base tilt `beta` (rad).
     pub fn frames(&self, qa: &[T; JOINTS], beta: T) -> ChainFrames<T> {
-        let mut frames = [self.tilted_base(beta); JOINTS + 1];
+        let mut frames = [self.tilted_base(tilt_sin_cos(beta)); JOINTS + 1];
         for (i, link) in self.links.iter().enumerate() {
             frames[i + 1] = dh_child(&frames[i], qa[i] + link.theta, link);
         }
@@ -140,12 +174,11 @@ impl<T: Real> Chain<T> {
         ChainFrames { frames, tool_point }
     }
 
-    /// Frame 0 in the world, tilted by `beta` about its own y axis.
-    fn tilted_base(&self, beta: T) -> IsometryMatrix3<T> {
-        if beta == T::zero() {
+    /// Frame 0 in the world, tilted about its own y axis by the angle of `(sin, cos)`.
+    pub fn tilted_base(&self, (sb, cb): (T, T)) -> IsometryMatrix3<T> {
+        if sb == T::zero() {
             return self.base;
         }
-        let (sb, cb) = beta.joint_sin_cos();
         let r = self.base.rotation.matrix();
         let (x, z) = (r.column(0), r.column(2));
         // base · Ry(beta): x' = cb x − sb z, z' = sb x + cb z.
@@ -156,20 +189,45 @@ impl<T: Real> Chain<T> {
         )
     }
 
+    /// A world point in the base frame (before the elastic tilt), m.
+    pub fn to_base(&self, world: &Vector3<T>) -> Vector3<T> {
+        self.base
+            .inverse_transform_point(&Point3::from(*world))
+            .coords
+    }
+
     /// The measured point of the rigid arm (no deflection) at joint angles `q`, m.
-    ///
-    /// Carried from the tool back to the base, `p ← Rz(angle) (Rx(alpha) p + (a, 0, d))`,
-    /// so no frame is built: 14 operations per joint where [`Chain::frames`] takes 48.
     pub fn rigid_tool_point(&self, q: &[T; JOINTS]) -> Vector3<T> {
+        (self.base * Point3::from(self.rigid_base_point(q))).coords
+    }
+
+    /// [`Chain::rigid_tool_point`] in the base frame, m.
+    ///
+    /// Carried from the tool back to the base with [`Link::to_parent`], so no
+    /// frame is built: 14 operations per joint where [`Chain::frames`] takes 48.
+    pub fn rigid_base_point(&self, q: &[T; JOINTS]) -> Vector3<T> {
         let mut p = self.tool_point;
         for (link, &qi) in self.links.iter().zip(q).rev() {
-            let (st, ct) = (qi + link.theta).joint_sin_cos();
-            let x = p.x + link.a;
-            let y = p.y * link.cos_alpha - p.z * link.sin_alpha;
-            let z = p.y * link.sin_alpha + p.z * link.cos_alpha + link.d;
-            p = Vector3::new(ct * x - st * y, st * x + ct * y, z);
+            p = link.to_parent(&p, (qi + link.theta).joint_sin_cos(), (link.a, link.d));
         }
-        (self.base * Point3::from(p)).coords
+        p
+    }
+}
+
+/// A vector of the base frame in the tilted frame 0: `Ry(beta)ᵀ v`, with
+/// `(sin, cos)` of the tilt.
+#[inline]
+pub fn untilt<T: Real>(v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {
+    Vector3::new(c * v.x - s * v.z, v.y, s * v.x + c * v.z)
+}
+
+/// `(sin, cos)` of the base tilt; exactly `(0, 1)` for no tilt, so a rigid
+/// base costs no rotation.
+pub fn tilt_sin_cos<T: Real>(beta: T) -> (T, T) {
+    if beta == T::zero() {
+        (T::zero(), T::one())
+    } else {
+        beta.joint_sin_cos()
     }
 }
 

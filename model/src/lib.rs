@@ -9,7 +9,7 @@
 //! | [`arm`] | the arm's parameters as plain data (DH, frames, masses, compliances, servo curves) |
 //! | [`params`] | the 43 named error parameters and how they apply to an [`Arm`] |
 //! | [`kinematics`] | standard DH forward kinematics of the (deflected) chain |
-//! | [`gravity`] | gravity torques on the six joints and on the base |
+//! | [`statics`] | tool point and gravity torques in one sweep through the links' frames |
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
 //! | [`servo`] | the three-point piecewise-linear servo curve (angle -> pulse) |
@@ -25,20 +25,23 @@ extern crate std;
 pub mod arm;
 pub mod compensation;
 pub mod elastic;
-pub mod gravity;
 pub mod kinematics;
 pub mod params;
 pub mod servo;
+pub mod statics;
 #[cfg(test)]
 mod test_arms;
 pub mod trig;
 
 pub use arm::{Arm, Frame, JOINTS, Joint};
-pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation};
+pub use compensation::{
+    Compensation, CompensationOptions, Evaluation, Linearisation, Slope, SlopeBuilder,
+};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
 pub use params::{PARAM_COUNT, ParamId};
 pub use servo::ServoCurve;
+pub use statics::{Statics, Torques};
 
 /// The float type the model is generic over: `f32` on the MCU, `f64` on the host.
 pub trait Real: nalgebra::RealField + Copy {

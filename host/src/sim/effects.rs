@@ -93,7 +93,7 @@ pub fn softened_deflection(
         // Torques do not depend on the compliances, so any chain of this arm gives them.
         let tau = softened
             .chain()
-            .gravity_torques(&deflection.frames, payload_kg);
+            .gravity_torques(&deflection.qa, deflection.beta, payload_kg);
         for (i, joint) in softened.joints.iter_mut().enumerate() {
             joint.compliance =
                 arm.joints[i].compliance * (1.0 + softening_per_nm * tau.joints[i].abs());
@@ -199,7 +199,7 @@ mod tests {
         arm.base_compliance = 0.03;
         let (q, load, s) = ([0.0, -1.3, 0.2, 0.0, 0.9, 0.0], 0.0663, 0.3);
         let (d, softened) = softened_deflection(&arm, &q, load, s).unwrap();
-        let tau = arm.chain().gravity_torques(&d.frames, load);
+        let tau = arm.chain().gravity_torques(&d.qa, d.beta, load);
         for i in 0..JOINTS {
             let k = arm.joints[i].compliance * (1.0 + s * tau.joints[i].abs());
             assert!(

@@ -30,20 +30,28 @@
 //! solved in the same Newton step: linearising `beta = k0 τ0(qa, beta)` gives
 //! `Δbeta` in terms of `Δqa`, which turns `J` and `e` into their rank-one
 //! corrected forms, so both converge quadratically together.
+//!
+//! | file | what it holds |
+//! |---|---|
+//! | `mod.rs` | evaluating a state, and the solve |
+//! | [`slope`] | the Jacobian with the tilt folded in, built whole or a part at a time |
+//! | [`linearisation`] | the linear model of a state's error and the step it gives |
 
-use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
+mod linearisation;
+mod slope;
 
-use crate::elastic::{Deflection, DeflectionError};
-use crate::kinematics::{Chain, ChainFrames};
+pub use linearisation::Linearisation;
+pub use slope::{Slope, SlopeBuilder};
+
+use nalgebra::Vector3;
+
+use crate::elastic::DeflectionError;
+use crate::kinematics::{Chain, untilt};
+use crate::statics::Statics;
 use crate::{JOINTS, Real, real};
 
 /// How many steps in a row may fail to reduce the error before the solve stops.
 const MAX_REJECTIONS: u32 = 6;
-/// Above this position error (m), a step removes only half of the null-space
-/// offset from the nominal shape: all of it, with the large steps far from the
-/// target, makes the solve oscillate where the null space turns quickly with
-/// the pose. Close to the target the steps are small and remove all of it.
-const HALF_PULL_ABOVE_M: f64 = 1e-4;
 
 /// Stopping rules and damping of the compensation solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,8 +81,10 @@ impl<T: Real> Default for CompensationOptions<T> {
 pub struct Compensation<T: Real> {
     /// Joint angles to command, rad (not yet clamped to limits).
     pub q: [T; JOINTS],
-    /// The deflected state of the calibrated arm commanded with `q`.
-    pub deflection: Deflection<T>,
+    /// The deflected joint angles of the calibrated arm commanded with `q`, rad.
+    pub qa: [T; JOINTS],
+    /// Its elastic base tilt, rad.
+    pub beta: T,
     /// Remaining distance of the tool point from the target, m, plus the
     /// displacement the base tilt's remaining residual would cause.
     pub error_m: T,
@@ -88,32 +98,25 @@ pub struct Compensation<T: Real> {
 /// what linearising around it needs.
 #[derive(Clone, Copy, Debug)]
 pub struct Evaluation<T: Real> {
-    /// The state as a result: command, deflection, error.
+    /// The state as a result: command, deflected angles, error.
     pub state: Compensation<T>,
-    /// Load moments at the state.
-    moments: [Vector3<T>; JOINTS],
+    /// The arm at the state, as each joint sees it.
+    statics: Statics<T>,
     /// `k0 τ0 − beta`, rad.
     beta_residual: T,
-    /// Target minus tool point, m.
+    /// Target minus tool point, frame 0, m.
     error: Vector3<T>,
     /// The tilt residual's share of the error measure, m.
     tilt_error_m: T,
+    /// The tolerance `state.converged` was judged by, m.
+    tolerance_m: T,
 }
 
 impl<T: Real> Chain<T> {
-    /// Position Jacobian of the tool point w.r.t. the deflected joint angles, m/rad.
-    pub fn position_jacobian(&self, f: &ChainFrames<T>) -> Matrix3x6<T> {
-        let p = f.tool_point();
-        let mut j = Matrix3x6::zeros();
-        for i in 0..JOINTS {
-            j.set_column(i, &f.joint_axis(i).cross(&(p - f.joint_origin(i))));
-        }
-        j
-    }
-
     /// The state with deflected angles `qa` and base tilt `beta`: the command
     /// that produces it, `q = qa − K τ(qa, beta)`, and how far its tool point
-    /// is from `target`. One pass of kinematics and gravity, no iteration.
+    /// is from `target`, given in the base frame ([`Chain::to_base`]).
+    /// One sweep of [`Chain::statics`], no iteration.
     pub fn evaluate(
         &self,
         qa: [T; JOINTS],
@@ -122,12 +125,12 @@ impl<T: Real> Chain<T> {
         payload_kg: T,
         tolerance_m: T,
     ) -> Result<Evaluation<T>, DeflectionError> {
-        let frames = self.frames(&qa, beta);
-        let moments = self.load_moments(&frames, payload_kg);
-        let tau = self.torques_from_moments(&frames, &moments);
+        let statics = self.statics(&qa, beta, payload_kg);
+        let tau = statics.torques;
         let beta_residual = self.base_compliance * tau.base - beta;
-        let error = target - frames.tool_point();
-        let lever = frames.tool_point() - frames.joint_origin(0);
+        // The tool point relative to the base, in frame 0, is also the tilt's lever.
+        let lever = statics.tool_points[0];
+        let error = untilt(target, statics.tilt_sin_cos) - lever;
         let tilt_error_m = beta_residual.abs() * lever.norm();
         let error_m = error.norm() + tilt_error_m;
         if !error_m.is_finite() {
@@ -135,27 +138,25 @@ impl<T: Real> Chain<T> {
         }
         let state = Compensation {
             q: core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]),
-            deflection: Deflection {
-                qa,
-                beta,
-                frames,
-                iterations: 0,
-            },
+            qa,
+            beta,
             error_m,
             iterations: 0,
             converged: error_m <= tolerance_m,
         };
         Ok(Evaluation {
             state,
-            moments,
+            statics,
             beta_residual,
             error,
             tilt_error_m,
+            tolerance_m,
         })
     }
 
-    /// Commands that bring this (calibrated) arm's deflected tool point to `target`,
-    /// keeping its deflected joint angles as close as possible to `q_nominal`.
+    /// Commands that bring this (calibrated) arm's deflected tool point to
+    /// `target` (world frame), keeping its deflected joint angles as close as
+    /// possible to `q_nominal`.
     ///
     /// `warm` is a previous solution to start from; without it the solve
     /// starts at the nominal command.
@@ -167,8 +168,9 @@ impl<T: Real> Chain<T> {
         warm: Option<&Compensation<T>>,
         options: &CompensationOptions<T>,
     ) -> Result<Compensation<T>, DeflectionError> {
+        let target = self.to_base(target);
         let (mut qa, mut beta) = match warm {
-            Some(w) => (w.deflection.qa, w.deflection.beta),
+            Some(w) => (w.qa, w.beta),
             None => (*q_nominal, T::zero()),
         };
         // The last accepted state and the linear model of the error around it.
@@ -176,10 +178,9 @@ impl<T: Real> Chain<T> {
         let mut rejections = 0;
         let mut iterations = 0;
         loop {
-            let evaluation = self.evaluate(qa, beta, target, payload_kg, options.tolerance_m)?;
+            let evaluation = self.evaluate(qa, beta, &target, payload_kg, options.tolerance_m)?;
             let mut current = evaluation.state;
             current.iterations = iterations;
-            current.deflection.iterations = iterations;
             if current.converged {
                 return Ok(current);
             }
@@ -199,7 +200,8 @@ impl<T: Real> Chain<T> {
                         return Ok(current);
                     }
                     rejections = 0;
-                    let lin = self.linearise(&evaluation, q_nominal);
+                    let slope = self.slope(&evaluation);
+                    let lin = evaluation.with_slope(&slope, q_nominal);
                     accepted = Some((current, lin));
                     lin
                 }
@@ -210,136 +212,34 @@ impl<T: Real> Chain<T> {
                 .ok_or(DeflectionError::NotFinite)?;
         }
     }
-
-    /// The linear model of the tool-point error around an evaluated state,
-    /// with the base tilt's fixed point folded in.
-    pub fn linearise(
-        &self,
-        evaluation: &Evaluation<T>,
-        q_nominal: &[T; JOINTS],
-    ) -> Linearisation<T> {
-        let state = &evaluation.state;
-        let (moments, beta_residual) = (&evaluation.moments, evaluation.beta_residual);
-        let frames = &state.deflection.frames;
-        // Base tilt, linearised: Δbeta = s (r + k0 ∂τ0/∂qa · Δqa).
-        let g = self.gravity;
-        let y0 = frames.base_tilt_axis();
-        let g_cross_y0 = g.cross(&y0);
-        let dtau0_dqa =
-            Vector6::from_fn(|c, _| frames.joint_axis(c).cross(&moments[c]).dot(&g_cross_y0));
-        let dtau0_dbeta = -y0.cross(&g).dot(&y0.cross(&moments[0]));
-        let s = T::one() / (T::one() - self.base_compliance * dtau0_dbeta);
-        let tilt_gain = dtau0_dqa * (s * self.base_compliance);
-        let tilt_offset = s * beta_residual;
-        let tilt_column = y0.cross(&(frames.tool_point() - frames.joint_origin(0)));
-        let (qa, beta) = (state.deflection.qa, state.deflection.beta);
-        let tool_error = evaluation.error;
-        Linearisation {
-            j: self.position_jacobian(frames) + tilt_column * tilt_gain.transpose(),
-            error: tool_error - tilt_column * tilt_offset,
-            tool_error,
-            tilt_error_m: evaluation.tilt_error_m,
-            error_m: state.error_m,
-            delta: Vector6::from_fn(|i, _| qa[i] - q_nominal[i]),
-            tilt_gain,
-            tilt_offset,
-            qa,
-            beta,
-        }
-    }
 }
 
-/// The error around an evaluated state as a linear function of the change in `qa`.
-#[derive(Clone, Copy, Debug)]
-pub struct Linearisation<T: Real> {
-    /// `∂e/∂qa` with the base tilt folded in, m/rad.
-    j: Matrix3x6<T>,
-    /// The error to remove, with the tilt residual's share taken out, m.
-    error: Vector3<T>,
-    /// Target minus tool point at the state, m.
-    tool_error: Vector3<T>,
-    /// The tilt residual's share of `error_m`, m.
-    tilt_error_m: T,
-    /// The state's error measure, m.
-    error_m: T,
-    /// Deflected angles minus nominal command at the state, rad.
-    delta: Vector6<T>,
-    /// `∂beta/∂qa` of the linearised tilt.
-    tilt_gain: Vector6<T>,
-    /// Change of beta that settles its residual at fixed `qa`, rad.
-    tilt_offset: T,
-    /// The state.
-    qa: [T; JOINTS],
-    /// The state's base tilt, rad.
-    beta: T,
-}
-
-impl<T: Real> Linearisation<T> {
-    /// The state's error measure, m (as [`Compensation::error_m`]).
-    pub fn error_m(&self) -> T {
-        self.error_m
+impl<T: Real> Evaluation<T> {
+    /// The error measure of the state seen from a target moved by
+    /// `target_shift` (base frame), m: `retarget(target_shift).state.error_m`.
+    pub fn error_m_at(&self, target_shift: &Vector3<T>) -> T {
+        self.error_at(target_shift).norm() + self.tilt_error_m
     }
 
-    /// The same state seen from a target moved by `target_shift` and a new
-    /// nominal command: its tool point stays put, so its error is exact.
-    pub fn retarget(&self, target_shift: &Vector3<T>, q_nominal: &[T; JOINTS]) -> Self {
-        let tool_error = self.tool_error + target_shift;
+    /// Target minus tool point for a target moved by `target_shift`, frame 0, m.
+    fn error_at(&self, target_shift: &Vector3<T>) -> Vector3<T> {
+        self.error + untilt(target_shift, self.statics.tilt_sin_cos)
+    }
+
+    /// The same state seen from a target moved by `target_shift` (base
+    /// frame): its tool point stays put, so its error there is exact.
+    pub fn retarget(&self, target_shift: &Vector3<T>) -> Self {
+        let error = self.error_at(target_shift);
+        let error_m = error.norm() + self.tilt_error_m;
         Self {
-            error: self.error + target_shift,
-            tool_error,
-            error_m: tool_error.norm() + self.tilt_error_m,
-            delta: Vector6::from_fn(|i, _| self.qa[i] - q_nominal[i]),
+            state: Compensation {
+                error_m,
+                converged: error_m <= self.tolerance_m,
+                ..self.state
+            },
+            error,
             ..*self
         }
-    }
-
-    /// The change of the base tilt that goes with a change `dqa` of the deflected angles, rad.
-    pub fn tilt_change(&self, dqa: &[T; JOINTS]) -> T {
-        self.tilt_gain.dot(&Vector6::from_column_slice(dqa))
-    }
-
-    /// The state to try next, deflected angles and base tilt, after one step
-    /// (see [`Linearisation::step`]); `None` if the step is not finite.
-    pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<([T; JOINTS], T)> {
-        let step = self.step(rejections, damping_m * damping_m)?;
-        let qa = core::array::from_fn(|i| self.qa[i] + step[i]);
-        Some((qa, self.beta + self.tilt_offset + self.tilt_gain.dot(&step)))
-    }
-
-    /// The change of `qa` to try.
-    ///
-    /// First try: reach the target and move the null-space part of `δ` to zero
-    /// (`δ' = Jᵀ (J Jᵀ + λ²)⁻¹ (e + J δ)`; halfway only while the error exceeds
-    /// `HALF_PULL_ABOVE_M`). After `rejections` failed tries:
-    /// only reduce the error, with the damping multiplied by `4^rejections`; a
-    /// damped Gauss–Newton step is a descent direction of `|e|²`, so this
-    /// always makes progress once small enough.
-    fn step(&self, rejections: u32, damping2: T) -> Option<Vector6<T>> {
-        let mut lambda2 = self.error_m * self.error_m + damping2;
-        for _ in 0..rejections {
-            lambda2 *= real::<T>(4.0);
-        }
-        // J Jᵀ + λ² I is symmetric: six dot products, mirrored.
-        let dot = |r: usize, c: usize| self.j.row(r).dot(&self.j.row(c));
-        let (a01, a02, a12) = (dot(0, 1), dot(0, 2), dot(1, 2));
-        #[rustfmt::skip]
-        let jjt = Matrix3::new(
-            dot(0, 0) + lambda2, a01, a02,
-            a01, dot(1, 1) + lambda2, a12,
-            a02, a12, dot(2, 2) + lambda2,
-        );
-        let cholesky = jjt.cholesky()?;
-        Some(if rejections == 0 {
-            let gain = if self.error_m > real(HALF_PULL_ABOVE_M) {
-                real(0.5)
-            } else {
-                T::one()
-            };
-            let pull = self.delta * gain;
-            self.j.transpose() * cholesky.solve(&(self.error + self.j * pull)) - pull
-        } else {
-            self.j.transpose() * cholesky.solve(&self.error)
-        })
     }
 }
 
@@ -507,19 +407,25 @@ mod jacobian_tests {
     use super::*;
     use crate::test_arms::lrm_like_arm;
 
+    /// With a stiff base the slope is the position Jacobian: each column is
+    /// how the tool point moves in frame 0 when its joint turns.
     #[test]
-    fn position_jacobian_matches_finite_differences() {
-        let chain = lrm_like_arm::<f64>().chain();
-        let qa = [-0.8, 0.65, -1.05, 1.6, 1.37, 1.7];
-        let j = chain.position_jacobian(&chain.frames(&qa, 0.03));
+    fn slope_of_a_stiff_base_is_the_jacobian() {
+        let mut arm = lrm_like_arm::<f64>();
+        arm.base_compliance = 0.0;
+        let chain = arm.chain();
+        let (qa, beta) = ([-0.8, 0.65, -1.05, 1.6, 1.37, 1.7], 0.03);
+        let evaluation = chain
+            .evaluate(qa, beta, &Vector3::zeros(), 0.05, 1e-6)
+            .unwrap();
+        let j = chain.slope(&evaluation).j;
+        let in_frame0 = |qa: &[f64; 6]| chain.statics(qa, beta, 0.05).tool_points[0];
         let h = 1e-6;
         for c in 0..JOINTS {
             let (mut qp, mut qm) = (qa, qa);
             qp[c] += h;
             qm[c] -= h;
-            let numeric = (chain.frames(&qp, 0.03).tool_point()
-                - chain.frames(&qm, 0.03).tool_point())
-                / (2.0 * h);
+            let numeric = (in_frame0(&qp) - in_frame0(&qm)) / (2.0 * h);
             assert!((numeric - j.column(c)).norm() < 1e-8, "joint {c}");
         }
     }
@@ -543,10 +449,14 @@ mod linearisation_tests {
         let t1 = chain.frames(&qa, beta).tool_point() + Vector3::new(0.002, -0.001, 0.003);
         let t2 = t1 + Vector3::new(-0.004, 0.002, 0.001);
         let q_nominal = [0.31, 0.69, -0.9, 0.41, 1.1, -0.2];
-        let at = |t: &Vector3<f64>| chain.evaluate(qa, beta, t, payload, 1e-9).unwrap();
-        let lin = chain.linearise(&at(&t1), &q_nominal);
-        let moved = lin.retarget(&(t2 - t1), &q_nominal);
-        assert!((moved.error_m() - at(&t2).state.error_m).abs() < 1e-12);
+        let at = |t: &Vector3<f64>| {
+            chain
+                .evaluate(qa, beta, &chain.to_base(t), payload, 1e-9)
+                .unwrap()
+        };
+        let moved = at(&t1).retarget(&(chain.to_base(&t2) - chain.to_base(&t1)));
+        assert!((moved.state.error_m - at(&t2).state.error_m).abs() < 1e-12);
+        let lin = at(&t1).with_slope(&chain.slope(&at(&t1)), &q_nominal);
 
         // Move qa a little; the base tilt's own fixed point (with qa fixed) moves by tilt_change.
         let dqa = [1e-4, -2e-4, 1.5e-4, 0.0, 1e-4, 0.0];
@@ -554,13 +464,12 @@ mod linearisation_tests {
         let fixed_beta = |qa: &[f64; 6]| {
             let mut b = beta;
             for _ in 0..50 {
-                let f = chain.frames(qa, b);
-                b = chain.base_compliance * chain.gravity_torques(&f, payload).base;
+                b = chain.base_compliance * chain.gravity_torques(qa, b, payload).base;
             }
             b
         };
         let change = fixed_beta(&qa2) - fixed_beta(&qa);
-        let predicted = lin.tilt_change(&dqa);
+        let predicted = lin.slope().tilt_change(&dqa);
         // First order: what is left is second order in dqa.
         assert!(
             (change - predicted).abs() < 0.01 * change.abs(),
