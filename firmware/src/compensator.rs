@@ -28,7 +28,7 @@
 //! (three steps in a row gain less than 10 %, or six fail), the solve ends too,
 //! on its best command, reported as not converged.
 
-use model::{Chain, CompensationOptions, Evaluation, Slope, SlopeBuilder};
+use model::{Chain, CompensationOptions, Evaluation, Slope};
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
 use protocol::{Calibration, CompensationMode, CompensationReport};
 
@@ -42,9 +42,6 @@ const MAX_REJECTIONS: u32 = 6;
 const SLOW_RATIO: f32 = 0.9;
 /// See [`SLOW_RATIO`].
 const STALLED_STEPS: u32 = 3;
-/// Below this error (m) a step may use a slope built away from the state
-/// (a few frames back along a move); above it, only a near one.
-const STALE_SLOPE_BELOW_M: f32 = 2e-4;
 
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,10 +51,11 @@ struct Inputs {
     payload_kg: f32,
 }
 
-/// The last accepted state and what it was solved for.
+/// The last accepted state: its evaluation, its slope and what it was solved for.
 #[derive(Clone, Copy, Debug)]
 struct Accepted {
     evaluation: Evaluation<f32>,
+    slope: Slope<f32>,
     target: Vector3<f32>,
     /// The nominal targets it was solved for.
     q_nominal: [f32; CHANNELS],
@@ -74,9 +72,6 @@ struct Next {
     q_nominal: [f32; CHANNELS],
     /// How much the correction changed over the last frame, rad.
     correction_rate: [f32; CHANNELS],
-    /// Whether a step with the state's own slope (a near one) led to it:
-    /// only such a step tells that the solve stalls.
-    exact_step: bool,
 }
 
 /// The compensation state carried from one servo frame to the next.
@@ -91,10 +86,6 @@ pub struct Compensator {
     max_correction_rad: f32,
     accepted: Option<Accepted>,
     next: Option<Next>,
-    /// The slope steps are taken with, from an accepted state a few frames old.
-    slope: Option<Slope<f32>>,
-    /// The next slope, a part built per frame.
-    builder: Option<SlopeBuilder<f32>>,
     rejections: u32,
     /// Slow steps in a row while holding still.
     slow_steps: u32,
@@ -128,8 +119,6 @@ impl Compensator {
             max_correction_rad,
             accepted: None,
             next: None,
-            slope: None,
-            builder: None,
             rejections: 0,
             slow_steps: 0,
             steps: 0,
@@ -188,8 +177,8 @@ impl Compensator {
     /// The state to evaluate this frame: the last step's result moved along
     /// with the targets and the correction's rate, or the nominal targets.
     fn guess(&self, q_nominal: &[f32; CHANNELS]) -> ([f32; CHANNELS], f32) {
-        match &self.next {
-            Some(next) => {
+        match (&self.next, &self.accepted) {
+            (Some(next), Some(accepted)) => {
                 // The correction goes on changing only while the targets move.
                 let rate = if *q_nominal == next.q_nominal {
                     [0.0; CHANNELS]
@@ -199,10 +188,9 @@ impl Compensator {
                 let shift: [f32; CHANNELS] =
                     core::array::from_fn(|i| q_nominal[i] - next.q_nominal[i] + rate[i]);
                 let qa = core::array::from_fn(|i| next.qa[i] + shift[i]);
-                let tilt = self.slope.map_or(0.0, |s| s.tilt_change(&shift));
-                (qa, next.beta + tilt)
+                (qa, next.beta + accepted.slope.tilt_change(&shift))
             }
-            None => (*q_nominal, 0.0),
+            _ => (*q_nominal, 0.0),
         }
     }
 
@@ -246,7 +234,7 @@ impl Compensator {
                     .zip(q_nominal)
                     .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
             });
-        // The accepted state's error at this frame's target: a step must not do worse.
+        // The accepted state's own error at this frame's target: a step must not do worse.
         let anchor_error = self
             .accepted
             .as_ref()
@@ -255,6 +243,7 @@ impl Compensator {
         match evaluated {
             Some(evaluation) if better(evaluation.state.error_m) => {
                 let state = evaluation.state;
+                let slope = self.calibrated.slope(&evaluation);
                 self.rejections = 0;
                 self.steps = self.steps.saturating_add(1);
                 self.report = CompensationReport {
@@ -265,17 +254,8 @@ impl Compensator {
                 };
                 self.last_correction = core::array::from_fn(|i| state.q[i] - q_nominal[i]);
                 self.fell_back = false;
-                // Only an exact step can be slow: a frame waiting for a slope
-                // repeats its state, and a far slope converges slowly anyway.
-                let exact = self.next.is_some_and(|n| n.exact_step);
-                let slow = holding
-                    && exact
-                    && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
-                if slow {
-                    self.slow_steps += 1;
-                } else if exact {
-                    self.slow_steps = 0;
-                }
+                let slow = holding && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
+                self.slow_steps = if slow { self.slow_steps + 1 } else { 0 };
                 if state.converged || self.slow_steps >= STALLED_STEPS {
                     self.settled = Some((inputs, state.q));
                 }
@@ -285,7 +265,7 @@ impl Compensator {
                     .accepted
                     .filter(|a| a.q_nominal != *q_nominal)
                     .map(|a| a.correction);
-                self.advance(&evaluation, target, q_nominal, previous, holding);
+                self.take_step(&evaluation, &slope, target, q_nominal, previous);
                 state.q
             }
             _ => {
@@ -294,7 +274,7 @@ impl Compensator {
                 match self.accepted {
                     Some(a) => {
                         let anchor = a.evaluation.retarget(&(target - a.target));
-                        self.advance(&anchor, target, q_nominal, None, holding);
+                        self.take_step(&anchor, &a.slope, target, q_nominal, None);
                     }
                     None => self.next = None,
                 }
@@ -316,42 +296,24 @@ impl Compensator {
     fn restart(&mut self) {
         self.accepted = None;
         self.next = None;
-        self.slope = None;
-        self.builder = None;
         self.rejections = 0;
         self.slow_steps = 0;
         self.steps = 0;
     }
 
-    /// Accepts `evaluation` (solved for `target`), takes the next slope a part
-    /// further, and steps from it; the result is the state the next frame
-    /// evaluates. While the targets move, every frame steps with the latest
-    /// slope. Holding still, a slope built far from the state steps only once
-    /// the error is small: after a large step (a fresh start) the frames
-    /// instead build the state's own slope twice as fast, without a step, and
-    /// the next frame evaluates the same state again.
-    fn advance(
+    /// Steps from `evaluation` (solved for `target`) with `slope` and keeps the
+    /// result for the next frame.
+    fn take_step(
         &mut self,
         evaluation: &Evaluation<f32>,
+        slope: &Slope<f32>,
         target: Vector3<f32>,
         q_nominal: &[f32; CHANNELS],
         previous_correction: Option<[f32; CHANNELS]>,
-        holding: bool,
     ) {
-        let state = &evaluation.state;
-        let steps = self.slope.is_some_and(|s| {
-            !holding || state.error_m <= STALE_SLOPE_BELOW_M || s.is_near(&state.qa)
-        });
-        self.refresh_slope(evaluation, if steps { 1 } else { 2 });
-        let (next, exact_step) = match (&self.slope, steps) {
-            (Some(slope), true) => (
-                evaluation
-                    .with_slope(slope, q_nominal)
-                    .next_state(self.rejections, self.options.damping_m),
-                slope.is_near(&state.qa),
-            ),
-            _ => (Some((state.qa, state.beta)), false),
-        };
+        let next = evaluation
+            .with_slope(slope, q_nominal)
+            .next_state(self.rejections, self.options.damping_m);
         let Some((qa, beta)) = next else {
             self.accepted = None;
             self.next = None;
@@ -364,6 +326,7 @@ impl Compensator {
         };
         self.accepted = Some(Accepted {
             evaluation: *evaluation,
+            slope: *slope,
             target,
             q_nominal: *q_nominal,
             correction,
@@ -373,28 +336,7 @@ impl Compensator {
             beta,
             q_nominal: *q_nominal,
             correction_rate,
-            exact_step,
         });
-    }
-
-    /// Builds the next slope `parts` parts further, starting it at
-    /// `evaluation` if none is under way and the current slope is not from
-    /// that very state.
-    fn refresh_slope(&mut self, evaluation: &Evaluation<f32>, parts: usize) {
-        for _ in 0..parts {
-            let builder = match &mut self.builder {
-                Some(builder) => builder,
-                None if self.slope.is_some_and(|s| s.qa() == &evaluation.state.qa) => {
-                    return;
-                }
-                None => self.builder.insert(SlopeBuilder::new(evaluation)),
-            };
-            if let Some(slope) = builder.advance(&self.calibrated) {
-                self.slope = Some(slope);
-                self.builder = None;
-                return;
-            }
-        }
     }
 
     /// Commands the nominal targets plus the last good correction and says so.

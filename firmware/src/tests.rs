@@ -416,8 +416,7 @@ fn compensation_runs_every_frame_and_reports() {
         }),
         Response::Done
     );
-    // A cold start: slopes built over two frames each, a step between them.
-    h.frames(12);
+    h.frames(5);
     let s = h.status();
     assert!(s.compensation.converged, "{:?}", s.compensation);
     assert_ne!(h.dev.bus().now, off, "compensation changes the pulses");
@@ -584,10 +583,9 @@ fn f32_compensation_matches_the_f64_model_within_50_um() {
             }
             done += 1;
             comp.reset();
-            // A new target from rest, as on the board: slopes built over a few
-            // frames, a step with each; about nine frames on average, twenty-odd
-            // near the correction bound.
-            const FRAMES_FROM_REST: usize = 30;
+            // A new target from rest: one Newton step per servo frame, as on the
+            // board; about three frames on average, a dozen near the correction bound.
+            const FRAMES_FROM_REST: usize = 20;
             let mut cmd = [0.0f32; 6];
             for _ in 0..FRAMES_FROM_REST {
                 frames += 1;

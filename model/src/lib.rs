@@ -34,9 +34,7 @@ mod test_arms;
 pub mod trig;
 
 pub use arm::{Arm, Frame, JOINTS, Joint};
-pub use compensation::{
-    Compensation, CompensationOptions, Evaluation, Linearisation, Slope, SlopeBuilder,
-};
+pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation, Slope};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
 pub use params::{PARAM_COUNT, ParamId};

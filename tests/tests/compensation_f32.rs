@@ -13,10 +13,9 @@ use model::{CompensationOptions, ParamId, SolverOptions};
 use protocol::{Calibration, CompensationMode, ModelOption};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
-/// Servo frames a cold start from rest may take: the board builds a state's
-/// slope over a few frames and steps with it, about nine frames on average,
-/// twenty-odd for corrections near the board's bound.
-const FRAMES_FROM_REST: usize = 30;
+/// Servo frames a cold start from rest may take: one Newton step per frame,
+/// about three on average, a dozen for corrections near the board's bound.
+const FRAMES_FROM_REST: usize = 20;
 
 #[test]
 fn board_compensation_reaches_nominal_targets_within_50_um() {

@@ -19,7 +19,6 @@ impl<T: Real> Evaluation<T> {
         let state = &self.state;
         let tilt_offset = slope.tilt_scale * self.beta_residual;
         Linearisation {
-            pull: slope.is_near(&state.qa),
             slope: *slope,
             error: self.error - tilt_column(&self.statics) * tilt_offset,
             error_m: state.error_m,
@@ -36,8 +35,6 @@ impl<T: Real> Evaluation<T> {
 pub struct Linearisation<T: Real> {
     /// How the error changes.
     slope: Slope<T>,
-    /// Whether the step pulls towards the nominal shape (the slope is near enough).
-    pull: bool,
     /// The error to remove, with the tilt residual's share taken out, frame 0, m.
     error: Vector3<T>,
     /// The state's error measure, m.
@@ -71,8 +68,7 @@ impl<T: Real> Linearisation<T> {
     ///
     /// First try: reach the target and move the null-space part of `δ` to zero
     /// (`δ' = Jᵀ (J Jᵀ + λ²)⁻¹ (e + J δ)`, `λ² = |e|² + λ₀²`; halfway only
-    /// while the error exceeds `HALF_PULL_ABOVE_M`, not at all with a slope
-    /// from a state that is not near). After `rejections` failed tries: only
+    /// while the error exceeds `HALF_PULL_ABOVE_M`). After `rejections` failed tries: only
     /// reduce the error, with the damping multiplied by `4^rejections`; a
     /// damped Gauss–Newton step is a descent direction of `|e|²`, so this
     /// always makes progress once small enough.
@@ -83,7 +79,7 @@ impl<T: Real> Linearisation<T> {
         }
         let j = &self.slope.j;
         let cholesky = (self.slope.jjt + Matrix3::from_diagonal_element(lambda2)).cholesky()?;
-        if rejections > 0 || !self.pull {
+        if rejections > 0 {
             return Some(j.tr_mul(&cholesky.solve(&self.error)));
         }
         let gain = if self.error_m > real(HALF_PULL_ABOVE_M) {

@@ -34,14 +34,14 @@
 //! | file | what it holds |
 //! |---|---|
 //! | `mod.rs` | evaluating a state, and the solve |
-//! | [`slope`] | the Jacobian with the tilt folded in, built whole or a part at a time |
-//! | [`linearisation`] | the linear model of a state's error and the step it gives |
+//! | `slope.rs` | the Jacobian with the tilt folded in |
+//! | `linearisation.rs` | the linear model of a state's error and the step it gives |
 
 mod linearisation;
 mod slope;
 
 pub use linearisation::Linearisation;
-pub use slope::{Slope, SlopeBuilder};
+pub use slope::Slope;
 
 use nalgebra::Vector3;
 
