@@ -60,21 +60,6 @@ impl<T: Real> ChainFrames<T> {
     pub fn tool_point(&self) -> Vector3<T> {
         self.tool_point
     }
-
-    /// Axis z(i-1) of joint `i` (0-based `joint`), world frame.
-    pub fn joint_axis(&self, joint: usize) -> Vector3<T> {
-        self.frames[joint].rotation.matrix().column(2).into_owned()
-    }
-
-    /// Axis y0 of the (tilted) frame 0: the axis of the elastic base tilt, world frame.
-    pub fn base_tilt_axis(&self) -> Vector3<T> {
-        self.frames[0].rotation.matrix().column(1).into_owned()
-    }
-
-    /// Origin of frame i-1 of joint `i` (0-based `joint`), world frame.
-    pub fn joint_origin(&self, joint: usize) -> Vector3<T> {
-        self.frames[joint].translation.vector
-    }
 }
 
 /// Frame i from frame i-1: `parent · Rz(angle) Tz(d) Tx(a) Rx(alpha)`.
@@ -175,7 +160,7 @@ impl<T: Real> Chain<T> {
     }
 
     /// Frame 0 in the world, tilted about its own y axis by the angle of `(sin, cos)`.
-    pub fn tilted_base(&self, (sb, cb): (T, T)) -> IsometryMatrix3<T> {
+    fn tilted_base(&self, (sb, cb): (T, T)) -> IsometryMatrix3<T> {
         if sb == T::zero() {
             return self.base;
         }

@@ -99,14 +99,6 @@ impl<T: Real> Chain<T> {
     }
 }
 
-impl<T: Real> Statics<T> {
-    /// The tool point in the world, m.
-    pub fn tool_point(&self, chain: &Chain<T>) -> Vector3<T> {
-        let base = chain.tilted_base(self.tilt_sin_cos);
-        base.rotation * self.tool_points[0] + base.translation.vector
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use crate::test_arms::{lrm_like_arm, planar_arm, random_q};
@@ -175,9 +167,10 @@ mod tests {
             let qa: [f64; JOINTS] = random_q(&mut rng);
             let (beta, payload) = (0.02, 0.0663);
             let s = chain.statics(&qa, beta, payload);
+            let f = chain.frames(&qa, beta);
             assert_relative_eq!(
-                s.tool_point(&chain),
-                chain.frames(&qa, beta).tool_point(),
+                f.frames[0] * nalgebra::Point3::from(s.tool_points[0]),
+                nalgebra::Point3::from(f.tool_point()),
                 epsilon = 1e-14
             );
             for i in 0..JOINTS {

@@ -50,11 +50,6 @@ pub struct Linearisation<T: Real> {
 }
 
 impl<T: Real> Linearisation<T> {
-    /// The slope the model steps with.
-    pub fn slope(&self) -> &Slope<T> {
-        &self.slope
-    }
-
     /// The state to try next, deflected angles and base tilt, after one step
     /// (see [`Linearisation::step`]); `None` if the step is not finite.
     pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<([T; JOINTS], T)> {
