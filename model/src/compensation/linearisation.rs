@@ -51,7 +51,7 @@ pub struct Linearisation<T: Real> {
 
 impl<T: Real> Linearisation<T> {
     /// The state to try next, deflected angles and base tilt, after one step
-    /// (see [`Linearisation::step`]); `None` if the step is not finite.
+    /// (see `step` below); `None` if the step is not finite.
     pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<([T; JOINTS], T)> {
         let step = self.step(rejections, damping_m * damping_m)?;
         let qa = core::array::from_fn(|i| self.qa[i] + step[i]);
