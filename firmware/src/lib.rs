@@ -36,6 +36,8 @@ pub mod motion;
 pub mod servo;
 #[cfg(any(test, feature = "sim"))]
 pub mod sim;
+#[cfg(any(test, target_os = "none"))]
+mod soft_float;
 pub mod storage;
 #[cfg(test)]
 mod tests;
