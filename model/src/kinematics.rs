@@ -106,6 +106,13 @@ impl<T: Real> Link<T> {
         Vector3::new(c * v.x - s * wy, s * v.x + c * wy, wz)
     }
 
+    /// [`Link::rotate_to_parent`] of a direction `(x, y, 0)`. 8 operations.
+    #[inline]
+    pub fn rotate_to_parent_xy(&self, x: T, y: T, (s, c): (T, T)) -> Vector3<T> {
+        let wy = y * self.cos_alpha;
+        Vector3::new(c * x - s * wy, s * x + c * wy, y * self.sin_alpha)
+    }
+
     /// A direction of frame i in frame i+1: `Rx(alpha)ᵀ Rz(angle)ᵀ v`. 12 operations.
     #[inline]
     pub fn rotate_to_child(&self, v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {

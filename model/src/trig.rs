@@ -14,7 +14,7 @@
 //!    of a turn;
 //! 3. the Taylor polynomials of `sin(πw/4)` (to `w¹¹`) and `cos(πw/4)` (to
 //!    `w¹⁰`) run in Q30 (truncation below 2e-10, rounding about 1e-9);
-//! 4. two integer-to-float conversions give the results.
+//! 4. two integer-to-float conversions, their exponents lowered by 30, give the results.
 //!
 //! The result is within 1.5e-7 of the exact value for any angle up to
 //! [`REDUCTION_LIMIT`] (see the tests); beyond it, or for a non-finite angle,
@@ -102,10 +102,15 @@ fn horner(p: &[i32; 6], x: i32) -> i32 {
     p.iter().rev().fold(0, |acc, &c| c + mul_q30(x, acc))
 }
 
-/// A Q30 number as f32.
+/// A Q30 number as f32: the integer's conversion with its exponent lowered
+/// by 30, exact and without a soft-float multiplication (a non-zero integer
+/// converts to at least 1.0, so the result stays normal).
 #[inline]
 fn from_q30(v: i32) -> f32 {
-    v as f32 * (1.0 / (1u32 << 30) as f32)
+    if v == 0 {
+        return 0.0;
+    }
+    f32::from_bits((v as f32).to_bits() - (30 << 23))
 }
 
 #[cfg(test)]

@@ -10,11 +10,11 @@ const GUARD: u32 = 7;
 
 /// The bits of `a + b` for the bits of two `f32`s.
 ///
-/// The common case inline: normal operands with a normal sum. The smaller
+/// Normal operands inline, anything else the careful way. The smaller
 /// significand is aligned with a sticky bit below the guard bits; adding,
 /// the sum may carry one bit up; subtracting, it loses at most one leading
 /// bit unless the exponents differ by at most one, and then nothing was
-/// shifted out and the difference is exact. Anything else goes the careful way.
+/// shifted out and the difference is exact.
 #[inline(always)]
 pub fn add(a: u32, b: u32) -> u32 {
     let (big, small) = if a & !SIGN >= b & !SIGN {
@@ -27,17 +27,18 @@ pub fn add(a: u32, b: u32) -> u32 {
     if e_small == 0 || e == 255 {
         return careful(a, b);
     }
+    let subtract = (a ^ b) & SIGN != 0;
     // Sign and exponent field minus one of a sum in [1, 2) times 2^e.
     let head = (big & SIGN) + ((e - 1) << 23);
     let m_big = aligned(big);
     let m_small = shift_right_sticky(aligned(small), e - e_small);
-    if (big ^ small) & SIGN == 0 {
+    if !subtract {
         let m = m_big + m_small;
         if m < 1 << (24 + GUARD) {
             return round_onto(head, m, GUARD);
         }
         if e == 254 {
-            return (big & SIGN) | INFINITY;
+            return (head & SIGN) | INFINITY;
         }
         return round_onto(head + (1 << 23), (m >> 1) | (m & 1), GUARD);
     }
@@ -50,10 +51,10 @@ pub fn add(a: u32, b: u32) -> u32 {
         return 0;
     }
     let (m, shift) = normalise(m);
-    if shift >= e {
-        return careful(a, b);
+    if shift < e {
+        return round_onto(head - (shift << 23), m, GUARD);
     }
-    round_onto(head - (shift << 23), m, GUARD)
+    round_and_pack(head & SIGN, e as i32 - shift as i32, m, GUARD)
 }
 
 /// `m` (not zero, below `2^(24 + GUARD)`) shifted left until its leading bit
@@ -78,7 +79,7 @@ fn aligned(bits: u32) -> u32 {
     ((bits << 9) >> (9 - GUARD)) | (1 << (23 + GUARD))
 }
 
-/// Sums with zeros, subnormals, infinities or NaN, and subnormal differences.
+/// Sums with zeros, subnormals, infinities or NaN.
 #[cold]
 #[inline(never)]
 fn careful(a: u32, b: u32) -> u32 {

@@ -77,12 +77,11 @@ impl<T: Real> Linearisation<T> {
         if rejections > 0 {
             return Some(j.tr_mul(&cholesky.solve(&self.error)));
         }
-        let gain = if self.error_m > real(HALF_PULL_ABOVE_M) {
-            real(0.5)
+        let pull = if self.error_m > real(HALF_PULL_ABOVE_M) {
+            self.delta * real::<T>(0.5)
         } else {
-            T::one()
+            self.delta
         };
-        let pull = self.delta * gain;
         Some(j.tr_mul(&cholesky.solve(&(self.error + j * pull))) - pull)
     }
 }

@@ -56,14 +56,17 @@ impl<T: Real> Chain<T> {
     /// Jacobian of the tool point with the base tilt held, in frame 0:
     /// column `c` is `z × p` in joint `c`'s own frame, `(−p_y, p_x, 0)` with
     /// `p` the tool point relative to the joint, rotated back to frame 0
-    /// (`c` rotations of 12 operations).
+    /// (`c` rotations, the first without a `z` component).
     fn jacobian(&self, s: &Statics<T>) -> Matrix3x6<T> {
         let mut j = Matrix3x6::zeros();
         for c in 0..JOINTS {
             let p = &s.tool_points[c];
             let mut column = Vector3::new(-p.y, p.x, T::zero());
-            for k in (0..c).rev() {
-                column = self.links[k].rotate_to_parent(&column, s.joint_sin_cos[k]);
+            if let Some(k) = c.checked_sub(1) {
+                column = self.links[k].rotate_to_parent_xy(-p.y, p.x, s.joint_sin_cos[k]);
+                for k in (0..k).rev() {
+                    column = self.links[k].rotate_to_parent(&column, s.joint_sin_cos[k]);
+                }
             }
             j.set_column(c, &column);
         }
