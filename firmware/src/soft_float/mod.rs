@@ -2,9 +2,9 @@
 //!
 //! The Cortex-M0+ has no FPU, so every `f32` operation of the compensation
 //! is a call. compiler-builtins' generic routines cost about 120 cycles per
-//! addition and 145 per multiplication there (measured in the emulator: the
-//! 24 × 24-bit product goes through 64-bit arithmetic), which made them 80 %
-//! of a servo frame. These do the same IEEE-754 operations (binary32, round
+//! addition and 145 per multiplication there (measured in the emulator),
+//! 80 % of a moving servo frame's compensation. These do the same IEEE-754
+//! operations (binary32, round
 //! to nearest, ties to even, subnormals, infinities, NaN) shaped for this
 //! core: the product from four 16-bit partial products of its one-cycle
 //! 32-bit multiplier, the common case (normal operands and result) first
@@ -13,9 +13,9 @@
 //! before, only sooner.
 //!
 //! On the MCU they replace the compiler's `__aeabi_fadd`, `__aeabi_fsub` and
-//! `__aeabi_fmul` (the same routines the Pico SDK takes from the chip's boot
-//! ROM for speed; the emulated board has no copy of that ROM, so the cycles
-//! measured there are of these). On the host they are plain functions for the tests.
+//! `__aeabi_fmul` (the Pico SDK replaces them too, with the chip's boot-ROM
+//! routines; the emulated board has no copy of that ROM, so the cycles could
+//! not be measured with those). On the host they are plain functions for the tests.
 
 mod add;
 mod mul;
