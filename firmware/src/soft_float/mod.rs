@@ -4,11 +4,10 @@
 //! is a call. compiler-builtins' generic routines cost about 120 cycles per
 //! addition and 145 per multiplication there (measured in the emulator),
 //! 80 % of a moving servo frame's compensation. These do the same IEEE-754
-//! operations (binary32, round
-//! to nearest, ties to even, subnormals, infinities, NaN) shaped for this
-//! core: the product from four 16-bit partial products of its one-cycle
-//! 32-bit multiplier, the common case (normal operands and result) first
-//! and everything else on cold paths. The results are bit-identical to an
+//! operations (binary32, round to nearest, ties to even, subnormals,
+//! infinities, NaN) shaped for this core: the product from four 16-bit
+//! partial products of its one-cycle 32-bit multiplier, the common case
+//! (normal operands and result) first and everything else on cold paths. The results are bit-identical to an
 //! FPU's (see the tests), so the model computes exactly what it computed
 //! before, only sooner.
 //!

@@ -369,11 +369,6 @@ mod tests {
             );
         }
     }
-}
-#[cfg(test)]
-mod boundary_tests {
-    use super::*;
-    use crate::test_arms::lrm_like_arm;
 
     /// Out of reach (stretched arm, calibrated upper arm 4 mm shorter, rigid so
     /// the bound is exact): the solve reports no convergence and returns the
@@ -400,12 +395,6 @@ mod boundary_tests {
         );
         assert!(c.q.iter().zip(&q).all(|(a, b)| (a - b).abs() < 0.2));
     }
-}
-
-#[cfg(test)]
-mod jacobian_tests {
-    use super::*;
-    use crate::test_arms::lrm_like_arm;
 
     /// With a stiff base the slope is the position Jacobian: each column is
     /// how the tool point moves in frame 0 when its joint turns.
@@ -429,12 +418,6 @@ mod jacobian_tests {
             assert!((numeric - j.column(c)).norm() < 1e-8, "joint {c}");
         }
     }
-}
-
-#[cfg(test)]
-mod linearisation_tests {
-    use super::*;
-    use crate::test_arms::lrm_like_arm;
 
     /// Seen from a moved target, a state's error is the one a fresh evaluation
     /// there gives, and its slope's tilt gain predicts how the base tilt's fixed point moves.
