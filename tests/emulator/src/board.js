@@ -1,17 +1,18 @@
 //! One emulated board: an rp2040js chip with our ROM, the firmware in its flash, the USB serial
-//! port, servo pulse capture, RTT log, flash services with fault injection, cycle probes, and a
-//! paced run loop. A chip reset builds a fresh chip and carries the flash over, as a real reset
-//! (or power cycle) keeps the flash and nothing else.
+//! port, servo pulse capture, RTT log, flash services with fault injection, cycle probes, calls
+//! of single functions, and a paced run loop. A chip reset builds a fresh chip and carries the
+//! flash over, as a real reset (or power cycle) keeps the flash and nothing else.
 
 import { EventEmitter } from 'node:events';
 import { RP2040 } from 'rp2040js';
+import { CycleProbe } from './cycle-probe.js';
 import { FlashServices } from './flash.js';
+import { callFunction } from './function-call.js';
 import { PwmCapture } from './pwm-capture.js';
 import { buildRom, FAULT_TRAP, LOOKUP_TRAP, ROM_CODE_END, serviceAddress, serviceName } from './rom.js';
 import { RttReader } from './rtt.js';
 import { UsbSerial } from './usb-serial.js';
 import { XIP_CTRL_KEY, XipCtrlStub } from './xip.js';
-import { CycleProbe } from './cycle-probe.js';
 
 /** Cortex-M0+ AIRCR (reset requests from `SCB::sys_reset`). */
 const AIRCR_OFFSET = 0xd0c;
@@ -186,6 +187,13 @@ export class Board extends EventEmitter {
     probe.attach(this.mcu);
     this.probes.set(part, probe);
     return probe;
+  }
+
+  /** Calls the function named `name` once per argument list (see `function-call.js`). */
+  call(name, argLists) {
+    const address = this.elf.symbol(name);
+    if (address === undefined) throw new Error(`no symbol named '${name}'`);
+    return callFunction(this.mcu, address, argLists);
   }
 
   drainRtt() {

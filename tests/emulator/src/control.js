@@ -20,6 +20,7 @@
 //! | `busy_cycles` | `windows`, `window_us` | CPU cycles executed (not asleep) in each window |
 //! | `probe` | `symbol` | adds a cycle probe; `functions` |
 //! | `probe_stats` | `symbol`, `clear` | `calls`, `min`, `mean`, `max`, `last` cycles |
+//! | `call` | `symbol` (exact name), `args` (lists of up to four u32) | `results` (r0 of each call), `cycles` of each |
 //! | `quit` | | the process exits |
 
 import { createInterface } from 'node:readline';
@@ -187,6 +188,9 @@ export class Control {
         if (request.clear) probe.clear();
         return stats;
       }
+      case 'call':
+        if (!Array.isArray(request.args)) throw new Error("'args' must be a list of argument lists");
+        return board.call(request.symbol, request.args);
       case 'quit':
         setImmediate(() => this.logs.quit());
         return {};
