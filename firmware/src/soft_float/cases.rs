@@ -57,8 +57,8 @@ pub const FAMILIES: [Family; 4] = [
         let b = (rng.random::<u32>() & 0x807f_ffff) | ((e.clamp(0, 255) as u32) << 23);
         (a, b)
     }),
-    // Significands with one to three bits set: exact results and exact ties,
-    // which random significands almost never give.
+    // Significands with at most three bits set: exact results, exact ties and
+    // powers of two, which random significands almost never give.
     ("ties and exact results", |rng| {
         let ea = rng.random_range(100..156);
         let eb = (ea as i32 + rng.random_range(-25..=25)) as u32;
@@ -77,10 +77,10 @@ pub const FAMILIES: [Family; 4] = [
     }),
 ];
 
-/// A random sign, exponent field `e` and one to three fraction bits.
+/// A random sign, exponent field `e` and up to three fraction bits.
 fn sparse(rng: &mut StdRng, e: u32) -> u32 {
     let mut fraction = 0;
-    for _ in 0..rng.random_range(1..=3) {
+    for _ in 0..rng.random_range(0..=3) {
         fraction |= 1 << rng.random_range(0..23);
     }
     (u32::from(rng.random::<bool>()) << 31) | (e << 23) | fraction
