@@ -19,7 +19,7 @@
 //! | [`compensator`] | one Newton step of compensation per servo frame, with fallback |
 //! | [`storage`] | two flash slots with sequence number and CRC |
 //! | [`config`] | limits and tuning with their defaults |
-//! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+, linked in place of the compiler's on the MCU |
+//! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+ (common case in Thumb assembly), linked in place of the compiler's on the MCU |
 //! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
 //!
 //! Start-up: every channel starts limp (no pulses), so power-on never jerks
