@@ -5,8 +5,8 @@
 @ 253, so that neither a carry out of the sum nor a cancelling difference can
 @ leave the normal range. Anything else (zero, subnormal, infinite or NaN
 @ operands, results near the ends of the range) goes on in Rust,
-@ `soft_float_add` (add.rs), with the operands (ordered by magnitude, which
-@ changes nothing but which NaN comes back). The emulator test
+@ `soft_float_add` (add.rs), with the operands untouched but ordered by
+@ magnitude (which changes only which NaN comes back). The emulator test
 @ `tests/tests/emulator_soft_float.rs` checks the two together bit for bit
 @ against the host's FPU.
 @
