@@ -50,7 +50,7 @@ fn exported_routines_match_the_fpu_bit_for_bit() {
     for (seed, family) in FAMILIES.iter().enumerate() {
         sets.push((family.0, draw(family, 100 + seed as u64, PAIRS_PER_FAMILY)));
     }
-    println!("cycles per call, call and return included: min / mean / max");
+    println!("cycles per call, entry to return: min / mean / max");
     for (op, symbol) in ROUTINES {
         for (set, pairs) in &sets {
             let (results, cycles) = call(&mut board, symbol, pairs);
