@@ -182,7 +182,7 @@ impl<T: Real> Chain<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_arms::{lrm_like_arm, random_q};
+    use crate::test_arms::{lrm_like_arm, random_q, rigid_lrm_like_arm};
     use rand::{SeedableRng, rngs::StdRng};
 
     #[test]
@@ -213,10 +213,7 @@ mod tests {
 
     #[test]
     fn rigid_arm_takes_the_shortcut_and_matches_the_iteration() {
-        let mut arm = lrm_like_arm::<f64>();
-        arm.base_compliance = 0.0;
-        arm.joints.iter_mut().for_each(|j| j.compliance = 0.0);
-        let chain = arm.chain();
+        let chain = rigid_lrm_like_arm().chain();
         assert!(chain.is_rigid());
         let q = [0.2, 0.9, -0.5, 0.4, -0.7, 0.1];
         let d = chain

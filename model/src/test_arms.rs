@@ -72,6 +72,14 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
     }
 }
 
+/// [`lrm_like_arm`] with every joint and the base stiff.
+pub fn rigid_lrm_like_arm() -> Arm<f64> {
+    let mut arm = lrm_like_arm::<f64>();
+    arm.base_compliance = 0.0;
+    arm.joints.iter_mut().for_each(|j| j.compliance = 0.0);
+    arm
+}
+
 /// Random commanded angles within ±100°.
 pub fn random_q<T: Real>(rng: &mut impl Rng) -> [T; JOINTS] {
     core::array::from_fn(|_| real(rng.random_range(-1.745..1.745)))

@@ -247,7 +247,7 @@ impl<T: Real> Evaluation<T> {
 mod tests {
     use super::*;
     use crate::params::ParamId;
-    use crate::test_arms::{lrm_like_arm, random_q};
+    use crate::test_arms::{lrm_like_arm, random_q, rigid_lrm_like_arm};
     use rand::{Rng, SeedableRng, rngs::StdRng};
 
     /// A calibrated arm: the nominal one with errors on many parameters.
@@ -269,10 +269,7 @@ mod tests {
         let mut rng = StdRng::seed_from_u64(3);
         let nominal = lrm_like_arm::<f64>().chain();
         let calibrated = perturbed(&mut rng).chain();
-        // Cold starts from the nominal command need more iterations than a servo frame's warm start.
-        let opts = CompensationOptions {
-            ..Default::default()
-        };
+        let opts = CompensationOptions::default();
         let mut solved = 0;
         while solved < 500 {
             let q: [f64; 6] = random_q(&mut rng);
@@ -375,9 +372,7 @@ mod tests {
     /// closest command, 4 mm short, not garbage.
     #[test]
     fn unreachable_target_gives_the_closest_command_and_says_so() {
-        let mut rigid = lrm_like_arm::<f64>();
-        rigid.base_compliance = 0.0;
-        rigid.joints.iter_mut().for_each(|j| j.compliance = 0.0);
+        let rigid = rigid_lrm_like_arm();
         let nominal = rigid.chain();
         let mut short = rigid;
         short.joints[1].a -= 0.004;
