@@ -172,17 +172,18 @@ fn predict(dir: &Path, arm: &str, poses: &Path) -> Vec<Vector3<f64>> {
 }
 
 /// Compares the URDF's tool_point with predict's tool point (to 1e-6 mm) and
-/// its frames with the model's DH frames; returns the largest distance, mm.
+/// its frames with the model's DH frames; returns the largest distances from
+/// predict's file and from the model in memory, mm.
 fn check_against_predict(
     urdf_text: &str,
     arm: &Arm<f64>,
     poses_deg: &[[f64; JOINTS]],
     predicted: &[Vector3<f64>],
-) -> f64 {
+) -> (f64, f64) {
     let robot = urdf_rs::read_from_string(urdf_text).unwrap();
     check_structure(&robot, arm);
     let chain = arm.chain();
-    let mut worst_mm = 0.0f64;
+    let (mut worst_mm, mut worst_model_mm) = (0.0f64, 0.0f64);
     for (q_deg, p) in poses_deg.iter().zip(predicted) {
         // The pose list reader's own conversion.
         let q = q_deg.map(f64::to_radians);
@@ -190,6 +191,13 @@ fn check_against_predict(
         let mm = (tool_point - p).norm() * 1000.0;
         worst_mm = worst_mm.max(mm);
         assert!(mm <= 1e-6, "{mm:e} mm at {q_deg:?}");
+        // In memory, without the file's 1e-6 mm resolution.
+        let model_mm = (tool_point - chain.rigid_tool_point(&q)).norm() * 1000.0;
+        worst_model_mm = worst_model_mm.max(model_mm);
+        assert!(
+            model_mm < 1e-9,
+            "{model_mm:e} mm from the model at {q_deg:?}"
+        );
 
         // The frames the file's header promises, against the model's DH frames.
         let dh = chain.frames(&q, 0.0).frames;
@@ -210,7 +218,7 @@ fn check_against_predict(
         let out = dh[JOINTS].rotation * Vector3::z();
         assert!((flange.rotation * Vector3::x() - out).norm() < 1e-12);
     }
-    worst_mm
+    (worst_mm, worst_model_mm)
 }
 
 #[test]
@@ -223,9 +231,9 @@ fn bundled_arm_urdf_puts_the_tool_where_predict_does() {
     // The defaults: the bundled arm, written to standard output.
     let text = export(&[]);
     let predicted = predict(dir.path(), "lrm", &list);
-    let worst = check_against_predict(&text, &arm, &poses, &predicted);
+    let (file, memory) = check_against_predict(&text, &arm, &poses, &predicted);
     eprintln!(
-        "bundled arm: worst distance {worst:e} mm over {} poses",
+        "bundled arm, {} poses: worst distance {file:e} mm from predict, {memory:e} mm from the model",
         poses.len()
     );
     assert!(text.contains("<robot name=\"lrm-like\">"));
@@ -274,9 +282,9 @@ fn calibrated_arm_urdf_puts_the_tool_where_predict_does_without_sag() {
     let poses = random_poses_deg(&calibrated, 300, 2);
     let list = pose_list(dir.path(), &poses);
     let predicted = predict(dir.path(), s(&rigid_cal), &list);
-    let worst = check_against_predict(&text, &rigid, &poses, &predicted);
+    let (file, memory) = check_against_predict(&text, &rigid, &poses, &predicted);
     eprintln!(
-        "calibrated arm: worst distance {worst:e} mm over {} poses",
+        "calibrated arm, {} poses: worst distance {file:e} mm from predict, {memory:e} mm from the model",
         poses.len()
     );
 

@@ -37,10 +37,22 @@ pub struct Args {
     pub name: Option<String>,
     /// Effort limit written for every joint, N·m: lrmcal does not know it, URDF
     /// requires one [default: about a standard hobby servo's stall torque].
-    #[arg(long, value_name = "NM", default_value_t = 1.0, value_parser = parse_positive)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "NM",
+        default_value_t = 1.0,
+        value_parser = parse_positive
+    )]
     pub effort_nm: f64,
     /// Velocity limit written for every joint, rad/s [default: the board's top joint speed].
-    #[arg(long, value_name = "RAD_S", default_value_t = 1.5, value_parser = parse_positive)]
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        value_name = "RAD_S",
+        default_value_t = 1.5,
+        value_parser = parse_positive
+    )]
     pub velocity_rad_s: f64,
     /// Where to write the URDF [default: standard output].
     #[arg(long, short, value_name = "FILE")]
