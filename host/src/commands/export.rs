@@ -36,7 +36,7 @@ pub struct Args {
     #[arg(long, value_name = "NAME")]
     pub name: Option<String>,
     /// Effort limit written for every joint, N·m: lrmcal does not know it, URDF
-    /// requires one [default: about a standard hobby servo's stall torque].
+    /// requires one (the default is about a standard hobby servo's stall torque).
     #[arg(
         long,
         allow_negative_numbers = true,
@@ -45,7 +45,7 @@ pub struct Args {
         value_parser = parse_positive
     )]
     pub effort_nm: f64,
-    /// Velocity limit written for every joint, rad/s [default: the board's top joint speed].
+    /// Velocity limit written for every joint, rad/s (the default is the board's top joint speed).
     #[arg(
         long,
         allow_negative_numbers = true,

@@ -303,7 +303,14 @@ mod tests {
 
     #[test]
     fn numbers_read_back_exactly() {
-        for x in [0.09, 1.5707963267948966, -1e-17, 1.0 / 3.0, 123456.789, 0.0] {
+        for x in [
+            0.09,
+            std::f64::consts::FRAC_PI_2,
+            -1e-17,
+            1.0 / 3.0,
+            123456.789,
+            0.0,
+        ] {
             assert_eq!(number(x).parse::<f64>(), Ok(x));
         }
         assert_eq!(number(-0.0), "0.0");
