@@ -15,6 +15,7 @@ mod csv_table;
 pub mod measurements;
 pub mod pose_list;
 pub mod predictions;
+pub mod urdf;
 
 use std::path::Path;
 
