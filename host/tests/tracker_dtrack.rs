@@ -151,7 +151,7 @@ fn a_stream_that_stops_is_reported_with_the_last_frame() {
     );
     assert!(
         text.starts_with(&format!(
-            "read body 1 from the DTrack stream on {}: the stream stopped after",
+            "read body 1 from the DTrack stream on {}: the stream stopped: no frame for",
             l.local_addr()
         )),
         "{text}"

@@ -101,12 +101,10 @@ pub enum StreamProblem {
         /// Datagrams that were not DTrack output, and the last one's problem.
         foreign: Option<(usize, String)>,
     },
-    /// Frames came, then stopped.
+    /// Frames came before, then stopped.
     Stopped {
         /// The last frame received.
         last: LastFrame,
-        /// Frames received for this reading before the stream stopped.
-        frames: usize,
     },
     /// The target was missing or untracked in too many frames in a row.
     Lost {
@@ -170,9 +168,10 @@ impl fmt::Display for StreamProblem {
                     ": is DTrack running, and its output (Settings > Output, UDP) sent to this machine and port?"
                 )
             }
-            Self::Stopped { last, frames } => write!(
+            Self::Stopped { last } => write!(
                 f,
-                "the stream stopped after {frames} frames ({last}): did DTrack stop measuring, or the network drop?"
+                "the stream stopped: no frame for {:.1} s ({last}): did DTrack stop measuring, or the network drop?",
+                last.ago_s
             ),
             Self::Lost {
                 target,
@@ -336,12 +335,7 @@ impl Settler {
         foreign: Option<(usize, String)>,
     ) -> StreamProblem {
         match last {
-            Some(last) if self.frames > 0 && last.ago_s >= STOPPED_AFTER_S => {
-                StreamProblem::Stopped {
-                    last,
-                    frames: self.frames,
-                }
-            }
+            Some(last) if last.ago_s >= STOPPED_AFTER_S => StreamProblem::Stopped { last },
             _ if self.frames == 0 => StreamProblem::Silent {
                 waited_s,
                 last,
@@ -495,13 +489,21 @@ mod tests {
             "{text}"
         );
         let text = s
-            .give_up(5.0, last(12.5), Some((3, "line 1 (`hello`): ...".into())))
+            .give_up(0.5, last(0.5), Some((3, "line 1 (`hello`): ...".into())))
             .to_string();
         assert!(
-            text.contains("last frame 1234 at ts 39596.020 s, 12.5 s ago"),
+            text.contains(
+                "no DTrack frame for 0.5 s (last frame 1234 at ts 39596.020 s, 0.5 s ago)"
+            ),
             "{text}"
         );
         assert!(text.contains("3 datagrams that are not DTrack"), "{text}");
+        // Frames came before this reading, none since: the stream stopped.
+        let text = s.give_up(5.0, last(12.5), None).to_string();
+        assert!(
+            text.starts_with("the stream stopped: no frame for 12.5 s (last frame 1234"),
+            "{text}"
+        );
 
         let mut s = Settler::new(Target::Body(1), options(3));
         for i in 0..6 {
@@ -518,7 +520,7 @@ mod tests {
         assert!(text.contains("the last window spread"), "{text}");
         assert!(matches!(
             s.give_up(5.0, last(3.0), None),
-            StreamProblem::Stopped { frames: 6, .. }
+            StreamProblem::Stopped { .. }
         ));
     }
 }
