@@ -366,7 +366,8 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
     let stop = Arc::new(AtomicBool::new(false));
     let sender = dtrack_sender(addr, [212.41, -35.02, 188.77], stop.clone());
     // Stop the stream once the first pose is on disk.
-    let run = std::thread::spawn(move || measure::run(&args));
+    let run =
+        std::thread::spawn(move || measure::run(&args).map_err(|e| (e.exit_code(), e.report())));
     let t0 = Instant::now();
     while host::io::measurements::read(&out).map_or(true, |rows| rows.is_empty()) {
         assert!(t0.elapsed() < Duration::from_secs(60), "no pose recorded");
@@ -374,9 +375,8 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
     }
     stop.store(true, Ordering::Relaxed);
     sender.join().unwrap();
-    let err = run.join().unwrap().unwrap_err();
-    assert_eq!(err.exit_code(), 6);
-    let report = err.report();
+    let (code, report) = run.join().unwrap().unwrap_err();
+    assert_eq!(code, 6);
     assert!(
         report.starts_with(&format!(
             "error: failed to read body 0 from the DTrack stream on {addr}: "

@@ -21,8 +21,7 @@ use crate::tracker::still::{StillOptions, StillPeriod, still_periods};
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
 lrmcal import-tracker --motive take.csv --rigid-body Tool --poses selected.csv --out measured.csv\n  \
-lrmcal import-tracker --motive take.csv --rigid-body Tool --poses selected.csv --out measured.csv \
---start-s 4.5 --up +y\n\n\
+lrmcal import-tracker --motive take.csv --marker Tool:M1 --poses p.csv -o m.csv --up +y\n\n\
 Record the take while `lrmcal measure --poses selected.csv --hold-s 3` drives the arm, then \
 export it from Motive as CSV with header information, in any length unit. A still period is \
 at least --min-still-s long with every frame within --max-spread-mm of the mean; the n-th \

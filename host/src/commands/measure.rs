@@ -60,14 +60,14 @@ pub struct Args {
     #[arg(long, value_name = "S", conflicts_with_all = ["tracker", "out"], value_parser = non_negative)]
     pub hold_s: Option<f64>,
     /// Pause after the arm arrives, before the position is taken, ms.
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, value_name = "MS", default_value_t = 500)]
     pub settle_ms: u64,
-    /// How a DTrack stream is read.
-    #[command(flatten)]
-    pub dtrack: DTrackArgs,
     /// The board.
     #[command(flatten)]
     pub device: DeviceArgs,
+    /// How a DTrack stream is read (listed last: its help heading carries on).
+    #[command(flatten)]
+    pub dtrack: DTrackArgs,
 }
 
 /// Where `--tracker` positions come from.
@@ -103,16 +103,16 @@ pub struct DTrackArgs {
     #[arg(long, value_name = "ID")]
     pub marker: Option<u32>,
     /// Frames averaged into each position.
-    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    #[arg(long, value_name = "N", default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
     pub frames: u32,
     /// Largest distance of an averaged frame from their mean, mm; more means the arm still moves.
-    #[arg(long, default_value_t = 0.5, value_parser = positive)]
+    #[arg(long, value_name = "MM", default_value_t = 0.5, value_parser = positive)]
     pub max_spread_mm: f64,
     /// Frames in a row without the target (out of view, quality <= 0) before giving up.
-    #[arg(long, default_value_t = 120)]
+    #[arg(long, value_name = "N", default_value_t = 120)]
     pub max_lost: usize,
     /// Longest wait for a still position at each pose, s.
-    #[arg(long, default_value_t = 5.0, value_parser = positive)]
+    #[arg(long, value_name = "S", default_value_t = 5.0, value_parser = positive)]
     pub tracker_timeout_s: f64,
 }
 
