@@ -121,6 +121,24 @@ fn lrmcal(args: &[&str]) -> Output {
         .expect("lrmcal runs")
 }
 
+/// `lrmcal import-tracker` on the files of [`files`], reading rigid body `body`.
+fn import(files: &(String, String, String), body: &str, more: &[&str]) -> Output {
+    let (take, poses, out) = files;
+    let mut args = vec![
+        "import-tracker",
+        "--motive",
+        take,
+        "--rigid-body",
+        body,
+        "--poses",
+        poses,
+        "--out",
+        out,
+    ];
+    args.extend(more);
+    lrmcal(&args)
+}
+
 fn files(dir: &Path, take: &str) -> (String, String, String) {
     let (t, p, o) = (
         dir.join("take.csv"),
@@ -137,24 +155,10 @@ fn files(dir: &Path, take: &str) -> (String, String, String) {
 fn each_hold_becomes_its_pose_in_z_up_millimetres() {
     for (units, per_m) in [("Meters", 1.0), ("Millimeters", 1000.0)] {
         let dir = tempfile::tempdir().unwrap();
-        let (take, poses, out) = files(dir.path(), &motive_take(units, per_m));
-        let run = lrmcal(&[
-            "import-tracker",
-            "--motive",
-            &take,
-            "--rigid-body",
-            "Tool",
-            "--poses",
-            &poses,
-            "--out",
-            &out,
-            "--start-s",
-            "1.9",
-            "--end-s",
-            "17.5",
-            "--up",
-            "+y",
-        ]);
+        let paths = files(dir.path(), &motive_take(units, per_m));
+        let out = &paths.2;
+        let trim = ["--start-s", "1.9", "--end-s", "17.5", "--up", "+y"];
+        let run = import(&paths, "Tool", &trim);
         assert!(
             run.status.success(),
             "{}",
@@ -165,7 +169,7 @@ fn each_hold_becomes_its_pose_in_z_up_millimetres() {
             stdout.contains("4 poses from rigid body `Tool` (arm-run-03)"),
             "{stdout}"
         );
-        let rows = measurements::read(Path::new(&out)).unwrap();
+        let rows = measurements::read(Path::new(out)).unwrap();
         assert_eq!(
             rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(),
             [10, 11, 12, 13]
@@ -187,18 +191,9 @@ fn each_hold_becomes_its_pose_in_z_up_millimetres() {
 #[test]
 fn the_rests_around_the_run_are_refused_as_extra_periods_listed_by_time() {
     let dir = tempfile::tempdir().unwrap();
-    let (take, poses, out) = files(dir.path(), &motive_take("Meters", 1.0));
-    let run = lrmcal(&[
-        "import-tracker",
-        "--motive",
-        &take,
-        "--rigid-body",
-        "Tool",
-        "--poses",
-        &poses,
-        "--out",
-        &out,
-    ]);
+    let paths = files(dir.path(), &motive_take("Meters", 1.0));
+    let (take, poses, out) = &paths;
+    let run = import(&paths, "Tool", &[]);
     assert_eq!(run.status.code(), Some(3));
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
@@ -214,24 +209,15 @@ fn the_rests_around_the_run_are_refused_as_extra_periods_listed_by_time() {
         err.contains(", 6: 17.9") && err.contains("--start-s/--end-s"),
         "{err}"
     );
-    assert!(!Path::new(&out).exists(), "nothing written");
+    assert!(!Path::new(out).exists(), "nothing written");
 }
 
 #[test]
 fn a_take_in_other_units_or_without_the_body_is_refused_at_its_line() {
     let dir = tempfile::tempdir().unwrap();
-    let (take, poses, out) = files(dir.path(), &motive_take("Inches", 39.37));
-    let run = lrmcal(&[
-        "import-tracker",
-        "--motive",
-        &take,
-        "--rigid-body",
-        "Tool",
-        "--poses",
-        &poses,
-        "--out",
-        &out,
-    ]);
+    let paths = files(dir.path(), &motive_take("Inches", 39.37));
+    let (take, _, out) = &paths;
+    let run = import(&paths, "Tool", &[]);
     assert_eq!(run.status.code(), Some(3));
     let err = String::from_utf8_lossy(&run.stderr);
     assert_eq!(
@@ -241,27 +227,18 @@ fn a_take_in_other_units_or_without_the_body_is_refused_at_its_line() {
              expected one of Meters, Centimeters, Millimeters, found `Inches`"
         )
     );
+    assert!(!Path::new(out).exists(), "nothing written");
 
-    let (take, poses, out) = files(dir.path(), &motive_take("Meters", 1.0));
-    let run = lrmcal(&[
-        "import-tracker",
-        "--motive",
-        &take,
-        "--rigid-body",
-        "Probe",
-        "--poses",
-        &poses,
-        "--out",
-        &out,
-    ]);
+    let paths = files(dir.path(), &motive_take("Meters", 1.0));
+    let run = import(&paths, "Probe", &[]);
     assert_eq!(run.status.code(), Some(3));
     let err = String::from_utf8_lossy(&run.stderr);
     assert!(
         err.contains(
-            "line 4: expected a rigid body named `Probe` with Position X, Y and Z \
-                      columns; the take has rigid bodies Tool; markers Base:Marker1"
+            "line 4: expected a rigid body named `Probe` with Position X, Y and Z columns; \
+             the take has rigid bodies Tool; markers Base:Marker1"
         ),
         "{err}"
     );
-    assert!(!Path::new(&out).exists(), "nothing written");
+    assert!(!Path::new(out).exists(), "nothing written");
 }

@@ -229,12 +229,9 @@ fn a_port_nobody_listens_on_says_so() {
     );
 }
 
-#[test]
-fn measure_records_each_pose_and_resumes_after_an_interruption() {
-    use host::commands::measure;
-    let board = SocketBoard::start();
-    let dir = tempfile::tempdir().unwrap();
-    let poses = dir.path().join("poses.csv");
+/// A pose list of three poses 1, 2, 3 in `dir`.
+fn three_poses(dir: &std::path::Path) -> std::path::PathBuf {
+    let poses = dir.join("poses.csv");
     std::fs::write(
         &poses,
         "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n\
@@ -243,6 +240,15 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
          3,-5,5,-15,0,25,0\n",
     )
     .unwrap();
+    poses
+}
+
+#[test]
+fn measure_records_each_pose_and_resumes_after_an_interruption() {
+    use host::commands::measure;
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+    let poses = three_poses(dir.path());
     let out = dir.path().join("measured.csv");
     let tracker = dir.path().join("tracker.txt");
     let args = |tracker: &std::path::Path| measure::Args {
@@ -338,15 +344,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
     use host::commands::measure;
     let board = SocketBoard::start();
     let dir = tempfile::tempdir().unwrap();
-    let poses = dir.path().join("poses.csv");
-    std::fs::write(
-        &poses,
-        "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n\
-         1,0,10,-20,0,30,0\n\
-         2,5,15,-25,0,35,0\n\
-         3,-5,5,-15,0,25,0\n",
-    )
-    .unwrap();
+    let poses = three_poses(dir.path());
     let out = dir.path().join("measured.csv");
     // A free port for the listener: bind, note it, let go.
     let addr = std::net::UdpSocket::bind("127.0.0.1:0")

@@ -33,7 +33,7 @@ lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 -
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
 tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n  \
 lrmcal measure --poses selected.csv --hold-s 3    # while Motive records a take\n\n\
-With --tracker dtrack://[ADDR:]PORT, set DTrack's output (Settings > Output) to send `6d` (or \
+With --tracker dtrack://[ADDR:]PORT, set DTrack's UDP output to send `6d` (or \
 `3d`) by UDP to this machine and PORT. After each move and --settle-ms, the last --frames \
 frames in which the target is tracked are averaged once none lies farther than \
 --max-spread-mm from their mean. Positions stay in DTrack's room frame, in mm.\n\n\

@@ -165,7 +165,7 @@ impl fmt::Display for StreamProblem {
                 }
                 write!(
                     f,
-                    ": is DTrack running, and its output (Settings > Output, UDP) sent to this machine and port?"
+                    ": is DTrack running, and its UDP output sent to this machine and port?"
                 )
             }
             Self::Stopped { last } => write!(
