@@ -33,7 +33,7 @@ lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 -
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
 tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n  \
 lrmcal measure --poses selected.csv --hold-s 3    # while Motive records a take\n\n\
-With --tracker dtrack://[ADDR:]PORT, set DTrack's UDP output to send `6d` (or \
+With --tracker dtrack://[ADDR:]PORT, set DTrack's output to send `6d` (or \
 `3d`) by UDP to this machine and PORT. After each move and --settle-ms, the last --frames \
 frames in which the target is tracked are averaged once none lies farther than \
 --max-spread-mm from their mean. Positions stay in DTrack's room frame, in mm.\n\n\
@@ -320,7 +320,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             target: args.dtrack.target()?,
             listener: Listener::bind(*addr)?,
             options: args.dtrack.settle(),
-            timeout: Duration::from_secs_f64(args.dtrack.tracker_timeout_s),
+            timeout: seconds(args.dtrack.tracker_timeout_s),
         },
     };
     let mut client = args.device.connect()?;
@@ -352,7 +352,7 @@ fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
     for &(pose, load_kg) in poses {
         bar.set_message(format!("holding pose {}", pose.id));
         arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
-        std::thread::sleep(Duration::from_secs_f64(hold_s));
+        std::thread::sleep(seconds(hold_s));
         bar.inc(1);
     }
     bar.finish_and_clear();
@@ -383,6 +383,11 @@ fn arrive(
     Ok(())
 }
 
+/// A duration from a checked number of seconds (>= 0); beyond `Duration`'s range, forever.
+fn seconds(s: f64) -> Duration {
+    Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX)
+}
+
 fn progress(poses: usize) -> ProgressBar {
     ProgressBar::new(poses as u64).with_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} poses, eta {eta}")
@@ -407,6 +412,21 @@ mod tests {
         assert!(parse_tracker_line("1 2").unwrap_err().contains("expected"));
         assert!(parse_tracker_line("1 NaN 3").is_err());
         assert!(parse_tracker_line("1.5 1 2 3").is_err());
+    }
+
+    #[test]
+    fn tracker_sources_by_their_form() {
+        assert_eq!(TrackerSource::parse("-"), Ok(TrackerSource::Stdin));
+        assert_eq!(
+            TrackerSource::parse("dtrack://5000"),
+            Ok(TrackerSource::DTrack("0.0.0.0:5000".parse().unwrap()))
+        );
+        assert_eq!(
+            TrackerSource::parse("points.txt"),
+            Ok(TrackerSource::File("points.txt".into()))
+        );
+        let err = TrackerSource::parse("dtrack://port5000").unwrap_err();
+        assert!(err.contains("expected `dtrack://PORT`"), "{err}");
     }
 
     #[test]
