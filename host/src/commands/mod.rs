@@ -9,6 +9,7 @@ pub mod export;
 pub mod flash;
 pub mod home;
 pub mod identify;
+pub mod import_tracker;
 pub mod measure;
 pub mod move_;
 pub mod payload;
