@@ -12,8 +12,9 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`app`] | [`Device`]: state, start-up, the servo frame and the request dispatcher |
-//! | [`handlers`] | one function per endpoint of the `protocol` table |
+//! | [`app`] | [`Device`] (the context): state, start-up, the servo frame, rules the handlers share |
+//! | `handlers` | one function per endpoint of the `protocol` table |
+//! | `dispatch` | the dispatch table and [`Device::handle_frame`]: frames in, replies out |
 //! | [`servo`] | the servo bus trait, joint and pulse limits, angle → pulse |
 //! | [`motion`] | speed/acceleration-limited, synchronised joint motion |
 //! | [`compensator`] | one Newton step of compensation per servo frame, with fallback |
@@ -32,7 +33,8 @@
 pub mod app;
 pub mod compensator;
 pub mod config;
-pub mod handlers;
+mod dispatch;
+mod handlers;
 pub mod motion;
 pub mod servo;
 #[cfg(any(test, feature = "sim"))]
