@@ -155,6 +155,12 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         &self.bus
     }
 
+    /// The flash (to cut its power in tests).
+    #[cfg(any(test, feature = "sim"))]
+    pub fn flash_mut(&mut self) -> &mut F {
+        self.storage.flash_mut()
+    }
+
     /// What the binary must do next, once: call after the reply went out.
     pub fn take_action(&mut self) -> Option<SystemAction> {
         self.pending.take()

@@ -22,6 +22,7 @@
 //! | [`config`] | limits and tuning with their defaults |
 //! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+ (common case in Thumb assembly), linked in place of the compiler's on the MCU |
 //! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
+//! | `fuzz` | generated cases played against the device on those doubles, with the invariants checked (feature `sim`) |
 //!
 //! Start-up: every channel starts limp (no pulses), so power-on never jerks
 //! the arm. The first `motion/move`, `motion/home` or `servo/attach` assumes
@@ -34,6 +35,8 @@ pub mod app;
 pub mod compensator;
 pub mod config;
 mod dispatch;
+#[cfg(any(test, feature = "sim"))]
+pub mod fuzz;
 mod handlers;
 pub mod motion;
 pub mod servo;
