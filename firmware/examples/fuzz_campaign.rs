@@ -191,7 +191,7 @@ fn report(
     );
     eprintln!("  {violation}");
     eprintln!(
-        "smallest case that still breaks it ({} of {} steps, preload {:?}), at {again}:",
+        "smallest case that still breaks it: {} of {} steps, preload {:?}",
         small.steps.len(),
         case.steps.len(),
         small.preload
@@ -199,9 +199,14 @@ fn report(
     for (i, step) in small.steps.iter().enumerate() {
         eprintln!("  {i:3}: {step:?}");
     }
+    eprintln!("  then: {again}");
+    let frames = match kind {
+        Kind::Frames => format!(" --frames {frames}"),
+        Kind::Sequences => String::new(),
+    };
     eprintln!(
         "replay: cargo run --release -p firmware --features sim --example fuzz_campaign -- \
-         --seed {seed} --frames {frames} --case {}:{index}",
+         --seed {seed}{frames} --case {}:{index}",
         kind.name()
     );
 }

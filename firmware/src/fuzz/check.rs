@@ -197,14 +197,14 @@ impl Model {
         self.unsure.is_some()
     }
 
-    /// Whether a calibration is in use, so the bytes can be read back.
+    /// The length of the calibration in use, to read it back; `None` without one.
     pub fn active_len(&self) -> Option<usize> {
         self.active.as_ref().map(|(k, _)| k.bytes.len())
     }
 
     /// The pulses a driven channel may get, µs: the joint's limits through
     /// the curve in force, cut to the safe range, ±1 µs of rounding.
-    pub fn held_range(&self, channel: usize) -> [f32; 2] {
+    fn held_range(&self, channel: usize) -> [f32; 2] {
         let arm = self.active.as_ref().map(|(k, _)| &k.calibration.calibrated);
         let c = &self.config;
         let [lo, hi] = servo::joint_limits(arm, c.hard_limits_rad, c.default_limits_rad)[channel];
@@ -218,7 +218,7 @@ impl Model {
     }
 
     /// Checks one pulse a servo got, against the safe range and, on a driven channel, the joint's limits.
-    pub fn check_pulse(&self, channel: usize, pulse_us: u16) -> Result<(), Fault> {
+    fn check_pulse(&self, channel: usize, pulse_us: u16) -> Result<(), Fault> {
         self.check_safe(channel, pulse_us)?;
         if self.channels[channel] == Expect::Held {
             let [lo, hi] = self.held_range(channel);
