@@ -1,4 +1,5 @@
-//! One file per `lrmcal` subcommand: its clap `Args` and its `run`.
+//! One file per `lrmcal` subcommand: its clap `Args` and its `run`; what
+//! several share is in [`helpers`].
 //!
 //! See `crate::cli` for how to add one.
 
@@ -6,6 +7,7 @@ pub mod compensation;
 pub mod demo;
 pub mod detach;
 pub mod flash;
+pub mod helpers;
 pub mod home;
 pub mod identify;
 pub mod measure;
