@@ -279,22 +279,22 @@ fn fit(
     Ok(())
 }
 
-/// The free parameters whose value in `arm` lies below their bound.
-fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<ParamKey> {
+/// The free parameters whose value in `arm` lies below their lower bound, with the bound.
+fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
     params
         .free()
-        .filter(|k| k.lower_bound().is_some_and(|b| k.value(arm) < b))
+        .filter_map(|k| k.lower_bound().map(|b| (k, b)))
+        .filter(|(k, b)| k.value(arm) < *b)
         .collect()
 }
 
-/// Fixes each of `keys` at its lower bound (its correction takes the value down to it).
+/// Fixes each key at its bound: the correction that takes its nominal value there.
 fn fix_at_bound(
     params: &mut ParamVector,
     nominal: &Arm<f64>,
-    keys: &[ParamKey],
+    bounds: &[(ParamKey, f64)],
 ) -> Result<(), CalibError> {
-    for &key in keys {
-        let bound = key.lower_bound().unwrap_or(f64::NEG_INFINITY);
+    for &(key, bound) in bounds {
         params.fix(key, -(key.value(nominal) - bound))?;
     }
     Ok(())
