@@ -279,11 +279,7 @@ pub fn check_structure(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{rigid_nominal, small_samples, test_arm};
-
-    fn name(p: &str) -> ParamKey {
-        ParamKey::from_name(p).unwrap()
-    }
+    use crate::calib::testing::{key as name, rigid_nominal, small_samples, test_arm};
 
     #[test]
     fn removes_tool_rotation_and_known_redundancies() {

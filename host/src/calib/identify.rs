@@ -544,12 +544,8 @@ pub fn identify(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{measure, rigid_nominal, small_samples, true_errors};
+    use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
     use model::ParamId;
-
-    fn key(name: &str) -> ParamKey {
-        ParamKey::from_name(name).unwrap()
-    }
 
     fn elastic_keys() -> Vec<ParamKey> {
         ["k2", "k3", "k4", "k5", "k0"].map(key).to_vec()

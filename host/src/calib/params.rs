@@ -294,11 +294,7 @@ impl<K: Key> ParamVector<K> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::rigid_nominal;
-
-    fn key(name: &str) -> ParamKey {
-        ParamKey::from_name(name).unwrap()
-    }
+    use crate::calib::testing::{key, rigid_nominal};
 
     #[test]
     fn keys_carry_the_model_names_and_kinds() {

@@ -106,7 +106,7 @@ pub const LOAD_KG: f64 = 0.0663;
 /// each measured exactly under [`LOAD_KG`]: (nominal, poses, measurements).
 pub fn elastic_run() -> (Arm<f64>, Vec<Pose>, Vec<Measurement>) {
     let nominal = rigid_nominal();
-    let keys = ["k2", "k3", "k4", "k5", "k6", "k0"].map(|n| ParamKey::from_name(n).expect("name"));
+    let keys = ["k2", "k3", "k4", "k5", "k6", "k0"].map(key);
     let mut truth = ParamVector::new(keys).expect("distinct keys");
     for (k, e) in keys.into_iter().zip([0.1, 0.05, 0.08, 0.03, 0.04, 0.02]) {
         truth.set(k, e).expect("held key");
@@ -134,4 +134,9 @@ pub fn elastic_settings() -> RunSettings {
         }),
         identify: IdentifyOptions::default(),
     }
+}
+
+/// The parameter called `name`.
+pub fn key(name: &str) -> ParamKey {
+    ParamKey::from_name(name).expect("a parameter name")
 }
