@@ -1,4 +1,4 @@
-//! The calibration engine (levels 2 and 3 of `shared/METHOD.md`): which error
+//! The calibration engine (levels 2 and 3 of `docs/METHOD.md`): which error
 //! parameters the measurements can identify, which poses to measure, the fit
 //! itself and how good the result is.
 //!
@@ -12,7 +12,7 @@
 //! | [`identify`] | Levenberg–Marquardt fit with non-negative compliances, robust option |
 //! | [`validate`] | error statistics before/after on held-out poses |
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
-//! | [`calibration_file`] | the calibration JSON the firmware receives |
+//! | [`export`] | the results as the file formats of `crate::io` hold them (calibration file) |
 //! | [`report`] | the machine-readable report and the paper-style table |
 //! | [`plots`] | the figures a person looks at first (SVG + PNG) |
 //! | [`pipeline`] | select → identify → validate for one option, as the demo runs it |
@@ -21,10 +21,10 @@
 //! benchmarked alone; the subcommands in `crate::commands` only read files,
 //! call these and write files.
 
-pub mod calibration_file;
 pub mod checks;
 pub mod detmax;
 pub mod error;
+pub mod export;
 pub mod identifiability;
 pub mod identify;
 pub mod jacobian;

@@ -9,12 +9,12 @@
 use serde::Serialize;
 
 use super::ModelOption;
-use super::calibration_file::FittedParam;
 use super::identifiability::Identifiability;
 use super::identify::Identified;
 use super::observability::Observability;
 use super::pipeline::OptionResult;
 use super::validate::{ErrorStats, Validation};
+use crate::io::calibration_file::FittedParam;
 
 /// Version of the report schema.
 pub const REPORT_SCHEMA_VERSION: u32 = 1;

@@ -10,8 +10,8 @@ use std::time::Instant;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::calib::ModelOption;
-use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::detmax::{DetmaxOptions, detmax, random_design};
+use crate::calib::export::calibration_file;
 use crate::calib::identify::{IdentifyOptions, identify};
 use crate::calib::pipeline::{
     CandidateBlocks, Choice, MeasurementIndex, OptionResult, calibrate_option,
@@ -19,10 +19,12 @@ use crate::calib::pipeline::{
 use crate::calib::plots::{self, Distribution, Series};
 use crate::calib::report::{OptionReport, RandomBaseline, Report, table};
 use crate::calib::validate::{ErrorStats, Validation, validate};
+use crate::commands::write_text;
 use crate::dataset::Measurement;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::{atomic, measurements};
+use crate::io::calibration_file::ValidationSummary;
+use crate::io::measurements;
 use crate::plan::{PlanConfig, candidates};
 use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 
@@ -73,10 +75,6 @@ fn bar(len: u64, what: &str) -> ProgressBar {
     }
     pb.set_message(what.to_owned());
     pb
-}
-
-fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
 
 /// Runs `lrmcal demo`.
@@ -195,7 +193,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
     for (r, rep) in results.iter().zip(&reports) {
         let validation = held_out(r)?;
-        let file = CalibrationFile::new(
+        let file = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),

@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::checks::{check_in_candidates, check_plausible};
 use crate::calib::detmax::DetmaxOptions;
+use crate::calib::export::calibration_file;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{
     CandidateBlocks, Choice, MeasurementIndex, OptionResult, calibrate_option,
@@ -17,10 +17,12 @@ use crate::calib::pipeline::{
 use crate::calib::report::{OptionReport, Report, table};
 use crate::calib::validate::{ErrorStats, error_norms};
 use crate::calib::{CalibError, ModelOption};
+use crate::commands::write_text;
 use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::{atomic, measurements, pose_list};
+use crate::io::calibration_file::ValidationSummary;
+use crate::io::{measurements, pose_list};
 
 /// Which options to fit: one, or all three for comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -111,10 +113,6 @@ pub fn poses_of(rows: &[Measurement]) -> Vec<Pose> {
         .filter(|m| seen.insert(m.pose.id))
         .map(|m| m.pose)
         .collect()
-}
-
-fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
 
 /// Runs `lrmcal identify`.
@@ -242,7 +240,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     for r in &results {
         let used: Vec<u32> = r.selection.poses.iter().map(|p| p.id).collect();
         let fit = index.of(used.iter().copied(), load);
-        let cal = CalibrationFile::new(
+        let cal = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),

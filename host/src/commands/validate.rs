@@ -3,12 +3,12 @@
 
 use std::path::PathBuf;
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::calib::checks::check_plausible;
 use crate::calib::validate::validate;
 use crate::commands::identify::loads_of;
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
+use crate::io::calibration_file::CalibrationFile;
 use crate::io::measurements;
 
 /// Check a calibration against measurements it was not identified from.
@@ -42,7 +42,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     check_plausible(&cal.nominal, &rows, &file)?;
     println!(
         "{} calibration {} on {file}:",
-        cal.option,
+        cal.option.name(),
         args.calibration.display()
     );
     println!(

@@ -12,9 +12,9 @@ use std::str::FromStr;
 
 use model::Arm;
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::error::Error;
 use crate::io::arm_toml::{self, ArmDescription};
+use crate::io::calibration_file::CalibrationFile;
 
 /// The arms shipped inside the binary: (name, TOML text).
 pub const BUNDLED: &[(&str, &str)] = &[("lrm", include_str!("../../arms/lrm.toml"))];
@@ -99,7 +99,10 @@ impl ArmSource {
             }
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
-                (format!("calibrated, {} model", file.option), file.arm)
+                (
+                    format!("calibrated, {} model", file.option.name()),
+                    file.arm,
+                )
             }
         };
         Ok(LoadedArm {
@@ -131,10 +134,9 @@ pub fn bundled(name: &str) -> Result<ArmDescription, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::ModelOption;
-    use crate::calib::calibration_file::{SCHEMA, SCHEMA_VERSION};
-    use crate::calib::validate::ErrorStats;
     use crate::error::exit_codes;
+    use crate::io::calibration_file::{ErrorStats, SCHEMA, SCHEMA_VERSION};
+    use protocol::ModelOption;
 
     /// A calibration file of the bundled arm whose joint 2 compliance was identified.
     fn calibration() -> CalibrationFile {
