@@ -135,29 +135,8 @@ pub fn bundled(name: &str) -> Result<ArmDescription, Error> {
 mod tests {
     use super::*;
     use crate::error::exit_codes;
-    use crate::io::calibration_file::{ErrorStats, SCHEMA, SCHEMA_VERSION};
-    use protocol::ModelOption;
-
-    /// A calibration file of the bundled arm whose joint 2 compliance was identified.
-    fn calibration() -> CalibrationFile {
-        let nominal = bundled(DEFAULT_ARM).unwrap().arm;
-        let mut arm = nominal;
-        arm.joints[1].compliance = 0.1;
-        CalibrationFile {
-            schema: SCHEMA.into(),
-            schema_version: SCHEMA_VERSION,
-            option: ModelOption::Elastic,
-            nominal,
-            arm,
-            parameters: vec![],
-            at_bound: vec![],
-            removed: vec![],
-            poses_used: vec![1, 2, 3],
-            loads_kg: vec![0.0663],
-            fit_residual: ErrorStats::of(&[1e-4]),
-            validation: None,
-        }
-    }
+    use crate::io::calibration_file::test_support::sample_file as calibration;
+    use crate::io::calibration_file::{SCHEMA, SCHEMA_VERSION};
 
     fn load_text(text: &str) -> Result<LoadedArm, Error> {
         let dir = tempfile::tempdir().unwrap();

@@ -196,13 +196,14 @@ impl CalibrationFile {
     }
 }
 
+/// A calibration file for the unit tests of `io`.
 #[cfg(test)]
-mod tests {
+pub(super) mod test_support {
     use super::*;
     use crate::io::arm_source::{DEFAULT_ARM, bundled};
 
     /// A calibration of the bundled arm whose joint 2 compliance was identified.
-    fn sample_file() -> CalibrationFile {
+    pub fn sample_file() -> CalibrationFile {
         let nominal = bundled(DEFAULT_ARM).unwrap().arm;
         let mut arm = nominal;
         arm.joints[1].compliance = 0.1;
@@ -226,6 +227,12 @@ mod tests {
             validation: None,
         }
     }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_support::sample_file;
+    use super::*;
 
     #[test]
     fn round_trips_and_checks_its_nominal_arm() {
