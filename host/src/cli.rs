@@ -89,6 +89,10 @@ pub enum Command {
     Measure(commands::measure::Args),
     /// Put a firmware image (UF2) on the board through its USB bootloader.
     Flash(commands::flash::Args),
+    /// Export an arm for other tools: a URDF of its rigid geometry for ROS.
+    Export(commands::export::Args),
+    /// Turn a recorded tracker take (OptiTrack Motive CSV) into a measurement CSV.
+    ImportTracker(commands::import_tracker::Args),
 }
 
 impl Command {
@@ -114,6 +118,8 @@ impl Command {
             Self::ServoTune(args) => commands::servo_tune::run(args),
             Self::Measure(args) => commands::measure::run(args),
             Self::Flash(args) => commands::flash::run(args),
+            Self::Export(args) => commands::export::run(args),
+            Self::ImportTracker(args) => commands::import_tracker::run(args),
         }
     }
 }

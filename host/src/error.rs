@@ -114,6 +114,9 @@ pub enum Error {
         /// Why it cannot be used.
         reason: String,
     },
+    /// A tracker could not be heard, or a recorded take could not be used.
+    #[error(transparent)]
+    Tracker(#[from] crate::tracker::TrackerError),
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -174,6 +177,7 @@ impl Error {
             Self::Model { .. } => exit_codes::MODEL,
             Self::Device { .. } => exit_codes::DEVICE,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
+            Self::Tracker(e) => e.exit_code(),
             Self::Calib(e) => match e {
                 crate::calib::CalibError::Plot { .. } => exit_codes::FILE_ACCESS,
                 crate::calib::CalibError::Deflection { .. } => exit_codes::MODEL,

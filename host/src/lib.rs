@@ -12,6 +12,7 @@ pub mod error;
 pub mod io;
 pub mod plan;
 pub mod sim;
+pub mod tracker;
 
 pub use cli::main_impl;
 pub use error::Error;

@@ -19,6 +19,7 @@ pub mod json;
 pub mod measurements;
 pub mod pose_list;
 pub mod predictions;
+pub mod urdf;
 
 use std::path::Path;
 

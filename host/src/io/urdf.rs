@@ -1,0 +1,343 @@
+//! URDF (the ROS robot description) of an arm's rigid geometry: what
+//! `lrmcal export --urdf` writes for robot_state_publisher, RViz and MoveIt.
+//!
+//! The chain uses the ROS-Industrial names (REP 199):
+//! `world` (the frame lrmcal measures in) → `base_link` (DH frame 0) →
+//! `link_1` … `link_6` (revolute `joint_1` … `joint_6`) → `flange` → `tool0`
+//! → `tool_point` (the tool frame, whose origin is the measured point).
+//!
+//! Standard DH turns joint i before the link's own offsets,
+//! `T(i-1,i) = Rz(q_i + θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`, while URDF turns a
+//! joint after its fixed origin. So `link_i` is DH frame i-1 turned by `q_i`
+//! about its z axis, `joint_1`'s origin is the identity, and `joint_{i+1}`'s
+//! origin is the rest of DH link i, `Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`: exactly
+//! `xyz = (a cos θ, a sin θ, d)`, `rpy = (α, 0, θ)`. Link 6's rest leads to
+//! DH frame 6, where `flange` and `tool0` sit.
+//!
+//! Compliances, servo curves and masses have no place in a URDF; the file's
+//! header says so, and what that means on the board.
+
+use std::path::Path;
+
+use model::{Arm, Frame};
+use nalgebra::{Matrix3, Rotation3};
+
+use crate::error::Error;
+use crate::io::atomic;
+
+/// What the file says besides the arm's geometry.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UrdfOptions {
+    /// `<robot name>`.
+    pub robot_name: String,
+    /// Where the arm came from, one line each (source file, model option, calibration id).
+    pub provenance: Vec<String>,
+    /// Effort limit of every joint, N·m (lrmcal does not know it; URDF requires one).
+    pub effort_nm: f64,
+    /// Velocity limit of every joint, rad/s.
+    pub velocity_rad_s: f64,
+}
+
+/// Writes the URDF of `arm` to `path`, whole or not at all.
+pub fn write(path: &Path, arm: &Arm<f64>, options: &UrdfOptions) -> Result<(), Error> {
+    let text = render(arm, options);
+    atomic::write(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// The URDF text of `arm`'s rigid geometry. The joint limits must be ordered
+/// (`lower < upper`) and every number finite, as the arm readers ensure.
+pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
+    let mut out = String::from("<?xml version=\"1.0\"?>\n");
+    out += &header(options);
+    out += &format!("<robot name=\"{}\">\n", attribute(&options.robot_name));
+    out += "  <link name=\"world\"/>\n";
+    out += "  <link name=\"base_link\"/>\n";
+    out += &fixed_joint("world", "base_link", &origin_of_frame(&arm.base));
+    let mut parent = String::from("base_link");
+    // Joint 1 turns DH frame 0 itself; every later joint first carries the
+    // rest of the link before it.
+    let mut origin = Origin::identity();
+    for (i, joint) in arm.joints.iter().enumerate() {
+        let link = format!("link_{}", i + 1);
+        out += &format!("  <link name=\"{link}\"/>\n");
+        out += &format!(
+            "  <joint name=\"joint_{}\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    \
+             <child link=\"{link}\"/>\n    {}\n    <axis xyz=\"0 0 1\"/>\n    \
+             <limit lower=\"{}\" upper=\"{}\" effort=\"{}\" velocity=\"{}\"/>\n  </joint>\n",
+            i + 1,
+            origin.element(),
+            number(joint.limits[0]),
+            number(joint.limits[1]),
+            number(options.effort_nm),
+            number(options.velocity_rad_s),
+        );
+        origin = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
+        parent = link;
+    }
+    // `origin` now holds link 6's rest: DH frame 6, turned so that x points
+    // out of the flange (along z6) as REP 199 has it for `flange`.
+    let dh6 = origin.rotation();
+    let out_of_flange = Rotation3::from_euler_angles(0.0, -std::f64::consts::FRAC_PI_2, 0.0);
+    let flange = Origin {
+        xyz: origin.xyz,
+        rpy: rpy(&(dh6 * out_of_flange)),
+    };
+    out += "  <link name=\"flange\"/>\n";
+    out += &fixed_joint(&parent, "flange", &flange);
+    out += "  <link name=\"tool0\"/>\n";
+    let back_to_dh6 = Origin {
+        xyz: [0.0; 3],
+        rpy: [0.0, std::f64::consts::FRAC_PI_2, 0.0],
+    };
+    out += &fixed_joint("flange", "tool0", &back_to_dh6);
+    out += "  <link name=\"tool_point\"/>\n";
+    out += &fixed_joint("tool0", "tool_point", &origin_of_frame(&arm.tool));
+    out += "</robot>\n";
+    out
+}
+
+/// The XML comment at the top: provenance, frames, joint convention and what
+/// the file cannot hold.
+fn header(options: &UrdfOptions) -> String {
+    let mut text = format!(
+        "Rigid geometry of an arm, written by `lrmcal export` (lrmcal {}).\n",
+        env!("CARGO_PKG_VERSION")
+    );
+    for line in &options.provenance {
+        text += line;
+        text.push('\n');
+    }
+    text += &format!(
+        "
+Frames (ROS-Industrial names, REP 199):
+  world       the frame lrmcal measured in (the tracker's); world-base_link is the arm's base frame
+  base_link   DH frame 0 of the arm
+  link_i      DH frame i-1 turned by joint_i about its z axis
+  flange      at DH frame 6, x along joint 6's axis (out of the flange)
+  tool0       DH frame 6 itself: z along joint 6's axis, the all-zero tool
+  tool_point  the arm's tool frame: its origin is the point lrmcal measures and predicts
+Joint positions are lrmcal's commanded joint angles in radians (q1_deg..q6_deg of its
+pose files, converted): position 0 is q = 0 (the DH theta offsets are in the origins),
+so the same angles put tool_point where `lrmcal predict` puts the tool point of a
+rigid arm. Limits are the arm's; effort ({} N m) and velocity ({} rad/s) are not
+calibrated, but chosen when exporting.
+
+What URDF cannot hold, so this file leaves out:
+  - the joint and base compliances: the arm's sag under gravity and payload
+    (`lrmcal predict` with a load gives the sagging tool point);
+  - the servo curves (commanded angle -> pulse width) and the payload's centre of mass;
+  - link masses and centres of mass (a URDF inertial also needs inertia tensors,
+    which lrmcal does not know).
+On the board, `lrmcal compensation elastic` cancels the sag: the tool point then goes
+where this file puts tool_point. With `compensation off` it sags below it; with
+`compensation full` the arm follows its nominal arm: export that one instead.
+",
+        number(options.effort_nm),
+        number(options.velocity_rad_s),
+    );
+    let body: String = text
+        .lines()
+        .map(|line| {
+            if line.is_empty() {
+                "\n".to_owned()
+            } else {
+                format!("  {}\n", comment(line))
+            }
+        })
+        .collect();
+    format!("<!--\n{body}-->\n")
+}
+
+/// A fixed joint `parent-child`.
+fn fixed_joint(parent: &str, child: &str, origin: &Origin) -> String {
+    format!(
+        "  <joint name=\"{parent}-{child}\" type=\"fixed\">\n    <parent link=\"{parent}\"/>\n    \
+         <child link=\"{child}\"/>\n    {}\n  </joint>\n",
+        origin.element()
+    )
+}
+
+/// A joint's `<origin>`: translation, m, then URDF's fixed-axis roll, pitch,
+/// yaw, rad (`R = Rz(yaw) Ry(pitch) Rx(roll)`, the convention of [`Frame`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Origin {
+    xyz: [f64; 3],
+    rpy: [f64; 3],
+}
+
+impl Origin {
+    fn identity() -> Self {
+        Self {
+            xyz: [0.0; 3],
+            rpy: [0.0; 3],
+        }
+    }
+
+    /// `Rz(θ) Tz(d) Tx(a) Rx(α)`: the part of a DH link after its joint's turn.
+    fn dh_rest(theta: f64, d: f64, a: f64, alpha: f64) -> Self {
+        let (s, c) = theta.sin_cos();
+        Self {
+            xyz: [a * c, a * s, d],
+            rpy: [alpha, 0.0, theta],
+        }
+    }
+
+    fn rotation(&self) -> Rotation3<f64> {
+        let [roll, pitch, yaw] = self.rpy;
+        Rotation3::from_euler_angles(roll, pitch, yaw)
+    }
+
+    fn element(&self) -> String {
+        let v = |v: [f64; 3]| v.map(number).join(" ");
+        format!("<origin xyz=\"{}\" rpy=\"{}\"/>", v(self.xyz), v(self.rpy))
+    }
+}
+
+/// A [`Frame`] as an origin: both use `Trans(xyz) Rz(yaw) Ry(pitch) Rx(roll)`.
+fn origin_of_frame(frame: &Frame<f64>) -> Origin {
+    Origin {
+        xyz: frame.xyz,
+        rpy: frame.rpy,
+    }
+}
+
+/// Roll, pitch, yaw of `r` (`r = Rz(yaw) Ry(pitch) Rx(roll)`), accurate to
+/// rounding for every rotation.
+///
+/// The textbook `pitch = -asin(r20)` loses half the digits near ±90° of pitch
+/// (1e-8 rad, 1e-6 mm at the tool), which is where `flange` sits whenever
+/// joint 6 has no twist. Here yaw comes from the first column, and roll and
+/// pitch from `Rz(yaw)ᵀ r = Ry(pitch) Rx(roll)`, whose entries are all well
+/// scaled; at exactly ±90° any yaw fits and the other two follow from it.
+fn rpy(r: &Rotation3<f64>) -> [f64; 3] {
+    let m: &Matrix3<f64> = r.matrix();
+    let yaw = m[(1, 0)].atan2(m[(0, 0)]);
+    let rest = Rotation3::from_euler_angles(0.0, 0.0, -yaw) * r;
+    let p = rest.matrix();
+    let pitch = (-p[(2, 0)]).atan2(p[(0, 0)]);
+    let roll = (-p[(1, 2)]).atan2(p[(1, 1)]);
+    [roll, pitch, yaw]
+}
+
+/// The shortest decimal that reads back as the same `f64` (at most 17
+/// significant digits), so the file holds the very numbers of the arm; never
+/// `-0` (adding 0 turns -0 into 0 and leaves every other number alone).
+fn number(x: f64) -> String {
+    format!("{:?}", x + 0.0)
+}
+
+/// `text` as an XML attribute value between double quotes.
+fn attribute(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// `text` made safe inside an XML comment, which may not contain `--` (a
+/// file name may): every other dash of a run becomes a hyphen (U+2010),
+/// which reads the same.
+fn comment(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut after_dash = false;
+    for c in text.chars() {
+        if c == '-' && after_dash {
+            out.push('\u{2010}');
+            after_dash = false;
+        } else {
+            out.push(c);
+            after_dash = c == '-';
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    fn assert_same_rotation(a: &Rotation3<f64>, b: &Rotation3<f64>) {
+        let diff = (a.matrix() - b.matrix()).abs().max();
+        assert!(diff < 1e-15, "{diff:e}: {a} vs {b}");
+    }
+
+    #[test]
+    fn rpy_rebuilds_every_rotation_to_rounding() {
+        let mut rng = StdRng::seed_from_u64(3);
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        for _ in 0..2000 {
+            let [roll, yaw] = [(); 2].map(|_| rng.random_range(-3.1..3.1));
+            // Half of the pitches within 1e-3..1e-17 rad of ±90°, where asin fails.
+            let pitch = if rng.random_bool(0.5) {
+                let sign = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                sign * (half_pi - 10f64.powf(rng.random_range(-17.0..-3.0)))
+            } else {
+                rng.random_range(-1.5..1.5)
+            };
+            let r = Rotation3::from_euler_angles(roll, pitch, yaw);
+            let [r2, p2, y2] = rpy(&r);
+            assert_same_rotation(&Rotation3::from_euler_angles(r2, p2, y2), &r);
+        }
+        // Exactly at ±90° (as rounding gives it) and the identity.
+        for r in [
+            Rotation3::from_euler_angles(0.0, -half_pi, 0.0),
+            Rotation3::from_euler_angles(0.3, half_pi, -1.2),
+            Rotation3::identity(),
+        ] {
+            let [r2, p2, y2] = rpy(&r);
+            assert_same_rotation(&Rotation3::from_euler_angles(r2, p2, y2), &r);
+        }
+    }
+
+    #[test]
+    fn dh_rest_is_the_dh_product() {
+        let (theta, d, a, alpha) = (0.4, 0.07, -0.12, 1.1);
+        let origin = Origin::dh_rest(theta, d, a, alpha);
+        let rz = Rotation3::from_euler_angles(0.0, 0.0, theta);
+        let rx = Rotation3::from_euler_angles(alpha, 0.0, 0.0);
+        let translation = rz * nalgebra::Vector3::new(a, 0.0, d);
+        assert!((nalgebra::Vector3::from(origin.xyz) - translation).norm() < 1e-16);
+        assert_same_rotation(&origin.rotation(), &(rz * rx));
+    }
+
+    #[test]
+    fn numbers_read_back_exactly() {
+        for x in [
+            0.09,
+            std::f64::consts::FRAC_PI_2,
+            -1e-17,
+            1.0 / 3.0,
+            123456.789,
+            0.0,
+        ] {
+            assert_eq!(number(x).parse::<f64>(), Ok(x));
+        }
+        assert_eq!(number(-0.0), "0.0");
+    }
+
+    #[test]
+    fn names_and_comments_cannot_break_the_xml() {
+        assert_eq!(attribute("a<b>&\"c\""), "a&lt;b&gt;&amp;&quot;c&quot;");
+        assert_eq!(
+            comment("cal--old---x.json"),
+            "cal-\u{2010}old-\u{2010}-x.json"
+        );
+        assert!(!comment("a-- --b-----").contains("--"));
+        let options = UrdfOptions {
+            robot_name: "arm \"<2>\" & co".into(),
+            provenance: vec!["calibration `cal--v2.json`-".into()],
+            effort_nm: 1.0,
+            velocity_rad_s: 1.5,
+        };
+        let text = render(
+            &crate::io::arm_source::bundled("lrm").unwrap().arm,
+            &options,
+        );
+        let robot = urdf_rs::read_from_string(&text).unwrap();
+        assert_eq!(robot.name, options.robot_name);
+        let header = &text[text.find("<!--").unwrap() + 4..text.find("-->").unwrap()];
+        assert!(!header.contains("--"), "{header}");
+        assert!(header.contains("cal-\u{2010}v2.json"), "{header}");
+    }
+}
