@@ -2,7 +2,7 @@
 //! every pulse, a flash that can lose power at any byte, and a calibration to
 //! load. Used by this crate's tests and, with feature `sim`, by `tests/`.
 
-use model::{Arm, Frame, Joint, ServoCurve};
+use model::ServoCurve;
 use protocol::{Calibration, ModelOption};
 
 use crate::{CHANNELS, FlashStorage, ServoBus};
@@ -143,45 +143,11 @@ impl FlashStorage for SimFlash {
     }
 }
 
-/// An elbow arm with a spherical wrist, ~0.44 m reach, with compliant joints
-/// (LRM-like; the real arm's numbers are not published).
-pub fn test_arm() -> Arm<f32> {
-    let h = core::f32::consts::FRAC_PI_2;
-    let joint = |theta: f32, d: f32, a: f32, alpha: f32, k: f32, mass: f32, com: [f32; 3]| Joint {
-        theta,
-        d,
-        a,
-        alpha,
-        compliance: k,
-        limits: [-1.75, 1.75],
-        mass,
-        com,
-        servo: ServoCurve::nominal(),
-    };
-    Arm {
-        gravity: [0.0, 0.0, -9.80665],
-        base: Frame::identity(),
-        base_compliance: 0.03,
-        tool: Frame {
-            xyz: [0.0, 0.0, 0.04],
-            rpy: [0.0; 3],
-        },
-        payload_com: [0.0; 3],
-        joints: [
-            joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
-            joint(h, 0.0, 0.17, 0.0, 0.12, 0.12, [-0.085, 0.0, 0.01]),
-            joint(h, 0.0, 0.0, h, 0.08, 0.10, [0.0, 0.0, 0.02]),
-            joint(0.0, 0.17, 0.0, -h, 0.05, 0.08, [0.0, 0.08, 0.0]),
-            joint(0.0, 0.0, 0.0, h, 0.06, 0.06, [0.0, 0.0, 0.01]),
-            joint(0.0, 0.06, 0.0, 0.0, 0.03, 0.05, [0.0, 0.0, -0.02]),
-        ],
-    }
-}
-
-/// A calibration of [`test_arm`]: millimetre and degree-level geometric
+/// A calibration of the shared LRM-like test arm
+/// ([`model::testing::lrm_like_arm`]): millimetre and degree-level geometric
 /// errors, changed compliances and individual servo curves.
 pub fn test_calibration(id: u32) -> Calibration {
-    let nominal = test_arm();
+    let nominal = model::testing::lrm_like_arm::<f32>();
     let mut calibrated = nominal;
     for (i, j) in calibrated.joints.iter_mut().enumerate() {
         let s = if i % 2 == 0 { 1.0 } else { -1.0 };

@@ -1,4 +1,4 @@
-//! In-memory forms of the files users exchange with us (shared/CONTRACTS.md §2):
+//! In-memory forms of the files users exchange with us (`docs/FORMATS.md`):
 //! measured poses, pose lists and predictions, in SI units.
 //!
 //! Files carry degrees and millimetres; everything in memory is radians and

@@ -63,6 +63,14 @@ pub enum Error {
         /// Why it could not be used.
         reason: String,
     },
+    /// A calibration file was identified from another nominal arm than the one given.
+    #[error("use calibration `{}`: {problem}", path.display())]
+    ArmMismatch {
+        /// The calibration file.
+        path: PathBuf,
+        /// The difference found, and what to do about it.
+        problem: String,
+    },
     /// A pose list gives one pose id several loads, but the output has one row per id.
     #[error(
         "predict pose {pose} of `{}`: it is listed with several loads and a prediction file holds one position per pose; pass --load-kg or split the list by load",
@@ -121,9 +129,37 @@ pub enum Error {
     },
 }
 
+// The conversions from the modules' own errors live here, with the one error
+// type: a module returns its own error and knows nothing of the CLI's.
+
 impl From<crate::device::ClientError> for Error {
     fn from(source: crate::device::ClientError) -> Self {
         Self::Device { source }
+    }
+}
+
+impl From<crate::plan::PlanError> for Error {
+    fn from(source: crate::plan::PlanError) -> Self {
+        Self::Plan { source }
+    }
+}
+
+impl From<crate::sim::SimError> for Error {
+    /// The model's own failure keeps its exit code ([`Error::Model`]); the
+    /// rest are simulator errors.
+    fn from(error: crate::sim::SimError) -> Self {
+        match error {
+            crate::sim::SimError::Model {
+                pose,
+                load_kg,
+                reason,
+            } => Self::Model {
+                pose,
+                load_kg,
+                reason,
+            },
+            source => Self::Simulate { source },
+        }
     }
 }
 
@@ -134,6 +170,7 @@ impl Error {
             Self::Read { .. } | Self::Write { .. } => exit_codes::FILE_ACCESS,
             Self::Parse { .. }
             | Self::ArmSource { .. }
+            | Self::ArmMismatch { .. }
             | Self::AmbiguousLoad { .. }
             | Self::Simulate { .. }
             | Self::Plan { .. } => exit_codes::INVALID_INPUT,
@@ -142,9 +179,7 @@ impl Error {
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
             Self::Tracker(e) => e.exit_code(),
             Self::Calib(e) => match e {
-                crate::calib::CalibError::Io { .. } | crate::calib::CalibError::Plot { .. } => {
-                    exit_codes::FILE_ACCESS
-                }
+                crate::calib::CalibError::Plot { .. } => exit_codes::FILE_ACCESS,
                 crate::calib::CalibError::Deflection { .. } => exit_codes::MODEL,
                 _ => exit_codes::INVALID_INPUT,
             },
@@ -353,6 +388,22 @@ pub enum Problem {
         pose: u32,
         /// Line where the id first appeared.
         first_line: u64,
+    },
+    /// A JSON file is of another kind than the command reads (its `schema`).
+    #[error("expected \"{expected}\", found {found}")]
+    WrongSchema {
+        /// The schema the command reads.
+        expected: &'static str,
+        /// What the file says it is, as written.
+        found: String,
+    },
+    /// A JSON file is of another version of its schema than this build reads.
+    #[error("expected {expected}, the version this lrmcal reads, found {found}")]
+    WrongVersion {
+        /// The version this build reads.
+        expected: u32,
+        /// What the file says, as written.
+        found: String,
     },
     /// A file with a header but no data.
     #[error("expected at least one data row, found none")]

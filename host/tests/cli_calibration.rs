@@ -4,8 +4,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use host::calib::calibration_file::CalibrationFile;
 use host::dataset::Measurement;
+use host::io::calibration_file::CalibrationFile;
 use host::io::measurements;
 
 fn lrmcal(args: &[&str]) -> Output {

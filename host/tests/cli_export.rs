@@ -9,7 +9,8 @@ use std::path::Path;
 use std::process::{Command, Output};
 
 use host::io::{arm_source, predictions};
-use model::{Arm, JOINTS, ParamId, params::ParamKind};
+use model::testing::{ErrorSizes, random_errors};
+use model::{Arm, JOINTS, ParamId};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
@@ -244,16 +245,13 @@ fn bundled_arm_urdf_puts_the_tool_where_predict_does() {
 /// tool offsets of a few mm and degrees, and compliances.
 fn calibrated_arm() -> (Arm<f64>, Arm<f64>) {
     let nominal = arm_source::bundled("lrm").unwrap().arm;
-    let mut rng = StdRng::seed_from_u64(7);
+    let sizes = ErrorSizes {
+        length_m: 5e-3,
+        angle_rad: 0.05,
+        compliance: 0.02..0.1,
+    };
+    let errors = random_errors(&mut StdRng::seed_from_u64(7), &sizes);
     let ids: Vec<ParamId> = ParamId::all().collect();
-    let errors: Vec<f64> = ids
-        .iter()
-        .map(|id| match id.kind() {
-            ParamKind::Length => rng.random_range(-5e-3..5e-3),
-            ParamKind::Angle => rng.random_range(-0.05..0.05),
-            ParamKind::Compliance => rng.random_range(0.02..0.1),
-        })
-        .collect();
     (nominal, nominal.with_errors(&ids, &errors))
 }
 

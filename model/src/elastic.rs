@@ -182,7 +182,7 @@ impl<T: Real> Chain<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_arms::{lrm_like_arm, random_q, rigid_lrm_like_arm};
+    use crate::testing::{lrm_like_arm, random_q, rigid_lrm_like_arm};
     use rand::{SeedableRng, rngs::StdRng};
 
     #[test]
@@ -261,7 +261,7 @@ mod tests {
 #[cfg(test)]
 mod precision_tests {
     use super::*;
-    use crate::test_arms::{lrm_like_arm, random_q};
+    use crate::testing::{lrm_like_arm, random_q};
     use rand::{SeedableRng, rngs::StdRng};
 
     /// The firmware runs this model in f32: it must agree with the host's f64

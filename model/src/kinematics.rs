@@ -226,7 +226,7 @@ pub fn tilt_sin_cos<T: Real>(beta: T) -> (T, T) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_arms::planar_arm;
+    use crate::testing::planar_arm;
     use approx::assert_relative_eq;
 
     /// A hand-derived check: with all twists zero the first three links form a
@@ -273,10 +273,10 @@ mod tests {
     /// The tool point carried back to the base is the one of the frames.
     #[test]
     fn rigid_tool_point_matches_the_frames() {
-        let chain = crate::test_arms::lrm_like_arm::<f64>().chain();
+        let chain = crate::testing::lrm_like_arm::<f64>().chain();
         let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(5);
         for _ in 0..100 {
-            let q = crate::test_arms::random_q(&mut rng);
+            let q = crate::testing::random_q(&mut rng);
             let frames = chain.frames(&q, 0.0).tool_point();
             assert_relative_eq!(chain.rigid_tool_point(&q), frames, epsilon = 1e-14);
         }

@@ -14,9 +14,11 @@
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
 //! | [`servo`] | the three-point piecewise-linear servo curve (angle -> pulse) |
 //! | [`trig`] | the f32 sine and cosine of the joint angles, fast without an FPU |
+//! | `testing` | test fixtures for every crate: the LRM-like test arm, random errors (feature `testing`) |
 //!
-//! Conventions follow `shared/CONTRACTS.md`: metres, radians, kilograms,
-//! microseconds; `T(i-1,i) = Rz(q_i + theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`.
+//! Conventions (`docs/FORMATS.md` for the files, `docs/METHOD.md` for the
+//! model): metres, radians, kilograms, microseconds;
+//! `T(i-1,i) = Rz(q_i + theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i)`.
 #![no_std]
 
 #[cfg(test)]
@@ -29,8 +31,8 @@ pub mod kinematics;
 pub mod params;
 pub mod servo;
 pub mod statics;
-#[cfg(test)]
-mod test_arms;
+#[cfg(any(test, feature = "testing"))]
+pub mod testing;
 pub mod trig;
 
 pub use arm::{Arm, Frame, JOINTS, Joint};

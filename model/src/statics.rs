@@ -101,7 +101,7 @@ impl<T: Real> Chain<T> {
 
 #[cfg(test)]
 mod tests {
-    use crate::test_arms::{lrm_like_arm, planar_arm, random_q};
+    use crate::testing::{lrm_like_arm, planar_arm, random_q};
     use crate::{Chain, JOINTS};
     use approx::assert_relative_eq;
     use nalgebra::Vector3;

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 /// Largest encoded calibration, bytes (two `Arm<f32>` are about 830).
 pub const MAX_CALIBRATION_LEN: usize = 1024;
 
-/// Which parameters the calibration identified (METHOD.md's three options).
+/// Which parameters the calibration identified (the three model options of `docs/METHOD.md`).
 ///
 /// The host's files write it by [`ModelOption::name`] (serde's kebab-case
 /// names); postcard encodes the variant's index, so the names are not on the wire.

@@ -8,7 +8,7 @@
 
 use firmware::Config;
 use firmware::compensator::Compensator;
-use model::params::ParamKind;
+use model::testing::{ErrorSizes, random_errors};
 use model::{CompensationOptions, ParamId, SolverOptions};
 use protocol::{Calibration, CompensationMode, ModelOption};
 use rand::{Rng, SeedableRng, rngs::StdRng};
@@ -22,15 +22,7 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
     let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
     let mut rng = StdRng::seed_from_u64(2024);
     let ids: Vec<ParamId> = ParamId::all().collect();
-    // A calibrated arm as identification finds it: mm / degree-level errors, compliances up.
-    let errors: Vec<f64> = ids
-        .iter()
-        .map(|id| match id.kind() {
-            ParamKind::Length => rng.random_range(-0.003..0.003),
-            ParamKind::Angle => rng.random_range(-0.03..0.03),
-            ParamKind::Compliance => rng.random_range(0.0..0.05),
-        })
-        .collect();
+    let errors = random_errors(&mut rng, &ErrorSizes::CALIBRATED);
     let calibrated = nominal.with_errors(&ids, &errors);
     let cal = host::device::calibration::identified(Calibration {
         id: 0,

@@ -12,13 +12,11 @@ use std::time::{Duration, Instant};
 
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
-use host::calib::ModelOption;
-use host::calib::calibration_file::{CalibrationFile, SCHEMA, SCHEMA_VERSION};
-use host::calib::validate::ErrorStats;
 use host::commands::{compensation, detach, move_, payload, pull, push};
 use host::device::DeviceArgs;
+use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
 use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, FrameReader};
+use protocol::{CompensationMode, FrameReader, ModelOption};
 
 /// A board on a local socket: one connection at a time (each command opens
 /// its own), servo frames every 20 ms of wall time. Stops when dropped.
@@ -396,7 +394,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
 fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     let dir = tempfile::tempdir().unwrap();
     let path = calibration_json(dir.path());
-    let mut file = host::calib::calibration_file::CalibrationFile::read(&path).unwrap();
+    let mut file = CalibrationFile::read(&path).unwrap();
     file.arm.joints[1].servo.zero = 2500.0;
     std::fs::write(&path, file.to_json()).unwrap();
     // Nobody listens on this port: the check must come first.

@@ -9,13 +9,11 @@ use std::time::Duration;
 
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
-use host::calib::ModelOption;
-use host::calib::calibration_file::{CalibrationFile, SCHEMA, SCHEMA_VERSION};
-use host::calib::validate::ErrorStats;
 use host::device::{Client, ClientError, CommsError, Link, calibration};
+use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
 use model::{Arm, ParamId};
 use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, Faults, FrameReader, Timing, WireError};
+use protocol::{CompensationMode, Faults, FrameReader, ModelOption, Timing, WireError};
 
 /// The board at the other end of a USB cable, run in-process. Every read by
 /// the host lets 20 ms of board time pass (one servo frame).

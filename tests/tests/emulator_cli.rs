@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 use emulator_support::{EmulatedBoard, RawLink, SERVO_PINS, calibration_bytes, expected_pulses};
-use host::calib::calibration_file::CalibrationFile;
+use host::io::calibration_file::CalibrationFile;
 use protocol::CompensationMode;
 use serde_json::json;
 

@@ -90,14 +90,6 @@ pub enum CalibError {
         /// What was empty.
         what: String,
     },
-    /// The arm in a calibration file is not the arm it is used with.
-    #[error("use calibration {file}: {problem}")]
-    ArmMismatch {
-        /// Calibration file.
-        file: String,
-        /// The difference found.
-        problem: String,
-    },
     /// The solver ended without a usable result.
     #[error("identify the {option} model: {reason}")]
     Solver {
@@ -105,23 +97,6 @@ pub enum CalibError {
         option: String,
         /// What the solver said.
         reason: String,
-    },
-    /// A file could not be read or written.
-    #[error("access {path}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        #[source]
-        source: std::io::Error,
-    },
-    /// A JSON file is malformed or of another schema.
-    #[error("read {path} as a calibration file: {message}")]
-    Json {
-        /// The file.
-        path: PathBuf,
-        /// What serde said, with line and column.
-        message: String,
     },
     /// The input leaves a choice open that the user must make.
     #[error("{what}")]

@@ -1,4 +1,4 @@
-//! The calibration engine (levels 2 and 3 of `shared/METHOD.md`): which error
+//! The calibration engine (levels 2 and 3 of `docs/METHOD.md`): which error
 //! parameters the measurements can identify, which poses to measure, the fit
 //! itself and how good the result is.
 //!
@@ -15,7 +15,7 @@
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
 //! | [`pipeline`] | select → identify → validate for one option |
 //! | [`experiments`] | DETMAX against random selections, O1 against the number of poses |
-//! | [`calibration_file`] | the calibration JSON the firmware receives |
+//! | [`export`] | the results as the file formats of `crate::io` hold them (calibration file) |
 //! | [`report`] | the machine-readable report, schema header included |
 //! | [`summary`] | the paper-style table and the lines the commands print |
 //! | [`plots`] | the figures a person looks at first (SVG + PNG) |
@@ -25,11 +25,11 @@
 //! benchmarked alone; the subcommands in `crate::commands` only read files,
 //! call these and write files.
 
-pub mod calibration_file;
 pub mod checks;
 pub mod detmax;
 pub mod error;
 pub mod experiments;
+pub mod export;
 pub mod identifiability;
 pub mod identify;
 pub mod jacobian;

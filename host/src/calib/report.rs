@@ -11,13 +11,13 @@
 use serde::Serialize;
 
 use super::ModelOption;
-use super::calibration_file::FittedParam;
 use super::experiments::{O1Point, RandomBaseline};
 use super::identifiability::Identifiability;
 use super::identify::{Identified, Outlier};
 use super::observability::Observability;
 use super::pipeline::OptionResult;
 use super::validate::{ErrorStats, Validation};
+use crate::io::calibration_file::FittedParam;
 
 /// Name of the report schema.
 pub const REPORT_SCHEMA: &str = "lrmcal-report";

@@ -1,8 +1,10 @@
-//! Fixtures for the engine's unit tests: a small LRM-like arm and a few poses,
-//! so the tests stay fast in debug builds. Integration tests use the bundled arm.
+//! Fixtures for the engine's unit tests: the shared LRM-like test arm set up
+//! so that every parameter is identifiable, and a few poses, so the tests stay
+//! fast in debug builds. Integration tests use the bundled arm.
 
-use model::{Arm, Frame, Joint, ParamId, ServoCurve};
-use rand::{Rng, SeedableRng, rngs::StdRng};
+use model::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q};
+use model::{Arm, PARAM_COUNT};
+use rand::{SeedableRng, rngs::StdRng};
 
 use super::Sample;
 use super::detmax::DetmaxOptions;
@@ -12,41 +14,14 @@ use super::params::{ParamKey, ParamVector};
 use super::pipeline::{Choice, RunSettings};
 use crate::dataset::{Measurement, Pose};
 
-/// A 6R elbow arm with a spherical wrist (~0.45 m reach), compliant joints and base.
+/// The shared LRM-like test arm ([`lrm_like_arm`]) on a slightly tilted base,
+/// with the wrist's mass off its axis: gravity then loads every joint, so
+/// every compliance (k1 and k6 too) has a torque to show itself by.
 pub fn test_arm() -> Arm<f64> {
-    let h = std::f64::consts::FRAC_PI_2;
-    let joint = |theta, d, a, alpha, compliance, mass, com| Joint {
-        theta,
-        d,
-        a,
-        alpha,
-        compliance,
-        limits: [-1.75, 1.75],
-        mass,
-        com,
-        servo: ServoCurve::nominal(),
-    };
-    Arm {
-        gravity: [0.0, 0.0, -9.80665],
-        base: Frame {
-            xyz: [0.0; 3],
-            rpy: [0.01, -0.02, 0.0],
-        },
-        base_compliance: 0.03,
-        tool: Frame {
-            xyz: [0.0, 0.0, 0.04],
-            rpy: [0.0; 3],
-        },
-        payload_com: [0.0; 3],
-        joints: [
-            joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
-            joint(h, 0.0, 0.17, 0.0, 0.12, 0.12, [-0.085, 0.0, 0.01]),
-            joint(h, 0.0, 0.0, h, 0.08, 0.10, [0.0, 0.0, 0.02]),
-            joint(0.0, 0.17, 0.0, -h, 0.05, 0.08, [0.0, 0.08, 0.0]),
-            joint(0.0, 0.0, 0.0, h, 0.06, 0.06, [0.0, 0.0, 0.01]),
-            joint(0.0, 0.06, 0.0, 0.0, 0.03, 0.05, [0.01, 0.005, -0.02]),
-        ],
-    }
+    let mut arm = lrm_like_arm::<f64>();
+    arm.base.rpy = [0.01, -0.02, 0.0];
+    arm.joints[5].com = [0.01, 0.005, -0.02];
+    arm
 }
 
 /// The same arm with every compliance zero: a rigid nominal model.
@@ -61,16 +36,14 @@ pub fn rigid_nominal() -> Arm<f64> {
 }
 
 /// Errors of a "true" arm relative to [`rigid_nominal`]: mm and degree level
-/// geometry, compliances 1e-2..2e-1 rad/Nm.
-pub fn true_errors(seed: u64) -> Vec<f64> {
-    let mut rng = StdRng::seed_from_u64(seed);
-    ParamId::all()
-        .map(|p| match p.kind() {
-            model::params::ParamKind::Length => rng.random_range(-2e-3..2e-3),
-            model::params::ParamKind::Angle => rng.random_range(-0.02..0.02),
-            model::params::ParamKind::Compliance => rng.random_range(1e-2..2e-1),
-        })
-        .collect()
+/// geometry, compliances 1e-2..2e-1 rad/Nm (the nominal arm's are zero).
+pub fn true_errors(seed: u64) -> [f64; PARAM_COUNT] {
+    let sizes = ErrorSizes {
+        length_m: 2e-3,
+        angle_rad: 0.02,
+        compliance: 1e-2..2e-1,
+    };
+    random_errors(&mut StdRng::seed_from_u64(seed), &sizes)
 }
 
 /// `n` random poses within ±100°, alternating between no load and 66.3 g.
@@ -79,7 +52,7 @@ pub fn small_samples(n: usize) -> Vec<Sample> {
     (0..n)
         .map(|i| Sample {
             id: i as u32,
-            q: std::array::from_fn(|_| rng.random_range(-1.745..1.745)),
+            q: random_q(&mut rng),
             load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
         })
         .collect()

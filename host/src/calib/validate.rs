@@ -3,64 +3,13 @@
 //! error norm.
 
 use model::Arm;
-use serde::{Deserialize, Serialize};
 
 use super::jacobian::tool_points;
 use super::{CalibError, Sample};
 use crate::dataset::Measurement;
 
-/// Statistics of a set of 3D error norms, m.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ErrorStats {
-    /// Number of measurements.
-    pub count: usize,
-    /// Mean, m.
-    pub mean_m: f64,
-    /// Median, m.
-    pub median_m: f64,
-    /// Root mean square, m.
-    pub rms_m: f64,
-    /// 95th percentile (linear interpolation between order statistics), m.
-    pub p95_m: f64,
-    /// Largest, m.
-    pub max_m: f64,
-}
-
-impl ErrorStats {
-    /// Statistics of `norms` (m); all zero for an empty set.
-    pub fn of(norms: &[f64]) -> Self {
-        let mut v = norms.to_vec();
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        let quantile = |p: f64| {
-            if n == 0 {
-                return 0.0;
-            }
-            let x = p * (n - 1) as f64;
-            let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
-            v[lo] + (v[hi] - v[lo]) * (x - lo as f64)
-        };
-        let mean = if n == 0 {
-            0.0
-        } else {
-            v.iter().sum::<f64>() / n as f64
-        };
-        let rms = if n == 0 {
-            0.0
-        } else {
-            (v.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt()
-        };
-        Self {
-            count: n,
-            mean_m: mean,
-            median_m: quantile(0.5),
-            rms_m: rms,
-            p95_m: quantile(0.95),
-            max_m: v.last().copied().unwrap_or(0.0),
-        }
-    }
-}
+/// The statistics of a set of 3D error norms, as the file formats hold them.
+pub use crate::io::calibration_file::ErrorStats;
 
 /// The error of one measurement before and after calibration.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -162,21 +111,4 @@ pub fn validate(
             })
             .collect(),
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn statistics_of_a_known_set() {
-        let s = ErrorStats::of(&[4.0, 1.0, 3.0, 2.0, 5.0]);
-        assert_eq!(s.count, 5);
-        assert!((s.mean_m - 3.0).abs() < 1e-12);
-        assert!((s.median_m - 3.0).abs() < 1e-12);
-        assert!((s.rms_m - 11f64.sqrt()).abs() < 1e-12);
-        assert!((s.p95_m - 4.8).abs() < 1e-12);
-        assert_eq!(s.max_m, 5.0);
-        assert_eq!(ErrorStats::of(&[]).count, 0);
-    }
 }

@@ -4,20 +4,22 @@
 //! rest, check across loads, compare with random selections, and write the
 //! calibrations, the report and the plots to one folder.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::detmax::DetmaxOptions;
 use crate::calib::experiments::{O1_SIZES, o1_vs_poses, random_baseline};
+use crate::calib::export::calibration_file;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
 use crate::calib::report::Report;
 use crate::calib::{CalibError, ModelOption, plots, summary};
 use crate::commands::helpers::Bar;
+use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::{atomic, measurements};
+use crate::io::calibration_file::ValidationSummary;
+use crate::io::measurements;
 use crate::plan::{PlanConfig, candidates};
 use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 
@@ -60,10 +62,6 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-demo")]
     pub out: PathBuf,
-}
-
-fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
 
 /// Runs `lrmcal demo`.
@@ -166,7 +164,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
     for r in &results {
         let validation = r.held_out()?;
-        let file = CalibrationFile::new(
+        let file = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),

@@ -5,10 +5,10 @@ use std::path::{Path, PathBuf};
 
 use model::Arm;
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::device::calibration;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::io::calibration_file::CalibrationFile;
 use crate::io::urdf::{self, UrdfOptions};
 
 /// Export an arm for other tools.
@@ -140,7 +140,7 @@ fn from_calibration(path: &Path) -> Result<Exported, Error> {
             format!(
                 "Arm: the calibrated arm of `{}` ({} model).",
                 path.display(),
-                file.option
+                file.option.name()
             ),
             id,
         ],

@@ -1,12 +1,16 @@
 //! What several subcommands share: the terminal progress bar the engine's
-//! long steps draw, and the `--option` choice of one model option or all.
+//! long steps draw, the `--option` choice of one model option or all, and
+//! writing a text file whole.
 
 use std::cell::RefCell;
+use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::calib::ModelOption;
 use crate::calib::progress::Progress;
+use crate::error::Error;
+use crate::io::atomic;
 
 /// The engine's progress as a terminal bar (on stderr, drawn only on a
 /// terminal): a new bar for each step of the engine, with the step's label
@@ -96,4 +100,9 @@ mod tests {
         let e = "rigid".parse::<OptionChoice>().unwrap_err();
         assert!(e.contains("rigid") && e.contains("elasto-kinematic, kinematic, elastic or all"));
     }
+}
+
+/// Writes a text file (JSON, a report) whole or not at all (see [`atomic`]).
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
+    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }

@@ -3,23 +3,25 @@
 //! or all three; validate on the measured poses not used; write the
 //! calibration file(s) and a report.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::calib::checks::{
     check_in_candidates, check_measured, check_plausible, identification_load,
 };
 use crate::calib::detmax::DetmaxOptions;
+use crate::calib::export::calibration_file;
 use crate::calib::identifiability::check_structure;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
 use crate::calib::report::Report;
 use crate::calib::{CalibError, summary};
+use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::{atomic, measurements, pose_list};
+use crate::io::calibration_file::ValidationSummary;
+use crate::io::{measurements, pose_list};
 
 /// Identify the arm's error parameters from measured tool positions.
 #[derive(Debug, clap::Args)]
@@ -63,10 +65,6 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-calibration")]
     pub out: PathBuf,
-}
-
-fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
 
 /// Runs `lrmcal identify`.
@@ -134,7 +132,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &results,
     );
     for (r, details) in results.iter().zip(&report.options) {
-        let cal = CalibrationFile::new(
+        let cal = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),

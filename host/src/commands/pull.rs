@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use protocol::Calibration;
 
+use crate::commands::helpers::write_text;
 use crate::device::DeviceArgs;
 use crate::error::Error;
-use crate::io::atomic;
 
 /// Read the board's calibration back (JSON: id, option, both arms, home pose).
 #[derive(Debug, clap::Args)]
@@ -48,7 +48,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         reason: e.to_string(),
     })? + "\n";
     match &args.out {
-        Some(path) => atomic::write(path, |w| w.write_all(text.as_bytes())),
+        Some(path) => write_text(path, &text),
         None => {
             print!("{text}");
             Ok(())

@@ -5,9 +5,9 @@ use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::device::{DeviceArgs, calibration};
 use crate::error::Error;
+use crate::io::calibration_file::CalibrationFile;
 
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]

@@ -3,10 +3,11 @@
 
 use std::path::PathBuf;
 
+use crate::commands::helpers::write_text;
 use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::{atomic, measurements, pose_list};
+use crate::io::{measurements, pose_list};
 use crate::plan::{PlanConfig, candidates};
 use crate::sim::{DEFAULT_SEED, Pass, SimConfig, TrueArm};
 
@@ -195,8 +196,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let simulation = truth.simulate_passes(&passes)?;
 
     if let Some(path) = &args.truth {
-        let json = truth.truth_json();
-        atomic::write(path, |w| w.write_all(json.as_bytes()))?;
+        write_text(path, &truth.truth_json())?;
     }
     if let Some(path) = &args.noise_free {
         measurements::write(path, &simulation.noise_free)?;

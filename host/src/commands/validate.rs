@@ -3,11 +3,11 @@
 
 use std::path::PathBuf;
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::calib::checks::check_plausible;
 use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
+use crate::io::calibration_file::CalibrationFile;
 use crate::io::measurements;
 
 /// Check a calibration against measurements it was not identified from.
@@ -41,7 +41,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     check_plausible(&cal.nominal, &rows, &file)?;
     println!(
         "{} calibration {} on {file}:",
-        cal.option,
+        cal.option.name(),
         args.calibration.display()
     );
     println!(

@@ -1,10 +1,10 @@
-//! From a calibration file (JSON, `crate::calib::calibration_file`) to the
-//! payload the board stores, and back to readable form.
+//! From a calibration file (JSON, [`crate::io::calibration_file`]) to the
+//! payload the board stores.
 
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::{Calibration, CalibrationFault};
 
-use crate::calib::calibration_file::CalibrationFile;
+use crate::io::calibration_file::CalibrationFile;
 
 /// The payload for `file`, in single precision, with the home pose `home_rad`.
 pub fn payload(

@@ -12,9 +12,9 @@ use std::str::FromStr;
 
 use model::Arm;
 
-use crate::calib::calibration_file::CalibrationFile;
 use crate::error::Error;
 use crate::io::arm_toml::{self, ArmDescription};
+use crate::io::calibration_file::CalibrationFile;
 
 /// The arms shipped inside the binary: (name, TOML text).
 pub const BUNDLED: &[(&str, &str)] = &[("lrm", include_str!("../../arms/lrm.toml"))];
@@ -99,7 +99,10 @@ impl ArmSource {
             }
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
-                (format!("calibrated, {} model", file.option), file.arm)
+                (
+                    format!("calibrated, {} model", file.option.name()),
+                    file.arm,
+                )
             }
         };
         Ok(LoadedArm {
@@ -131,31 +134,9 @@ pub fn bundled(name: &str) -> Result<ArmDescription, Error> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::ModelOption;
-    use crate::calib::calibration_file::{SCHEMA, SCHEMA_VERSION};
-    use crate::calib::validate::ErrorStats;
     use crate::error::exit_codes;
-
-    /// A calibration file of the bundled arm whose joint 2 compliance was identified.
-    fn calibration() -> CalibrationFile {
-        let nominal = bundled(DEFAULT_ARM).unwrap().arm;
-        let mut arm = nominal;
-        arm.joints[1].compliance = 0.1;
-        CalibrationFile {
-            schema: SCHEMA.into(),
-            schema_version: SCHEMA_VERSION,
-            option: ModelOption::Elastic,
-            nominal,
-            arm,
-            parameters: vec![],
-            at_bound: vec![],
-            removed: vec![],
-            poses_used: vec![1, 2, 3],
-            loads_kg: vec![0.0663],
-            fit_residual: ErrorStats::of(&[1e-4]),
-            validation: None,
-        }
-    }
+    use crate::io::calibration_file::test_support::sample_file as calibration;
+    use crate::io::calibration_file::{SCHEMA, SCHEMA_VERSION};
 
     fn load_text(text: &str) -> Result<LoadedArm, Error> {
         let dir = tempfile::tempdir().unwrap();

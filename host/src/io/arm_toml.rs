@@ -1,4 +1,4 @@
-//! The arm description file (shared/CONTRACTS.md §1): TOML <-> [`model::Arm`].
+//! The arm description file (`docs/FORMATS.md`, "Arm description"): TOML <-> [`model::Arm`].
 //!
 //! Every key is required; there are no defaults, because a forgotten line in a
 //! calibration input should be an error, not a silent zero. Unknown keys are
@@ -41,14 +41,12 @@ pub fn write(path: &Path, description: &ArmDescription) -> Result<(), Error> {
     atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
 
-/// Serialises an arm description as TOML in the layout of CONTRACTS.md §1.
+/// Serialises an arm description as TOML in the layout `docs/FORMATS.md` describes.
 pub fn to_toml(description: &ArmDescription) -> String {
     let raw = RawArm::from_description(description);
     // Serialising plain structs of numbers and strings cannot fail.
     let body = toml::to_string(&raw).expect("an arm description always serialises");
-    format!(
-        "# Arm description (shared/CONTRACTS.md section 1): metres, radians, kilograms, µs.\n{body}"
-    )
+    format!("# Arm description (lrmcal docs/FORMATS.md): metres, radians, kilograms, µs.\n{body}")
 }
 
 /// Parses and checks the text of an arm description.
@@ -56,7 +54,7 @@ pub fn parse(text: &str) -> Result<ArmDescription, InputError> {
     let lines = LineIndex::new(text);
     let deserializer = toml::Deserializer::parse(text).map_err(|e| toml_error(&lines, e, None))?;
     let raw: RawArm = serde_path_to_error::deserialize(deserializer).map_err(|e| {
-        let path = render_path(e.path());
+        let path = super::key_path(e.path());
         toml_error(&lines, e.into_inner(), Some(path))
     })?;
     raw.check(&lines)
@@ -75,27 +73,6 @@ fn toml_error(lines: &LineIndex, error: toml::de::Error, path: Option<String>) -
             message: error.message().trim().to_owned(),
         },
     )
-}
-
-/// A serde path as `joint[3].servo.zero`, array positions counted from 1.
-fn render_path(path: &serde_path_to_error::Path) -> String {
-    use serde_path_to_error::Segment;
-    let mut out = String::new();
-    for segment in path.iter() {
-        match segment {
-            Segment::Seq { index } => out.push_str(&format!("[{}]", index + 1)),
-            // `Spanned` wraps a value in a private map; its keys are not the user's.
-            Segment::Map { key } if key.starts_with("$__") => {}
-            Segment::Map { key } | Segment::Enum { variant: key } => {
-                if !out.is_empty() {
-                    out.push('.');
-                }
-                out.push_str(key);
-            }
-            Segment::Unknown => {}
-        }
-    }
-    out
 }
 
 /// Byte offset -> 1-based line number.

@@ -6,8 +6,8 @@
 //! tools and ignored here. Any other column the file kind does not define is an
 //! error that lists the expected columns: we reject rather than ignore so that
 //! a misspelt optional column (`load_kg` in a pose list) cannot silently turn
-//! into its default. CONTRACTS.md lets readers accept extra columns; the
-//! `note_` prefix is how this reader does.
+//! into its default. Extra columns from other tools are still welcome: the
+//! `note_` prefix is how (`docs/FORMATS.md`, "CSV files").
 
 use std::collections::HashMap;
 

@@ -1,4 +1,4 @@
-//! Measurement files (CONTRACTS.md §2):
+//! Measurement files (`docs/FORMATS.md`, "Measurements"):
 //! `pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm`, one row per measured pose.
 
 use std::io::Write;

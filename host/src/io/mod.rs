@@ -1,9 +1,11 @@
-//! Reading and writing the files users exchange with `lrmcal`
-//! (shared/CONTRACTS.md): arm descriptions (TOML), measurements, pose lists and
-//! predictions (CSV).
+//! Reading and writing the files users exchange with `lrmcal` (each described
+//! in `docs/FORMATS.md`): arm descriptions (TOML), measurements, pose lists and
+//! predictions (CSV), and the calibration file (JSON).
 //!
 //! Parsers take text and return an [`InputError`](crate::error::InputError)
 //! naming line and key or column; the `read` functions add the file name.
+//! The formats are plain data: nothing here knows the calibration engine,
+//! which converts its results into them.
 //! Units are converted here, at the boundary: files hold degrees and
 //! millimetres, memory holds radians and metres. Writers never leave a
 //! half-written file (see [`atomic`]).
@@ -11,7 +13,9 @@
 pub mod arm_source;
 pub mod arm_toml;
 pub mod atomic;
+pub mod calibration_file;
 mod csv_table;
+pub mod json;
 pub mod measurements;
 pub mod pose_list;
 pub mod predictions;
@@ -20,6 +24,28 @@ pub mod urdf;
 use std::path::Path;
 
 use crate::error::Error;
+
+/// A serde key path as messages show it: `joint[3].servo.zero`, array
+/// positions counted from 1 (like the joints `j1..j6`).
+fn key_path(path: &serde_path_to_error::Path) -> String {
+    use serde_path_to_error::Segment;
+    let mut out = String::new();
+    for segment in path.iter() {
+        match segment {
+            Segment::Seq { index } => out.push_str(&format!("[{}]", index + 1)),
+            // `toml::Spanned` wraps a value in a private map; its keys are not the user's.
+            Segment::Map { key } if key.starts_with("$__") => {}
+            Segment::Map { key } | Segment::Enum { variant: key } => {
+                if !out.is_empty() {
+                    out.push('.');
+                }
+                out.push_str(key);
+            }
+            Segment::Unknown => {}
+        }
+    }
+    out
+}
 
 /// Reads a whole text file, naming it in the error.
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {

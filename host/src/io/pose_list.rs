@@ -1,4 +1,4 @@
-//! Pose lists (CONTRACTS.md §2): candidates and selections,
+//! Pose lists (`docs/FORMATS.md`, "Pose lists"): candidates and selections,
 //! `pose[,load_kg],q1_deg..q6_deg`.
 
 use std::io::Write;

@@ -1,4 +1,4 @@
-//! Prediction files (CONTRACTS.md §2): `pose,x_mm,y_mm,z_mm`.
+//! Prediction files (`docs/FORMATS.md`, "Predictions"): `pose,x_mm,y_mm,z_mm`.
 
 use std::collections::HashMap;
 use std::io::Write;

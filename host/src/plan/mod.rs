@@ -180,12 +180,6 @@ pub enum PlanError {
     NominalNotFinite,
 }
 
-impl From<PlanError> for crate::Error {
-    fn from(source: PlanError) -> Self {
-        Self::Plan { source }
-    }
-}
-
 /// Builds the candidate grid and filters it on the nominal arm.
 pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, PlanError> {
     if !(config.clearance_m.is_finite() && config.clearance_m >= 0.0) {

@@ -87,25 +87,6 @@ pub enum SimError {
     },
 }
 
-impl From<SimError> for crate::Error {
-    /// The model's own failure keeps its exit code ([`crate::Error::Model`]);
-    /// the rest are simulator errors.
-    fn from(error: SimError) -> Self {
-        match error {
-            SimError::Model {
-                pose,
-                load_kg,
-                reason,
-            } => Self::Model {
-                pose,
-                load_kg,
-                reason,
-            },
-            source => Self::Simulate { source },
-        }
-    }
-}
-
 #[cfg(test)]
 pub(crate) mod test_support {
     //! The bundled arm for the simulator's and planner's unit tests.

@@ -247,21 +247,13 @@ impl<T: Real> Evaluation<T> {
 mod tests {
     use super::*;
     use crate::params::ParamId;
-    use crate::test_arms::{lrm_like_arm, random_q, rigid_lrm_like_arm};
-    use rand::{Rng, SeedableRng, rngs::StdRng};
+    use crate::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q, rigid_lrm_like_arm};
+    use rand::{SeedableRng, rngs::StdRng};
 
-    /// A calibrated arm: the nominal one with errors on many parameters.
+    /// A calibrated arm: the nominal one with errors on every parameter.
     fn perturbed(rng: &mut StdRng) -> crate::Arm<f64> {
         let ids: std::vec::Vec<ParamId> = ParamId::all().collect();
-        let errors: std::vec::Vec<f64> = ids
-            .iter()
-            .map(|id| match id.kind() {
-                crate::params::ParamKind::Length => rng.random_range(-0.003..0.003),
-                crate::params::ParamKind::Angle => rng.random_range(-0.03..0.03),
-                crate::params::ParamKind::Compliance => rng.random_range(0.0..0.05),
-            })
-            .collect();
-        lrm_like_arm::<f64>().with_errors(&ids, &errors)
+        lrm_like_arm::<f64>().with_errors(&ids, &random_errors(rng, &ErrorSizes::CALIBRATED))
     }
 
     #[test]

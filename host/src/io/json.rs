@@ -1,0 +1,113 @@
+//! What the JSON files `lrmcal` writes have in common: pretty text, a schema
+//! name and version that a reader checks before anything else, errors that
+//! name the line and the key (`arm.joints[3].compliance`, array positions
+//! counted from 1 as everywhere in messages), and the spelling of a model
+//! option.
+//!
+//! A JSON format is a module of [`crate::io`] with plain serde structs, its
+//! `SCHEMA` and `SCHEMA_VERSION`, and `parse`/`read` built on [`parse`]; the
+//! engine converts its results into those structs (see `crate::calib::export`).
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::error::{InputError, Location, Problem};
+
+/// Pretty JSON text of `value`.
+pub fn to_pretty(value: &impl Serialize) -> String {
+    // The formats are plain structs of numbers, strings and vectors (no maps
+    // with non-string keys), which always serialise.
+    serde_json::to_string_pretty(value).expect("a file format always serialises")
+}
+
+/// Parses the text of a JSON file of kind `schema`, version `version`.
+///
+/// The `schema` and `schema_version` keys are checked first, so a file of
+/// another kind or version is named as such rather than by its first
+/// unexpected field.
+pub fn parse<T: DeserializeOwned>(
+    text: &str,
+    schema: &'static str,
+    version: u32,
+) -> Result<T, InputError> {
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| json_error(&e, None))?;
+    let found = value.get("schema");
+    if found.and_then(|s| s.as_str()) != Some(schema) {
+        return Err(InputError::new(
+            Location::key(None, "schema"),
+            Problem::WrongSchema {
+                expected: schema,
+                found: shown(found),
+            },
+        ));
+    }
+    let found = value.get("schema_version");
+    if found.and_then(|v| v.as_u64()) != Some(u64::from(version)) {
+        return Err(InputError::new(
+            Location::key(None, "schema_version"),
+            Problem::WrongVersion {
+                expected: version,
+                found: shown(found),
+            },
+        ));
+    }
+    // From the text again, not the value: serde_json's errors then carry lines.
+    let mut deserializer = serde_json::Deserializer::from_str(text);
+    serde_path_to_error::deserialize(&mut deserializer).map_err(|e| {
+        let key = super::key_path(e.path());
+        json_error(e.inner(), Some(key))
+    })
+}
+
+/// A key's value as found, for an error message.
+fn shown(value: Option<&serde_json::Value>) -> String {
+    value.map_or_else(|| "no such key".to_owned(), ToString::to_string)
+}
+
+/// A serde_json error with its line and, when known, the key it is about.
+fn json_error(error: &serde_json::Error, key: Option<String>) -> InputError {
+    let full = error.to_string();
+    // serde_json appends the position to its message; the line goes into the location.
+    let message = full
+        .strip_suffix(&format!(
+            " at line {} column {}",
+            error.line(),
+            error.column()
+        ))
+        .unwrap_or(&full);
+    let message = if error.is_syntax() || error.is_eof() {
+        format!("not JSON: {message}")
+    } else {
+        message.to_owned()
+    };
+    InputError::new(
+        Location {
+            line: (error.line() > 0).then_some(error.line() as u64),
+            field: key.filter(|k| !k.is_empty()).map(crate::error::Field::Key),
+        },
+        Problem::Syntax { message },
+    )
+}
+
+/// A [`protocol::ModelOption`] in JSON files: its stable name
+/// (`"elasto-kinematic"`, `"kinematic"`, `"elastic"`), as on the command line.
+/// Use with `#[serde(with = "crate::io::json::model_option")]`.
+pub mod model_option {
+    use protocol::ModelOption;
+    use serde::{Deserialize, Deserializer, Serializer, de::Error};
+
+    /// Writes the option's name.
+    pub fn serialize<S: Serializer>(option: &ModelOption, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(option.name())
+    }
+
+    /// Reads an option by name.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelOption, D::Error> {
+        let name = String::deserialize(d)?;
+        ModelOption::from_name(&name).ok_or_else(|| {
+            D::Error::custom(format!(
+                "unknown model option `{name}`: expected elasto-kinematic, kinematic or elastic"
+            ))
+        })
+    }
+}
