@@ -354,7 +354,9 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
             "--port",
             &board.port,
         ];
-        host::cli::Cli::try_parse_from(args).unwrap().command.run()
+        // The exit code and the message a user would see.
+        let outcome = host::cli::Cli::try_parse_from(args).unwrap().command.run();
+        outcome.map_err(|e| (e.exit_code(), e.report()))
     };
     let nominal_rad = || {
         board
@@ -439,14 +441,13 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
     assert!((bundled.chain().rigid_tool_point(&q) - target).norm() > 0.01);
 
     // Out of reach: refused before anything moves.
-    let err = run([0.9, 0.0, 0.1]).unwrap_err();
-    assert_eq!(err.exit_code(), 3);
+    let (code, message) = run([0.9, 0.0, 0.1]).unwrap_err();
+    assert_eq!(code, 3);
     assert!(
-        err.report().starts_with(
+        message.starts_with(
             "error: failed to find joint targets for the tool point (900.0, 0.0, 100.0) mm: out of reach: the target is 905.5 mm"
         ),
-        "{}",
-        err.report()
+        "{message}"
     );
     assert_eq!(nominal_rad().map(f64::from), q);
 }
