@@ -18,8 +18,9 @@
 //! local solve gets onto the target by damped least squares and then walks
 //! along the solutions to a locally nearest one (`solver`). It runs from the
 //! start pose and from a fixed set of restarts spread over the joint ranges
-//! (the same every call, so answers repeat); the nearest result that is on
-//! the target and clear of collisions wins.
+//! (the same every call, so answers repeat). The nearest pose met on the
+//! target and clear of collisions wins: where a solve ended, or, when that
+//! collides, a pose it passed through on the way.
 //!
 //! When none is, the error says why: a target beyond the sum of the link
 //! lengths at once; otherwise, from what the solves found, poses that reach
@@ -283,9 +284,14 @@ pub fn solve_position(
     };
     let on_target = |l: &Local| l.error_m <= options.tolerance_m;
     let limits: Limits = arm.joints.map(|j| j.limits);
-    let within = search(
+    // Every pose met on the target is a candidate, not only where each solve
+    // ended: when that collides, a pose it passed through may be clear.
+    let within: Vec<Local> = search(
         &chain, target_m, start_q, &limits, &limits, settings, options,
-    );
+    )
+    .into_iter()
+    .flatten()
+    .collect();
     let mut candidates: Vec<Local> = within.iter().copied().filter(on_target).collect();
     // Nothing within the limits: search again with the joints free, to tell
     // limits from reach (and to catch a solution one turn away from the range).
@@ -293,10 +299,10 @@ pub fn solve_position(
     if candidates.is_empty() {
         let free = [[f64::NEG_INFINITY, f64::INFINITY]; JOINTS];
         let turn = [[-PI, PI]; JOINTS];
-        for local in search(&chain, target_m, start_q, &free, &turn, settings, options) {
-            if !on_target(&local) {
-                continue;
-            }
+        let ends = search(&chain, target_m, start_q, &free, &turn, settings, options)
+            .into_iter()
+            .filter_map(|path| path.last().copied());
+        for local in ends.filter(on_target) {
             let q: [f64; JOINTS] = std::array::from_fn(|i| nearest_turn(local.q[i], limits[i]));
             let violations = violations(&q, &limits);
             if violations.is_empty() {
@@ -393,7 +399,8 @@ fn check(
 }
 
 /// One local solve from the start pose and one from each restart, all
-/// pulled towards the start pose. `limits` bound the solves, `spread` the
+/// pulled towards the start pose: the poses each went through
+/// ([`solver::solve_from`]). `limits` bound the solves, `spread` the
 /// restarts (finite where the limits are not).
 fn search(
     chain: &model::Chain<f64>,
@@ -403,7 +410,7 @@ fn search(
     spread: &Limits,
     settings: Settings,
     options: &IkOptions,
-) -> Vec<Local> {
+) -> Vec<Vec<Local>> {
     let mut rng = ChaCha8Rng::seed_from_u64(RESTART_SEED);
     let restarts = (0..options.restarts).map(|_| -> [f64; JOINTS] {
         std::array::from_fn(|i| rng.random_range(spread[i][0]..=spread[i][1]))
@@ -667,6 +674,39 @@ mod tests {
             assert_eq!(contact(&s.q), None);
             assert!(s.distance_rad > 0.01);
             assert!((s.tool_m - target).norm() <= 1e-9);
+        }
+    }
+
+    /// The tool point of any in-limit pose clear of collisions, from any
+    /// start: solved, clear, and no farther from the start than that pose.
+    #[test]
+    fn clear_poses_are_found_again_from_random_starts() {
+        let arm = bundled_arm();
+        let chain = arm.chain();
+        let config = PlanConfig::default();
+        let mut rng = ChaCha8Rng::seed_from_u64(14);
+        let mut solved = 0;
+        while solved < 150 {
+            let q = random_pose(&mut rng, &arm, 0.0);
+            if config.contact(&chain.frames(&q, 0.0)).is_some() {
+                continue;
+            }
+            solved += 1;
+            let start = random_pose(&mut rng, &arm, 0.0);
+            let s = solve_position(
+                &arm,
+                &chain.rigid_tool_point(&q),
+                &start,
+                &IkOptions::default(),
+            )
+            .unwrap_or_else(|e| panic!("{q:?} from {start:?}: {e}"));
+            assert_eq!(config.contact(&chain.frames(&s.q, 0.0)), None);
+            let source = solver::joint_distance(&q, &start);
+            assert!(
+                s.distance_rad <= source + 1e-9,
+                "{} > {source}",
+                s.distance_rad
+            );
         }
     }
 

@@ -60,7 +60,11 @@ pub(super) struct Local {
 }
 
 /// Solves from `start`: onto the target, then as near `reference` as the
-/// solutions around allow. Ends off the target if it could not get there.
+/// solutions around allow. Returns the poses it went through: where the
+/// corrections ended (off the target if they could not get there), then
+/// each pose on the target it stepped to, nearer `reference` each time; the
+/// last is the answer, the others are kept for a caller that must reject
+/// some (collisions).
 pub(super) fn solve_from(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
@@ -68,22 +72,22 @@ pub(super) fn solve_from(
     reference: &[f64; JOINTS],
     limits: &Limits,
     settings: Settings,
-) -> Local {
+) -> Vec<Local> {
     let mut budget = settings.max_iterations;
     let start = clamp(start, limits);
-    let on_target = correct(chain, target, start, limits, settings, &mut budget);
-    if on_target.error_m > settings.tolerance_m {
-        return on_target;
+    let mut path = vec![correct(chain, target, start, limits, settings, &mut budget)];
+    if path[0].error_m <= settings.tolerance_m {
+        approach(
+            chain,
+            target,
+            &mut path,
+            reference,
+            limits,
+            settings,
+            &mut budget,
+        );
     }
-    approach(
-        chain,
-        target,
-        on_target,
-        reference,
-        limits,
-        settings,
-        &mut budget,
-    )
+    path
 }
 
 /// Damped least-squares (Levenberg–Marquardt) corrections of the tool point
@@ -126,20 +130,24 @@ fn correct(
     best
 }
 
-/// From a pose on the target, steps along the solutions towards `reference`:
-/// a nearest-pose step inside the trust region, then [`correct`] back onto the
-/// target. Kept if it ends on the target and nearer `reference` (the region
-/// then grows), else the region shrinks.
+/// From the last pose of `path` (on the target), steps along the solutions
+/// towards `reference`: a nearest-pose step inside the trust region, then
+/// [`correct`] back onto the target. Kept (pushed on `path`) if it ends on
+/// the target and nearer `reference`, and the region grows; else the region
+/// shrinks.
 fn approach(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
-    on_target: Local,
+    path: &mut Vec<Local>,
     reference: &[f64; JOINTS],
     limits: &Limits,
     settings: Settings,
     budget: &mut u32,
-) -> Local {
-    let mut current = on_target;
+) {
+    let Some(&last) = path.last() else {
+        return;
+    };
+    let mut current = last;
     let mut distance = joint_distance(&current.q, reference);
     let mut radius = MAX_STEP_RAD;
     while *budget > 0 && radius >= STATIONARY_RAD {
@@ -165,12 +173,12 @@ fn approach(
         if tried.error_m <= settings.tolerance_m && tried_distance < distance {
             current = tried;
             distance = tried_distance;
+            path.push(current);
             radius = (radius * 2.0).min(MAX_STEP_RAD);
         } else {
             radius /= 4.0;
         }
     }
-    current
 }
 
 /// The joint angles nearest `reference` whose linearised tool point moves by
