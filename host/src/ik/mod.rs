@@ -55,7 +55,8 @@ const RESTART_SEED: u64 = 0x1c0ffee;
 pub struct IkOptions {
     /// On the target when the tool point is this close, m. Default 1e-9 (1e-6 mm).
     pub tolerance_m: f64,
-    /// Forward-kinematics evaluations allowed per start. Default 300.
+    /// Iterations allowed per start, each one Jacobian and one forward
+    /// evaluation. Default 300.
     pub max_iterations: u32,
     /// Starts besides the start pose, spread over the joint ranges. Default 16.
     pub restarts: usize,
@@ -387,6 +388,13 @@ fn check(
             field: "tolerance_m",
             expected: "a finite distance > 0 m",
             found: options.tolerance_m.to_string(),
+        });
+    }
+    if options.max_iterations == 0 {
+        return Err(IkError::Setting {
+            field: "max_iterations",
+            expected: "at least 1",
+            found: "0".into(),
         });
     }
     if let Some(i) = arm.joints.iter().position(|j| j.limits[0] > j.limits[1]) {
@@ -731,6 +739,12 @@ mod tests {
         };
         let e = solve_position(&arm, &t, &[0.0; 6], &bad).unwrap_err();
         assert!(e.to_string().contains("`tolerance_m`"), "{e}");
+        let bad = IkOptions {
+            max_iterations: 0,
+            ..IkOptions::default()
+        };
+        let e = solve_position(&arm, &t, &[0.0; 6], &bad).unwrap_err();
+        assert!(e.to_string().contains("`max_iterations`"), "{e}");
         let bad = IkOptions {
             collisions: Some(PlanConfig {
                 clearance_m: -1.0,

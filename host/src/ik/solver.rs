@@ -46,7 +46,8 @@ const MAX_DAMPING_GAIN: f64 = 1e12;
 pub(super) struct Settings {
     /// On the target when the tool point is this close, m.
     pub tolerance_m: f64,
-    /// Forward-kinematics evaluations allowed, for the whole local solve.
+    /// Iterations allowed for the whole local solve, each one Jacobian and
+    /// one forward evaluation.
     pub max_iterations: u32,
 }
 
@@ -75,17 +76,18 @@ pub(super) fn solve_from(
 ) -> Vec<Local> {
     let mut budget = settings.max_iterations;
     let start = clamp(start, limits);
-    let mut path = vec![correct(chain, target, start, limits, settings, &mut budget)];
-    if path[0].error_m <= settings.tolerance_m {
-        approach(
+    let corrected = correct(chain, target, start, limits, settings, &mut budget);
+    let mut path = vec![corrected];
+    if corrected.error_m <= settings.tolerance_m {
+        path.extend(approach(
             chain,
             target,
-            &mut path,
+            corrected,
             reference,
             limits,
             settings,
             &mut budget,
-        );
+        ));
     }
     path
 }
@@ -109,9 +111,11 @@ fn correct(
         error_m: (target - chain.rigid_tool_point(&q)).norm(),
     };
     let mut gain = 1.0;
+    // The linearisation at `best`, kept while steps from it are retried.
+    let mut slope = None;
     while best.error_m > settings.tolerance_m && *budget > 0 && gain <= MAX_DAMPING_GAIN {
         *budget -= 1;
-        let (tool, j) = position_jacobian(chain, &best.q);
+        let (tool, j) = *slope.get_or_insert_with(|| position_jacobian(chain, &best.q));
         let e = target - tool;
         let damping_sq = gain * (e.norm_squared() + DAMPING_FLOOR_M * DAMPING_FLOOR_M);
         let next = within_step(
@@ -122,6 +126,7 @@ fn correct(
         let error_m = (target - chain.rigid_tool_point(&next)).norm();
         if error_m < best.error_m {
             best = Local { q: next, error_m };
+            slope = None;
             gain = (gain / DAMPING_GROWTH).max(1.0);
         } else {
             gain *= DAMPING_GROWTH;
@@ -130,24 +135,22 @@ fn correct(
     best
 }
 
-/// From the last pose of `path` (on the target), steps along the solutions
-/// towards `reference`: a nearest-pose step inside the trust region, then
-/// [`correct`] back onto the target. Kept (pushed on `path`) if it ends on
-/// the target and nearer `reference`, and the region grows; else the region
-/// shrinks.
+/// From a pose on the target, steps along the solutions towards
+/// `reference`: a nearest-pose step inside the trust region, then
+/// [`correct`] back onto the target. A step is kept if it ends on the target
+/// and nearer `reference`, and the region grows; else the region shrinks.
+/// Returns the poses kept, in order.
 fn approach(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
-    path: &mut Vec<Local>,
+    on_target: Local,
     reference: &[f64; JOINTS],
     limits: &Limits,
     settings: Settings,
     budget: &mut u32,
-) {
-    let Some(&last) = path.last() else {
-        return;
-    };
-    let mut current = last;
+) -> Vec<Local> {
+    let mut kept = Vec::new();
+    let mut current = on_target;
     let mut distance = joint_distance(&current.q, reference);
     let mut radius = MAX_STEP_RAD;
     while *budget > 0 && radius >= STATIONARY_RAD {
@@ -173,12 +176,13 @@ fn approach(
         if tried.error_m <= settings.tolerance_m && tried_distance < distance {
             current = tried;
             distance = tried_distance;
-            path.push(current);
+            kept.push(current);
             radius = (radius * 2.0).min(MAX_STEP_RAD);
         } else {
             radius /= 4.0;
         }
     }
+    kept
 }
 
 /// The joint angles nearest `reference` whose linearised tool point moves by
