@@ -91,6 +91,8 @@ pub enum Command {
     Flash(commands::flash::Args),
     /// Export an arm for other tools: a URDF of its rigid geometry for ROS.
     Export(commands::export::Args),
+    /// Turn a recorded tracker take (OptiTrack Motive CSV) into a measurement CSV.
+    ImportTracker(commands::import_tracker::Args),
 }
 
 impl Command {
@@ -117,6 +119,7 @@ impl Command {
             Self::Measure(args) => commands::measure::run(args),
             Self::Flash(args) => commands::flash::run(args),
             Self::Export(args) => commands::export::run(args),
+            Self::ImportTracker(args) => commands::import_tracker::run(args),
         }
     }
 }

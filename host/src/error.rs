@@ -120,6 +120,9 @@ pub enum Error {
         #[source]
         source: crate::ik::IkError,
     },
+    /// A tracker could not be heard, or a recorded take could not be used.
+    #[error(transparent)]
+    Tracker(#[from] crate::tracker::TrackerError),
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -152,6 +155,7 @@ impl Error {
             Self::Model { .. } => exit_codes::MODEL,
             Self::Device { .. } => exit_codes::DEVICE,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
+            Self::Tracker(e) => e.exit_code(),
             Self::Calib(e) => match e {
                 crate::calib::CalibError::Io { .. } | crate::calib::CalibError::Plot { .. } => {
                     exit_codes::FILE_ACCESS

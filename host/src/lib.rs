@@ -13,6 +13,7 @@ pub mod ik;
 pub mod io;
 pub mod plan;
 pub mod sim;
+pub mod tracker;
 
 pub use cli::main_impl;
 pub use error::Error;

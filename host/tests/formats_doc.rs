@@ -2,6 +2,7 @@
 //! files of that kind, so a user who copies one gets a file `lrmcal` reads.
 
 use host::io::{arm_toml, measurements, pose_list, predictions};
+use host::tracker::motive;
 
 const FORMATS: &str = include_str!("../../docs/FORMATS.md");
 
@@ -34,7 +35,13 @@ fn every_checked_example_parses_as_its_kind() {
     let kinds: Vec<&str> = examples.iter().map(|(k, _)| *k).collect();
     assert_eq!(
         kinds,
-        ["arm", "measurements", "pose list", "predictions"],
+        [
+            "arm",
+            "measurements",
+            "pose list",
+            "predictions",
+            "motive take"
+        ],
         "the examples the page is expected to carry"
     );
     for (kind, text) in &examples {
@@ -43,6 +50,13 @@ fn every_checked_example_parses_as_its_kind() {
             "measurements" => measurements::parse(text).map(|_| ()),
             "pose list" => pose_list::parse(text).map(|_| ()),
             "predictions" => predictions::parse(text).map(|_| ()),
+            "motive take" => {
+                let take = motive::parse(text, motive::Asset::RigidBody("Tool"));
+                if let Err(e) = take {
+                    panic!("the Motive example of docs/FORMATS.md is refused: {e}\n{text}");
+                }
+                Ok(())
+            }
             other => panic!("unknown example kind `{other}`"),
         };
         if let Err(e) = result {
@@ -74,4 +88,17 @@ fn the_measurement_example_holds_one_pose_under_two_loads() {
     assert_eq!(rows[0].pose, rows[1].pose);
     assert_eq!((rows[0].load_kg, rows[1].load_kg), (0.0, 0.0663));
     assert!((rows[0].position.x - 0.21241).abs() < 1e-12);
+}
+
+#[test]
+fn the_motive_example_has_a_lost_frame_and_metres() {
+    let (_, text) = checked_examples()
+        .into_iter()
+        .find(|(k, _)| *k == "motive take")
+        .expect("a Motive take example");
+    let take = motive::parse(&text, motive::Asset::RigidBody("Tool")).unwrap();
+    assert_eq!(take.units, "Meters");
+    let tracked: Vec<bool> = take.samples.iter().map(|s| s.position.is_some()).collect();
+    assert_eq!(tracked, [true, true, false, true]);
+    assert!((take.samples[0].position.unwrap().x - 0.212433).abs() < 1e-12);
 }

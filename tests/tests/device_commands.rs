@@ -237,12 +237,9 @@ fn a_port_nobody_listens_on_says_so() {
     );
 }
 
-#[test]
-fn measure_records_each_pose_and_resumes_after_an_interruption() {
-    use host::commands::measure;
-    let board = SocketBoard::start();
-    let dir = tempfile::tempdir().unwrap();
-    let poses = dir.path().join("poses.csv");
+/// A pose list of three poses 1, 2, 3 in `dir`.
+fn three_poses(dir: &std::path::Path) -> std::path::PathBuf {
+    let poses = dir.join("poses.csv");
     std::fs::write(
         &poses,
         "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n\
@@ -251,14 +248,25 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
          3,-5,5,-15,0,25,0\n",
     )
     .unwrap();
+    poses
+}
+
+#[test]
+fn measure_records_each_pose_and_resumes_after_an_interruption() {
+    use host::commands::measure;
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+    let poses = three_poses(dir.path());
     let out = dir.path().join("measured.csv");
     let tracker = dir.path().join("tracker.txt");
     let args = |tracker: &std::path::Path| measure::Args {
         poses: poses.clone(),
-        out: out.clone(),
+        out: Some(out.clone()),
         load_kg: Some(0.0663),
-        tracker: Some(tracker.display().to_string()),
+        tracker: Some(measure::TrackerSource::File(tracker.to_owned())),
+        hold_s: None,
         settle_ms: 0,
+        dtrack: dtrack_args(None),
         device: board.args(),
     };
 
@@ -299,6 +307,97 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
             .zip(&want)
             .all(|(a, b)| (a - b).abs() < 1e-6)
     );
+}
+
+/// `measure`'s DTrack options as clap defaults them, reading `body`.
+fn dtrack_args(body: Option<u32>) -> host::commands::measure::DTrackArgs {
+    host::commands::measure::DTrackArgs {
+        body,
+        marker: None,
+        frames: 20,
+        max_spread_mm: 0.5,
+        max_lost: 120,
+        tracker_timeout_s: 2.0,
+    }
+}
+
+/// A fake ART DTrack sending body 0 at `mm` (with 0.05 mm of jitter and every
+/// 10th frame without the body) at 250 Hz to `to`, until `stop` is set.
+fn dtrack_sender(to: std::net::SocketAddr, mm: [f64; 3], stop: Arc<AtomicBool>) -> JoinHandle<()> {
+    use rand::{Rng, SeedableRng};
+    std::thread::spawn(move || {
+        let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(11);
+        let mut frame = 0u64;
+        while !stop.load(Ordering::Relaxed) {
+            let [x, y, z] = mm.map(|v| v + rng.random_range(-0.087..0.087));
+            let body = if frame % 10 == 9 {
+                String::from("6d 0")
+            } else {
+                format!("6d 1 [0 1.000][{x:.3} {y:.3} {z:.3}][1 0 0 0 1 0 0 0 1]")
+            };
+            let datagram = format!(
+                "fr {frame}\r\nts {:.6}\r\n6dcal 1\r\n{body}\r\n",
+                frame as f64 / 250.0
+            );
+            let _ = socket.send_to(datagram.as_bytes(), to);
+            frame += 1;
+            std::thread::sleep(Duration::from_millis(4));
+        }
+    })
+}
+
+#[test]
+fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
+    use host::commands::measure;
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+    let poses = three_poses(dir.path());
+    let out = dir.path().join("measured.csv");
+    // A free port for the listener: bind, note it, let go.
+    let addr = std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap();
+    let args = measure::Args {
+        poses: poses.clone(),
+        out: Some(out.clone()),
+        load_kg: None,
+        tracker: Some(measure::TrackerSource::parse(&format!("dtrack://{addr}")).unwrap()),
+        hold_s: None,
+        settle_ms: 0,
+        dtrack: dtrack_args(Some(0)),
+        device: board.args(),
+    };
+    let stop = Arc::new(AtomicBool::new(false));
+    let sender = dtrack_sender(addr, [212.41, -35.02, 188.77], stop.clone());
+    // Stop the stream once the first pose is on disk.
+    let run =
+        std::thread::spawn(move || measure::run(&args).map_err(|e| (e.exit_code(), e.report())));
+    let t0 = Instant::now();
+    while host::io::measurements::read(&out).map_or(true, |rows| rows.is_empty()) {
+        assert!(t0.elapsed() < Duration::from_secs(60), "no pose recorded");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    stop.store(true, Ordering::Relaxed);
+    sender.join().unwrap();
+    let (code, report) = run.join().unwrap().unwrap_err();
+    assert_eq!(code, 6);
+    assert!(
+        report.starts_with(&format!(
+            "error: failed to read body 0 from the DTrack stream on {addr}: "
+        )),
+        "{report}"
+    );
+    assert!(
+        report.contains("the stream stopped: no frame for"),
+        "{report}"
+    );
+    let rows = host::io::measurements::read(&out).unwrap();
+    assert_eq!(rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(), vec![1]);
+    let p = rows[0].position * 1000.0;
+    let error_mm = ((p.x - 212.41).powi(2) + (p.y + 35.02).powi(2) + (p.z - 188.77).powi(2)).sqrt();
+    assert!(error_mm < 0.05, "{error_mm} mm");
 }
 
 #[test]

@@ -1,11 +1,18 @@
 //! `lrmcal measure`: drive the board through a pose list and record one
 //! tracker position per pose into a measurement CSV, resumable.
 //!
+//! Positions come from a live ART DTrack stream (`dtrack://`, averaged once
+//! the arm holds still, see `crate::tracker`), from lines of a file or a pipe,
+//! or typed at a prompt. With `--hold-s` nothing is recorded: the arm holds
+//! each pose for a tracker that records a take, imported afterwards with
+//! `lrmcal import-tracker`.
+//!
 //! After every pose the whole file is rewritten atomically, so an
 //! interruption (Ctrl-C, unplugged board, tracker glitch) loses at most the
 //! pose in progress; running the same command again skips the recorded ones.
 
 use std::io::{BufRead, Write};
+use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -16,35 +23,137 @@ use crate::dataset::{Measurement, Pose};
 use crate::device::DeviceArgs;
 use crate::error::Error;
 use crate::io::{measurements, pose_list};
+use crate::tracker::listen::{self, Listener};
+use crate::tracker::{SettleOptions, Target};
 
 /// Drive the board through a pose list and record tracker positions.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
+lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 --body 0\n  \
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
-tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n\n\
-Tracker positions are millimetres in the world frame, one pose per line: `x y z` (or \
-`x,y,z`) in the order of the poses still to measure, or `pose x y z` to name the pose. \
-Without --tracker each one is typed at a prompt. Run the same command again after an \
+tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n  \
+lrmcal measure --poses selected.csv --hold-s 3    # while Motive records a take\n\n\
+With --tracker dtrack://[ADDR:]PORT, set DTrack's output to send `6d` (or \
+`3d`) by UDP to this machine and PORT. After each move and --settle-ms, the last --frames \
+frames in which the target is tracked are averaged once none lies farther than \
+--max-spread-mm from their mean. Positions stay in DTrack's room frame, in mm.\n\n\
+Tracker positions from a file or pipe are millimetres in the world frame, one pose per line: \
+`x y z` (or `x,y,z`) in the order of the poses still to measure, or `pose x y z` to name the \
+pose. Without --tracker each one is typed at a prompt. Run the same command again after an \
 interruption: recorded poses are kept and skipped.")]
 pub struct Args {
     /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).
     #[arg(long, value_name = "FILE")]
     pub poses: PathBuf,
     /// Measurement CSV to write (extended if it exists).
-    #[arg(long, short, value_name = "FILE")]
-    pub out: PathBuf,
+    #[arg(long, short, value_name = "FILE", required_unless_present = "hold_s")]
+    pub out: Option<PathBuf>,
     /// Payload at the tool, kg [default: the list's `load_kg`, else 0].
     #[arg(long, value_name = "KG")]
     pub load_kg: Option<f64>,
-    /// Tracker positions: a file, or `-` for standard input [default: typed at a prompt].
-    #[arg(long, value_name = "FILE|-")]
-    pub tracker: Option<String>,
+    /// Tracker positions: `dtrack://[ADDR:]PORT` (a live ART DTrack stream on this UDP
+    /// port), a file, or `-` for standard input [default: typed at a prompt].
+    #[arg(long, value_name = "SOURCE", value_parser = TrackerSource::parse)]
+    pub tracker: Option<TrackerSource>,
+    /// Record nothing: hold each pose this long, s, while a tracker records a take
+    /// (import it with `lrmcal import-tracker`).
+    #[arg(long, value_name = "S", conflicts_with_all = ["tracker", "out"], value_parser = non_negative)]
+    pub hold_s: Option<f64>,
     /// Pause after the arm arrives, before the position is taken, ms.
-    #[arg(long, default_value_t = 500)]
+    #[arg(long, value_name = "MS", default_value_t = 500)]
     pub settle_ms: u64,
     /// The board.
     #[command(flatten)]
     pub device: DeviceArgs,
+    /// How a DTrack stream is read (listed last: its help heading carries on).
+    #[command(flatten)]
+    pub dtrack: DTrackArgs,
+}
+
+/// Where `--tracker` positions come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrackerSource {
+    /// Lines on standard input (`-`).
+    Stdin,
+    /// Lines of a file.
+    File(PathBuf),
+    /// A live DTrack stream received on this address.
+    DTrack(SocketAddr),
+}
+
+impl TrackerSource {
+    /// `-`, `dtrack://[ADDR:]PORT`, or a file path.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        match text {
+            "-" => Ok(Self::Stdin),
+            t if t.starts_with(listen::SCHEME) => listen::parse_address(t).map(Self::DTrack),
+            t => Ok(Self::File(t.into())),
+        }
+    }
+}
+
+/// The options of a DTrack reading.
+#[derive(Clone, Debug, clap::Args)]
+#[command(next_help_heading = "DTrack (--tracker dtrack://...)")]
+pub struct DTrackArgs {
+    /// The 6DOF body to read, by its id in DTrack's output (counting from 0).
+    #[arg(long, value_name = "ID", conflicts_with = "marker")]
+    pub body: Option<u32>,
+    /// The single marker (`3d` output) to read instead, by its DTrack id.
+    #[arg(long, value_name = "ID")]
+    pub marker: Option<u32>,
+    /// Frames averaged into each position.
+    #[arg(long, value_name = "N", default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..))]
+    pub frames: u32,
+    /// Largest distance of an averaged frame from their mean, mm; more means the arm still moves.
+    #[arg(long, value_name = "MM", default_value_t = 0.5, value_parser = positive)]
+    pub max_spread_mm: f64,
+    /// Frames in a row without the target (out of view, quality <= 0) before giving up.
+    #[arg(long, value_name = "N", default_value_t = 120)]
+    pub max_lost: usize,
+    /// Longest wait for a still position at each pose, s.
+    #[arg(long, value_name = "S", default_value_t = 5.0, value_parser = positive)]
+    pub tracker_timeout_s: f64,
+}
+
+impl DTrackArgs {
+    /// The target, or why none was named.
+    fn target(&self) -> Result<Target, Error> {
+        match (self.body, self.marker) {
+            (Some(id), _) => Ok(Target::Body(id)),
+            (None, Some(id)) => Ok(Target::Marker(id)),
+            (None, None) => Err(Error::DeviceInput {
+                what: "read the DTrack stream".into(),
+                reason:
+                    "name what to read: --body ID (a 6DOF body) or --marker ID (a single marker)"
+                        .into(),
+            }),
+        }
+    }
+
+    fn settle(&self) -> SettleOptions {
+        SettleOptions {
+            frames: self.frames as usize,
+            max_spread_m: self.max_spread_mm / 1000.0,
+            max_lost_in_row: self.max_lost,
+        }
+    }
+}
+
+/// A clap parser for a number > 0.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a number > 0, found `{text}`")),
+    }
+}
+
+/// A clap parser for a number >= 0.
+pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a number >= 0, found `{text}`")),
+    }
 }
 
 /// A tracker position, m, with the pose id the line names, if it names one.
@@ -88,6 +197,17 @@ pub fn remaining(poses: &[(Pose, f64)], done: &[Measurement]) -> Vec<(Pose, f64)
 
 /// Where tracker positions come from.
 enum Tracker {
+    Text(Text),
+    DTrack {
+        listener: Listener,
+        target: Target,
+        options: SettleOptions,
+        timeout: Duration,
+    },
+}
+
+/// Positions as text lines.
+enum Text {
     Lines(Box<dyn BufRead>, String),
     Typed,
 }
@@ -95,11 +215,37 @@ enum Tracker {
 impl Tracker {
     /// The next position for `pose`.
     fn next(&mut self, pose: u32, bar: &ProgressBar) -> Result<Vector3<f64>, Error> {
+        match self {
+            Tracker::Text(text) => text.next(pose, bar),
+            Tracker::DTrack {
+                listener,
+                target,
+                options,
+                timeout,
+            } => {
+                let r = listener.read(*target, *options, *timeout)?;
+                bar.println(format!(
+                    "pose {pose}: {} frames {}..{}, spread {:.3} mm, {} lost",
+                    r.frames,
+                    r.frame_range.0,
+                    r.frame_range.1,
+                    r.spread_m * 1e3,
+                    r.lost
+                ));
+                Ok(r.position)
+            }
+        }
+    }
+}
+
+impl Text {
+    /// The next position for `pose`.
+    fn next(&mut self, pose: u32, bar: &ProgressBar) -> Result<Vector3<f64>, Error> {
         loop {
             let mut line = String::new();
             let (n, source) = match self {
-                Tracker::Lines(r, name) => (r.read_line(&mut line), name.clone()),
-                Tracker::Typed => bar.suspend(|| {
+                Text::Lines(r, name) => (r.read_line(&mut line), name.clone()),
+                Text::Typed => bar.suspend(|| {
                     print!("pose {pose}: tracker x y z (mm)? ");
                     let _ = std::io::stdout().flush();
                     (
@@ -125,9 +271,7 @@ impl Tracker {
                     )));
                 }
                 Ok(Some((_, p))) => return Ok(p),
-                Err(reason) if matches!(self, Tracker::Typed) => {
-                    bar.suspend(|| eprintln!("{reason}"))
-                }
+                Err(reason) if matches!(self, Text::Typed) => bar.suspend(|| eprintln!("{reason}")),
                 Err(reason) => return Err(read_failed(reason)),
             }
         }
@@ -141,51 +285,114 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .iter()
         .map(|r| (r.pose, args.load_kg.or(r.load_kg).unwrap_or(0.0)))
         .collect();
-    let mut done = if args.out.exists() {
-        measurements::read(&args.out)?
+    let out = match (&args.out, args.hold_s) {
+        (_, Some(hold_s)) => return hold(args, &poses, hold_s),
+        (Some(out), None) => out,
+        (None, None) => {
+            return Err(Error::DeviceInput {
+                what: "measure".into(),
+                reason: "pass --out FILE to record positions, or --hold-s S to hold each pose for a recording tracker".into(),
+            });
+        }
+    };
+    let mut done = if out.exists() {
+        measurements::read(out)?
     } else {
         Vec::new()
     };
     let todo = remaining(&poses, &done);
-    let mut tracker = match args.tracker.as_deref() {
-        None => Tracker::Typed,
-        Some("-") => Tracker::Lines(Box::new(std::io::stdin().lock()), "standard input".into()),
-        Some(path) => {
+    let mut tracker = match &args.tracker {
+        None => Tracker::Text(Text::Typed),
+        Some(TrackerSource::Stdin) => Tracker::Text(Text::Lines(
+            Box::new(std::io::stdin().lock()),
+            "standard input".into(),
+        )),
+        Some(TrackerSource::File(path)) => {
             let file = std::fs::File::open(path).map_err(|source| Error::Read {
-                path: path.into(),
+                path: path.clone(),
                 source,
             })?;
-            Tracker::Lines(Box::new(std::io::BufReader::new(file)), format!("`{path}`"))
+            let name = format!("`{}`", path.display());
+            Tracker::Text(Text::Lines(Box::new(std::io::BufReader::new(file)), name))
         }
+        // Bound before the board moves, so a busy port fails at once.
+        Some(TrackerSource::DTrack(addr)) => Tracker::DTrack {
+            target: args.dtrack.target()?,
+            listener: Listener::bind(*addr)?,
+            options: args.dtrack.settle(),
+            timeout: seconds(args.dtrack.tracker_timeout_s),
+        },
     };
     let mut client = args.device.connect()?;
-    let bar = ProgressBar::new(poses.len() as u64).with_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} poses, eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
+    let bar = progress(poses.len());
     bar.set_position((poses.len() - todo.len()) as u64);
     let mut load_now = None;
     for (pose, load_kg) in todo {
         bar.set_message(format!("pose {}", pose.id));
-        if load_now != Some(load_kg) {
-            client.set_payload(load_kg as f32)?;
-            load_now = Some(load_kg);
-        }
-        client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
-        client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
-        std::thread::sleep(Duration::from_millis(args.settle_ms));
+        arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
         let position = tracker.next(pose.id, &bar)?;
         done.push(Measurement {
             pose,
             load_kg,
             position,
         });
-        measurements::write(&args.out, &done)?;
+        measurements::write(out, &done)?;
         bar.inc(1);
     }
     bar.finish_and_clear();
-    println!("{} poses recorded in {}", done.len(), args.out.display());
+    println!("{} poses recorded in {}", done.len(), out.display());
     Ok(())
+}
+
+/// `--hold-s`: every pose of the list in order, held for `hold_s`, nothing recorded.
+fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
+    let mut client = args.device.connect()?;
+    let bar = progress(poses.len());
+    let mut load_now = None;
+    for &(pose, load_kg) in poses {
+        bar.set_message(format!("holding pose {}", pose.id));
+        arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
+        std::thread::sleep(seconds(hold_s));
+        bar.inc(1);
+    }
+    bar.finish_and_clear();
+    println!(
+        "{} poses held {hold_s} s each; stop the take, export it as CSV and run \
+         `lrmcal import-tracker --poses {}` on it",
+        poses.len(),
+        args.poses.display()
+    );
+    Ok(())
+}
+
+/// Moves the board to `pose` under `load_kg`, waits until it stands, then `settle_ms`.
+fn arrive(
+    client: &mut crate::device::Client<Box<dyn crate::device::Link>>,
+    load_now: &mut Option<f64>,
+    pose: Pose,
+    load_kg: f64,
+    settle_ms: u64,
+) -> Result<(), Error> {
+    if *load_now != Some(load_kg) {
+        client.set_payload(load_kg as f32)?;
+        *load_now = Some(load_kg);
+    }
+    client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
+    client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
+    std::thread::sleep(Duration::from_millis(settle_ms));
+    Ok(())
+}
+
+/// A duration from a checked number of seconds (>= 0); beyond `Duration`'s range, forever.
+fn seconds(s: f64) -> Duration {
+    Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX)
+}
+
+fn progress(poses: usize) -> ProgressBar {
+    ProgressBar::new(poses as u64).with_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} poses, eta {eta}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    )
 }
 
 #[cfg(test)]
@@ -205,6 +412,21 @@ mod tests {
         assert!(parse_tracker_line("1 2").unwrap_err().contains("expected"));
         assert!(parse_tracker_line("1 NaN 3").is_err());
         assert!(parse_tracker_line("1.5 1 2 3").is_err());
+    }
+
+    #[test]
+    fn tracker_sources_by_their_form() {
+        assert_eq!(TrackerSource::parse("-"), Ok(TrackerSource::Stdin));
+        assert_eq!(
+            TrackerSource::parse("dtrack://5000"),
+            Ok(TrackerSource::DTrack("0.0.0.0:5000".parse().unwrap()))
+        );
+        assert_eq!(
+            TrackerSource::parse("points.txt"),
+            Ok(TrackerSource::File("points.txt".into()))
+        );
+        let err = TrackerSource::parse("dtrack://port5000").unwrap_err();
+        assert!(err.contains("expected `dtrack://PORT`"), "{err}");
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! One file per `lrmcal` subcommand: its clap `Args` and its `run`.
+//! One file per `lrmcal` subcommand: its clap `Args` and its `run`; what
+//! several share is in [`helpers`].
 //!
 //! See `crate::cli` for how to add one.
 
@@ -7,8 +8,10 @@ pub mod demo;
 pub mod detach;
 pub mod export;
 pub mod flash;
+pub mod helpers;
 pub mod home;
 pub mod identify;
+pub mod import_tracker;
 pub mod measure;
 pub mod move_;
 pub mod payload;
