@@ -73,7 +73,7 @@ pub enum Command {
     Push(commands::push::Args),
     /// Read the calibration stored on the board.
     Pull(commands::pull::Args),
-    /// Move the arm to nominal joint angles (degrees).
+    /// Move the arm to nominal joint angles (degrees), or its tool point to a position (--xyz).
     Move(commands::move_::Args),
     /// Move the arm to its home pose.
     Home(commands::home::Args),

@@ -114,6 +114,20 @@ pub enum Error {
         /// Why it cannot be used.
         reason: String,
     },
+    /// No joint targets put the nominal arm's tool point on a Cartesian target.
+    #[error(
+        "find joint targets for the tool point ({:.1}, {:.1}, {:.1}) mm",
+        target_mm[0],
+        target_mm[1],
+        target_mm[2]
+    )]
+    Ik {
+        /// The target, world frame, mm.
+        target_mm: [f64; 3],
+        /// Why not: out of reach, beyond the limits or colliding.
+        #[source]
+        source: crate::ik::IkError,
+    },
     /// A tracker could not be heard, or a recorded take could not be used.
     #[error(transparent)]
     Tracker(#[from] crate::tracker::TrackerError),
@@ -173,7 +187,8 @@ impl Error {
             | Self::ArmMismatch { .. }
             | Self::AmbiguousLoad { .. }
             | Self::Simulate { .. }
-            | Self::Plan { .. } => exit_codes::INVALID_INPUT,
+            | Self::Plan { .. }
+            | Self::Ik { .. } => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
             Self::Device { .. } => exit_codes::DEVICE,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,

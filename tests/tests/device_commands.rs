@@ -1,7 +1,8 @@
 //! The `lrmcal` device commands against the firmware library served on a
 //! local TCP socket (`socket://127.0.0.1:PORT`, the same code path the
-//! emulator uses): push, status, payload, compensation, move, pull, detach,
-//! and the error a user sees when the board refuses.
+//! emulator uses): push, status, payload, compensation, move (to joint
+//! angles and to a point), pull, detach, and the error a user sees when the
+//! board refuses.
 
 use std::io::{ErrorKind, Read, Write};
 use std::net::TcpListener;
@@ -163,10 +164,17 @@ fn device_commands_drive_a_board_on_a_socket() {
     .unwrap();
     move_::run(&move_::Args {
         angles_deg: vec![10.0, 20.0, -30.0, 0.0, 40.0, 0.0],
+        xyz: None,
+        dry_run: false,
+        from_deg: None,
+        arm: None,
+        ground_z_mm: 0.0,
+        no_ground: false,
+        clearance_mm: 10.0,
         duration_ms: Some(300),
         speed_deg_s: None,
         no_wait: false,
-        device: board.args(),
+        device: Some(board.args()),
     })
     .unwrap();
 
@@ -415,5 +423,159 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
             .ends_with("joint 2: servo curve is not monotonic"),
         "{}",
         err.report()
+    );
+}
+
+/// `lrmcal move --xyz` as a user types it: solved from the board's own pose,
+/// on the bundled arm within the board's ±100° without a calibration and on
+/// the nominal arm of the board's calibration with one; the board ends at
+/// exactly the joint targets the library gives for the same question.
+#[test]
+fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
+    use clap::Parser;
+    use host::ik::{IkOptions, solve_position};
+    use model::Arm;
+
+    let board = SocketBoard::start();
+    let run = |xyz_m: [f64; 3]| {
+        let [x, y, z] = xyz_m.map(|c| (c * 1e3).to_string());
+        let args = [
+            "lrmcal",
+            "move",
+            "--xyz",
+            &x,
+            &y,
+            &z,
+            "--duration-ms",
+            "200",
+            "--port",
+            &board.port,
+        ];
+        // The exit code and the message a user would see.
+        let outcome = host::cli::Cli::try_parse_from(args).unwrap().command.run();
+        outcome.map_err(|e| (e.exit_code(), e.report()))
+    };
+    let nominal_rad = || {
+        board
+            .args()
+            .connect()
+            .unwrap()
+            .status()
+            .unwrap()
+            .nominal_rad
+    };
+    // What the board accepts, as `move --xyz` must find it.
+    let within_board = |arm: &Arm<f64>, calibration: Option<&protocol::Calibration>| {
+        let mut arm = *arm;
+        for (j, [lo, hi]) in arm.joints.iter_mut().zip(move_::board_limits(calibration)) {
+            j.limits = [j.limits[0].max(lo.into()), j.limits[1].min(hi.into())];
+        }
+        arm
+    };
+
+    // No calibration: the bundled arm. From base yaw 95°, the target of base
+    // yaw 103° is nearest at 103°, within the arm's ±105° but beyond the
+    // board's ±100°: another pose must be found.
+    let bundled = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let deg = |q: [f64; 6]| q.map(f64::to_radians);
+    let start = deg([95.0, 30.0, 30.0, 0.0, 0.0, 0.0]);
+    let mut client = board.args().connect().unwrap();
+    client
+        .move_to(start.map(|a| a as f32), protocol::Timing::DurationMs(200))
+        .unwrap();
+    client
+        .wait_until_still(Duration::from_millis(20), Duration::from_secs(20))
+        .unwrap();
+    drop(client);
+    let target = bundled
+        .chain()
+        .rigid_tool_point(&deg([103.0, 30.0, 30.0, 0.0, 0.0, 0.0]));
+    let start = nominal_rad().map(f64::from);
+    let arms_own = solve_position(&bundled, &target, &start, &IkOptions::default()).unwrap();
+    assert!(arms_own.q[0] > 100f64.to_radians(), "{:?}", arms_own.q);
+    run(target.into()).unwrap();
+    let expected = solve_position(
+        &within_board(&bundled, None),
+        &target,
+        &start,
+        &IkOptions::default(),
+    )
+    .unwrap();
+    let q = nominal_rad();
+    assert_eq!(q, expected.q.map(|a| a as f32));
+    assert!(q.iter().all(|a| a.abs() <= 100f32.to_radians()), "{q:?}");
+    let reached = bundled.chain().rigid_tool_point(&q.map(f64::from));
+    assert!(
+        (reached - target).norm() < 1e-6,
+        "{:e} m",
+        (reached - target).norm()
+    );
+
+    // A calibration whose nominal arm has a 30 mm longer forearm: its joint
+    // targets are for that arm, so the solve must be too.
+    let mut longer = bundled;
+    longer.joints[3].d += 0.03;
+    let calibration = protocol::Calibration {
+        id: 0x5eed,
+        option: protocol::ModelOption::Kinematic,
+        nominal: longer.map(|x| x as f32),
+        calibrated: longer.map(|x| x as f32),
+        home_rad: [0.0; 6],
+    };
+    let mut client = board.args().connect().unwrap();
+    client.push_calibration(&calibration, |_, _| {}).unwrap();
+    drop(client);
+    let start = nominal_rad().map(f64::from);
+    let target = longer
+        .chain()
+        .rigid_tool_point(&[-0.4, 0.2, 0.4, 0.2, 0.3, 0.0]);
+    run(target.into()).unwrap();
+    let on_board = within_board(&calibration.nominal.map(f64::from), Some(&calibration));
+    let expected = solve_position(&on_board, &target, &start, &IkOptions::default()).unwrap();
+    let q = nominal_rad().map(f64::from);
+    assert_eq!(q.map(|a| a as f32), expected.q.map(|a| a as f32));
+    assert!((longer.chain().rigid_tool_point(&q) - target).norm() < 1e-6);
+    assert!((bundled.chain().rigid_tool_point(&q) - target).norm() > 0.01);
+
+    // Out of reach: refused before anything moves.
+    let (code, message) = run([0.9, 0.0, 0.1]).unwrap_err();
+    assert_eq!(code, 3);
+    assert!(
+        message.starts_with(
+            "error: failed to find joint targets for the tool point (900.0, 0.0, 100.0) mm: out of reach: the target is 905.5 mm"
+        ),
+        "{message}"
+    );
+    assert_eq!(nominal_rad().map(f64::from), q);
+}
+
+/// The ranges `move --xyz` keeps to are the ones the firmware enforces.
+#[test]
+fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
+    let config = Config::default();
+    let firmware = |calibration: Option<&protocol::Calibration>| {
+        firmware::servo::joint_limits(
+            calibration.map(|c| &c.calibrated),
+            config.hard_limits_rad,
+            config.default_limits_rad,
+        )
+    };
+    assert_eq!(move_::board_limits(None), firmware(None));
+    let mut arm = host::io::arm_source::bundled("lrm")
+        .unwrap()
+        .arm
+        .map(|x| x as f32);
+    arm.joints[0].limits = [-3.0, 0.5];
+    arm.joints[1].limits = [3.0, 3.1];
+    let calibration = protocol::Calibration {
+        id: 1,
+        option: protocol::ModelOption::Kinematic,
+        nominal: arm,
+        calibrated: arm,
+        home_rad: [0.0; 6],
+    };
+    assert_eq!(
+        move_::board_limits(Some(&calibration)),
+        firmware(Some(&calibration))
     );
 }

@@ -1,29 +1,99 @@
-//! `lrmcal move`: move the arm to nominal joint angles.
+//! `lrmcal move`: move the arm to nominal joint angles, or put its tool point
+//! on a Cartesian target (`--xyz`) through the nominal arm's inverse
+//! kinematics ([`crate::ik`]).
 
 use std::time::Duration;
 
-use protocol::Timing;
+use model::{Arm, JOINTS};
+use nalgebra::Vector3;
+use protocol::{Calibration, Timing};
 
-use crate::device::DeviceArgs;
+use crate::device::{Client, DeviceArgs, Link};
 use crate::error::Error;
+use crate::ik::{self, IkOptions, IkSolution};
+use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::plan::PlanConfig;
 
-/// Move every joint to a nominal angle (degrees), all arriving together.
+/// The joint range a board without a calibration accepts, rad (the
+/// firmware's `Config::default().default_limits_rad`).
+pub const BOARD_DEFAULT_LIMITS_RAD: [f32; 2] = [-100f32.to_radians(), 100f32.to_radians()];
+
+/// The joint range a board accepts whatever its calibration says, rad (the
+/// firmware's `Config::default().hard_limits_rad`).
+pub const BOARD_HARD_LIMITS_RAD: [f32; 2] = [-150f32.to_radians(), 150f32.to_radians()];
+
+/// Move every joint to a nominal angle (degrees), all arriving together, or
+/// the tool point to a position (--xyz).
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  \
+#[command(
+    // With --dry-run no board is needed.
+    mut_arg("port", |a| a.required(false).required_unless_present("dry_run")),
+    after_help = "Examples:\n  \
 lrmcal move 0 30 -45 0 60 0 --port /dev/ttyACM0\n  \
-lrmcal move -- -100 0 100 0 -100 0 --duration-ms 4000\n\n\
+lrmcal move -- -100 0 100 0 -100 0 --duration-ms 4000\n  \
+lrmcal move --xyz 250 -50 120 --port /dev/ttyACM0\n  \
+lrmcal move --xyz 250 -50 120 --dry-run --from-deg 0 30 -45 0 60 0\n\n\
 The angles are the nominal model's: with compensation on, the board commands the angles that \
 put the calibrated, deflected arm's tool where the nominal arm's would be. The board keeps \
-its speed and acceleration limits whatever the duration asked for.")]
+its speed and acceleration limits whatever the duration asked for.\n\n\
+With --xyz X Y Z (mm, the world frame of the measurements) the host solves the nominal, rigid \
+arm's inverse kinematics for the tool point: of all the joint angles that put it there \
+(a 6-joint arm has a three-dimensional family of them) it takes the one nearest the board's \
+current pose in joint space, within the joint limits the board enforces and clear of the \
+ground and of itself (the bodies and clearance of `lrmcal plan`), prints it and sends it as \
+an ordinary move; the board compensates it like any other. The nominal arm is the one of the \
+calibration on the board, or --arm when the board has none. A target out of reach, reachable \
+only beyond the joint limits, or only by colliding poses is refused with the distance, joints \
+or bodies at fault (exit code 3), before anything moves.\n\n\
+--dry-run solves and prints without a board, from --from-deg (default all 0) on --arm."
+)]
 pub struct Args {
     /// Six joint angles, degrees, base to tip.
     #[arg(
         num_args = 6,
         value_name = "DEG",
         allow_negative_numbers = true,
-        required = true
+        required_unless_present = "xyz",
+        conflicts_with = "xyz"
     )]
     pub angles_deg: Vec<f64>,
+    /// Put the tool point at this position instead, mm, world frame (as in
+    /// the measurement files): the nearest solution of the inverse kinematics.
+    #[arg(
+        long,
+        num_args = 3,
+        value_names = ["X", "Y", "Z"],
+        allow_negative_numbers = true,
+        value_parser = finite_number
+    )]
+    pub xyz: Option<Vec<f64>>,
+    /// Solve --xyz and print the joint targets, without a board.
+    #[arg(long, requires = "xyz", conflicts_with = "angles_deg")]
+    pub dry_run: bool,
+    /// The pose --dry-run starts from, six angles in degrees [default: all 0].
+    #[arg(
+        long,
+        num_args = 6,
+        value_name = "DEG",
+        allow_negative_numbers = true,
+        requires = "dry_run",
+        value_parser = finite_number
+    )]
+    pub from_deg: Option<Vec<f64>>,
+    /// The nominal arm --xyz solves: a bundled arm's name or an arm
+    /// description `.toml` file [default: the nominal arm of the board's
+    /// calibration, else the bundled `lrm`].
+    #[arg(long, value_name = "NAME|FILE", requires = "xyz")]
+    pub arm: Option<ArmSource>,
+    /// Height of the ground plane for --xyz, mm, world frame.
+    #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::plan::finite)]
+    pub ground_z_mm: f64,
+    /// Let --xyz poses reach below the ground plane (e.g. an arm mounted at a table edge).
+    #[arg(long, conflicts_with = "ground_z_mm")]
+    pub no_ground: bool,
+    /// Smallest gap --xyz allows between two links, or a link and the ground, mm.
+    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, value_parser = super::plan::non_negative)]
+    pub clearance_mm: f64,
     /// How long the move takes, ms (stretched if the limits need more).
     #[arg(long, conflicts_with = "speed_deg_s")]
     pub duration_ms: Option<u32>,
@@ -33,9 +103,16 @@ pub struct Args {
     /// Return at once instead of waiting until the arm stands still.
     #[arg(long)]
     pub no_wait: bool,
-    /// The board.
+    /// The board (not needed with --dry-run).
     #[command(flatten)]
-    pub device: DeviceArgs,
+    pub device: Option<DeviceArgs>,
+}
+
+fn finite_number(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("expected a finite number, found `{text}`")),
+    }
 }
 
 /// The timing the board is asked for.
@@ -47,14 +124,192 @@ pub fn timing(duration_ms: Option<u32>, speed_deg_s: Option<f64>) -> Timing {
     }
 }
 
+/// The joint ranges a board accepts move targets in, rad: its calibration's
+/// limits cut to the hard range, or the default range without one (as the
+/// firmware decides them).
+pub fn board_limits(calibration: Option<&Calibration>) -> [[f32; 2]; JOINTS] {
+    std::array::from_fn(|i| match calibration {
+        Some(c) => {
+            let [lo, hi] = c.calibrated.joints[i].limits;
+            let [lo, hi] = [
+                lo.max(BOARD_HARD_LIMITS_RAD[0]),
+                hi.min(BOARD_HARD_LIMITS_RAD[1]),
+            ];
+            if lo <= hi { [lo, hi] } else { [hi, hi] }
+        }
+        None => BOARD_DEFAULT_LIMITS_RAD,
+    })
+}
+
 /// Runs `lrmcal move`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let targets: [f32; 6] = std::array::from_fn(|i| args.angles_deg[i].to_radians() as f32);
-    let mut client = args.device.connect()?;
-    client.move_to(targets, timing(args.duration_ms, args.speed_deg_s))?;
+    if let Some(xyz) = &args.xyz {
+        let target_mm = numbers::<3>(xyz, "--xyz")?;
+        return if args.dry_run {
+            dry_run(args, target_mm)
+        } else {
+            move_to_point(args, target_mm)
+        };
+    }
+    let angles_deg = numbers::<JOINTS>(&args.angles_deg, "joint angles")?;
+    let mut client = board(args)?.connect()?;
+    send(&mut client, angles_deg.map(|a| a.to_radians() as f32), args)
+}
+
+/// `lrmcal move --xyz … --dry-run`: solve from --from-deg on --arm and print.
+fn dry_run(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
+    let (arm, origin) = nominal_arm(args.arm.as_ref())?;
+    let start = match &args.from_deg {
+        Some(deg) => numbers::<JOINTS>(deg, "--from-deg")?.map(f64::to_radians),
+        None => [0.0; JOINTS],
+    };
+    let solution = solve(args, &arm, target_mm, &start)?;
+    print!(
+        "{}",
+        report(&origin, "--from-deg", &start, target_mm, &solution)
+    );
+    Ok(())
+}
+
+/// `lrmcal move --xyz …`: solve from the board's pose on the board's nominal
+/// arm and limits, print, move.
+fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
+    let mut client = board(args)?.connect()?;
+    let status = client.status()?;
+    let calibration = match status.calibration {
+        Some(_) => Some(client.pull_calibration()?),
+        None => None,
+    };
+    let (mut arm, origin) = match &calibration {
+        Some(c) => {
+            if let Some(source) = &args.arm {
+                eprintln!(
+                    "warning: --arm {source} not used: the board's calibration {:08x} says \
+                     which nominal arm its joint targets are for",
+                    c.id
+                );
+            }
+            (
+                c.nominal.map(f64::from),
+                format!("nominal arm of the board's calibration {:08x}", c.id),
+            )
+        }
+        None => nominal_arm(args.arm.as_ref())?,
+    };
+    // The board refuses targets outside its ranges: keep the solution inside.
+    for (joint, [lo, hi]) in arm
+        .joints
+        .iter_mut()
+        .zip(board_limits(calibration.as_ref()))
+    {
+        joint.limits = [
+            joint.limits[0].max(f64::from(lo)),
+            joint.limits[1].min(f64::from(hi)),
+        ];
+    }
+    let start = status.nominal_rad.map(f64::from);
+    let solution = solve(args, &arm, target_mm, &start)?;
+    print!(
+        "{}",
+        report(&origin, "the board's pose", &start, target_mm, &solution)
+    );
+    // Rounding to f32 keeps the order, so an in-limit angle stays in the board's f32 limits.
+    send(&mut client, solution.q.map(|q| q as f32), args)
+}
+
+/// Solves the target with the collision settings of the command line.
+fn solve(
+    args: &Args,
+    arm: &Arm<f64>,
+    target_mm: [f64; 3],
+    start: &[f64; JOINTS],
+) -> Result<IkSolution, Error> {
+    let options = IkOptions {
+        collisions: Some(PlanConfig {
+            ground_z_m: (!args.no_ground).then_some(args.ground_z_mm * 1e-3),
+            clearance_m: args.clearance_mm * 1e-3,
+            ..PlanConfig::default()
+        }),
+        ..IkOptions::default()
+    };
+    ik::solve_position(arm, &(Vector3::from(target_mm) * 1e-3), start, &options)
+        .map_err(|source| Error::Ik { target_mm, source })
+}
+
+/// Sends the targets and, unless --no-wait, waits until the arm stands still.
+fn send<L: Link>(
+    client: &mut Client<L>,
+    targets_rad: [f32; JOINTS],
+    args: &Args,
+) -> Result<(), Error> {
+    client.move_to(targets_rad, timing(args.duration_ms, args.speed_deg_s))?;
     if !args.no_wait {
         client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
         println!("arrived");
     }
     Ok(())
+}
+
+/// The board to talk to.
+fn board(args: &Args) -> Result<&DeviceArgs, Error> {
+    args.device.as_ref().ok_or_else(|| Error::DeviceInput {
+        what: "move the arm".into(),
+        reason: "no board given: pass --port or set LRMCAL_PORT (or --dry-run with --xyz)".into(),
+    })
+}
+
+/// The nominal arm `--arm` names (bundled `lrm` without it), and where it came from.
+/// A calibration file is refused: its calibrated arm is not what joint targets mean.
+fn nominal_arm(source: Option<&ArmSource>) -> Result<(Arm<f64>, String), Error> {
+    let source = source.cloned().unwrap_or(ArmSource::Bundled(DEFAULT_ARM));
+    if let ArmSource::Calibration(path) = &source {
+        return Err(Error::ArmSource {
+            arm: path.display().to_string(),
+            reason: "joint targets are for a nominal arm: give the bundled arm's name or the \
+                     arm description (.toml) the calibration was identified against"
+                .into(),
+        });
+    }
+    let loaded = source.load()?;
+    Ok((loaded.arm, format!("{} ({})", loaded.origin, loaded.name)))
+}
+
+/// Exactly `N` numbers, or an error naming `what`.
+fn numbers<const N: usize>(values: &[f64], what: &str) -> Result<[f64; N], Error> {
+    <[f64; N]>::try_from(values).map_err(|_| Error::DeviceInput {
+        what: "move the arm".into(),
+        reason: format!("{what}: expected {N} numbers, found {}", values.len()),
+    })
+}
+
+/// What `--xyz` found, for people: the arm, the start, the target, the joint
+/// targets (in degrees, ready for `lrmcal move`) and how well they do.
+fn report(
+    origin: &str,
+    start_from: &str,
+    start: &[f64; JOINTS],
+    target_mm: [f64; 3],
+    s: &IkSolution,
+) -> String {
+    let deg = |q: &[f64; JOINTS]| {
+        let list: Vec<String> = q
+            .iter()
+            .map(|a| format!("{:.4}", (a.to_degrees() * 1e4).round() / 1e4 + 0.0))
+            .collect();
+        list.join(" ")
+    };
+    format!(
+        "nominal arm: {origin}\n\
+         start ({start_from}), deg: {}\n\
+         target, mm: {:.3} {:.3} {:.3}\n\
+         joint targets, deg: {}\n\
+         tool point {:.1e} mm from the target, {:.2}° from the start in joint space\n",
+        deg(start),
+        target_mm[0],
+        target_mm[1],
+        target_mm[2],
+        deg(&s.q),
+        s.error_m * 1e3,
+        s.distance_rad.to_degrees()
+    )
 }

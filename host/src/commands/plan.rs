@@ -49,14 +49,16 @@ pub struct Args {
     pub out: Option<PathBuf>,
 }
 
-fn finite(text: &str) -> Result<f64, String> {
+/// Parses a finite height, mm (`--ground-z-mm`).
+pub(crate) fn finite(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(format!("expected a finite height in mm, found `{text}`")),
     }
 }
 
-fn non_negative(text: &str) -> Result<f64, String> {
+/// Parses a finite distance >= 0, mm (`--clearance-mm`).
+pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("expected a distance >= 0 in mm, found `{text}`")),

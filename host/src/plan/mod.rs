@@ -22,7 +22,7 @@ mod volumes;
 
 use std::fmt;
 
-use model::Arm;
+use model::{Arm, ChainFrames};
 use serde::Serialize;
 
 use crate::dataset::Pose;
@@ -72,10 +72,7 @@ impl fmt::Display for DropReason {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             Self::JointLimits { joint } => write!(f, "joint {joint} out of its limits"),
-            Self::Collision(Contact::Ground { body }) => {
-                write!(f, "{body} too close to the ground")
-            }
-            Self::Collision(Contact::SelfCollision { a, b }) => write!(f, "{a} too close to {b}"),
+            Self::Collision(contact) => write!(f, "{contact}"),
         }
     }
 }
@@ -180,33 +177,51 @@ pub enum PlanError {
     NominalNotFinite,
 }
 
+impl PlanConfig {
+    /// Checks the collision settings: a clearance, ground height and radii
+    /// that are finite and not negative.
+    pub fn check(&self) -> Result<(), PlanError> {
+        if !(self.clearance_m.is_finite() && self.clearance_m >= 0.0) {
+            return Err(PlanError::Config {
+                field: "clearance_m",
+                expected: "a finite distance >= 0 m",
+                found: self.clearance_m.to_string(),
+            });
+        }
+        if let Some(z) = self.ground_z_m.filter(|z| !z.is_finite()) {
+            return Err(PlanError::Config {
+                field: "ground_z_m",
+                expected: "a finite height, m",
+                found: z.to_string(),
+            });
+        }
+        if let Some(b) = self
+            .bodies
+            .iter()
+            .find(|b| !(b.radius_m.is_finite() && b.radius_m >= 0.0))
+        {
+            return Err(PlanError::Config {
+                field: "bodies.radius_m",
+                expected: "a finite radius >= 0 m",
+                found: format!("{} for {}", b.radius_m, b.name),
+            });
+        }
+        Ok(())
+    }
+
+    /// What the arm's bodies placed by `frames` come too close to first: the
+    /// ground (if tested), then each other; `None` if they are clear. The
+    /// collision test of [`candidates`], for any pose.
+    pub fn contact(&self, frames: &ChainFrames<f64>) -> Option<Contact> {
+        self.ground_z_m
+            .and_then(|z| ground_contact(&self.bodies, frames, z, self.clearance_m))
+            .or_else(|| self_contact(&self.bodies, frames, self.clearance_m))
+    }
+}
+
 /// Builds the candidate grid and filters it on the nominal arm.
 pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, PlanError> {
-    if !(config.clearance_m.is_finite() && config.clearance_m >= 0.0) {
-        return Err(PlanError::Config {
-            field: "clearance_m",
-            expected: "a finite distance >= 0 m",
-            found: config.clearance_m.to_string(),
-        });
-    }
-    if let Some(z) = config.ground_z_m.filter(|z| !z.is_finite()) {
-        return Err(PlanError::Config {
-            field: "ground_z_m",
-            expected: "a finite height, m",
-            found: z.to_string(),
-        });
-    }
-    if let Some(b) = config
-        .bodies
-        .iter()
-        .find(|b| !(b.radius_m.is_finite() && b.radius_m >= 0.0))
-    {
-        return Err(PlanError::Config {
-            field: "bodies.radius_m",
-            expected: "a finite radius >= 0 m",
-            found: format!("{} for {}", b.radius_m, b.name),
-        });
-    }
+    config.check()?;
     if !arm.is_finite() {
         return Err(PlanError::NominalNotFinite);
     }
@@ -243,12 +258,8 @@ fn check_pose(
             joint: joint.map_or(0, |i| i + 1),
         });
     }
-    let frames = chain.frames(q, 0.0);
-    let ground = config
-        .ground_z_m
-        .and_then(|z| ground_contact(&config.bodies, &frames, z, config.clearance_m));
-    ground
-        .or_else(|| self_contact(&config.bodies, &frames, config.clearance_m))
+    config
+        .contact(&chain.frames(q, 0.0))
         .map(DropReason::Collision)
 }
 

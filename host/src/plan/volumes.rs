@@ -6,6 +6,8 @@
 //! wherever the model puts the frames. Capsules next to each other in the
 //! list share a joint and always touch; only the others are tested.
 
+use std::fmt;
+
 use model::ChainFrames;
 use nalgebra::Vector3;
 use serde::Serialize;
@@ -82,6 +84,16 @@ pub enum Contact {
         /// The body nearer the tip.
         b: &'static str,
     },
+}
+
+impl fmt::Display for Contact {
+    /// `forearm too close to the ground`, `upper arm too close to hand`.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::Ground { body } => write!(f, "{body} too close to the ground"),
+            Self::SelfCollision { a, b } => write!(f, "{a} too close to {b}"),
+        }
+    }
 }
 
 /// The first body (base to tip) that comes within `clearance_m` of the ground
