@@ -278,6 +278,32 @@ pub enum Problem {
         /// The value found.
         found: String,
     },
+    /// A value that is well-formed but does not fit the rest of the file
+    /// (a body name that names no body, a body that spans a joint).
+    #[error("{message}")]
+    Invalid {
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// A pose's joint angle lies outside the arm's limits for that joint.
+    #[error(
+        "pose {pose}: {angle_deg}° is outside joint {joint}'s limits [{lo_deg}°, {hi_deg}°] of {arm} \
+         (pass --allow-outside-limits to use it anyway)"
+    )]
+    OutsideLimits {
+        /// Pose id.
+        pose: u32,
+        /// The joint, 1-based.
+        joint: usize,
+        /// The angle, degrees, as written for people.
+        angle_deg: String,
+        /// The lower limit, degrees, as written for people.
+        lo_deg: String,
+        /// The upper limit, degrees, as written for people.
+        hi_deg: String,
+        /// The arm, as its source names it (`bundled arm `lrm``, a path).
+        arm: String,
+    },
     /// The arm file does not have exactly six joints.
     #[error("expected exactly 6 [[joint]] tables, found {found}")]
     JointCount {
