@@ -287,22 +287,20 @@ pub enum Problem {
     },
     /// A pose's joint angle lies outside the arm's limits for that joint.
     #[error(
-        "pose {pose}: {angle_deg}° is outside joint {joint}'s limits [{lo_deg}°, {hi_deg}°] of {arm} \
-         (pass --allow-outside-limits to use it anyway)"
+        "pose {pose}: {angle_deg}° is outside joint {joint}'s limits [{}°, {}°] \
+         (pass --allow-outside-limits to use it anyway)",
+        limits_deg[0],
+        limits_deg[1]
     )]
     OutsideLimits {
         /// Pose id.
         pose: u32,
         /// The joint, 1-based.
-        joint: usize,
-        /// The angle, degrees, as written for people.
-        angle_deg: String,
-        /// The lower limit, degrees, as written for people.
-        lo_deg: String,
-        /// The upper limit, degrees, as written for people.
-        hi_deg: String,
-        /// The arm, as its source names it (`bundled arm `lrm``, a path).
-        arm: String,
+        joint: u32,
+        /// The angle, degrees.
+        angle_deg: f64,
+        /// The joint's limits, degrees.
+        limits_deg: [f64; 2],
     },
     /// The arm file does not have exactly six joints.
     #[error("expected exactly 6 [[joint]] tables, found {found}")]

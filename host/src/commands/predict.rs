@@ -53,13 +53,9 @@ fn parse_load(text: &str) -> Result<f64, String> {
 pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
     let rows = pose_list::read_listed(&args.poses)?;
-    if let Some(warning) = pose_list::check_within_limits(
-        &arm.arm,
-        &arm.origin,
-        &args.poses,
-        &rows,
-        args.allow_outside_limits,
-    )? {
+    if let Some(warning) =
+        pose_list::check_within_limits(&arm.arm, &args.poses, &rows, args.allow_outside_limits)?
+    {
         eprintln!("warning: {warning}");
     }
     let chain = arm.arm.chain();

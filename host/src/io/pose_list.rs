@@ -13,9 +13,7 @@ use model::Arm;
 
 use crate::dataset::{Pose, PoseRow};
 use crate::error::{Error, InputError, Location, Problem};
-use crate::io::csv_table::{
-    Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg, format_fixed,
-};
+use crate::io::csv_table::{Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg};
 use crate::io::{atomic, read_text};
 
 /// The columns of a pose list, in the order they are written (`load_kg` only if any row has one).
@@ -95,9 +93,9 @@ const LIMIT_TOLERANCE_RAD: f64 = 1e-9;
 
 /// The rows of `rows` with an angle outside `arm`'s joint limits, as errors
 /// naming the line, the joint's column, the angle and the limits in degrees.
-/// `arm_origin` names the arm in the message.
-pub fn outside_limits(arm: &Arm<f64>, arm_origin: &str, rows: &[ListedPose]) -> Vec<InputError> {
-    let deg = |rad: f64| format_fixed(rad.to_degrees(), 6);
+pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
+    // Degrees to 1e-6 for people: 105, not 105.00000000000001.
+    let deg = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
     rows.iter()
         .filter_map(|listed| {
             let pose = &listed.row.pose;
@@ -114,11 +112,9 @@ pub fn outside_limits(arm: &Arm<f64>, arm_origin: &str, rows: &[ListedPose]) -> 
                 Location::column(listed.line, Q_COLUMNS[i]),
                 Problem::OutsideLimits {
                     pose: pose.id,
-                    joint: i + 1,
+                    joint: i as u32 + 1,
                     angle_deg: deg(q),
-                    lo_deg: deg(joint.limits[0]),
-                    hi_deg: deg(joint.limits[1]),
-                    arm: arm_origin.to_owned(),
+                    limits_deg: joint.limits.map(deg),
                 },
             ))
         })
@@ -132,12 +128,11 @@ pub fn outside_limits(arm: &Arm<f64>, arm_origin: &str, rows: &[ListedPose]) -> 
 /// returned text (`None` if all are inside) is a warning for the user.
 pub fn check_within_limits(
     arm: &Arm<f64>,
-    arm_origin: &str,
     path: &Path,
     rows: &[ListedPose],
     allow: bool,
 ) -> Result<Option<String>, Error> {
-    let outside = outside_limits(arm, arm_origin, rows);
+    let outside = outside_limits(arm, rows);
     match outside.first() {
         None => Ok(None),
         Some(first) if !allow => Err(first.clone().in_file(path)),
@@ -156,11 +151,10 @@ pub fn check_within_limits(
 /// another form calls to check them.
 pub fn check_file_within_limits(
     arm: &Arm<f64>,
-    arm_origin: &str,
     path: &Path,
     allow: bool,
 ) -> Result<Option<String>, Error> {
-    check_within_limits(arm, arm_origin, path, &read_listed(path)?, allow)
+    check_within_limits(arm, path, &read_listed(path)?, allow)
 }
 
 /// Writes a pose list atomically; the `load_kg` column is written when any row has a load.
@@ -241,23 +235,23 @@ mod tests {
         let text =
             format!("{HEADER}# comment\n1,0,0,0,0,0,0\n2,0,0,105,0,0,0\n3,0,0,-120.5,0,0,0\n");
         let rows = parse_listed(&text).unwrap();
-        let outside = outside_limits(&arm, "bundled arm `lrm`", &rows);
+        let outside = outside_limits(&arm, &rows);
         // 105° is the limit itself (inclusive); -120.5° is past -105°.
         assert_eq!(outside.len(), 1);
         let message = outside[0].to_string();
         assert_eq!(
             message,
             "line 5, column `q3_deg`: pose 3: -120.5° is outside joint 3's limits [-105°, 105°] \
-             of bundled arm `lrm` (pass --allow-outside-limits to use it anyway)"
+             (pass --allow-outside-limits to use it anyway)"
         );
         let path = Path::new("poses.csv");
-        let e = check_within_limits(&arm, "bundled arm `lrm`", path, &rows, false).unwrap_err();
+        let e = check_within_limits(&arm, path, &rows, false).unwrap_err();
         assert!(
             e.report().contains("`poses.csv`: line 5, column `q3_deg`"),
             "{}",
             e.report()
         );
-        let warning = check_within_limits(&arm, "bundled arm `lrm`", path, &rows, true)
+        let warning = check_within_limits(&arm, path, &rows, true)
             .unwrap()
             .unwrap();
         assert!(
@@ -265,7 +259,7 @@ mod tests {
             "{warning}"
         );
         assert_eq!(
-            check_within_limits(&arm, "a", path, &rows[..2], false).unwrap(),
+            check_within_limits(&arm, path, &rows[..2], false).unwrap(),
             None
         );
     }
@@ -280,7 +274,7 @@ mod tests {
              1,0,0,0,0,0,0,0,1,2,3\n2,0,0,0,0,0,0,200,1,2,3\n",
         )
         .unwrap();
-        let e = check_file_within_limits(&bundled_arm(), "arm", &path, false).unwrap_err();
+        let e = check_file_within_limits(&bundled_arm(), &path, false).unwrap_err();
         let msg = e.report();
         assert!(
             msg.contains("measured.csv")

@@ -467,7 +467,8 @@ fn place(
             min_m,
             max_m,
         } => {
-            if let Some(axis) = (0..3).find(|&k| !(min_m[k] <= max_m[k])) {
+            let finite = min_m.iter().chain(&max_m).all(|x| x.is_finite());
+            if let Some(axis) = (0..3).find(|&k| !finite || min_m[k] > max_m[k]) {
                 return Err(SpecError::new(
                     at("box"),
                     format!(
