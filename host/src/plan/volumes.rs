@@ -542,13 +542,22 @@ fn lowest_z(shape: &Shape, frames: &ChainFrames<f64>) -> f64 {
             placement,
             half_extents_m,
         } => {
-            let world = frames.frames[*frame] * placement;
+            let world = box_in_world(*frame, placement, frames);
             // The corner lowest in z sits half a size down along each axis's z component.
             let r = world.rotation.matrix();
             let reach: f64 = (0..3).map(|k| r[(2, k)].abs() * half_extents_m[k]).sum();
             world.translation.vector.z - reach
         }
     }
+}
+
+/// Where a box fixed to DH frame `frame` by `placement` is in this pose.
+fn box_in_world(
+    frame: usize,
+    placement: &IsometryMatrix3<f64>,
+    frames: &ChainFrames<f64>,
+) -> IsometryMatrix3<f64> {
+    frames.frames[frame] * placement
 }
 
 /// A shape placed in the world for parry's distance query.
@@ -572,7 +581,7 @@ impl Placed {
                 placement,
                 half_extents_m,
             } => {
-                let world = frames.frames[*frame] * placement;
+                let world = box_in_world(*frame, placement, frames);
                 let pose = Isometry3::from_parts(
                     world.translation,
                     UnitQuaternion::from_rotation_matrix(&world.rotation),
