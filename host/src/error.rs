@@ -328,6 +328,30 @@ pub enum Problem {
         /// The value found.
         found: String,
     },
+    /// A value that is well-formed but does not fit the rest of the file
+    /// (a body name that names no body, a body that spans a joint).
+    #[error("{message}")]
+    Invalid {
+        /// What is wrong and what was expected.
+        message: String,
+    },
+    /// A pose's joint angle lies outside the arm's limits for that joint.
+    #[error(
+        "pose {pose}: {angle_deg}° is outside joint {joint}'s limits [{}°, {}°] \
+         (pass --allow-outside-limits to use it anyway)",
+        limits_deg[0],
+        limits_deg[1]
+    )]
+    OutsideLimits {
+        /// Pose id.
+        pose: u32,
+        /// The joint, 1-based.
+        joint: u32,
+        /// The angle, degrees.
+        angle_deg: f64,
+        /// The joint's limits, degrees.
+        limits_deg: [f64; 2],
+    },
     /// The arm file does not have exactly six joints.
     #[error("expected exactly 6 [[joint]] tables, found {found}")]
     JointCount {

@@ -223,3 +223,169 @@ fn toml_syntax_error_names_the_line() {
     let err = parse_err(&with_line(J3_MASS_LINE, "mass = "));
     assert_eq!(err.location.line, Some(J3_MASS_LINE as u64), "{err}");
 }
+
+#[test]
+fn an_arm_without_servo_tables_parses_and_is_written_without_them() {
+    let text: String = FIXTURE
+        .lines()
+        .filter(|l| !l.starts_with("servo"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let d = arm_toml::parse(&text).unwrap();
+    assert_eq!(d.arm.joints[2].servo, arm_toml::NO_SERVO);
+    assert_eq!(arm_toml::joint_without_servo(&d.arm), Some(1));
+    let written = arm_toml::to_toml(&d);
+    assert!(!written.contains("servo"), "{written}");
+    assert_eq!(arm_toml::parse(&written).unwrap(), d);
+    // One joint without: that one is named.
+    let one = with_line(J3_MASS_LINE + 2, "");
+    let d = arm_toml::parse(&one).unwrap();
+    assert_eq!(arm_toml::joint_without_servo(&d.arm), Some(3));
+    assert_eq!(
+        arm_toml::joint_without_servo(&arm_toml::parse(FIXTURE).unwrap().arm),
+        None
+    );
+}
+
+/// The fixture with a collision description appended; its first line is `FIXTURE_LINES + 2`.
+fn with_collision(text: &str) -> String {
+    format!("{FIXTURE}\n{text}")
+}
+
+const FIXTURE_LINES: usize = 88;
+
+const BODIES: &str = r#"[collision]
+clearance = 0.02
+floor = -0.1
+ignore = [["base", "gripper"]]
+
+[[body]]
+name = "base"
+capsule = { from = "base", to = "j1", radius = 0.04 }
+
+[[body]]
+name = "upper arm"
+capsule = { from = "j1", to = { frame = "j2", xyz = [0.0, 0.0, 0.01] }, radius = 0.03 }
+
+[[body]]
+name = "gripper"
+floor = false
+box = { frame = "tool", min = [-0.02, -0.02, -0.01], max = [0.02, 0.02, 0.03] }
+"#;
+
+#[test]
+fn a_collision_description_parses_round_trips_and_reaches_the_planner() {
+    use host::plan::{Floor, FrameRef, PlanConfig, ShapeSpec, candidates};
+    let d = arm_toml::parse(&with_collision(BODIES)).unwrap();
+    let c = &d.collision;
+    assert_eq!(c.clearance_m, Some(0.02));
+    assert_eq!(c.floor, Floor::At { z_m: -0.1 });
+    assert_eq!(c.ignore, [["base".to_owned(), "gripper".to_owned()]]);
+    assert_eq!(c.bodies.len(), 3);
+    let ShapeSpec::Capsule { to, radius_m, .. } = c.bodies[1].shape else {
+        panic!("the upper arm is a capsule")
+    };
+    assert_eq!(
+        (to.frame, to.xyz_m, radius_m),
+        (FrameRef::Dh(2), [0.0, 0.0, 0.01], 0.03)
+    );
+    assert!(matches!(
+        c.bodies[2].shape,
+        ShapeSpec::Box {
+            frame: FrameRef::Tool,
+            ..
+        }
+    ));
+    assert_eq!(c.bodies[2].floor, Some(false));
+    let written = arm_toml::to_toml(&d);
+    assert_eq!(arm_toml::parse(&written).unwrap(), d, "{written}");
+    // What `plan --arm` uses.
+    let config = PlanConfig::for_arm(&d.arm, &d.collision).unwrap();
+    assert_eq!((config.clearance_m, config.ground_z_m), (0.02, Some(-0.1)));
+    let bodies = config.bodies.as_ref().unwrap();
+    let name = |i: usize| bodies.bodies()[i].name.as_str();
+    let pairs: Vec<[&str; 2]> = bodies
+        .tested_pairs()
+        .iter()
+        .map(|&[i, j]| [name(i), name(j)])
+        .collect();
+    assert_eq!(pairs, [["upper arm", "gripper"]]);
+    assert!(!candidates(&d.arm, &config).unwrap().kept.is_empty());
+    // A file without the description has none: the planner's defaults.
+    assert_eq!(
+        arm_toml::parse(FIXTURE).unwrap().collision,
+        Default::default()
+    );
+    assert_eq!(
+        arm_toml::parse(&with_collision("[collision]\nfloor = false\n"))
+            .unwrap()
+            .collision
+            .floor,
+        Floor::Off
+    );
+}
+
+#[test]
+fn bad_bodies_name_the_key_and_the_line() {
+    let at = |k: usize| FIXTURE_LINES + 1 + k;
+    let body = |line: &str| with_collision(&format!("[[body]]\nname = \"b\"\n{line}\n"));
+    let err = parse_err(&body(
+        r#"capsule = { from = "j7", to = "j1", radius = 0.04 }"#,
+    ));
+    assert_names(&err, "body[1].capsule.from", at(3), &["j7", "j0 … j6"]);
+    let err = parse_err(&body(
+        r#"capsule = { from = "j1", to = { frame = "j2" }, radius = 0.04 }"#,
+    ));
+    assert_names(&err, "body[1].capsule.to", at(3), &["xyz"]);
+    let err = parse_err(&body(
+        r#"capsule = { from = "j1", to = "j4", radius = 0.04 }"#,
+    ));
+    assert_names(
+        &err,
+        "body[1].capsule",
+        at(3),
+        &["one link", "links 4 and 5"],
+    );
+    let err = parse_err(&body(
+        r#"capsule = { from = "j1", to = "j2", radius = -0.04 }"#,
+    ));
+    assert_names(
+        &err,
+        "body[1].capsule.radius",
+        at(3),
+        &["radius >= 0 m", "-0.04"],
+    );
+    let err = parse_err(&body(
+        r#"box = { frame = "j2", min = [0.0, 0.0, 0.1], max = [0.1, 0.1, 0.0] }"#,
+    ));
+    assert_names(&err, "body[1].box", at(3), &["`min` <= `max`", "on z"]);
+    let err = parse_err(&body(
+        r#"box = { frame = "hand", min = [0.0, 0.0, 0.0], max = [0.1, 0.1, 0.1] }"#,
+    ));
+    assert_names(&err, "body[1].box.frame", at(3), &["`hand`"]);
+    let err = parse_err(&body("radius = 0.04"));
+    assert!(err.to_string().contains("radius"), "{err}");
+    let err = parse_err(&with_collision("[[body]]\nname = \"b\"\n"));
+    assert_names(&err, "body[1]", at(1), &["exactly one of `capsule"]);
+    let err = parse_err(&with_collision(
+        "[collision]\nignore = [[\"link 1\", \"link 9\"]]\n",
+    ));
+    assert_names(
+        &err,
+        "collision.ignore[1]",
+        at(2),
+        &["`link 9`", "link 1, link 2"],
+    );
+    let err = parse_err(&with_collision("[collision]\nfloor = true\n"));
+    assert_names(&err, "collision.floor", at(2), &["false for no floor"]);
+    let err = parse_err(&with_collision(&format!("{BODIES}\n[collision.x]\n")));
+    assert!(err.to_string().contains("collision"), "{err}");
+    let err = parse_err(&with_collision(
+        &BODIES.replace("clearance = 0.02", "clearance = 0.02\nradius = 0.03"),
+    ));
+    assert_names(&err, "collision.radius", at(3), &["each body its own size"]);
+    let err = parse_err(&with_collision(
+        &BODIES.replace("\"upper arm\"", "\"base\""),
+    ));
+    assert_names(&err, "body[2].name", at(10), &["`base`", "body[1]"]);
+}

@@ -189,3 +189,62 @@ fn help_teaches() {
         "{sub}"
     );
 }
+
+#[test]
+fn a_measurement_file_is_a_pose_list_and_limits_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let measured = dir.path().join("measured.csv");
+    std::fs::write(
+        &measured,
+        "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n\
+         1,0.5,0,0,0,0,0,0,1,2,3\n2,0.5,10,-60,45,30,-50,60,4,5,6\n",
+    )
+    .unwrap();
+    let run = lrmcal(&[
+        "predict",
+        "--arm",
+        &fixture(),
+        "--poses",
+        measured.to_str().unwrap(),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let rows = predictions::parse(&String::from_utf8(run.stdout).unwrap()).unwrap();
+    // Its loads are the loads predicted with.
+    let arm = arm_toml::read(Path::new(&fixture())).unwrap().arm;
+    let q = [10.0f64, -60.0, 45.0, 30.0, -50.0, 60.0].map(f64::to_radians);
+    let expected = arm
+        .chain()
+        .tool_point(&q, 0.5, &model::SolverOptions::default())
+        .unwrap();
+    assert!((rows[1].position - expected).norm() < 1e-8);
+
+    // The fixture's limits are ±105°: 120° on joint 2 is refused, by line and column.
+    let text = std::fs::read_to_string(&measured)
+        .unwrap()
+        .replace("2,0.5,10,-60", "2,0.5,10,120");
+    std::fs::write(&measured, text).unwrap();
+    let args = [
+        "predict",
+        "--arm",
+        &fixture(),
+        "--poses",
+        measured.to_str().unwrap(),
+    ];
+    let run = lrmcal(&args);
+    assert_eq!(run.status.code(), Some(3));
+    let msg = stderr(&run);
+    assert!(
+        msg.contains("measured.csv")
+            && msg.contains(
+                "line 3, column `q2_deg`: pose 2: 120° is outside joint 2's limits [-105°, 105°]"
+            ),
+        "{msg}"
+    );
+    let run = lrmcal(&[&args[..], &["--allow-outside-limits"]].concat());
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("warning: 1 of the 2 rows"),
+        "{}",
+        stderr(&run)
+    );
+}

@@ -92,10 +92,16 @@ fn unknown_column_is_rejected_with_the_expected_ones() {
     let text = format!("{HEADER},rms_mm\n{ROW_A},0.02\n");
     let err = measurement_err(&text);
     assert_names(&err, 1, Some("rms_mm"), &["unknown column", HEADER]);
-    // A misspelt optional column must not silently become load 0.
+    // A pose list ignores other columns, but a misspelt optional column
+    // must not silently become load 0.
     let text = "pose,laod_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0.1,0,0,0,0,0,0\n";
     let err = pose_list::parse(text).unwrap_err();
-    assert_names(&err, 1, Some("laod_kg"), &["unknown column"]);
+    assert_names(
+        &err,
+        1,
+        Some("laod_kg"),
+        &["misspelt `load_kg`", "note_laod_kg"],
+    );
 }
 
 #[test]
@@ -216,9 +222,13 @@ fn pose_lists_have_optional_loads() {
 }
 
 #[test]
-fn measurement_file_is_not_a_pose_list() {
-    let err = pose_list::parse(&measurement_file(&[ROW_A])).unwrap_err();
-    assert_names(&err, 1, Some("x_mm"), &["unknown column"]);
+fn measurement_file_is_a_pose_list() {
+    let rows = pose_list::parse(&measurement_file(&[ROW_A, ROW_B])).unwrap();
+    let measured = measurements::parse(&measurement_file(&[ROW_A, ROW_B])).unwrap();
+    assert_eq!(rows.len(), 2);
+    for (row, m) in rows.iter().zip(&measured) {
+        assert_eq!((row.pose, row.load_kg), (m.pose, Some(m.load_kg)));
+    }
 }
 
 #[test]

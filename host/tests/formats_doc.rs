@@ -2,6 +2,7 @@
 //! files of that kind, so a user who copies one gets a file `lrmcal` reads.
 
 use host::io::{arm_toml, measurements, pose_list, predictions};
+use host::plan::{PlanConfig, candidates};
 use host::tracker::motive;
 
 const FORMATS: &str = include_str!("../../docs/FORMATS.md");
@@ -37,6 +38,7 @@ fn every_checked_example_parses_as_its_kind() {
         kinds,
         [
             "arm",
+            "arm bodies",
             "measurements",
             "pose list",
             "predictions",
@@ -47,6 +49,7 @@ fn every_checked_example_parses_as_its_kind() {
     for (kind, text) in &examples {
         let result = match *kind {
             "arm" => arm_toml::parse(text).map(|_| ()),
+            "arm bodies" => arm_toml::parse(&format!("{}\n{text}", example("arm"))).map(|_| ()),
             "measurements" => measurements::parse(text).map(|_| ()),
             "pose list" => pose_list::parse(text).map(|_| ()),
             "predictions" => predictions::parse(text).map(|_| ()),
@@ -63,6 +66,28 @@ fn every_checked_example_parses_as_its_kind() {
             panic!("the `{kind}` example of docs/FORMATS.md is refused: {e}\n{text}");
         }
     }
+}
+
+/// The text of the example of `kind`.
+fn example(kind: &str) -> String {
+    checked_examples()
+        .into_iter()
+        .find(|(k, _)| *k == kind)
+        .map(|(_, text)| text)
+        .unwrap_or_else(|| panic!("no `{kind}` example"))
+}
+
+#[test]
+fn the_bodies_example_plans_like_the_skeleton() {
+    let with = arm_toml::parse(&format!("{}\n{}", example("arm"), example("arm bodies"))).unwrap();
+    assert_eq!(with.collision.bodies.len(), 5);
+    let kept = |d: &arm_toml::ArmDescription| {
+        let config = PlanConfig::for_arm(&d.arm, &d.collision).unwrap();
+        candidates(&d.arm, &config).unwrap().kept
+    };
+    let without = arm_toml::parse(&example("arm")).unwrap();
+    assert_eq!(kept(&with).len(), 405);
+    assert_eq!(kept(&with), kept(&without));
 }
 
 #[test]

@@ -13,13 +13,16 @@ use crate::plan::{Levels, PlanConfig, candidates};
 #[derive(Debug, clap::Args)]
 #[command(after_help = "The grid puts every joint at every level \
 (the paper's grid: -100, 0, +100 degrees, 3^6 = 729 poses), less the poses that would leave \
-a joint's limits, bring a link too close to the ground, or bring two links that do not share a \
-joint too close to each other.\n\n\
-The links are capsules (a segment with a radius) between the frames of the nominal arm's \
-model; the ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the \
-first test it fails (limits, ground, self-collision), so the counts on stderr add up to the \
-grid. Pose ids are grid indices (joint 1 the slowest digit, joint 6 the fastest) and stay the \
-same whatever is dropped.\n\n\
+a joint's limits, bring a body too close to the ground, or bring two bodies too close to each \
+other.\n\n\
+The bodies are those of the arm file's [[body]] tables (capsules and boxes fixed to its \
+frames), or else its skeleton: a capsule along each link's DH offsets and one to the tool \
+point, a twentieth of the arm's length thick. Bodies on neighbouring links, or joined by less \
+arm than their radii (an elbow, a spherical wrist), are not tested against each other. The \
+ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the first test \
+it fails (limits, ground, self-collision), so the counts on stderr add up to the grid. Pose \
+ids are grid indices (joint 1 the slowest digit, joint 6 the fastest) and stay the same \
+whatever is dropped.\n\n\
 Examples:\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal plan --levels 5 --out fine.csv              # -100,-50,0,50,100 on every joint\n  \
@@ -35,15 +38,17 @@ pub struct Args {
     /// comma-separated angles in degrees; the same for every joint.
     #[arg(long, value_name = "N|DEG,...", default_value_t = Levels::paper(), allow_hyphen_values = true)]
     pub levels: Levels,
-    /// Height of the ground plane in the world (measurement) frame, mm.
-    #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite)]
-    pub ground_z_mm: f64,
+    /// Height of the ground plane in the world (measurement) frame, mm
+    /// [default: the arm file's `[collision] floor`, else 0].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = finite)]
+    pub ground_z_mm: Option<f64>,
     /// Do not test against the ground (e.g. an arm mounted at a table edge).
     #[arg(long, conflicts_with = "ground_z_mm")]
     pub no_ground: bool,
-    /// Smallest gap allowed between two links, or a link and the ground, mm.
-    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, allow_negative_numbers = true, value_parser = non_negative)]
-    pub clearance_mm: f64,
+    /// Smallest gap allowed between two bodies, or a body and the ground, mm
+    /// [default: the arm file's `[collision] clearance`, else 10].
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = non_negative)]
+    pub clearance_mm: Option<f64>,
     /// Where to write the candidate pose list [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -68,12 +73,16 @@ pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
 /// Runs `lrmcal plan`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
-    let config = PlanConfig {
-        levels: args.levels.clone(),
-        ground_z_m: (!args.no_ground).then_some(args.ground_z_mm * 1e-3),
-        clearance_m: args.clearance_mm * 1e-3,
-        ..PlanConfig::default()
-    };
+    let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
+    config.levels = args.levels.clone();
+    if args.no_ground {
+        config.ground_z_m = None;
+    } else if let Some(z) = args.ground_z_mm {
+        config.ground_z_m = Some(z * 1e-3);
+    }
+    if let Some(c) = args.clearance_mm {
+        config.clearance_m = c * 1e-3;
+    }
     let report = candidates(&arm.arm, &config)?;
     let rows: Vec<PoseRow> = report
         .kept

@@ -17,7 +17,9 @@ use crate::io::{pose_list, predictions};
 lrmcal predict --poses poses.csv --load-kg 0.0663 --out predicted.csv\n  \
 lrmcal predict --arm my_arm.toml --poses poses.csv > predicted.csv\n  \
 lrmcal predict --arm calibration.json --poses poses.csv --out calibrated.csv\n\n\
-The pose list has columns pose,q1_deg..q6_deg and optionally load_kg. The output has \
+The pose list is any CSV with the columns pose,q1_deg..q6_deg (and optionally load_kg): a \
+pose list, a measurement file; other columns are ignored. A pose outside the arm's joint \
+limits is refused with the line, joint and limit, unless --allow-outside-limits. The output has \
 pose,x_mm,y_mm,z_mm: the tool point in the world frame of the deflected arm, as a \
 tracker would measure it.")]
 pub struct Args {
@@ -25,9 +27,13 @@ pub struct Args {
     /// calibration `.json` file from `lrmcal identify` or `lrmcal demo` (its calibrated arm).
     #[arg(long, value_name = "NAME|FILE", default_value = crate::io::arm_source::DEFAULT_ARM)]
     pub arm: ArmSource,
-    /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).
+    /// Pose list: any CSV with `pose,[load_kg,]q1_deg..q6_deg` columns.
     #[arg(long, value_name = "FILE")]
     pub poses: PathBuf,
+    /// Predict poses outside the arm's joint limits too (with a warning)
+    /// instead of refusing the list.
+    #[arg(long)]
+    pub allow_outside_limits: bool,
     /// Payload at the tool for every pose, kg [default: the list's `load_kg`, else 0].
     #[arg(long, value_name = "KG", value_parser = parse_load)]
     pub load_kg: Option<f64>,
@@ -46,14 +52,19 @@ fn parse_load(text: &str) -> Result<f64, String> {
 /// Runs `lrmcal predict`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
-    let rows = pose_list::read(&args.poses)?;
+    let rows = pose_list::read_listed(&args.poses)?;
+    if let Some(warning) =
+        pose_list::check_within_limits(&arm.arm, &args.poses, &rows, args.allow_outside_limits)?
+    {
+        eprintln!("warning: {warning}");
+    }
     let chain = arm.arm.chain();
     let options = SolverOptions::default();
     let mut out = Vec::with_capacity(rows.len());
     // A prediction file holds one position per pose id: the same pose listed
     // under several loads needs one load for all (`--load-kg`).
     let mut load_of = HashMap::new();
-    for row in &rows {
+    for row in rows.iter().map(|l| &l.row) {
         let id = row.pose.id;
         let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
         match load_of.insert(id, load_kg) {

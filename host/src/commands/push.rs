@@ -7,6 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::device::{DeviceArgs, calibration};
 use crate::error::Error;
+use crate::io::arm_toml::joint_without_servo;
 use crate::io::calibration_file::CalibrationFile;
 
 /// Send a calibration to the board (stored in flash, used at once).
@@ -31,6 +32,17 @@ pub struct Args {
 /// Runs `lrmcal push`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let file = CalibrationFile::read(&args.calibration)?;
+    if let Some(joint) = joint_without_servo(&file.arm) {
+        return Err(Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason: format!(
+                "joint {joint} has no servo curve: its arm file has no `servo` table (an arm the \
+                 board does not drive); add one to the arm file (the data-sheet curve is \
+                 `servo = {{ minus100 = 900.0, zero = 1650.0, plus100 = 2400.0 }}`), tune it with \
+                 `lrmcal servo-tune {joint}` and identify again"
+            ),
+        });
+    }
     let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; 6]);
     let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
     let payload = calibration::payload(&file, home_rad).map_err(|fault| Error::DeviceInput {

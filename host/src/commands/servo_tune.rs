@@ -10,7 +10,7 @@ use model::ServoCurve;
 
 use crate::device::{Client, ClientError, DeviceArgs, Link, calibration};
 use crate::error::Error;
-use crate::io::arm_toml;
+use crate::io::arm_toml::{self, NO_SERVO};
 
 /// Tune one servo's pulse curve interactively.
 #[derive(Debug, clap::Args)]
@@ -164,6 +164,18 @@ impl MapF32 for ServoCurve<f64> {
 pub fn run(args: &Args) -> Result<(), Error> {
     let mut description = arm_toml::read(&args.arm)?;
     let j = (args.joint - 1) as usize;
+    if description.arm.joints[j].servo == NO_SERVO {
+        return Err(Error::DeviceInput {
+            what: format!("tune joint {} of `{}`", args.joint, args.arm.display()),
+            reason: format!(
+                "joint {} (`{}`) has no `servo` table, so the arm file says the board does not \
+                 drive it; to drive it, add a starting curve to its [[joint]] table (the \
+                 data-sheet curve is `servo = {{ minus100 = 900.0, zero = 1650.0, plus100 = 2400.0 }}`) \
+                 and tune again",
+                args.joint, description.joint_names[j]
+            ),
+        });
+    }
     let mut client = args.device.connect()?;
     let mut tuning = Tuning::new(description.arm.joints[j].servo);
     let tty = |e: std::io::Error| Error::DeviceInput {

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use crate::commands::helpers::write_text;
 use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
 use crate::io::{measurements, pose_list};
 use crate::plan::{PlanConfig, candidates};
 use crate::sim::{DEFAULT_SEED, Pass, SimConfig, TrueArm};
@@ -184,7 +184,7 @@ impl std::str::FromStr for Range {
 /// Runs `lrmcal simulate`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
-    let owned = passes(args, &arm.arm)?;
+    let owned = passes(args, &arm)?;
     let passes: Vec<Pass<'_>> = owned
         .iter()
         .map(|(load_kg, poses)| Pass {
@@ -233,9 +233,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
 }
 
 /// The poses to measure under each load, in order.
-fn passes(args: &Args, arm: &model::Arm<f64>) -> Result<Vec<(f64, Vec<Pose>)>, Error> {
+fn passes(args: &Args, arm: &LoadedArm) -> Result<Vec<(f64, Vec<Pose>)>, Error> {
     let Some(path) = &args.poses else {
-        let plan = candidates(arm, &PlanConfig::default())?;
+        let plan = candidates(&arm.arm, &PlanConfig::for_arm(&arm.arm, &arm.collision)?)?;
         let loads = args.loads.clone().unwrap_or(DEFAULT_LOADS_KG.to_vec());
         return Ok(loads.into_iter().map(|l| (l, plan.kept.clone())).collect());
     };

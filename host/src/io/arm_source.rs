@@ -15,6 +15,7 @@ use model::Arm;
 use crate::error::Error;
 use crate::io::arm_toml::{self, ArmDescription};
 use crate::io::calibration_file::CalibrationFile;
+use crate::plan::CollisionSpec;
 
 /// The arms shipped inside the binary: (name, TOML text).
 pub const BUNDLED: &[(&str, &str)] = &[("lrm", include_str!("../../arms/lrm.toml"))];
@@ -42,6 +43,9 @@ pub struct LoadedArm {
     pub name: String,
     /// The arm.
     pub arm: Arm<f64>,
+    /// Its bodies, floor and clearance for the planner: the arm file's, or
+    /// the defaults (the arm's skeleton) for a calibration file, which holds none.
+    pub collision: CollisionSpec,
 }
 
 impl FromStr for ArmSource {
@@ -88,27 +92,26 @@ impl ArmSource {
     /// checked there); it names no arm, so the name says which model option
     /// calibrated it.
     pub fn load(&self) -> Result<LoadedArm, Error> {
-        let (name, arm) = match self {
+        let (name, arm, collision) = match self {
             Self::Bundled(name) => {
                 let d = bundled(name)?;
-                (d.name, d.arm)
+                (d.name, d.arm, d.collision)
             }
             Self::Description(path) => {
                 let d = arm_toml::read(path)?;
-                (d.name, d.arm)
+                (d.name, d.arm, d.collision)
             }
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
-                (
-                    format!("calibrated, {} model", file.option.name()),
-                    file.arm,
-                )
+                let name = format!("calibrated, {} model", file.option.name());
+                (name, file.arm, CollisionSpec::default())
             }
         };
         Ok(LoadedArm {
             origin: self.to_string(),
             name,
             arm,
+            collision,
         })
     }
 }

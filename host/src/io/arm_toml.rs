@@ -1,22 +1,29 @@
-//! The arm description file (`docs/FORMATS.md`, "Arm description"): TOML <-> [`model::Arm`].
+//! The arm description file (`docs/FORMATS.md`, "Arm description"): TOML <-> [`model::Arm`]
+//! and the planner's [`CollisionSpec`].
 //!
-//! Every key is required; there are no defaults, because a forgotten line in a
-//! calibration input should be an error, not a silent zero. Unknown keys are
-//! rejected (a misspelt key would otherwise be ignored). Numbers must be
-//! finite; masses and compliances must not be negative; joint limits must
-//! satisfy `lo < hi`; servo curves must be strictly monotonic. Errors name the
-//! key path (`joint[3].mass`, array positions counted from 1 like the joints
-//! `j1..j6`), the line, and what was expected.
+//! Every key of the model is required; there are no defaults, because a
+//! forgotten line in a calibration input should be an error, not a silent
+//! zero. Two parts are optional: a joint's `servo` table (an arm our board
+//! does not drive has none, see [`NO_SERVO`]), and the collision description
+//! (`[collision]`, `[[body]]`), whose defaults are the planner's. Unknown keys
+//! are rejected (a misspelt key would otherwise be ignored). Numbers must be
+//! finite; masses, compliances and sizes must not be negative; joint limits
+//! must satisfy `lo < hi`; servo curves must be strictly monotonic. Errors name
+//! the key path (`joint[3].mass`, `body[2].capsule.from`, array positions
+//! counted from 1 like the joints `j1..j6`), the line, and what was expected.
 
 use std::ops::Range;
 use std::path::Path;
 
 use model::{Arm, Frame, JOINTS, Joint, ServoCurve};
 use serde::{Deserialize, Serialize};
-use toml::Spanned;
+use toml::{Spanned, Value};
 
 use crate::error::{Error, Field, InputError, Location, Problem};
 use crate::io::{atomic, read_text};
+use crate::plan::{
+    BodySet, BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
+};
 
 /// An arm description as read from (or written to) a TOML file.
 #[derive(Clone, Debug, PartialEq)]
@@ -25,8 +32,29 @@ pub struct ArmDescription {
     pub name: String,
     /// The joints' names, base to tip (`joint[i].name`).
     pub joint_names: [String; JOINTS],
-    /// The arm's parameters.
+    /// The arm's parameters; a joint without a `servo` table has [`NO_SERVO`].
     pub arm: Arm<f64>,
+    /// The bodies, floor and clearance the planner tests (`[collision]`, `[[body]]`).
+    pub collision: CollisionSpec,
+}
+
+/// The servo curve of a joint whose arm file has no `servo` table (an arm
+/// moved by its own controller, calibrated from its tracker data alone): all
+/// pulses 0. The model never reads the curve; the board commands refuse it
+/// (see [`joint_without_servo`]), and so would the board, since it is not
+/// monotonic, which a curve from a file always is.
+pub const NO_SERVO: ServoCurve<f64> = ServoCurve {
+    minus100: 0.0,
+    zero: 0.0,
+    plus100: 0.0,
+};
+
+/// The first joint (1-based) of `arm` that has no servo curve ([`NO_SERVO`]), if any.
+pub fn joint_without_servo(arm: &Arm<f64>) -> Option<usize> {
+    arm.joints
+        .iter()
+        .position(|j| j.servo == NO_SERVO)
+        .map(|i| i + 1)
 }
 
 /// Reads and checks an arm description file.
@@ -109,6 +137,10 @@ struct RawArm {
     tool: RawFrame,
     payload: RawPayload,
     joint: Spanned<Vec<RawJoint>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    collision: Option<RawCollision>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    body: Vec<Spanned<RawBody>>,
 }
 
 #[derive(Debug, Deserialize, Serialize)]
@@ -144,7 +176,8 @@ struct RawJoint {
     limits: Spanned<[f64; 2]>,
     mass: Spanned<f64>,
     com: Spanned<[f64; 3]>,
-    servo: Spanned<RawServo>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    servo: Option<Spanned<RawServo>>,
 }
 
 #[derive(Debug, Deserialize, Serialize)]
@@ -154,6 +187,53 @@ struct RawServo {
     zero: f64,
     plus100: f64,
 }
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawCollision {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    clearance: Option<Spanned<f64>>,
+    /// A height in m, or `false`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    floor: Option<Spanned<Value>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    radius: Option<Spanned<f64>>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    ignore: Vec<Spanned<[String; 2]>>,
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawBody {
+    name: String,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    floor: Option<bool>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    capsule: Option<Spanned<RawCapsule>>,
+    #[serde(rename = "box", skip_serializing_if = "Option::is_none")]
+    cuboid: Option<Spanned<RawBox>>,
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawCapsule {
+    /// A frame name, or `{ frame = NAME, xyz = [x, y, z] }`.
+    from: Spanned<Value>,
+    to: Spanned<Value>,
+    radius: Spanned<f64>,
+}
+
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+struct RawBox {
+    frame: Spanned<String>,
+    min: Spanned<[f64; 3]>,
+    max: Spanned<[f64; 3]>,
+}
+
+/// What a point of a body may be written as, for messages.
+const POINT_FORMS: &str =
+    "a frame name (base, j0 … j6, tool) or { frame = NAME, xyz = [x, y, z] } in m";
 
 /// Checks values against their allowed ranges, reporting key path and line.
 struct Checker<'a> {
@@ -231,6 +311,32 @@ impl Checker<'_> {
         })
     }
 
+    fn servo(&self, key: &str, raw: &Spanned<RawServo>) -> Result<ServoCurve<f64>, InputError> {
+        let s = raw.get_ref();
+        let servo = ServoCurve {
+            minus100: s.minus100,
+            zero: s.zero,
+            plus100: s.plus100,
+        };
+        let pulses = [servo.minus100, servo.zero, servo.plus100];
+        if let Some(bad) = pulses.iter().find(|p| !p.is_finite()) {
+            return Err(self.fail(
+                key,
+                raw.span(),
+                Problem::NotFinite {
+                    found: bad.to_string(),
+                },
+            ));
+        }
+        if !servo.is_monotonic() {
+            return Err(self.fail(key, raw.span(), Problem::OutOfRange {
+                expected: "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
+                found: format!("{} / {} / {}", servo.minus100, servo.zero, servo.plus100),
+            }));
+        }
+        Ok(servo)
+    }
+
     fn joint(&self, key: &str, raw: &RawJoint) -> Result<Joint<f64>, InputError> {
         let k = |field: &str| format!("{key}.{field}");
         let limits = self.finite_array(&k("limits"), &raw.limits)?;
@@ -244,28 +350,10 @@ impl Checker<'_> {
                 },
             ));
         }
-        let s = raw.servo.get_ref();
-        let servo = ServoCurve {
-            minus100: s.minus100,
-            zero: s.zero,
-            plus100: s.plus100,
+        let servo = match &raw.servo {
+            Some(servo) => self.servo(&k("servo"), servo)?,
+            None => NO_SERVO,
         };
-        let pulses = [servo.minus100, servo.zero, servo.plus100];
-        if let Some(bad) = pulses.iter().find(|p| !p.is_finite()) {
-            return Err(self.fail(
-                &k("servo"),
-                raw.servo.span(),
-                Problem::NotFinite {
-                    found: bad.to_string(),
-                },
-            ));
-        }
-        if !servo.is_monotonic() {
-            return Err(self.fail(&k("servo"), raw.servo.span(), Problem::OutOfRange {
-                expected: "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
-                found: format!("{} / {} / {}", servo.minus100, servo.zero, servo.plus100),
-            }));
-        }
         Ok(Joint {
             theta: self.finite(&k("theta"), &raw.theta)?,
             d: self.finite(&k("d"), &raw.d)?,
@@ -281,6 +369,179 @@ impl Checker<'_> {
             com: self.finite_array(&k("com"), &raw.com)?,
             servo,
         })
+    }
+}
+
+/// The collision description's parts (`[collision]`, `[[body]]`).
+impl Checker<'_> {
+    fn frame_ref(&self, key: &str, name: &Spanned<String>) -> Result<FrameRef, InputError> {
+        name.get_ref()
+            .parse()
+            .map_err(|message| self.fail(key, name.span(), Problem::Invalid { message }))
+    }
+
+    /// A body's point: a frame name, or a table with `frame` and `xyz`.
+    fn point(&self, key: &str, value: &Spanned<Value>) -> Result<PointSpec, InputError> {
+        let wrong = |found: &str| {
+            self.fail(
+                key,
+                value.span(),
+                Problem::Invalid {
+                    message: format!("expected {POINT_FORMS}, found {found}"),
+                },
+            )
+        };
+        let named = |name: &str| {
+            name.parse::<FrameRef>()
+                .map_err(|message| self.fail(key, value.span(), Problem::Invalid { message }))
+        };
+        match value.get_ref() {
+            Value::String(name) => Ok(PointSpec::origin(named(name)?)),
+            Value::Table(table) => {
+                if let Some(other) = table.keys().find(|k| *k != "frame" && *k != "xyz") {
+                    return Err(wrong(&format!("the key `{other}`")));
+                }
+                let frame = match table.get("frame") {
+                    Some(Value::String(name)) => named(name)?,
+                    _ => return Err(wrong("a table without a `frame` name")),
+                };
+                let xyz = match table.get("xyz") {
+                    Some(Value::Array(xyz)) if xyz.len() == 3 => {
+                        let mut out = [0.0; 3];
+                        for (o, v) in out.iter_mut().zip(xyz) {
+                            *o = match v {
+                                Value::Float(x) if x.is_finite() => *x,
+                                Value::Integer(i) => *i as f64,
+                                other => return Err(wrong(&format!("`xyz` holding {other}"))),
+                            };
+                        }
+                        out
+                    }
+                    _ => return Err(wrong("a table without an `xyz` of three numbers")),
+                };
+                Ok(PointSpec { frame, xyz_m: xyz })
+            }
+            other => Err(wrong(&other.to_string())),
+        }
+    }
+
+    fn body(&self, key: &str, raw: &Spanned<RawBody>) -> Result<BodySpec, InputError> {
+        let b = raw.get_ref();
+        let k = |field: &str| format!("{key}.{field}");
+        let shape = match (&b.capsule, &b.cuboid) {
+            (Some(c), None) => {
+                let c = c.get_ref();
+                ShapeSpec::Capsule {
+                    from: self.point(&k("capsule.from"), &c.from)?,
+                    to: self.point(&k("capsule.to"), &c.to)?,
+                    radius_m: self.non_negative(
+                        &k("capsule.radius"),
+                        &c.radius,
+                        "a radius >= 0 m",
+                    )?,
+                }
+            }
+            (None, Some(bx)) => {
+                let bx = bx.get_ref();
+                ShapeSpec::Box {
+                    frame: self.frame_ref(&k("box.frame"), &bx.frame)?,
+                    min_m: self.finite_array(&k("box.min"), &bx.min)?,
+                    max_m: self.finite_array(&k("box.max"), &bx.max)?,
+                }
+            }
+            _ => {
+                return Err(self.fail(
+                    key,
+                    raw.span(),
+                    Problem::Invalid {
+                        message: "expected exactly one of `capsule = { from, to, radius }` or `box = { frame, min, max }`".into(),
+                    },
+                ));
+            }
+        };
+        Ok(BodySpec {
+            name: b.name.clone(),
+            shape,
+            floor: b.floor,
+        })
+    }
+
+    fn floor(&self, value: &Spanned<Value>) -> Result<Floor, InputError> {
+        match value.get_ref() {
+            Value::Float(z) if z.is_finite() => Ok(Floor::At { z_m: *z }),
+            Value::Integer(z) => Ok(Floor::At { z_m: *z as f64 }),
+            Value::Boolean(false) => Ok(Floor::Off),
+            other => Err(self.fail(
+                "collision.floor",
+                value.span(),
+                Problem::Invalid {
+                    message: format!(
+                        "expected the floor's height in the world frame in m, or false for no floor, found {other}"
+                    ),
+                },
+            )),
+        }
+    }
+
+    fn collision(
+        &self,
+        raw: Option<&RawCollision>,
+        bodies: &[Spanned<RawBody>],
+    ) -> Result<CollisionSpec, InputError> {
+        let mut spec = CollisionSpec::default();
+        if let Some(c) = raw {
+            if let Some(clearance) = &c.clearance {
+                spec.clearance_m = Some(self.non_negative(
+                    "collision.clearance",
+                    clearance,
+                    "a clearance >= 0 m",
+                )?);
+            }
+            if let Some(floor) = &c.floor {
+                spec.floor = self.floor(floor)?;
+            }
+            if let Some(radius) = &c.radius {
+                spec.skeleton_radius_m =
+                    Some(self.non_negative("collision.radius", radius, "a radius >= 0 m")?);
+            }
+            spec.ignore = c.ignore.iter().map(|p| p.get_ref().clone()).collect();
+        }
+        for (i, raw) in bodies.iter().enumerate() {
+            spec.bodies
+                .push(self.body(&format!("body[{}]", i + 1), raw)?);
+        }
+        Ok(spec)
+    }
+
+    /// A [`SpecError`] of the planner at its key, on the line of the table or value it concerns.
+    fn spec_error(
+        &self,
+        e: SpecError,
+        raw: Option<&RawCollision>,
+        bodies: &[Spanned<RawBody>],
+    ) -> InputError {
+        let span = match e.place {
+            SpecPlace::Body { index, key } => bodies.get(index).map(|b| {
+                let c = b.get_ref().capsule.as_ref();
+                match key {
+                    "capsule" => c.map_or(b.span(), Spanned::span),
+                    "capsule.radius" => c.map_or(b.span(), |c| c.get_ref().radius.span()),
+                    "box" => b.get_ref().cuboid.as_ref().map_or(b.span(), Spanned::span),
+                    _ => b.span(),
+                }
+            }),
+            SpecPlace::Collision { key } => raw.and_then(|c| match key {
+                "radius" => c.radius.as_ref().map(Spanned::span),
+                "clearance" => c.clearance.as_ref().map(Spanned::span),
+                _ => None,
+            }),
+            SpecPlace::Ignore { index } => raw.and_then(|c| c.ignore.get(index)).map(Spanned::span),
+        };
+        self.fail(
+            &e.place.to_string(),
+            span.unwrap_or(0..0),
+            Problem::Invalid { message: e.message },
+        )
     }
 }
 
@@ -314,55 +575,147 @@ impl RawArm {
             joints: joints.try_into().expect("length checked above"),
         };
         let joint_names = std::array::from_fn(|i| raw_joints[i].name.clone());
+        let collision = c.collision(self.collision.as_ref(), &self.body)?;
+        // Names, links and pairs are only known on the arm: place the bodies once to check them.
+        BodySet::for_arm(&arm, &collision)
+            .map_err(|e| c.spec_error(e, self.collision.as_ref(), &self.body))?;
         Ok(ArmDescription {
             name: self.name,
             joint_names,
             arm,
+            collision,
         })
     }
 
     fn from_description(d: &ArmDescription) -> Self {
-        // Values made in memory have no place in a file: an empty span.
-        fn s<T>(v: T) -> Spanned<T> {
-            Spanned::new(0..0, v)
-        }
         let a = &d.arm;
         Self {
             name: d.name.clone(),
-            gravity: s(a.gravity),
+            gravity: unspanned(a.gravity),
             base: RawBase {
-                xyz: s(a.base.xyz),
-                rpy: s(a.base.rpy),
-                compliance: s(a.base_compliance),
+                xyz: unspanned(a.base.xyz),
+                rpy: unspanned(a.base.rpy),
+                compliance: unspanned(a.base_compliance),
             },
             tool: RawFrame {
-                xyz: s(a.tool.xyz),
-                rpy: s(a.tool.rpy),
+                xyz: unspanned(a.tool.xyz),
+                rpy: unspanned(a.tool.rpy),
             },
             payload: RawPayload {
-                com: s(a.payload_com),
+                com: unspanned(a.payload_com),
             },
-            joint: s(a
-                .joints
+            joint: unspanned(
+                a.joints
+                    .iter()
+                    .zip(&d.joint_names)
+                    .map(|(j, name)| RawJoint {
+                        name: name.clone(),
+                        theta: unspanned(j.theta),
+                        d: unspanned(j.d),
+                        a: unspanned(j.a),
+                        alpha: unspanned(j.alpha),
+                        compliance: unspanned(j.compliance),
+                        limits: unspanned(j.limits),
+                        mass: unspanned(j.mass),
+                        com: unspanned(j.com),
+                        servo: (j.servo != NO_SERVO).then(|| {
+                            unspanned(RawServo {
+                                minus100: j.servo.minus100,
+                                zero: j.servo.zero,
+                                plus100: j.servo.plus100,
+                            })
+                        }),
+                    })
+                    .collect(),
+            ),
+            collision: RawCollision::from_spec(&d.collision),
+            body: d
+                .collision
+                .bodies
                 .iter()
-                .zip(&d.joint_names)
-                .map(|(j, name)| RawJoint {
-                    name: name.clone(),
-                    theta: s(j.theta),
-                    d: s(j.d),
-                    a: s(j.a),
-                    alpha: s(j.alpha),
-                    compliance: s(j.compliance),
-                    limits: s(j.limits),
-                    mass: s(j.mass),
-                    com: s(j.com),
-                    servo: s(RawServo {
-                        minus100: j.servo.minus100,
-                        zero: j.servo.zero,
-                        plus100: j.servo.plus100,
-                    }),
-                })
-                .collect()),
+                .map(|b| unspanned(RawBody::from_spec(b)))
+                .collect(),
+        }
+    }
+}
+
+/// A value made in memory: it has no place in a file, an empty span.
+fn unspanned<T>(value: T) -> Spanned<T> {
+    Spanned::new(0..0, value)
+}
+
+/// A point as the file writes it: a frame name for an origin, else a table.
+fn point_value(p: &PointSpec) -> Spanned<Value> {
+    let name = Value::String(p.frame.to_string());
+    let value = if p.xyz_m == [0.0; 3] {
+        name
+    } else {
+        let mut table = toml::Table::new();
+        table.insert("frame".into(), name);
+        table.insert(
+            "xyz".into(),
+            Value::Array(p.xyz_m.iter().map(|&x| Value::Float(x)).collect()),
+        );
+        Value::Table(table)
+    };
+    unspanned(value)
+}
+
+impl RawCollision {
+    /// `None` when every setting is the default (no `[collision]` table).
+    fn from_spec(c: &CollisionSpec) -> Option<Self> {
+        let floor = match c.floor {
+            f if f == Floor::default() => None,
+            Floor::At { z_m } => Some(unspanned(Value::Float(z_m))),
+            Floor::Off => Some(unspanned(Value::Boolean(false))),
+        };
+        let raw = Self {
+            clearance: c.clearance_m.map(unspanned),
+            floor,
+            radius: c.skeleton_radius_m.map(unspanned),
+            ignore: c
+                .ignore
+                .iter()
+                .map(|p| Spanned::new(0..0, p.clone()))
+                .collect(),
+        };
+        let empty = raw.clearance.is_none()
+            && raw.floor.is_none()
+            && raw.radius.is_none()
+            && raw.ignore.is_empty();
+        (!empty).then_some(raw)
+    }
+}
+
+impl RawBody {
+    fn from_spec(b: &BodySpec) -> Self {
+        let (capsule, cuboid) = match &b.shape {
+            ShapeSpec::Capsule { from, to, radius_m } => (
+                Some(unspanned(RawCapsule {
+                    from: point_value(from),
+                    to: point_value(to),
+                    radius: unspanned(*radius_m),
+                })),
+                None,
+            ),
+            ShapeSpec::Box {
+                frame,
+                min_m,
+                max_m,
+            } => (
+                None,
+                Some(unspanned(RawBox {
+                    frame: unspanned(frame.to_string()),
+                    min: unspanned(*min_m),
+                    max: unspanned(*max_m),
+                })),
+            ),
+        };
+        Self {
+            name: b.name.clone(),
+            floor: b.floor,
+            capsule,
+            cuboid,
         }
     }
 }

@@ -3,11 +3,13 @@
 //! Accepted: a header line naming the columns in any order, `#` comment lines
 //! anywhere, blank lines, spaces around cells. Columns whose name starts with
 //! [`NOTE_PREFIX`] (`note_time`, `note_rms`, …) are carried along by other
-//! tools and ignored here. Any other column the file kind does not define is an
-//! error that lists the expected columns: we reject rather than ignore so that
-//! a misspelt optional column (`load_kg` in a pose list) cannot silently turn
-//! into its default. Extra columns from other tools are still welcome: the
-//! `note_` prefix is how (`docs/FORMATS.md`, "CSV files").
+//! tools and ignored here. What happens to any other column the file kind does
+//! not define is the schema's [`Extra`]: measurements and predictions refuse
+//! it, listing the expected columns, so that a misspelt column cannot pass
+//! unnoticed; pose lists ignore it, since any file with the pose columns (a
+//! measurement file, a spreadsheet of poses) is a pose list, but still refuse
+//! a column that looks like a misspelt optional one (`load` for `load_kg`),
+//! which would otherwise silently turn into its default.
 
 use std::collections::HashMap;
 
@@ -31,6 +33,19 @@ pub struct Schema {
     pub columns: &'static [&'static str],
     /// Those of `columns` that may be absent.
     pub optional: &'static [&'static str],
+    /// What to do with other columns.
+    pub extra: Extra,
+}
+
+/// What a reader does with a column its kind of file does not define.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Extra {
+    /// Refuse it, listing the expected columns.
+    Refuse,
+    /// Ignore it, unless it looks like an optional column misspelt or in
+    /// another unit (`laod_kg`, `payload_g` for `load_kg`): that must not silently
+    /// become the optional column's default.
+    Ignore,
 }
 
 impl Schema {
@@ -193,13 +208,31 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
             continue;
         }
         let Some(&known) = schema.columns.iter().find(|&&c| c == name) else {
-            return Err(InputError::new(
-                at(name),
-                Problem::UnknownColumn {
-                    column: name.to_owned(),
-                    expected: schema.expected(),
-                },
-            ));
+            match schema.extra {
+                Extra::Refuse => {
+                    return Err(InputError::new(
+                        at(name),
+                        Problem::UnknownColumn {
+                            column: name.to_owned(),
+                            expected: schema.expected(),
+                        },
+                    ));
+                }
+                Extra::Ignore => {
+                    if let Some(optional) = misspelt_optional(name, schema) {
+                        return Err(InputError::new(
+                            at(name),
+                            Problem::Invalid {
+                                message: format!(
+                                    "looks like a misspelt `{optional}`; name it `{optional}`, or \
+                                     `{NOTE_PREFIX}{name}` if it is something else"
+                                ),
+                            },
+                        ));
+                    }
+                    continue;
+                }
+            }
         };
         if index.insert(known, i).is_some() {
             return Err(InputError::new(
@@ -226,6 +259,17 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
     Ok(Header {
         index,
         width: record.len(),
+    })
+}
+
+/// The optional column `name` most likely stands for, if any: one within
+/// two typing slips of it (`laod_kg`, `load_kgs`), or whose name up to its
+/// unit appears in it (`payload_g` for `load_kg`), in any case.
+fn misspelt_optional(name: &str, schema: &Schema) -> Option<&'static str> {
+    let name = name.to_lowercase();
+    schema.optional.iter().copied().find(|optional| {
+        let stem = optional.split('_').next().unwrap_or(optional);
+        name.contains(stem) || strsim::damerau_levenshtein(&name, optional) <= 2
     })
 }
 

@@ -9,7 +9,7 @@ use nalgebra::Vector3;
 use crate::dataset::{Measurement, Pose};
 use crate::error::{Error, InputError};
 use crate::io::csv_table::{
-    PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg, format_mm,
+    Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg, format_mm,
 };
 use crate::io::{atomic, read_text};
 
@@ -31,6 +31,7 @@ pub const COLUMNS: [&str; 11] = [
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
     optional: &[],
+    extra: Extra::Refuse,
 };
 
 /// Reads a measurement file.

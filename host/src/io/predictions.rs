@@ -8,7 +8,7 @@ use nalgebra::Vector3;
 
 use crate::dataset::Prediction;
 use crate::error::{Error, InputError, Problem};
-use crate::io::csv_table::{Schema, XYZ_COLUMNS, for_each_row, format_mm};
+use crate::io::csv_table::{Extra, Schema, XYZ_COLUMNS, for_each_row, format_mm};
 use crate::io::{atomic, read_text};
 
 /// The columns of a prediction file, in the order they are written.
@@ -17,6 +17,7 @@ pub const COLUMNS: [&str; 4] = ["pose", XYZ_COLUMNS[0], XYZ_COLUMNS[1], XYZ_COLU
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
     optional: &[],
+    extra: Extra::Refuse,
 };
 
 /// Reads a prediction file.
