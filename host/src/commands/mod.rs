@@ -5,6 +5,7 @@
 pub mod compensation;
 pub mod demo;
 pub mod detach;
+pub mod emulator;
 pub mod export;
 pub mod flash;
 pub mod home;
