@@ -398,9 +398,7 @@ fn stop_board(child: &mut Child) -> Result<(), Error> {
         match child.try_wait() {
             Ok(Some(status)) if status.success() => return Ok(()),
             Ok(Some(status)) => return Err(stopped_by_itself(status)),
-            Ok(None) if Instant::now() < deadline => {
-                std::thread::sleep(Duration::from_millis(20))
-            }
+            Ok(None) if Instant::now() < deadline => std::thread::sleep(Duration::from_millis(20)),
             _ => {
                 let _ = child.kill();
                 let _ = child.wait();
@@ -435,7 +433,10 @@ mod tests {
             Some(4040)
         );
         assert_eq!(announced_port(r#"{"event":"configured","port":1}"#), None);
-        assert_eq!(announced_port(r#"{"event":"listening","port":70000}"#), None);
+        assert_eq!(
+            announced_port(r#"{"event":"listening","port":70000}"#),
+            None
+        );
         assert_eq!(announced_port("serial port: socket://127.0.0.1:4040"), None);
     }
 

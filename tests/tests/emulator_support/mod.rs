@@ -471,3 +471,35 @@ pub fn expected_pulses(
     let command = calibrated.clamp_to_limits(&command);
     std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
 }
+
+/// `lrmcal` run as a process (this package's `lrmcal-e2e`, the same program) against the
+/// board's serial port `port`. Device commands wait up to 5 s per reply: the emulated board
+/// answers in emulated time, which runs slower than the wall clock while the CPU is busy.
+pub fn lrmcal_process(port: &str, args: &[&str]) -> std::process::Output {
+    let output = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"))
+        .args(args)
+        .args(["--timeout-ms", "5000"])
+        .env("LRMCAL_PORT", port)
+        .output()
+        .expect("lrmcal runs");
+    assert!(
+        output.status.success(),
+        "lrmcal {} failed ({}): {}",
+        args.join(" "),
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
+/// The calibration files of `lrmcal demo` (quick settings), made in `dir` by the CLI.
+pub fn demo_calibrations(dir: &std::path::Path) -> PathBuf {
+    let status = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"))
+        .args(["demo", "--starts", "1", "--compare-random", "0", "--out"])
+        .arg(dir)
+        .stdout(Stdio::null())
+        .status()
+        .expect("lrmcal demo runs");
+    assert!(status.success(), "lrmcal demo failed: {status}");
+    dir.join("calibration-elasto-kinematic.json")
+}
