@@ -133,10 +133,15 @@ fn measure(timing: &str) {
             .collect()
     };
     let window = pin_widths(&mut board, &since);
-    let resumed = gaps
+    // The commit's erase starts the wait for the flash; the first frame after it resumes.
+    let erase_ns = after["last_erase_ns"]
+        .as_f64()
+        .expect("the commit erased the flash");
+    let resumed = starts
         .iter()
-        .position(|g| *g == longest_gap)
-        .map_or(0.0, |i| starts[i + 1]);
+        .copied()
+        .find(|s| *s > erase_ns)
+        .expect("a servo frame after the commit");
     let after_stall = pin_widths(&mut board, &json!(resumed));
     let window_ns = after["nanos"].as_f64().unwrap_or(0.0) - since.as_f64().unwrap_or(0.0);
     let fewest = window.iter().map(Vec::len).min().unwrap_or(0);

@@ -71,6 +71,8 @@ export class Board extends EventEmitter {
     this.flashServices = new FlashServices(log, flashTiming);
     /** Emulated time the core still waits for the flash chip, ns (no instruction runs). */
     this.stallNanos = 0;
+    /** Emulated time of the last flash erase's start, ns (null before the first). */
+    this.lastEraseNanos = null;
     this.resets = 0;
     this.halted = null;
     this.running = false;
@@ -178,6 +180,7 @@ export class Board extends EventEmitter {
       return;
     }
     const name = serviceName(code);
+    if (name === 'RE') this.lastEraseNanos = this.nanos;
     const outcome = this.flashServices.call(name, this.mcu, r);
     this.stallNanos += this.flashServices.takeBusy();
     if (outcome === 'reset') this.requestReset(`power cut during flash ${name}`);

@@ -7,7 +7,7 @@
 //!
 //! | cmd | arguments | reply |
 //! |---|---|---|
-//! | `status` | | `nanos`, `resets`, `halted`, `configured`, `erases`, `programs`, `flash_busy_ns`, `flash_timing` |
+//! | `status` | | `nanos`, `resets`, `halted`, `configured`, `erases`, `programs`, `flash_busy_ns`, `flash_timing`, `last_erase_ns` |
 //! | `wait_configured` | `timeout_ms` | `nanos` once USB is enumerated |
 //! | `run` | `us` | `nanos` after that much emulated time |
 //! | `pulses` | `pins`, `count`, `timeout_ms` | per pin `widths_us`, `periods_us` of the next `count` pulses |
@@ -107,6 +107,7 @@ export class Control {
           programs: board.flashServices.programs,
           flash_busy_ns: board.flashServices.busyTotalNs,
           flash_timing: board.flashServices.timingName,
+          last_erase_ns: board.lastEraseNanos,
         };
       case 'wait_configured':
         await this.waitFor(() => this.configured, request.timeout_ms ?? 2000, 'USB enumeration');
