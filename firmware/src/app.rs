@@ -1,21 +1,29 @@
-//! The [`Device`]: everything the board knows, the servo frame, and the
-//! dispatch of request frames to the [`crate::handlers`].
+//! The application's context: the [`Device`] with everything the board
+//! knows, its start-up, the servo frame, and the few rules every handler
+//! shares ([`Device::ensure_idle`], the limits and curves in force).
+//!
+//! This module imports neither the handlers nor the dispatch table: the
+//! handlers (`handlers.rs`) work on the [`Device`] defined here, and the
+//! table (`dispatch.rs`) names the handlers, so the modules form a line
+//! `app` ← `handlers` ← `dispatch` with no way back.
 
 use protocol::calibration::MAX_CALIBRATION_LEN;
-use protocol::frame::{self, FrameError, MAX_FRAME, PROTOCOL_VERSION};
+use protocol::frame::PROTOCOL_VERSION;
 use protocol::{
-    Calibration, CalibrationInfo, CompensationMode, DeviceInfo, Faults, Request, Response,
-    WireError,
+    Calibration, CalibrationInfo, CompensationMode, DeviceInfo, Faults, Response, WireError,
 };
 
 use crate::compensator::Compensator;
 use crate::motion::{MotionLimits, Profile};
 use crate::servo::{self, pulse_for};
 use crate::storage::Storage;
-use crate::{CHANNELS, Config, FlashStorage, ServoBus, handlers};
+use crate::{CHANNELS, Config, FlashStorage, ServoBus};
 
 /// A command that changes by less than this from one frame to the next has settled, rad.
 const SETTLED_RAD: f32 = 1e-6;
+
+/// What a handler answers: the response, or the error the host gets instead.
+pub(crate) type Reply = Result<Response, WireError>;
 
 /// What the binary must do after a reply has gone out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -30,6 +38,28 @@ pub(crate) struct Active {
     pub calibration: Calibration,
     pub info: CalibrationInfo,
     pub compensator: Compensator,
+}
+
+/// What one servo channel does, with the pulse it puts out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Channel {
+    /// No pulses: the servo is limp (at power-on and after `servo/detach`).
+    Limp,
+    /// Driven by the motion and the compensation; the pulse of the last
+    /// servo frame, µs (`None` until the first frame after attaching).
+    Held(Option<u16>),
+    /// Under `servo/raw` (servo tuning): this pulse, µs, whatever the motion does.
+    Raw(u16),
+}
+
+impl Channel {
+    /// The pulse on the servo now, µs, 0 for none (as `status/get` reports it).
+    pub(crate) fn pulse_us(self) -> u16 {
+        match self {
+            Self::Limp | Self::Held(None) => 0,
+            Self::Held(Some(us)) | Self::Raw(us) => us,
+        }
+    }
 }
 
 /// A calibration upload in progress.
@@ -63,10 +93,7 @@ pub struct Device<B, F> {
     pub(crate) settling: bool,
     /// The compensated commands of the last servo frame, rad.
     pub(crate) wanted: [f32; CHANNELS],
-    pub(crate) attached: [bool; CHANNELS],
-    /// Raw pulses of channels under `servo/raw`, µs.
-    pub(crate) raw: [Option<u16>; CHANNELS],
-    pub(crate) pulses: [u16; CHANNELS],
+    pub(crate) channels: [Channel; CHANNELS],
     pub(crate) faults: Faults,
     pub(crate) frames_dropped: u32,
     pub(crate) transfer: Option<Transfer>,
@@ -96,9 +123,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             moving: false,
             settling: false,
             wanted: [0.0; CHANNELS],
-            attached: [false; CHANNELS],
-            raw: [None; CHANNELS],
-            pulses: [0; CHANNELS],
+            channels: [Channel::Limp; CHANNELS],
             faults: Faults::default(),
             frames_dropped: 0,
             transfer: None,
@@ -130,9 +155,26 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         &self.bus
     }
 
+    /// The flash (to cut its power in tests).
+    #[cfg(any(test, feature = "sim"))]
+    pub fn flash_mut(&mut self) -> &mut F {
+        self.storage.flash_mut()
+    }
+
     /// What the binary must do next, once: call after the reply went out.
     pub fn take_action(&mut self) -> Option<SystemAction> {
         self.pending.take()
+    }
+
+    /// Refuses a request that would disturb a running motion (a jump, an
+    /// abrupt stop, a correction appearing mid-path, a flash write stalling
+    /// the servo frames): the one place `Busy` comes from.
+    pub(crate) fn ensure_idle(&self) -> Result<(), WireError> {
+        if self.moving {
+            Err(WireError::Busy)
+        } else {
+            Ok(())
+        }
     }
 
     /// Makes `calibration` (stored under `sequence`) the one in use.
@@ -159,11 +201,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         }
         let (curves, limits) = (self.curves(), self.limits());
         for i in 0..CHANNELS {
-            if !self.attached[i] || self.raw[i].is_some() || self.pulses[i] == 0 {
+            let Channel::Held(Some(pulse)) = self.channels[i] else {
                 continue;
-            }
+            };
             let [lo, hi] = limits[i];
-            let angle = curves[i].angle(f32::from(self.pulses[i])).clamp(lo, hi);
+            let angle = curves[i].angle(f32::from(pulse)).clamp(lo, hi);
             let keep = angle - self.position[i];
             if keep.is_finite() {
                 self.applied_correction[i] = keep;
@@ -215,7 +257,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         let (q_nominal, done) = self.motion.at(now_us);
         self.position = q_nominal;
         self.moving = !done;
-        let driven = (0..CHANNELS).any(|i| self.attached[i] && self.raw[i].is_none());
+        let driven = self.channels.iter().any(|c| matches!(c, Channel::Held(_)));
         let (mode, payload) = (self.mode, self.payload_kg);
         let wanted = match &mut self.active {
             Some(a) if driven => a.compensator.step(&q_nominal, mode, payload),
@@ -256,54 +298,31 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 .is_some_and(|a| a.compensator.fell_back());
         self.faults.set(Faults::COMPENSATION_FALLBACK, fell_back);
         let (limits, curves) = (self.limits(), self.curves());
-        for i in 0..CHANNELS {
-            let pulse = match (self.raw[i], self.attached[i]) {
-                (Some(raw), _) => Some(raw),
-                (None, false) => None,
-                (None, true) => match pulse_for(
-                    &curves[i],
-                    command[i],
-                    limits[i],
-                    self.config.pulse_range_us,
-                ) {
-                    Some(p) => {
-                        if p.clamped {
-                            self.faults.set(Faults::LIMIT_CLAMPED, true);
+        for (i, channel) in self.channels.iter_mut().enumerate() {
+            let pulse = match *channel {
+                Channel::Limp => None,
+                Channel::Raw(us) => Some(us),
+                Channel::Held(last) => {
+                    let pulse = match pulse_for(
+                        &curves[i],
+                        command[i],
+                        limits[i],
+                        self.config.pulse_range_us,
+                    ) {
+                        Some(p) => {
+                            if p.clamped {
+                                self.faults.set(Faults::LIMIT_CLAMPED, true);
+                            }
+                            Some(p.us)
                         }
-                        Some(p.us)
-                    }
-                    // Never reached with finite targets; holding the last pulse is the safe answer.
-                    None => Some(self.pulses[i]).filter(|&p| p != 0),
-                },
+                        // Never reached with finite targets; holding the last pulse is the safe answer.
+                        None => last,
+                    };
+                    *channel = Channel::Held(pulse);
+                    pulse
+                }
             };
-            self.pulses[i] = pulse.unwrap_or(0);
             self.bus.set_pulse(i, pulse);
         }
-    }
-
-    /// Handles one frame from the host (COBS bytes as cut by a
-    /// [`protocol::FrameReader`], with or without the 0x00) and writes the
-    /// reply frame into `out`; returns the reply's length, 0 for none.
-    pub fn handle_frame(&mut self, frame: &[u8], out: &mut [u8; MAX_FRAME]) -> usize {
-        let (seq, response) = match frame::decode::<Request>(frame) {
-            Ok((seq, request)) => (seq, handlers::dispatch(self, request)),
-            Err(FrameError::Version { seq, .. }) => {
-                (seq, Response::Error(WireError::VersionMismatch))
-            }
-            Err(FrameError::Body { seq }) => (seq, Response::Error(WireError::UnknownRequest)),
-            Err(_) => {
-                // Corrupt: its seq is not trustworthy, so no reply; the host retries.
-                self.frames_dropped = self.frames_dropped.saturating_add(1);
-                self.faults.set(Faults::FRAMES_DROPPED, true);
-                return 0;
-            }
-        };
-        frame::encode(seq, &response, out).unwrap_or(0)
-    }
-
-    /// Counts a frame the binary's [`protocol::FrameReader`] dropped as over-long.
-    pub fn frame_overflowed(&mut self) {
-        self.frames_dropped = self.frames_dropped.saturating_add(1);
-        self.faults.set(Faults::FRAMES_DROPPED, true);
     }
 }

@@ -1,56 +1,31 @@
-//! One function per endpoint of the `protocol` table. Each checks its input
-//! completely before it changes anything, so a refused request leaves the
-//! board as it was.
+//! One function per endpoint of the `protocol` table, called by the table in
+//! `dispatch.rs`. Each checks its input completely before it changes
+//! anything, so a refused request leaves the board as it was.
 
 use heapless::Vec;
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::crc32;
 use protocol::{
-    CHUNK_LEN, Calibration, CompensationMode, CompensationReport, Faults, Request, Response,
-    Status, Timing, WireError,
+    CHUNK_LEN, Calibration, CompensationMode, CompensationReport, Faults, Response, Status, Timing,
+    WireError,
 };
 
-use crate::app::{SystemAction, Transfer};
+use crate::app::{Channel, Reply, SystemAction, Transfer};
 use crate::motion::{PlanError, Profile};
 use crate::{CHANNELS, Device, FlashStorage, ServoBus};
 
-type Reply = Result<Response, WireError>;
-
-/// Routes a decoded request to its handler.
-pub fn dispatch<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, request: Request) -> Response {
-    let reply = match request {
-        Request::Hello => Ok(Response::Hello(d.device_info())),
-        Request::Status => Ok(Response::Status(status(d))),
-        Request::Move {
-            targets_rad,
-            timing,
-        } => move_to(d, targets_rad, timing),
-        Request::Home { timing } => move_to(d, d.home(), timing),
-        Request::Attach { channel } => attach(d, channel),
-        Request::Detach { channel } => detach(d, channel),
-        Request::RawPulse { channel, pulse_us } => raw_pulse(d, channel, pulse_us),
-        Request::SetPayload { mass_kg } => set_payload(d, mass_kg),
-        Request::SetCompensation { mode } => set_compensation(d, mode),
-        Request::CalibrationBegin { len_bytes, crc } => calibration_begin(d, len_bytes, crc),
-        Request::CalibrationChunk { offset, data } => calibration_chunk(d, offset, &data),
-        Request::CalibrationCommit => calibration_commit(d),
-        Request::CalibrationRead { offset } => calibration_read(d, offset),
-        Request::CalibrationErase => calibration_erase(d),
-        Request::RebootToBootloader => {
-            d.pending = Some(SystemAction::RebootToBootloader);
-            Ok(Response::Done)
-        }
-    };
-    reply.unwrap_or_else(Response::Error)
+/// `link/hello`: the versions, first thing after connecting.
+pub(crate) fn hello<B: ServoBus, F: FlashStorage>(d: &Device<B, F>) -> Reply {
+    Ok(Response::Hello(d.device_info()))
 }
 
 /// `status/get`; clears the flags that latch until read.
-fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Status {
+pub(crate) fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
     let mut faults = d.faults;
     faults.set(Faults::NO_CALIBRATION, d.active.is_none());
     d.faults.set(Faults::LIMIT_CLAMPED, false);
     d.faults.set(Faults::FRAMES_DROPPED, false);
-    Status {
+    Ok(Response::Status(Status {
         device: d.device_info(),
         calibration: d.active.as_ref().map(|a| a.info),
         mode: d.mode,
@@ -63,11 +38,11 @@ fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Status {
         moving: d.moving || d.settling,
         targets_rad: d.motion.end(),
         nominal_rad: d.position,
-        pulses_us: d.pulses,
+        pulses_us: d.channels.map(Channel::pulse_us),
         faults,
         frames_dropped: d.frames_dropped,
         uptime_ms: d.now_us.saturating_sub(d.boot_us) / 1000,
-    }
+    }))
 }
 
 /// The joint angle a channel under `servo/raw` is at, from its pulse.
@@ -82,23 +57,26 @@ fn angle_of_raw<B: ServoBus, F: FlashStorage>(d: &Device<B, F>, channel: usize, 
     }
 }
 
-/// Ends raw tuning on `channel`, taking over the position its pulse gave.
-fn leave_raw<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: usize) {
-    if let Some(p) = d.raw[channel].take() {
-        d.position[channel] = angle_of_raw(d, channel, p);
-        d.attached[channel] = true;
-    }
+/// Drives `channel` from the motion again; a channel under raw tuning
+/// takes over the position its pulse gave.
+fn hold<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: usize) {
+    d.channels[channel] = match d.channels[channel] {
+        Channel::Limp => Channel::Held(None),
+        Channel::Held(last) => Channel::Held(last),
+        Channel::Raw(p) => {
+            d.position[channel] = angle_of_raw(d, channel, p);
+            Channel::Held(Some(p))
+        }
+    };
 }
 
-/// `motion/move` and `motion/home`: attach every joint and start a move.
-fn move_to<B: ServoBus, F: FlashStorage>(
+/// `motion/move`: attach every joint and start a move.
+pub(crate) fn move_to<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     targets: [f32; CHANNELS],
     timing: Timing,
 ) -> Reply {
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+    d.ensure_idle()?;
     if !targets.iter().all(|t| t.is_finite()) {
         return Err(WireError::NotFinite);
     }
@@ -112,7 +90,7 @@ fn move_to<B: ServoBus, F: FlashStorage>(
     }
     let mut start = d.position;
     for (i, s) in start.iter_mut().enumerate() {
-        if let Some(p) = d.raw[i] {
+        if let Channel::Raw(p) = d.channels[i] {
             *s = angle_of_raw(d, i, p);
         }
     }
@@ -123,13 +101,17 @@ fn move_to<B: ServoBus, F: FlashStorage>(
             PlanError::OutOfRange => WireError::OutOfRange,
         })?;
     for i in 0..CHANNELS {
-        leave_raw(d, i);
-        d.attached[i] = true;
+        hold(d, i);
     }
     d.position = start;
     d.motion = profile;
     d.moving = true;
     Ok(Response::Done)
+}
+
+/// `motion/home`: a move to the calibration's home pose.
+pub(crate) fn home<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, timing: Timing) -> Reply {
+    move_to(d, d.home(), timing)
 }
 
 /// The channels a request names: one, or all for `None`.
@@ -143,14 +125,14 @@ fn channels(channel: Option<u8>) -> Result<core::ops::Range<usize>, WireError> {
 
 /// `servo/attach`: hold at the current position; refused mid-motion, where
 /// holding would be an abrupt stop.
-fn attach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
+pub(crate) fn attach<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    channel: Option<u8>,
+) -> Reply {
     let range = channels(channel)?;
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+    d.ensure_idle()?;
     for i in range {
-        leave_raw(d, i);
-        d.attached[i] = true;
+        hold(d, i);
     }
     d.motion = Profile::hold(d.position);
     Ok(Response::Done)
@@ -158,11 +140,12 @@ fn attach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8
 
 /// `servo/detach`: stops any motion (a limp joint cannot follow it) and, at
 /// once rather than at the next servo frame, the pulses.
-fn detach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8>) -> Reply {
+pub(crate) fn detach<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    channel: Option<u8>,
+) -> Reply {
     for i in channels(channel)? {
-        d.raw[i] = None;
-        d.attached[i] = false;
-        d.pulses[i] = 0;
+        d.channels[i] = Channel::Limp;
         d.bus.set_pulse(i, None);
     }
     d.motion = Profile::hold(d.position);
@@ -173,8 +156,9 @@ fn detach<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: Option<u8
     Ok(Response::Done)
 }
 
-/// `servo/raw`: a clamped raw pulse on one channel.
-fn raw_pulse<B: ServoBus, F: FlashStorage>(
+/// `servo/raw`: a clamped raw pulse on one channel, on the servo at once
+/// (as `servo/detach` stops the pulses at once), not at the next frame.
+pub(crate) fn raw_pulse<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     channel: u8,
     pulse_us: u16,
@@ -183,19 +167,21 @@ fn raw_pulse<B: ServoBus, F: FlashStorage>(
     if i >= CHANNELS {
         return Err(WireError::OutOfRange);
     }
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+    d.ensure_idle()?;
     let [lo, hi] = d.config.pulse_range_us;
     let applied = pulse_us.clamp(lo, hi);
-    d.raw[i] = Some(applied);
+    d.channels[i] = Channel::Raw(applied);
+    d.bus.set_pulse(i, Some(applied));
     Ok(Response::Pulse {
         applied_us: applied,
     })
 }
 
 /// `comp/payload`.
-fn set_payload<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, mass_kg: f32) -> Reply {
+pub(crate) fn set_payload<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    mass_kg: f32,
+) -> Reply {
     if !mass_kg.is_finite() {
         return Err(WireError::NotFinite);
     }
@@ -207,16 +193,14 @@ fn set_payload<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, mass_kg: f32)
 }
 
 /// `comp/mode`: refused while moving, since the correction would appear mid-path.
-fn set_compensation<B: ServoBus, F: FlashStorage>(
+pub(crate) fn set_compensation<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     mode: CompensationMode,
 ) -> Reply {
     if mode != CompensationMode::Off && d.active.is_none() {
         return Err(WireError::NoCalibration);
     }
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+    d.ensure_idle()?;
     d.mode = mode;
     if let Some(a) = &mut d.active {
         a.compensator.reset();
@@ -225,7 +209,7 @@ fn set_compensation<B: ServoBus, F: FlashStorage>(
 }
 
 /// `calib/begin`: a new upload replaces any unfinished one.
-fn calibration_begin<B: ServoBus, F: FlashStorage>(
+pub(crate) fn calibration_begin<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     len: u32,
     crc: u32,
@@ -244,7 +228,7 @@ fn calibration_begin<B: ServoBus, F: FlashStorage>(
 }
 
 /// `calib/chunk`: a chunk may repeat bytes already received (a retry) but not leave a gap.
-fn calibration_chunk<B: ServoBus, F: FlashStorage>(
+pub(crate) fn calibration_chunk<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     offset: u32,
     data: &[u8],
@@ -263,14 +247,12 @@ fn calibration_chunk<B: ServoBus, F: FlashStorage>(
 }
 
 /// `calib/commit`: the whole upload is checked, stored, read back and only then applied.
-fn calibration_commit<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
+pub(crate) fn calibration_commit<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
     let t = d.transfer.as_ref().ok_or(WireError::NoTransfer)?;
     if t.received < t.len {
         return Err(WireError::TransferIncomplete);
     }
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+    d.ensure_idle()?;
     let bytes = &t.buf[..t.len];
     if crc32(bytes) != t.crc {
         d.transfer = None;
@@ -295,7 +277,10 @@ fn calibration_commit<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Rep
 }
 
 /// `calib/read`.
-fn calibration_read<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, offset: u32) -> Reply {
+pub(crate) fn calibration_read<B: ServoBus, F: FlashStorage>(
+    d: &mut Device<B, F>,
+    offset: u32,
+) -> Reply {
     let (len, crc) = d.storage.active_payload().ok_or(WireError::NoCalibration)?;
     let mut chunk = [0u8; CHUNK_LEN];
     let n = d
@@ -312,10 +297,8 @@ fn calibration_read<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, offset: 
 }
 
 /// `calib/erase`: back to nominal curves, compensation off.
-fn calibration_erase<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
-    if d.moving {
-        return Err(WireError::Busy);
-    }
+pub(crate) fn calibration_erase<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
+    d.ensure_idle()?;
     let erased = d.storage.erase();
     if erased.is_err() {
         d.faults.set(Faults::FLASH_FAILED, true);
@@ -330,5 +313,11 @@ fn calibration_erase<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Repl
     }
     d.switch_calibration(None);
     d.mode = CompensationMode::Off;
+    Ok(Response::Done)
+}
+
+/// `sys/bootloader`: the binary reboots once the reply has gone out.
+pub(crate) fn reboot_to_bootloader<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Reply {
+    d.pending = Some(SystemAction::RebootToBootloader);
     Ok(Response::Done)
 }

@@ -12,8 +12,9 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`app`] | [`Device`]: state, start-up, the servo frame and the request dispatcher |
-//! | [`handlers`] | one function per endpoint of the `protocol` table |
+//! | [`app`] | [`Device`] (the context): state, start-up, the servo frame, rules the handlers share |
+//! | `handlers` | one function per endpoint of the `protocol` table |
+//! | `dispatch` | the dispatch table and [`Device::handle_frame`]: frames in, replies out |
 //! | [`servo`] | the servo bus trait, joint and pulse limits, angle → pulse |
 //! | [`motion`] | speed/acceleration-limited, synchronised joint motion |
 //! | [`compensator`] | one Newton step of compensation per servo frame, with fallback |
@@ -21,6 +22,7 @@
 //! | [`config`] | limits and tuning with their defaults |
 //! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+ (common case in Thumb assembly), linked in place of the compiler's on the MCU |
 //! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
+//! | `fuzz` | generated cases played against the device on those doubles, with the invariants checked (feature `sim`) |
 //!
 //! Start-up: every channel starts limp (no pulses), so power-on never jerks
 //! the arm. The first `motion/move`, `motion/home` or `servo/attach` assumes
@@ -32,7 +34,10 @@
 pub mod app;
 pub mod compensator;
 pub mod config;
-pub mod handlers;
+mod dispatch;
+#[cfg(any(test, feature = "sim"))]
+pub mod fuzz;
+mod handlers;
 pub mod motion;
 pub mod servo;
 #[cfg(any(test, feature = "sim"))]

@@ -159,6 +159,12 @@ impl<F: FlashStorage> Storage<F> {
         self.flash
     }
 
+    /// The flash (to cut its power in tests).
+    #[cfg(any(test, feature = "sim"))]
+    pub fn flash_mut(&mut self) -> &mut F {
+        &mut self.flash
+    }
+
     /// Reads both slots and picks the newest valid calibration.
     pub fn load(&mut self) -> LoadReport {
         let mut damaged = false;

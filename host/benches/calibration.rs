@@ -18,11 +18,13 @@ use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use host::calib::ModelOption;
 use host::calib::detmax::{DetmaxOptions, detmax};
 use host::calib::identify::{IdentifyOptions, identify};
-use host::calib::pipeline::{CandidateBlocks, Choice, MeasurementIndex, calibrate_option};
+use host::calib::pipeline::{
+    CandidateBlocks, Choice, Inputs, MeasurementIndex, RunSettings, calibrate_option,
+};
+use host::calib::progress::Silent;
 use host::dataset::{Measurement, Pose};
 use host::plan::{Levels, PlanConfig, candidates};
 use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
-use indicatif::ProgressBar;
 use model::Arm;
 
 const LOAD: f64 = 0.0663;
@@ -59,24 +61,13 @@ fn benches(c: &mut Criterion) {
     });
     let blocks = CandidateBlocks::build(&nominal, ek, &poses, &[LOAD]).expect("blocks");
     g.bench_function("detmax_405_candidates_n50_one_start", |b| {
-        b.iter(|| {
-            detmax(
-                black_box(&blocks.blocks),
-                &one_start(50),
-                &ProgressBar::hidden(),
-            )
-            .expect("detmax")
-        })
+        b.iter(|| detmax(black_box(&blocks.blocks), &one_start(50), &Silent).expect("detmax"))
     });
     for n in [25, 50, 100] {
         g.bench_with_input(
             BenchmarkId::new("detmax_405_candidates_one_start_n", n),
             &n,
-            |b, &n| {
-                b.iter(|| {
-                    detmax(&blocks.blocks, &one_start(n), &ProgressBar::hidden()).expect("detmax")
-                })
-            },
+            |b, &n| b.iter(|| detmax(&blocks.blocks, &one_start(n), &Silent).expect("detmax")),
         );
     }
     g.finish();
@@ -89,23 +80,14 @@ fn benches(c: &mut Criterion) {
         g.bench_with_input(
             BenchmarkId::new("detmax_grid_candidates_n50_one_start", grid.len()),
             &grid_blocks,
-            |b, gb| {
-                b.iter(|| {
-                    detmax(&gb.blocks, &one_start(50), &ProgressBar::hidden()).expect("detmax")
-                })
-            },
+            |b, gb| b.iter(|| detmax(&gb.blocks, &one_start(50), &Silent).expect("detmax")),
         );
     }
     g.finish();
 
     let mut g = c.benchmark_group("identify");
     g.sample_size(10);
-    let design = detmax(
-        &blocks.blocks,
-        &DetmaxOptions::default(),
-        &ProgressBar::hidden(),
-    )
-    .expect("detmax");
+    let design = detmax(&blocks.blocks, &DetmaxOptions::default(), &Silent).expect("detmax");
     let ids: Vec<u32> = design.chosen.iter().map(|&i| poses[i].id).collect();
     let fit = MeasurementIndex::new(&all).of(ids, LOAD);
     let kept = blocks.identifiability.kept.clone();
@@ -127,20 +109,15 @@ fn benches(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(40));
     g.bench_function("demo_three_options_and_reverse_cross_load", |b| {
         b.iter(|| {
-            let choice = Choice::Detmax(DetmaxOptions::default());
+            let inputs = Inputs::new(&nominal, &poses, &all);
             let run = |option, load, other| {
-                calibrate_option(
-                    &nominal,
-                    option,
-                    &poses,
-                    &all,
-                    load,
-                    Some(other),
-                    &choice,
-                    &IdentifyOptions::default(),
-                    &ProgressBar::hidden(),
-                )
-                .expect("calibrate")
+                let settings = RunSettings {
+                    identify_load_kg: load,
+                    other_load_kg: Some(other),
+                    choice: Choice::Detmax(DetmaxOptions::default()),
+                    identify: IdentifyOptions::default(),
+                };
+                calibrate_option(&inputs, option, &settings, &Silent).expect("calibrate")
             };
             for option in ModelOption::ALL {
                 black_box(run(option, LOAD, 0.0));

@@ -43,3 +43,20 @@ pub struct PoseRow {
     /// Payload mass at the tool, kg, when the list gives one.
     pub load_kg: Option<f64>,
 }
+
+/// The distinct loads of `rows`, ascending.
+pub fn loads_of(rows: &[Measurement]) -> Vec<f64> {
+    let mut loads: Vec<f64> = rows.iter().map(|m| m.load_kg).collect();
+    loads.sort_by(f64::total_cmp);
+    loads.dedup();
+    loads
+}
+
+/// The distinct poses of `rows` measured under `load_kg`, in file order.
+pub fn poses_under(rows: &[Measurement], load_kg: f64) -> Vec<Pose> {
+    let mut seen = std::collections::HashSet::new();
+    rows.iter()
+        .filter(|m| m.load_kg == load_kg && seen.insert(m.pose.id))
+        .map(|m| m.pose)
+        .collect()
+}

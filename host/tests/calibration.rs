@@ -2,19 +2,34 @@
 //! the consistency check (exact data in, exact parameters out), the demo's
 //! numbers (issue 3) and DETMAX against random selection.
 
-use host::calib::detmax::{DetmaxOptions, random_design};
+use host::calib::detmax::DetmaxOptions;
+use host::calib::experiments::random_baseline;
 use host::calib::identify::{IdentifyOptions, identify};
 use host::calib::jacobian::tool_points;
-use host::calib::pipeline::{Choice, MeasurementIndex, calibrate_option};
+use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use host::calib::progress::Silent;
+use host::calib::report::IdentifiabilityReport;
 use host::calib::validate::validate;
-use host::calib::{ModelOption, Sample};
+use host::calib::{ModelOption, ParamKey, ParamVector, Sample};
 use host::dataset::{Measurement, Pose};
 use host::plan::{PlanConfig, candidates};
 use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
-use indicatif::ProgressBar;
-use model::{Arm, ParamId};
+use model::Arm;
 
 const LOAD: f64 = 0.0663;
+
+/// DETMAX selection of 50 poses, fitted under `load`, validated across under `other`.
+fn settings(load: f64, other: Option<f64>, starts: usize) -> RunSettings {
+    RunSettings {
+        identify_load_kg: load,
+        other_load_kg: other,
+        choice: Choice::Detmax(DetmaxOptions {
+            starts,
+            ..Default::default()
+        }),
+        identify: IdentifyOptions::default(),
+    }
+}
 
 fn bundled() -> Arm<f64> {
     host::io::arm_source::bundled("lrm")
@@ -63,35 +78,33 @@ fn exact_data_gives_exact_parameters() {
         // The identifiable set of this option decides which errors the truth may carry.
         let probe = exact_measurements(&nominal, &poses, &[LOAD]);
         let first = calibrate_option(
-            &nominal,
+            &Inputs::new(&nominal, &poses, &probe),
             option,
-            &poses,
-            &probe,
-            LOAD,
-            None,
-            &Choice::Detmax(DetmaxOptions {
-                starts: 2,
-                ..Default::default()
-            }),
-            &IdentifyOptions::default(),
-            &ProgressBar::hidden(),
+            &settings(LOAD, None, 2),
+            &Silent,
         )
         .expect("calibrate");
         let kept = first.selection.candidates.identifiability.kept.clone();
-        let truth: Vec<f64> = kept.iter().map(|p| drawn.errors[p.index()]).collect();
-        let true_arm = nominal.with_errors(&kept, &truth);
+        let mut truth = ParamVector::new(kept.iter().copied()).expect("distinct keys");
+        for (id, error) in drawn.named_errors() {
+            if truth.get(id.into()).is_some() {
+                truth.set(id.into(), error).expect("held key");
+            }
+        }
+        let true_arm = truth.apply(&nominal);
         let all = exact_measurements(&true_arm, &poses, &[0.0, LOAD]);
-        let index = MeasurementIndex::new(&all);
-        let chosen: Vec<u32> = first.selection.poses.iter().map(|p| p.id).collect();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let chosen: Vec<u32> = first.pose_ids();
         let fit = identify(
             &nominal,
             option,
             &kept,
-            &index.of(chosen.iter().copied(), LOAD),
+            &inputs.measurements.of(chosen.iter().copied(), LOAD),
             &IdentifyOptions::default(),
         )
         .expect("identify");
-        for (e, t) in fit.estimates.iter().zip(&truth) {
+        for e in &fit.estimates {
+            let t = truth.get(e.id).expect("fitted key").error;
             assert!(
                 (e.error - t).abs() < 1e-6,
                 "{option} {}: {} vs true {t}",
@@ -99,14 +112,14 @@ fn exact_data_gives_exact_parameters() {
                 e.error
             );
         }
-        let rest: Vec<u32> = poses
-            .iter()
-            .map(|p| p.id)
-            .filter(|id| !chosen.contains(id))
-            .collect();
+        let rest = inputs.held_out(&chosen);
         for load in [0.0, LOAD] {
-            let v = validate(&nominal, &fit.arm, &index.of(rest.iter().copied(), load))
-                .expect("validate");
+            let v = validate(
+                &nominal,
+                &fit.arm,
+                &inputs.measurements.of(rest.iter().copied(), load),
+            )
+            .expect("validate");
             assert!(
                 v.after.max_m < 1e-5,
                 "{option} under {load} kg: max error {} m",
@@ -126,24 +139,15 @@ fn default_simulation_meets_the_issue_targets() {
     let poses = candidate_poses(&nominal);
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let inputs = Inputs::new(&nominal, &poses, &all);
     let run = |option, load, other| {
-        calibrate_option(
-            &nominal,
-            option,
-            &poses,
-            &all,
-            load,
-            Some(other),
-            &Choice::Detmax(DetmaxOptions::default()),
-            &IdentifyOptions::default(),
-            &ProgressBar::hidden(),
-        )
-        .expect("calibrate")
+        calibrate_option(&inputs, option, &settings(load, Some(other), 8), &Silent)
+            .expect("calibrate")
     };
     let ek = run(ModelOption::ElastoKinematic, LOAD, 0.0);
     let kin = run(ModelOption::Kinematic, LOAD, 0.0);
     let ela = run(ModelOption::Elastic, LOAD, 0.0);
-    let v = |r: &host::calib::pipeline::OptionResult| r.validation.clone().expect("held-out poses");
+    let v = |r: &OptionResult| r.validation.clone().expect("held-out poses");
     assert!(
         v(&ek).reduction_pct >= 85.0,
         "elasto-kinematic reduction {:.1} %",
@@ -158,7 +162,12 @@ fn default_simulation_meets_the_issue_targets() {
         ek_mm < ela_mm && ela_mm < kin_mm,
         "elasto-kinematic {ek_mm:.2}, elastic {ela_mm:.2}, kinematic {kin_mm:.2} mm"
     );
-    let cross = ek.cross_load.as_ref().expect("cross-load").1.reduction_pct;
+    let cross = ek
+        .cross_load
+        .as_ref()
+        .expect("cross-load")
+        .validation
+        .reduction_pct;
     assert!(
         cross >= 80.0,
         "identified loaded, validated unloaded: {cross:.1} %"
@@ -168,7 +177,7 @@ fn default_simulation_meets_the_issue_targets() {
         .cross_load
         .as_ref()
         .expect("cross-load")
-        .1
+        .validation
         .reduction_pct;
     assert!(
         cross >= 80.0,
@@ -184,62 +193,20 @@ fn detmax_beats_random_selection() {
     let poses = candidate_poses(&nominal);
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[LOAD]).expect("measure");
+    let inputs = Inputs::new(&nominal, &poses, &all);
     let ek = calibrate_option(
-        &nominal,
+        &inputs,
         ModelOption::ElastoKinematic,
-        &poses,
-        &all,
-        LOAD,
-        None,
-        &Choice::Detmax(DetmaxOptions::default()),
-        &IdentifyOptions::default(),
-        &ProgressBar::hidden(),
+        &settings(LOAD, None, 8),
+        &Silent,
     )
     .expect("calibrate");
-    let index = MeasurementIndex::new(&all);
-    let kept: Vec<ParamId> = ek.selection.candidates.identifiability.kept.clone();
-    let mut o1 = Vec::new();
-    let mut mean = Vec::new();
-    for seed in 0..20 {
-        let chosen = random_design(poses.len(), 50, 1000 + seed);
-        o1.push(ek.selection.candidates.observability(&chosen).o1);
-        let ids: Vec<u32> = chosen.iter().map(|&c| poses[c].id).collect();
-        let rest = index.of(
-            poses.iter().map(|p| p.id).filter(|id| !ids.contains(id)),
-            LOAD,
-        );
-        mean.push(
-            match identify(
-                &nominal,
-                ModelOption::ElastoKinematic,
-                &kept,
-                &index.of(ids, LOAD),
-                &IdentifyOptions::default(),
-            ) {
-                Ok(f) => {
-                    validate(&nominal, &f.arm, &rest)
-                        .expect("validate")
-                        .after
-                        .mean_m
-                }
-                Err(_) => f64::INFINITY,
-            },
-        );
-    }
-    let median = |mut v: Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    let detmax_mean = ek.validation.expect("held-out poses").after.mean_m;
-    assert!(
-        ek.selection.observability.o1 > median(o1.clone()),
-        "O1 {} vs {o1:?}",
-        ek.selection.observability.o1
-    );
-    assert!(
-        detmax_mean < median(mean.clone()),
-        "validation {detmax_mean} vs {mean:?}"
-    );
+    let b =
+        random_baseline(&inputs, &ek, 20, &IdentifyOptions::default(), &Silent).expect("baseline");
+    assert_eq!((b.sets, b.poses), (20, 50));
+    assert_eq!(b.detmax_o1, ek.selection.observability.o1);
+    assert!(b.detmax_o1 > b.random_o1_median, "{b:?}");
+    assert!(b.detmax_mean_m < b.random_mean_median_m, "{b:?}");
 }
 
 /// Why the bundled arm keeps the parameters it keeps: every removal is one of
@@ -249,7 +216,7 @@ fn detmax_beats_random_selection() {
 fn bundled_arm_removals_are_the_structural_redundancies() {
     let nominal = bundled();
     let poses = candidate_poses(&nominal);
-    let name = |n: &str| ParamId::from_name(n).expect("parameter name");
+    let name = |n: &str| ParamKey::from_name(n).expect("parameter name");
     let a = host::calib::identifiability::analyse(
         &nominal,
         ModelOption::ElastoKinematic,
@@ -263,14 +230,15 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
             .collect::<Vec<_>>(),
     )
     .expect("analyse");
-    assert_eq!(a.kept.len(), a.svd_rank, "{:?}", a.explain());
+    let explained = IdentifiabilityReport::from(&a);
+    assert_eq!(a.kept.len(), a.svd_rank, "{:?}", explained.removed);
     let removed = |n: &str| a.removed.iter().find(|r| r.id == name(n));
     // The measured point is the tool frame's origin: its rotation has no effect.
     for n in ["tool.roll", "tool.pitch", "tool.yaw"] {
         assert!(
             removed(n).is_some_and(|r| r.confounded_with.is_empty()),
             "{n}: {:?}",
-            a.explain()
+            explained.removed
         );
     }
     // On the level nominal base, gravity has no torque about joint 1's vertical axis.

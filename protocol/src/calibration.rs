@@ -16,7 +16,11 @@ use serde::{Deserialize, Serialize};
 pub const MAX_CALIBRATION_LEN: usize = 1024;
 
 /// Which parameters the calibration identified (METHOD.md's three options).
+///
+/// The host's files write it by [`ModelOption::name`] (serde's kebab-case
+/// names); postcard encodes the variant's index, so the names are not on the wire.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelOption {
     /// Geometric and elastic parameters (28 in the paper).
@@ -28,6 +32,9 @@ pub enum ModelOption {
 }
 
 impl ModelOption {
+    /// Every option, in the order the paper's table lists them (worst model first).
+    pub const ALL: [ModelOption; 3] = [Self::Kinematic, Self::Elastic, Self::ElastoKinematic];
+
     /// The name used on the command line and in calibration files.
     pub fn name(self) -> &'static str {
         match self {
@@ -39,9 +46,13 @@ impl ModelOption {
 
     /// The option called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        [Self::ElastoKinematic, Self::Kinematic, Self::Elastic]
-            .into_iter()
-            .find(|o| o.name() == name)
+        Self::ALL.into_iter().find(|o| o.name() == name)
+    }
+}
+
+impl core::fmt::Display for ModelOption {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.write_str(self.name())
     }
 }
 
@@ -147,5 +158,20 @@ impl Calibration {
             Ok((c, [])) if c.check().is_ok() => Some(c),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn option_names_round_trip_in_table_order() {
+        let names = ModelOption::ALL.map(ModelOption::name);
+        assert_eq!(names, ["kinematic", "elastic", "elasto-kinematic"]);
+        for o in ModelOption::ALL {
+            assert_eq!(ModelOption::from_name(o.name()), Some(o));
+        }
+        assert_eq!(ModelOption::from_name("rigid"), None);
     }
 }

@@ -15,7 +15,7 @@ use serde::{Deserialize, Serialize};
 
 use super::identify::{Estimate, Identified};
 use super::validate::ErrorStats;
-use super::{CalibError, ModelOption};
+use super::{CalibError, ModelOption, ParamKey, ParamVector};
 
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
@@ -94,7 +94,7 @@ impl CalibrationFile {
     pub fn new(
         nominal: &Arm<f64>,
         identified: &Identified,
-        removed: &[ParamId],
+        removed: &[ParamKey],
         poses_used: Vec<u32>,
         loads_kg: Vec<f64>,
         fit_residual: ErrorStats,
@@ -158,11 +158,10 @@ impl CalibrationFile {
                 "a compliance is negative; expected every compliance >= 0".into(),
             ));
         }
-        for p in &file.parameters {
-            if ParamId::from_name(&p.name).is_none() {
-                return Err(err(format!("unknown parameter name `{}`", p.name)));
-            }
-        }
+        ParamVector::<ParamKey>::from_named(
+            file.parameters.iter().map(|p| (p.name.as_str(), p.error)),
+        )
+        .map_err(|e| err(e.to_string()))?;
         Ok(file)
     }
 
@@ -206,7 +205,7 @@ mod tests {
             option: ModelOption::Elastic,
             arm: nominal.with_errors(&[k2], &[0.1]),
             estimates: vec![Estimate {
-                id: k2,
+                id: k2.into(),
                 error: 0.1,
                 value: 0.1,
                 std: Some(1e-3),
@@ -223,6 +222,7 @@ mod tests {
                 sigma_m: 0.001,
                 condition: 1.0,
             },
+            fit_residual: ErrorStats::of(&[0.001]),
             outliers: vec![],
         };
         let stats = ErrorStats::of(&[0.001]);

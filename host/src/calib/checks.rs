@@ -85,24 +85,56 @@ pub fn check_in_candidates(
     Ok(())
 }
 
+/// The load to identify under: `requested` when `file` has measurements
+/// under it, else the file's only load; refused when the file has several
+/// and none was asked for.
+pub fn identification_load(
+    loads: &[f64],
+    requested: Option<f64>,
+    file: &str,
+) -> Result<f64, CalibError> {
+    match (requested, loads) {
+        (Some(l), _) if loads.contains(&l) => Ok(l),
+        (Some(l), _) => Err(CalibError::Ambiguous {
+            what: format!(
+                "identify under {l} kg: {file} has no measurement with that load (it has {loads:?} kg)"
+            ),
+        }),
+        (None, [only]) => Ok(*only),
+        (None, _) => Err(CalibError::Ambiguous {
+            what: format!(
+                "choose the load to identify from: {file} has measurements under {loads:?} kg; pass --load-kg"
+            ),
+        }),
+    }
+}
+
+/// Refuses pose ids of the list `list_file` that `measurements_file` has no
+/// measurement of under `load_kg` (`measured` are the poses it has under it).
+pub fn check_measured(
+    ids: &[u32],
+    measured: &[Pose],
+    list_file: &str,
+    measurements_file: &str,
+    load_kg: f64,
+) -> Result<(), CalibError> {
+    match ids.iter().find(|id| !measured.iter().any(|p| p.id == **id)) {
+        Some(&pose) => Err(CalibError::PoseNotInCandidates {
+            pose,
+            file: list_file.into(),
+            detail: format!("{measurements_file} has no measurement of it under {load_kg} kg"),
+        }),
+        None => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{rigid_nominal, small_samples};
+    use crate::calib::testing::{measure, rigid_nominal, small_samples};
 
     fn measured() -> Vec<Measurement> {
-        let arm = rigid_nominal();
-        let samples = small_samples(4);
-        tool_points(&arm, &samples)
-            .unwrap()
-            .into_iter()
-            .zip(&samples)
-            .map(|(p, s)| Measurement {
-                pose: Pose { id: s.id, q: s.q },
-                load_kg: s.load_kg,
-                position: p,
-            })
-            .collect()
+        measure(&rigid_nominal(), &small_samples(4))
     }
 
     #[test]
@@ -137,5 +169,35 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("no candidate has this id"), "{e}");
+    }
+
+    #[test]
+    fn the_load_is_the_requested_one_or_the_only_one() {
+        assert_eq!(identification_load(&[0.0], None, "m.csv").unwrap(), 0.0);
+        assert_eq!(
+            identification_load(&[0.0, 0.0663], Some(0.0663), "m.csv").unwrap(),
+            0.0663
+        );
+        let e = identification_load(&[0.0, 0.0663], None, "m.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("m.csv") && e.contains("--load-kg"), "{e}");
+        let e = identification_load(&[0.0], Some(0.1), "m.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("0.1 kg") && e.contains("[0.0]"), "{e}");
+    }
+
+    #[test]
+    fn listed_poses_must_be_measured_under_the_load() {
+        let measured: Vec<Pose> = measured().iter().map(|m| m.pose).collect();
+        assert!(check_measured(&[0, 3], &measured, "list.csv", "m.csv", 0.0).is_ok());
+        let e = check_measured(&[0, 7], &measured, "list.csv", "m.csv", 0.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("pose 7 of list.csv") && e.contains("m.csv has no measurement"),
+            "{e}"
+        );
     }
 }

@@ -16,12 +16,12 @@
 //! random start invertible; the reported determinant is recomputed without it.
 //! Several seeded random starts run and the best design is kept.
 
-use indicatif::ProgressBar;
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
 use rand::{SeedableRng, rngs::StdRng};
 
 use super::CalibError;
+use super::progress::Progress;
 
 /// Settings of the exchange.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -218,11 +218,11 @@ impl<'a> State<'a> {
 }
 
 /// Selects `options.n` of the candidate `blocks` (each `r × m`, column-scaled)
-/// maximising `det(Σ AᵀA)`.
+/// maximising `det(Σ AᵀA)`; advances `progress` by one per start.
 pub fn detmax(
     blocks: &[DMatrix<f64>],
     options: &DetmaxOptions,
-    progress: &ProgressBar,
+    progress: &dyn Progress,
 ) -> Result<Design, CalibError> {
     let m = blocks.first().map(|b| b.ncols()).unwrap_or(0);
     let rows_per_pose = blocks.first().map(|b| b.nrows()).unwrap_or(0);
@@ -244,7 +244,6 @@ pub fn detmax(
     }
     let all: Vec<usize> = (0..blocks.len()).collect();
     let stacked_t = stack(blocks, &all).transpose();
-    progress.set_length(options.starts.max(1) as u64);
     let mut best: Option<Design> = None;
     let mut start_log_dets = Vec::new();
     for s in 0..options.starts.max(1) {
@@ -276,7 +275,7 @@ pub fn detmax(
                 start_log_dets: Vec::new(),
             });
         }
-        progress.inc(1);
+        progress.advance(1);
     }
     let mut best = best.ok_or_else(|| CalibError::Empty {
         what: "select poses".into(),
@@ -324,6 +323,7 @@ fn random_blocks(count: usize, m: usize, seed: u64) -> Vec<DMatrix<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::progress::Silent;
 
     /// The Woodbury-updated state agrees with a state rebuilt from scratch.
     #[test]
@@ -364,7 +364,7 @@ mod tests {
             seed: 9,
             max_excursion: 2,
         };
-        let d = detmax(&blocks, &opts, &ProgressBar::hidden()).unwrap();
+        let d = detmax(&blocks, &opts, &Silent).unwrap();
         let mut best = f64::NEG_INFINITY;
         for a in 0..12 {
             for b in a + 1..12 {
@@ -387,7 +387,7 @@ mod tests {
             n: 20,
             ..Default::default()
         };
-        let d = detmax(&blocks, &opts, &ProgressBar::hidden()).unwrap();
+        let d = detmax(&blocks, &opts, &Silent).unwrap();
         for seed in 0..20 {
             assert!(d.log_det > log_det(&blocks, &random_design(200, 20, seed)));
         }
@@ -401,7 +401,7 @@ mod tests {
             ..Default::default()
         };
         assert!(matches!(
-            detmax(&blocks, &opts, &ProgressBar::hidden()),
+            detmax(&blocks, &opts, &Silent),
             Err(CalibError::TooFewPoses { params: 10, .. })
         ));
     }

@@ -43,6 +43,23 @@ pub enum CalibError {
         /// The parameters dominating the null space.
         weakest: String,
     },
+    /// The measured poses identify fewer parameters than the arm's structure allows.
+    #[error(
+        "identify the {option} model from these measurements: the measured poses identify {identified} of the {structural} parameters that positions reveal on this arm (over the -100/0/+100 degree grid), and leave {missing} undetermined; measure poses that move these joints, e.g. chosen with `lrmcal select`"
+    )]
+    Unidentifiable {
+        /// Model option name.
+        option: String,
+        /// Parameters the measured poses identify.
+        identified: usize,
+        /// Parameters the grid identifies.
+        structural: usize,
+        /// The grid's parameters the measured poses do not identify.
+        missing: String,
+    },
+    /// Parameters given to the fit twice, or unknown to it.
+    #[error("set up the parameters to fit")]
+    Params(#[from] super::params::ParamError),
     /// A measured pose is not one of the candidate poses.
     #[error(
         "match measurements to candidates: pose {pose} of {file} is not in the candidate pose list ({detail})"

@@ -28,11 +28,14 @@
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
 
+use model::Arm;
 use model::params::ParamKind;
-use model::{Arm, ParamId};
 use nalgebra::{DMatrix, DVector};
 
 use super::jacobian::{JacobianOptions, jacobian};
+use super::observability::ColumnScale;
+use super::option::candidates;
+use super::params::ParamKey;
 use super::{CalibError, ModelOption, Sample};
 
 /// Sine of the smallest angle between a kept column and the span of the others.
@@ -42,24 +45,34 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 /// (m) has no effect: its column holds only finite-difference rounding noise.
 pub const ZERO_EFFECT_M: f64 = 1e-9;
 
-/// A typical size of an error of `id`'s kind: 1 mm, 1 mrad, 0.01 rad/Nm.
-fn typical_error(id: ParamId) -> f64 {
-    match id.kind() {
+/// A typical size of an error of `key`'s kind: 1 mm, 1 mrad, 0.01 rad/Nm.
+fn typical_error(key: ParamKey) -> f64 {
+    match key.kind() {
         ParamKind::Length | ParamKind::Angle => 1e-3,
         ParamKind::Compliance => 1e-2,
     }
+}
+
+/// The numerical rank of a matrix from its singular values: how many exceed
+/// [`RANK_TOLERANCE`] times the largest.
+fn numerical_rank(singular_values: &DVector<f64>) -> usize {
+    let smax = singular_values.max();
+    singular_values
+        .iter()
+        .filter(|&&s| s > smax * RANK_TOLERANCE)
+        .count()
 }
 
 /// A parameter removed by the analysis.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Removed {
     /// The parameter.
-    pub id: ParamId,
+    pub id: ParamKey,
     /// Sine of the angle between its column and the span of the kept columns.
     pub residual: f64,
     /// Kept parameters whose (unit) columns reproduce its column, with their
     /// coefficients, largest first; empty when the column is zero (no effect).
-    pub confounded_with: Vec<(ParamId, f64)>,
+    pub confounded_with: Vec<(ParamKey, f64)>,
 }
 
 /// The outcome of the rank analysis for one model option.
@@ -68,7 +81,7 @@ pub struct Identifiability {
     /// The option analysed.
     pub option: ModelOption,
     /// Identifiable parameters, in preference order.
-    pub kept: Vec<ParamId>,
+    pub kept: Vec<ParamKey>,
     /// Removed parameters, in preference order.
     pub removed: Vec<Removed>,
     /// Rank of all candidate columns by SVD with the same relative tolerance.
@@ -79,27 +92,8 @@ pub struct Identifiability {
 
 impl Identifiability {
     /// The removed parameters' ids, in preference order.
-    pub fn removed_ids(&self) -> Vec<ParamId> {
+    pub fn removed_ids(&self) -> Vec<ParamKey> {
         self.removed.iter().map(|r| r.id).collect()
-    }
-
-    /// Human-readable lines: one per removed parameter with what it is confounded with.
-    pub fn explain(&self) -> Vec<String> {
-        self.removed
-            .iter()
-            .map(|r| {
-                if r.confounded_with.is_empty() {
-                    format!("{}: no effect on the measured point (zero column)", r.id)
-                } else {
-                    let with: Vec<String> = r
-                        .confounded_with
-                        .iter()
-                        .map(|(p, c)| format!("{c:+.3}·{p}"))
-                        .collect();
-                    format!("{}: confounded with {}", r.id, with.join(" "))
-                }
-            })
-            .collect()
     }
 }
 
@@ -109,13 +103,17 @@ pub fn analyse(
     option: ModelOption,
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
-    let ids = option.candidates();
+    let ids = candidates(option);
     let j = jacobian(arm, &ids, samples, &JacobianOptions::default())?;
     Ok(analyse_jacobian(option, &ids, &j))
 }
 
 /// The analysis on an already computed Jacobian whose columns are `ids`.
-pub fn analyse_jacobian(option: ModelOption, ids: &[ParamId], j: &DMatrix<f64>) -> Identifiability {
+pub fn analyse_jacobian(
+    option: ModelOption,
+    ids: &[ParamKey],
+    j: &DMatrix<f64>,
+) -> Identifiability {
     let unit: Vec<DVector<f64>> = j
         .column_iter()
         .zip(ids)
@@ -167,7 +165,7 @@ pub fn analyse_jacobian(option: ModelOption, ids: &[ParamId], j: &DMatrix<f64>) 
                 let x = kept_svd
                     .solve(&unit[c], 1e-12)
                     .unwrap_or_else(|_| DVector::zeros(kept.len()));
-                let mut with: Vec<(ParamId, f64)> = kept
+                let mut with: Vec<(ParamKey, f64)> = kept
                     .iter()
                     .zip(x.iter())
                     .filter(|(_, v)| v.abs() >= 0.05)
@@ -185,9 +183,7 @@ pub fn analyse_jacobian(option: ModelOption, ids: &[ParamId], j: &DMatrix<f64>) 
         .collect();
 
     let all = DMatrix::from_columns(&unit);
-    let sv = all.svd(false, false).singular_values;
-    let smax = sv.max();
-    let svd_rank = sv.iter().filter(|&&s| s > smax * RANK_TOLERANCE).count();
+    let svd_rank = numerical_rank(&all.svd(false, false).singular_values);
     let kept_sv = &kept_svd.singular_values;
     let kept_condition = if !kept_sv.is_empty() {
         kept_sv.max() / kept_sv.min()
@@ -203,26 +199,98 @@ pub fn analyse_jacobian(option: ModelOption, ids: &[ParamId], j: &DMatrix<f64>) 
     }
 }
 
+/// Checks that `keys` are identifiable from `samples` at `arm`: the
+/// column-scaled Jacobian has full rank. When it has not, the error names the
+/// parameters that dominate the weakest direction.
+pub fn check_full_rank(
+    arm: &Arm<f64>,
+    option: ModelOption,
+    keys: &[ParamKey],
+    samples: &[Sample],
+) -> Result<(), CalibError> {
+    let j = jacobian(arm, keys, samples, &JacobianOptions::default())?;
+    let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
+    let svd = scaled.svd(false, true);
+    let rank = numerical_rank(&svd.singular_values);
+    if rank == keys.len() {
+        return Ok(());
+    }
+    let (weakest_direction, _) = svd.singular_values.argmin();
+    let weakest = svd
+        .v_t
+        .as_ref()
+        .map(|vt| {
+            let mut comps: Vec<(usize, f64)> = vt
+                .row(weakest_direction)
+                .iter()
+                .map(|v| v.abs())
+                .enumerate()
+                .collect();
+            comps.sort_by(|a, b| b.1.total_cmp(&a.1));
+            comps
+                .iter()
+                .take(3)
+                .map(|(c, _)| keys[*c].name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .unwrap_or_default();
+    Err(CalibError::RankDeficient {
+        option: option.name().into(),
+        rank,
+        params: keys.len(),
+        weakest,
+    })
+}
+
+/// Refuses a measured pose set that identifies fewer of `measured.option`'s
+/// parameters than the arm's structure allows: what the -100/0/+100° grid of
+/// every joint identifies under `load_kg` is what positions can reveal at all.
+pub fn check_structure(
+    nominal: &Arm<f64>,
+    measured: &Identifiability,
+    load_kg: f64,
+) -> Result<(), CalibError> {
+    let grid: Vec<Sample> = crate::plan::Levels::paper()
+        .grid()
+        .map(|p| Sample {
+            id: p.id,
+            q: p.q,
+            load_kg,
+        })
+        .collect();
+    let structural = analyse(nominal, measured.option, &grid)?.kept;
+    if measured.kept.len() >= structural.len() {
+        return Ok(());
+    }
+    let missing: Vec<String> = structural
+        .iter()
+        .filter(|p| !measured.kept.contains(p))
+        .map(|p| p.to_string())
+        .collect();
+    Err(CalibError::Unidentifiable {
+        option: measured.option.name().into(),
+        identified: measured.kept.len(),
+        structural: structural.len(),
+        missing: missing.join(", "),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{rigid_nominal, small_samples, test_arm};
-
-    fn name(p: &str) -> ParamId {
-        ParamId::from_name(p).unwrap()
-    }
+    use crate::calib::testing::{key as name, rigid_nominal, small_samples, test_arm};
 
     #[test]
     fn removes_tool_rotation_and_known_redundancies() {
         let samples = small_samples(40);
         let a = analyse(&rigid_nominal(), ModelOption::ElastoKinematic, &samples).unwrap();
-        eprintln!("{:#?} {} {}", a.explain(), a.svd_rank, a.kept_condition);
         // The tool point is the tool frame's origin: its rotation cannot be seen.
         for p in ["tool.roll", "tool.pitch", "tool.yaw"] {
             assert!(
                 a.removed_ids().contains(&name(p)),
                 "{p} should be removed: {:?}",
-                a.explain()
+                a.removed
             );
         }
         // On a level base, base yaw and z duplicate joint 1's theta and d.
@@ -241,6 +309,30 @@ mod tests {
     #[test]
     fn every_compliance_of_a_tilted_compliant_arm_is_identifiable() {
         let a = analyse(&test_arm(), ModelOption::Elastic, &small_samples(20)).unwrap();
-        assert_eq!(a.kept.len(), 7, "{:?}", a.explain());
+        assert_eq!(a.kept.len(), 7, "{:?}", a.removed);
+    }
+
+    /// One pose cannot identify what the grid identifies: the check names
+    /// the parameters it leaves undetermined; the grid itself passes.
+    #[test]
+    fn a_pose_set_must_identify_what_the_grid_does() {
+        let nominal = test_arm();
+        let one = analyse(&nominal, ModelOption::Elastic, &small_samples(1)).unwrap();
+        let e = check_structure(&nominal, &one, 0.0663).unwrap_err();
+        assert!(
+            matches!(e, CalibError::Unidentifiable { structural: 7, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("undetermined"), "{e}");
+        let grid: Vec<Sample> = crate::plan::Levels::paper()
+            .grid()
+            .map(|p| Sample {
+                id: p.id,
+                q: p.q,
+                load_kg: 0.0663,
+            })
+            .collect();
+        let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();
+        assert!(check_structure(&nominal, &all, 0.0663).is_ok());
     }
 }

@@ -1,15 +1,20 @@
 //! Identification: the error parameters that make the model's measured points
 //! match the measurements, by Levenberg–Marquardt (the `levenberg-marquardt`
-//! crate, MINPACK's algorithm on nalgebra).
+//! crate, MINPACK's algorithm on nalgebra), in named steps: *fit* (one LM run
+//! over the free parameters of a [`ParamVector`]), *active set* (bounds),
+//! *reweight* (Huber), *covariance* and *outliers*.
 //!
-//! **Non-negative compliances, by an active set.** The fit runs unconstrained
-//! over the free parameters (a negative compliance is only a number to the
-//! model, so the solver never sees a kink). If it ends with some total
-//! compliance below zero, those compliances are fixed at exactly zero and the
-//! fit is repeated from there; a fixed compliance is released again when the
-//! gradient says that raising it would lower the cost (the KKT multiplier has
-//! the wrong sign). This ends with every compliance either free and positive
-//! or fixed at zero with a non-negative multiplier: the constrained optimum.
+//! **Bounded parameters (non-negative compliances), by an active set.** The
+//! fit runs unconstrained over the free parameters (a negative compliance is
+//! only a number to the model, so the solver never sees a kink). If it ends
+//! with some value below its bound, those parameters are fixed at exactly the
+//! bound and the fit is repeated from there; a fixed one is released again
+//! when the gradient says that moving it off the bound would lower the cost
+//! (the KKT multiplier has the wrong sign). This ends with every bounded
+//! parameter either free and inside its bound or fixed at it with a
+//! non-negative multiplier: the constrained optimum. Should the round budget
+//! run out first, what is still outside is fixed at its bound, so the
+//! identified arm is always physical.
 //!
 //! **Standard deviations** come from the Jacobian J of the free parameters at
 //! the solution and the residual: `cov = s² (JᵀJ)⁻¹` with `s² = RSS / (3n − m)`.
@@ -24,11 +29,15 @@
 //! Gaussian residual exceeds 4.5 σ with probability 5e-4).
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use model::{Arm, ParamId};
+use model::Arm;
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
+use super::identifiability::check_full_rank;
 use super::jacobian::{JacobianOptions, jacobian, tool_points};
+use super::observability::ColumnScale;
+use super::params::{ParamKey, ParamVector};
+use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Sample};
 use crate::dataset::Measurement;
 
@@ -44,7 +53,7 @@ const CHI3_MEDIAN: f64 = 1.5382;
 pub struct IdentifyOptions {
     /// Down-weight outliers with Huber's function.
     pub robust: bool,
-    /// Most active-set rounds (each one a full LM fit).
+    /// Most active-set rounds (each one a full LM fit), over all reweighting rounds.
     pub max_active_set_rounds: usize,
     /// Most reweighting rounds of the robust fit.
     pub max_irls_rounds: usize,
@@ -64,7 +73,7 @@ impl Default for IdentifyOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Estimate {
     /// The parameter.
-    pub id: ParamId,
+    pub id: ParamKey,
     /// Identified error (correction added to the nominal value), SI units.
     pub error: f64,
     /// Nominal + error, SI units.
@@ -99,8 +108,8 @@ pub struct Diagnostics {
     pub active_set_rounds: usize,
     /// Reweighting rounds used (1 when not robust).
     pub irls_rounds: usize,
-    /// Compliances fixed at zero by the constraint.
-    pub at_bound: Vec<ParamId>,
+    /// Parameters fixed at their bound by the constraint, in fit order.
+    pub at_bound: Vec<ParamKey>,
     /// RMS of the 3D residual norm before the fit (nominal model), m.
     pub rms_before_m: f64,
     /// RMS of the 3D residual norm after the fit, m.
@@ -122,50 +131,76 @@ pub struct Identified {
     pub estimates: Vec<Estimate>,
     /// Convergence diagnostics.
     pub diagnostics: Diagnostics,
+    /// 3D error of the calibrated arm on the measurements it was fitted to (unweighted).
+    pub fit_residual: ErrorStats,
     /// Measurements named as outliers, largest residual first.
     pub outliers: Vec<Outlier>,
 }
 
-/// The LM problem over the free parameters; the fixed ones sit at their bound.
-struct Problem<'a> {
+/// The measurements of one fit, as the solver sees them.
+struct FitData<'a> {
     nominal: &'a Arm<f64>,
-    free: Vec<ParamId>,
-    fixed: Vec<ParamId>,
-    samples: &'a [Sample],
-    measured: &'a [Vector3<f64>],
+    option: ModelOption,
+    samples: Vec<Sample>,
+    measured: Vec<Vector3<f64>>,
+}
+
+impl FitData<'_> {
+    /// Norms of the 3D residuals of `arm` against the measurements, m.
+    fn residual_norms(&self, arm: &Arm<f64>) -> Result<Vec<f64>, CalibError> {
+        Ok(tool_points(arm, &self.samples)?
+            .iter()
+            .zip(&self.measured)
+            .map(|(p, m)| (p - m).norm())
+            .collect())
+    }
+
+    /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
+    fn weighted_residuals(&self, arm: &Arm<f64>, sqrt_w: &[f64]) -> Option<DVector<f64>> {
+        let points = tool_points(arm, &self.samples).ok()?;
+        let mut r = DVector::zeros(3 * points.len());
+        for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
+            r.fixed_rows_mut::<3>(3 * k)
+                .copy_from(&((p - m) * sqrt_w[k]));
+        }
+        Some(r)
+    }
+
+    /// The Jacobian of the weighted residuals with respect to `keys` at `arm`.
+    fn weighted_jacobian(
+        &self,
+        arm: &Arm<f64>,
+        keys: &[ParamKey],
+        sqrt_w: &[f64],
+    ) -> Result<DMatrix<f64>, CalibError> {
+        let mut j = jacobian(arm, keys, &self.samples, &JacobianOptions::default())?;
+        for (k, w) in sqrt_w.iter().enumerate() {
+            j.rows_mut(3 * k, 3).scale_mut(*w);
+        }
+        Ok(j)
+    }
+
+    fn solver_error(&self, reason: String) -> CalibError {
+        CalibError::Solver {
+            option: self.option.name().into(),
+            reason,
+        }
+    }
+}
+
+/// The LM problem over the free parameters; the fixed ones stay where they are.
+struct Problem<'a> {
+    data: &'a FitData<'a>,
+    params: &'a ParamVector,
+    free: Vec<ParamKey>,
     sqrt_w: &'a [f64],
     x: DVector<f64>,
 }
 
 impl Problem<'_> {
-    /// The arm at the current free errors; fixed compliances at exactly zero.
-    fn arm_at(&self, x: &DVector<f64>) -> Arm<f64> {
-        let mut arm = *self.nominal;
-        for (&id, e) in self.free.iter().zip(x.iter()) {
-            *id.value_mut(&mut arm) += *e;
-        }
-        for &id in &self.fixed {
-            *id.value_mut(&mut arm) = 0.0;
-        }
-        arm
-    }
-
-    fn weighted_residuals(&self, arm: &Arm<f64>) -> Option<DVector<f64>> {
-        let points = tool_points(arm, self.samples).ok()?;
-        let mut r = DVector::zeros(3 * points.len());
-        for (k, (p, m)) in points.iter().zip(self.measured).enumerate() {
-            r.fixed_rows_mut::<3>(3 * k)
-                .copy_from(&((p - m) * self.sqrt_w[k]));
-        }
-        Some(r)
-    }
-
-    fn weighted_jacobian(&self, arm: &Arm<f64>, ids: &[ParamId]) -> Option<DMatrix<f64>> {
-        let mut j = jacobian(arm, ids, self.samples, &JacobianOptions::default()).ok()?;
-        for (k, w) in self.sqrt_w.iter().enumerate() {
-            j.rows_mut(3 * k, 3).scale_mut(*w);
-        }
-        Some(j)
+    fn arm(&self) -> Arm<f64> {
+        self.params
+            .apply_with_free(self.data.nominal, self.x.as_slice())
     }
 }
 
@@ -183,25 +218,24 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        self.weighted_residuals(&self.arm_at(&self.x))
+        self.data.weighted_residuals(&self.arm(), self.sqrt_w)
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        self.weighted_jacobian(&self.arm_at(&self.x), &self.free)
+        self.data
+            .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
+            .ok()
     }
 }
 
-/// Norms of the 3D residuals of `arm` against the measurements, m.
-fn residual_norms(
-    arm: &Arm<f64>,
-    samples: &[Sample],
-    measured: &[Vector3<f64>],
-) -> Result<Vec<f64>, CalibError> {
-    Ok(tool_points(arm, samples)?
-        .iter()
-        .zip(measured)
-        .map(|(p, m)| (p - m).norm())
-        .collect())
+/// What the LM runs of a fit add up to.
+#[derive(Debug, Default)]
+struct Tally {
+    evaluations: usize,
+    active_set_rounds: usize,
+    irls_rounds: usize,
+    termination: String,
+    converged: bool,
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -216,214 +250,158 @@ fn robust_scale(norms: &[f64]) -> f64 {
     median / CHI3_MEDIAN
 }
 
-/// Checks that `ids` are identifiable from these samples at `arm`; names the
-/// weakest direction when they are not.
-pub fn check_rank(
-    arm: &Arm<f64>,
-    option: ModelOption,
-    ids: &[ParamId],
-    samples: &[Sample],
-) -> Result<f64, CalibError> {
-    let j = jacobian(arm, ids, samples, &JacobianOptions::default())?;
-    let scaled = super::observability::ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
-    let svd = scaled.svd(false, true);
-    let sv = &svd.singular_values;
-    let (imin, smin) = sv.argmin();
-    let smax = sv.max();
-    let rank = sv
-        .iter()
-        .filter(|&&s| s > smax * super::identifiability::RANK_TOLERANCE)
-        .count();
-    if rank < ids.len() {
-        let weakest = svd
-            .v_t
-            .as_ref()
-            .map(|vt| {
-                let row = vt.row(imin);
-                let mut comps: Vec<(usize, f64)> =
-                    row.iter().map(|v| v.abs()).enumerate().collect();
-                comps.sort_by(|a, b| b.1.total_cmp(&a.1));
-                comps
-                    .iter()
-                    .take(3)
-                    .map(|(c, _)| ids[*c].name())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            })
-            .unwrap_or_default();
-        return Err(CalibError::RankDeficient {
-            option: option.name().into(),
-            rank,
-            params: ids.len(),
-            weakest,
-        });
+/// Step *fit*: one Levenberg–Marquardt run over the free parameters of
+/// `params`, residuals weighted by `sqrt_w`; leaves the solution in `params`.
+fn fit(
+    data: &FitData,
+    params: &mut ParamVector,
+    sqrt_w: &[f64],
+    tally: &mut Tally,
+) -> Result<(), CalibError> {
+    let problem = Problem {
+        data,
+        params,
+        free: params.free().collect(),
+        sqrt_w,
+        x: DVector::from_vec(params.free_errors()),
+    };
+    let (problem, report) = LevenbergMarquardt::new()
+        .with_patience(50)
+        .minimize(problem);
+    tally.evaluations += report.number_of_evaluations;
+    tally.converged = report.termination.was_successful();
+    tally.termination = format!("{:?}", report.termination);
+    if !problem.x.iter().all(|v| v.is_finite()) {
+        return Err(data.solver_error(tally.termination.clone()));
     }
-    Ok(smax / smin)
+    let x = problem.x;
+    params.set_free(x.as_slice());
+    Ok(())
 }
 
-/// Fits the errors `ids` of `nominal` to `measurements`.
-pub fn identify(
+/// The free parameters whose value in `arm` lies below their lower bound, with the bound.
+fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
+    params
+        .free()
+        .filter_map(|k| k.lower_bound().map(|b| (k, b)))
+        .filter(|(k, b)| k.value(arm) < *b)
+        .collect()
+}
+
+/// Fixes each key at its bound: the correction that takes its nominal value there.
+fn fix_at_bound(
+    params: &mut ParamVector,
     nominal: &Arm<f64>,
-    option: ModelOption,
-    ids: &[ParamId],
-    measurements: &[Measurement],
-    options: &IdentifyOptions,
-) -> Result<Identified, CalibError> {
-    let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
-    let measured: Vec<Vector3<f64>> = measurements.iter().map(|m| m.position).collect();
-    if 3 * samples.len() < ids.len() || samples.is_empty() {
-        return Err(CalibError::TooFewPoses {
-            poses: samples.len(),
-            rows: 3 * samples.len(),
-            params: ids.len(),
-        });
+    bounds: &[(ParamKey, f64)],
+) -> Result<(), CalibError> {
+    for &(key, bound) in bounds {
+        params.fix(key, -(key.value(nominal) - bound))?;
     }
-    check_rank(nominal, option, ids, &samples)?;
-    let rms_before_m = rms(&residual_norms(nominal, &samples, &measured)?);
+    Ok(())
+}
 
-    let mut weights: Vec<f64> = vec![1.0; samples.len()];
-    let mut errors: Vec<f64> = vec![0.0; ids.len()];
-    let mut fixed: Vec<ParamId> = Vec::new();
-    let mut evaluations = 0;
-    let mut active_set_rounds = 0;
-    let mut irls_rounds = 0;
-    let mut termination = String::new();
-    let mut converged = false;
-    let rounds = if options.robust {
-        options.max_irls_rounds.max(1)
-    } else {
-        1
-    };
-    for _ in 0..rounds {
-        irls_rounds += 1;
-        let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-        // Active set: fit the free parameters, fix negative compliances at zero,
-        // release those whose multiplier has the wrong sign.
-        loop {
-            active_set_rounds += 1;
-            let free: Vec<ParamId> = ids.iter().copied().filter(|p| !fixed.contains(p)).collect();
-            let x0 = DVector::from_iterator(
-                free.len(),
-                free.iter()
-                    .map(|p| errors[ids.iter().position(|q| q == p).unwrap_or(0)]),
-            );
-            let problem = Problem {
-                nominal,
-                free: free.clone(),
-                fixed: fixed.clone(),
-                samples: &samples,
-                measured: &measured,
-                sqrt_w: &sqrt_w,
-                x: x0,
-            };
-            let (problem, report) = LevenbergMarquardt::new()
-                .with_patience(50)
-                .minimize(problem);
-            evaluations += report.number_of_evaluations;
-            converged = report.termination.was_successful();
-            termination = format!("{:?}", report.termination);
-            if !problem.x.iter().all(|v| v.is_finite()) {
-                return Err(CalibError::Solver {
-                    option: option.name().into(),
-                    reason: termination,
-                });
-            }
-            for (p, v) in free.iter().zip(problem.x.iter()) {
-                if let Some(i) = ids.iter().position(|q| q == p) {
-                    errors[i] = *v;
-                }
-            }
-            for (i, p) in ids.iter().enumerate() {
-                if fixed.contains(p) {
-                    errors[i] = -p.value(nominal);
-                }
-            }
-            let arm = problem.arm_at(&problem.x);
-            let negative: Vec<ParamId> = free
-                .iter()
-                .copied()
-                .filter(|p| !p.is_geometric() && p.value(&arm) < 0.0)
-                .collect();
-            if active_set_rounds >= options.max_active_set_rounds {
-                break;
-            }
-            if !negative.is_empty() {
-                fixed.extend(negative);
-                continue;
-            }
-            // d(cost)/d(k) for each fixed compliance at the solution.
-            if fixed.is_empty() {
-                break;
-            }
-            let (Some(r), Some(jf)) = (
-                problem.weighted_residuals(&arm),
-                problem.weighted_jacobian(&arm, &fixed),
-            ) else {
-                break;
-            };
-            let g = jf.transpose() * r;
-            let scale = jf
-                .column_iter()
-                .map(|c| c.norm())
-                .fold(0.0, f64::max)
-                .max(1e-300);
-            match g
-                .iter()
-                .enumerate()
-                .filter(|(_, v)| **v < -1e-9 * scale)
-                .min_by(|a, b| a.1.total_cmp(b.1))
-            {
-                Some((i, _)) => {
-                    fixed.remove(i);
-                }
-                None => break,
-            }
-        }
-        if !options.robust {
-            break;
-        }
-        let arm = nominal_plus(nominal, ids, &errors, &fixed);
-        let norms = residual_norms(&arm, &samples, &measured)?;
-        let c = HUBER_K * robust_scale(&norms);
-        let new: Vec<f64> = norms
-            .iter()
-            .map(|&e| if e <= c || e == 0.0 { 1.0 } else { c / e })
-            .collect();
-        let change = new
-            .iter()
-            .zip(&weights)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        weights = new;
-        if change < 1e-3 {
-            break;
-        }
+/// Step *release*: of the parameters fixed at their bound, the one whose
+/// cost gradient at `arm` is most negative, i.e. whose KKT multiplier has the
+/// wrong sign (moving it off the bound would lower the cost); none when every
+/// fixed parameter belongs there.
+fn release_candidate(
+    data: &FitData,
+    params: &ParamVector,
+    arm: &Arm<f64>,
+    sqrt_w: &[f64],
+) -> Option<ParamKey> {
+    let fixed: Vec<ParamKey> = params.fixed().collect();
+    if fixed.is_empty() {
+        return None;
     }
+    let r = data.weighted_residuals(arm, sqrt_w)?;
+    let jf = data.weighted_jacobian(arm, &fixed, sqrt_w).ok()?;
+    // d(cost)/d(correction) for each fixed parameter at the solution.
+    let g = jf.transpose() * r;
+    let scale = jf
+        .column_iter()
+        .map(|c| c.norm())
+        .fold(0.0, f64::max)
+        .max(1e-300);
+    g.iter()
+        .zip(&fixed)
+        .filter(|(v, _)| **v < -1e-9 * scale)
+        .min_by(|a, b| a.0.total_cmp(b.0))
+        .map(|(_, k)| *k)
+}
 
-    let arm = nominal_plus(nominal, ids, &errors, &fixed);
-    let norms = residual_norms(&arm, &samples, &measured).map_err(|e| CalibError::Solver {
-        option: option.name().into(),
-        reason: format!(
-            "the fit ended where the model cannot be evaluated ({e}); {} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
-            samples.len(),
-            ids.len()
-        ),
-    })?;
-    let free: Vec<ParamId> = ids.iter().copied().filter(|p| !fixed.contains(p)).collect();
-    let mut j = jacobian(&arm, &free, &samples, &JacobianOptions::default())?;
-    for (k, w) in weights.iter().enumerate() {
-        j.rows_mut(3 * k, 3).scale_mut(w.sqrt());
+/// Step *active set*: fit the free parameters, fix those that end below their
+/// bound at the bound and fit again, release a fixed one whose multiplier has
+/// the wrong sign; until neither happens or the round budget of
+/// `max_rounds` (counted over the whole identification) is spent, in which
+/// case what is still below its bound is fixed there, so the result is always
+/// a physical arm.
+fn active_set(
+    data: &FitData,
+    params: &mut ParamVector,
+    sqrt_w: &[f64],
+    max_rounds: usize,
+    tally: &mut Tally,
+) -> Result<(), CalibError> {
+    loop {
+        tally.active_set_rounds += 1;
+        fit(data, params, sqrt_w, tally)?;
+        let arm = params.apply(data.nominal);
+        let below = below_bound(params, &arm);
+        if tally.active_set_rounds >= max_rounds {
+            return fix_at_bound(params, data.nominal, &below);
+        }
+        if !below.is_empty() {
+            fix_at_bound(params, data.nominal, &below)?;
+            continue;
+        }
+        match release_candidate(data, params, &arm, sqrt_w) {
+            Some(key) => params.release(key)?,
+            None => return Ok(()),
+        }
     }
-    let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
-    let dof = (3 * samples.len()).saturating_sub(free.len()).max(1);
+}
+
+/// Step *reweight*: Huber weights of the measurements from their residual norms.
+fn huber_weights(norms: &[f64]) -> Vec<f64> {
+    let c = HUBER_K * robust_scale(norms);
+    norms
+        .iter()
+        .map(|&e| if e <= c || e == 0.0 { 1.0 } else { c / e })
+        .collect()
+}
+
+/// The fit's uncertainty at its solution.
+#[derive(Clone, Debug, PartialEq)]
+struct Covariance {
+    /// Residual deviation per coordinate, m.
+    sigma_m: f64,
+    /// Condition number of the column-scaled, weighted Jacobian.
+    condition: f64,
+    /// One standard deviation per free parameter, in `free` order, SI units.
+    std: Vec<f64>,
+}
+
+/// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
+/// with `s² = RSS / (3n − m)` of the weighted residual norms.
+fn covariance(
+    data: &FitData,
+    arm: &Arm<f64>,
+    free: &[ParamKey],
+    weights: &[f64],
+    norms: &[f64],
+) -> Result<Covariance, CalibError> {
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let j = data.weighted_jacobian(arm, free, &sqrt_w)?;
+    let rss: f64 = norms.iter().zip(weights).map(|(e, w)| w * e * e).sum();
+    let dof = (3 * data.samples.len()).saturating_sub(free.len()).max(1);
     let sigma_m = (rss / dof as f64).sqrt();
-    let scale = super::observability::ColumnScale::from_jacobian(&j, samples.len());
-    let js = scale.apply(&j);
-    let svd = js.svd(true, true);
+    let scale = ColumnScale::from_jacobian(&j, data.samples.len());
+    let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
     let vt = svd.v_t.as_ref();
-    let std_free: Vec<f64> = (0..free.len())
+    let std = (0..free.len())
         .map(|c| {
             let var: f64 = vt
                 .map(|vt| {
@@ -437,17 +415,17 @@ pub fn identify(
             sigma_m * var.sqrt() * scale.factors[c]
         })
         .collect();
-    let estimates = ids
-        .iter()
-        .zip(&errors)
-        .map(|(&id, &error)| Estimate {
-            id,
-            error,
-            value: id.value(&arm),
-            std: free.iter().position(|p| *p == id).map(|i| std_free[i]),
-        })
-        .collect();
-    let s = robust_scale(&norms);
+    Ok(Covariance {
+        sigma_m,
+        condition,
+        std,
+    })
+}
+
+/// Step *outliers*: the measurements whose residual norm exceeds
+/// [`OUTLIER_K`] robust scales, largest first.
+fn name_outliers(samples: &[Sample], norms: &[f64], weights: &[f64]) -> Vec<Outlier> {
+    let s = robust_scale(norms);
     let mut outliers: Vec<Outlier> = norms
         .iter()
         .enumerate()
@@ -460,64 +438,142 @@ pub fn identify(
         })
         .collect();
     outliers.sort_by(|a, b| b.residual_m.total_cmp(&a.residual_m));
+    outliers
+}
+
+/// Fits the errors `keys` of `nominal` to `measurements`: the active-set fit,
+/// inside Huber reweighting when `options.robust`, then the covariance and
+/// the outliers at the solution.
+pub fn identify(
+    nominal: &Arm<f64>,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<Identified, CalibError> {
+    let data = FitData {
+        nominal,
+        option,
+        samples: measurements.iter().map(Sample::from).collect(),
+        measured: measurements.iter().map(|m| m.position).collect(),
+    };
+    let n = data.samples.len();
+    if 3 * n < keys.len() || n == 0 {
+        return Err(CalibError::TooFewPoses {
+            poses: n,
+            rows: 3 * n,
+            params: keys.len(),
+        });
+    }
+    check_full_rank(nominal, option, keys, &data.samples)?;
+    let rms_before_m = rms(&data.residual_norms(nominal)?);
+
+    let mut params = ParamVector::new(keys.iter().copied())?;
+    let mut weights: Vec<f64> = vec![1.0; n];
+    let mut tally = Tally::default();
+    let rounds = if options.robust {
+        options.max_irls_rounds.max(1)
+    } else {
+        1
+    };
+    for _ in 0..rounds {
+        tally.irls_rounds += 1;
+        let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+        active_set(
+            &data,
+            &mut params,
+            &sqrt_w,
+            options.max_active_set_rounds,
+            &mut tally,
+        )?;
+        if !options.robust {
+            break;
+        }
+        let new = huber_weights(&data.residual_norms(&params.apply(nominal))?);
+        let change = new
+            .iter()
+            .zip(&weights)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        weights = new;
+        if change < 1e-3 {
+            break;
+        }
+    }
+
+    let arm = params.apply(nominal);
+    let norms = data.residual_norms(&arm).map_err(|e| {
+        data.solver_error(format!(
+            "the fit ended where the model cannot be evaluated ({e}); {n} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
+            keys.len()
+        ))
+    })?;
+    let free: Vec<ParamKey> = params.free().collect();
+    let cov = covariance(&data, &arm, &free, &weights, &norms)?;
+    let mut std = cov.std.into_iter();
+    let estimates = params
+        .iter()
+        .map(|p| Estimate {
+            id: p.key,
+            error: p.error,
+            value: p.key.value(&arm),
+            std: if p.fixed { None } else { std.next() },
+        })
+        .collect();
     Ok(Identified {
         option,
         arm,
         estimates,
         diagnostics: Diagnostics {
-            termination,
-            converged,
-            evaluations,
-            active_set_rounds,
-            irls_rounds,
-            at_bound: fixed,
+            termination: tally.termination,
+            converged: tally.converged,
+            evaluations: tally.evaluations,
+            active_set_rounds: tally.active_set_rounds,
+            irls_rounds: tally.irls_rounds,
+            at_bound: params.fixed().collect(),
             rms_before_m,
             rms_after_m: rms(&norms),
-            sigma_m,
-            condition,
+            sigma_m: cov.sigma_m,
+            condition: cov.condition,
         },
-        outliers,
+        fit_residual: ErrorStats::of(&norms),
+        outliers: name_outliers(&data.samples, &norms, &weights),
     })
-}
-
-/// The nominal arm with `errors` applied; compliances in `fixed` at exactly zero.
-fn nominal_plus(
-    nominal: &Arm<f64>,
-    ids: &[ParamId],
-    errors: &[f64],
-    fixed: &[ParamId],
-) -> Arm<f64> {
-    let mut arm = nominal.with_errors(ids, errors);
-    for &id in fixed {
-        *id.value_mut(&mut arm) = 0.0;
-    }
-    arm
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{rigid_nominal, small_samples, true_errors};
-    use crate::dataset::Pose;
+    use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
+    use model::ParamId;
 
-    fn measure(arm: &Arm<f64>, samples: &[Sample]) -> Vec<Measurement> {
-        tool_points(arm, samples)
-            .unwrap()
-            .into_iter()
-            .zip(samples)
-            .map(|(p, s)| Measurement {
-                pose: Pose { id: s.id, q: s.q },
-                load_kg: s.load_kg,
-                position: p,
-            })
-            .collect()
+    fn elastic_keys() -> Vec<ParamKey> {
+        ["k2", "k3", "k4", "k5", "k0"].map(key).to_vec()
     }
 
-    fn elastic_ids() -> Vec<ParamId> {
-        ["k2", "k3", "k4", "k5", "k0"]
-            .iter()
-            .map(|n| ParamId::from_name(n).unwrap())
-            .collect()
+    /// `nominal` with `errors` added to `keys`.
+    fn with_errors(nominal: &Arm<f64>, keys: &[ParamKey], errors: &[f64]) -> Arm<f64> {
+        let mut v = ParamVector::new(keys.iter().copied()).unwrap();
+        for (k, e) in keys.iter().zip(errors) {
+            v.set(*k, *e).unwrap();
+        }
+        v.apply(nominal)
+    }
+
+    fn fit_data<'a>(nominal: &'a Arm<f64>, meas: &[Measurement]) -> FitData<'a> {
+        FitData {
+            nominal,
+            option: ModelOption::Elastic,
+            samples: meas.iter().map(Sample::from).collect(),
+            measured: meas.iter().map(|m| m.position).collect(),
+        }
+    }
+
+    /// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
+    fn upward_sag(nominal: &Arm<f64>) -> Vec<Measurement> {
+        let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]);
+        true_arm.joints[2].compliance = -0.05;
+        measure(&true_arm, &small_samples(16))
     }
 
     /// Noise-free data of a true arm that differs only in compliances: the fit
@@ -525,14 +581,13 @@ mod tests {
     #[test]
     fn recovers_compliances_exactly() {
         let nominal = rigid_nominal();
-        let ids = elastic_ids();
+        let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
-        let true_arm = nominal.with_errors(&ids, &truth);
-        let meas = measure(&true_arm, &small_samples(16));
+        let meas = measure(&with_errors(&nominal, &keys, &truth), &small_samples(16));
         let fit = identify(
             &nominal,
             ModelOption::Elastic,
-            &ids,
+            &keys,
             &meas,
             &IdentifyOptions::default(),
         )
@@ -541,6 +596,8 @@ mod tests {
             assert!((e.error - t).abs() < 1e-8, "{}: {} vs {t}", e.id, e.error);
         }
         assert!(fit.diagnostics.rms_after_m < 1e-9);
+        assert!(fit.fit_residual.max_m < 1e-9);
+        assert_eq!(fit.fit_residual.count, meas.len());
         assert!(fit.diagnostics.converged, "{}", fit.diagnostics.termination);
     }
 
@@ -549,15 +606,11 @@ mod tests {
     #[test]
     fn compliances_never_go_negative() {
         let nominal = rigid_nominal();
-        let ids = elastic_ids();
-        // Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
-        let mut true_arm = nominal.with_errors(&ids, &[0.1, 0.0, 0.08, 0.03, 0.02]);
-        true_arm.joints[2].compliance = -0.05;
-        let meas = measure(&true_arm, &small_samples(16));
+        let meas = upward_sag(&nominal);
         let fit = identify(
             &nominal,
             ModelOption::Elastic,
-            &ids,
+            &elastic_keys(),
             &meas,
             &IdentifyOptions::default(),
         )
@@ -565,31 +618,144 @@ mod tests {
         assert!(
             fit.arm.joints.iter().all(|j| j.compliance >= 0.0) && fit.arm.base_compliance >= 0.0
         );
-        let k3 = ParamId::from_name("k3").unwrap();
         assert!(
-            fit.diagnostics.at_bound.contains(&k3),
+            fit.diagnostics.at_bound.contains(&key("k3")),
             "{:?}",
             fit.estimates
         );
         // KKT: raising any compliance held at zero makes the fit worse.
-        let samples: Vec<Sample> = meas.iter().map(Sample::from).collect();
-        let points: Vec<Vector3<f64>> = meas.iter().map(|m| m.position).collect();
-        let cost = |arm: &Arm<f64>| rms(&residual_norms(arm, &samples, &points).unwrap());
+        let data = fit_data(&nominal, &meas);
+        let cost = |arm: &Arm<f64>| rms(&data.residual_norms(arm).unwrap());
         for &p in &fit.diagnostics.at_bound {
-            let raised = fit.arm.with_errors(&[p], &[1e-4]);
+            let raised = with_errors(&fit.arm, &[p], &[1e-4]);
             assert!(cost(&raised) > cost(&fit.arm), "{p} should stay at zero");
         }
         assert!(fit.estimates[1].std.is_none());
+    }
+
+    /// With the round budget spent before the bound is met, the compliance is
+    /// fixed at its bound anyway: the estimate and the arm agree, and the arm
+    /// is physical.
+    #[test]
+    fn a_spent_round_budget_still_ends_inside_the_bounds() {
+        let nominal = rigid_nominal();
+        let one_round = IdentifyOptions {
+            max_active_set_rounds: 1,
+            ..Default::default()
+        };
+        let fit = identify(
+            &nominal,
+            ModelOption::Elastic,
+            &elastic_keys(),
+            &upward_sag(&nominal),
+            &one_round,
+        )
+        .unwrap();
+        assert_eq!(fit.diagnostics.active_set_rounds, 1);
+        assert_eq!(fit.diagnostics.at_bound, [key("k3")]);
+        let k3 = fit.estimates[1];
+        assert_eq!((k3.id, k3.value, k3.std), (key("k3"), 0.0, None));
+        assert_eq!(fit.arm.joints[2].compliance, 0.0);
+        for e in &fit.estimates {
+            assert_eq!(e.value, e.id.value(&nominal) + e.error, "{}", e.id);
+        }
+    }
+
+    /// A compliance held at zero while the data want it positive is the one
+    /// the active set releases; one that belongs at zero is not.
+    #[test]
+    fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
+        let nominal = rigid_nominal();
+        let keys = elastic_keys();
+        let meas = measure(
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &small_samples(16),
+        );
+        let data = fit_data(&nominal, &meas);
+        let sqrt_w = vec![1.0; meas.len()];
+        let mut params = ParamVector::new(keys.iter().copied()).unwrap();
+        params.fix(key("k4"), 0.0).unwrap();
+        let arm = params.apply(&nominal);
+        assert_eq!(
+            release_candidate(&data, &params, &arm, &sqrt_w),
+            Some(key("k4"))
+        );
+        let sagging_up = upward_sag(&nominal);
+        let data = fit_data(&nominal, &sagging_up);
+        let mut params = ParamVector::new(keys.iter().copied()).unwrap();
+        for (k, e) in keys.iter().zip([0.1, 0.0, 0.08, 0.03, 0.02]) {
+            params.set(*k, e).unwrap();
+        }
+        params.fix(key("k3"), 0.0).unwrap();
+        assert_eq!(
+            release_candidate(&data, &params, &params.apply(&nominal), &sqrt_w),
+            None
+        );
+    }
+
+    /// The covariance from the scaled SVD equals `s² (JᵀJ)⁻¹` computed directly.
+    #[test]
+    fn covariance_matches_the_normal_equations() {
+        let nominal = rigid_nominal();
+        let keys = elastic_keys();
+        let mut meas = measure(
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &small_samples(16),
+        );
+        for (k, m) in meas.iter_mut().enumerate() {
+            m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
+        }
+        let data = fit_data(&nominal, &meas);
+        let arm = nominal;
+        let norms = data.residual_norms(&arm).unwrap();
+        let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
+        let cov = covariance(&data, &arm, &keys, &weights, &norms).unwrap();
+        let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+        let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
+        let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
+        let s2 = rss / (3 * meas.len() - keys.len()) as f64;
+        let direct = (j.transpose() * &j).try_inverse().unwrap() * s2;
+        assert!((cov.sigma_m - s2.sqrt()).abs() < 1e-15);
+        for (c, std) in cov.std.iter().enumerate() {
+            let expected = direct[(c, c)].sqrt();
+            assert!(
+                (std - expected).abs() < 1e-8 * expected,
+                "{}: {std} vs {expected}",
+                keys[c]
+            );
+        }
+    }
+
+    #[test]
+    fn huber_weights_down_weight_only_beyond_the_threshold() {
+        // Median 1.5382 makes the robust scale 1, so the threshold is HUBER_K.
+        let norms = [0.0, 1.0, 1.2, 1.5382, 2.9, 6.0, 30.0];
+        let w = huber_weights(&norms);
+        assert_eq!(w[..5], [1.0; 5]);
+        assert!((w[5] - HUBER_K / 6.0).abs() < 1e-12);
+        assert!((w[6] - HUBER_K / 30.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn outliers_are_named_largest_first() {
+        let samples = small_samples(7);
+        let norms = [1.0, 1.5382, 9.0, 2.0, 0.5, 4.4, 7.0];
+        let weights = [1.0, 1.0, 0.3, 1.0, 1.0, 1.0, 0.4];
+        let o = name_outliers(&samples, &norms, &weights);
+        let named: Vec<(u32, f64)> = o.iter().map(|o| (o.pose, o.weight)).collect();
+        assert_eq!(named, [(2, 0.3), (6, 0.4)]);
+        assert_eq!(o[0].load_kg, samples[2].load_kg);
+        assert!(name_outliers(&samples, &[0.0; 7], &weights).is_empty());
     }
 
     /// One corrupted measurement is named, and the robust fit is not pulled by it.
     #[test]
     fn robust_fit_names_and_ignores_an_outlier() {
         let nominal = rigid_nominal();
-        let ids = elastic_ids();
+        let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
         let samples = small_samples(24);
-        let mut meas = measure(&nominal.with_errors(&ids, &truth), &samples);
+        let mut meas = measure(&with_errors(&nominal, &keys, &truth), &samples);
         // Small noise so the robust scale is not zero, then one gross error.
         for (k, m) in meas.iter_mut().enumerate() {
             m.position.x += 1e-4 * ((k * 7 % 5) as f64 - 2.0);
@@ -599,13 +765,13 @@ mod tests {
             robust: true,
             ..Default::default()
         };
-        let fit = identify(&nominal, ModelOption::Elastic, &ids, &meas, &robust).unwrap();
+        let fit = identify(&nominal, ModelOption::Elastic, &keys, &meas, &robust).unwrap();
         assert_eq!(fit.outliers.first().map(|o| o.pose), Some(meas[5].pose.id));
         assert!(fit.outliers[0].weight < 0.1);
         let plain = identify(
             &nominal,
             ModelOption::Elastic,
-            &ids,
+            &keys,
             &meas,
             &IdentifyOptions::default(),
         )
@@ -628,9 +794,9 @@ mod tests {
     #[test]
     fn too_few_and_rank_deficient_sets_are_refused() {
         let nominal = rigid_nominal();
-        let all: Vec<ParamId> = ParamId::all().collect();
+        let all: Vec<ParamKey> = ParamId::all().map(ParamKey::Arm).collect();
         let meas = measure(
-            &nominal.with_errors(&all, &true_errors(1)),
+            &with_errors(&nominal, &all, &true_errors(1)),
             &small_samples(20),
         );
         let opts = IdentifyOptions::default();

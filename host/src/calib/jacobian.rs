@@ -16,9 +16,10 @@
 //! ever has a negative compliance: the selection sees the physical model only.
 
 use model::params::ParamKind;
-use model::{Arm, ParamId, SolverOptions};
+use model::{Arm, SolverOptions};
 use nalgebra::{DMatrix, Vector3};
 
+use super::params::ParamKey;
 use super::{CalibError, Sample};
 
 /// How the finite-difference steps are chosen.
@@ -35,7 +36,7 @@ impl Default for JacobianOptions {
 }
 
 /// The central-difference step for `id` at its current `value`.
-pub fn step(id: ParamId, value: f64, options: &JacobianOptions) -> f64 {
+pub fn step(id: ParamKey, value: f64, options: &JacobianOptions) -> f64 {
     let typical = match id.kind() {
         ParamKind::Length => 0.1,
         ParamKind::Angle => 1.0,
@@ -75,9 +76,9 @@ fn accumulate(j: &mut DMatrix<f64>, col: usize, points: &[Vector3<f64>], factor:
 /// The arm with `delta` added to parameter `id`, without clamping (a
 /// difference step may pass through negative compliance only when the caller
 /// allows it).
-fn perturbed(arm: &Arm<f64>, id: ParamId, delta: f64) -> Arm<f64> {
+fn perturbed(arm: &Arm<f64>, id: ParamKey, delta: f64) -> Arm<f64> {
     let mut a = *arm;
-    *id.value_mut(&mut a) += delta;
+    *id.slot(&mut a) += delta;
     a
 }
 
@@ -86,7 +87,7 @@ fn perturbed(arm: &Arm<f64>, id: ParamId, delta: f64) -> Arm<f64> {
 /// evaluated at `arm`, in m per unit of each parameter.
 pub fn jacobian(
     arm: &Arm<f64>,
-    ids: &[ParamId],
+    ids: &[ParamKey],
     samples: &[Sample],
     options: &JacobianOptions,
 ) -> Result<DMatrix<f64>, CalibError> {
@@ -142,7 +143,7 @@ mod tests {
     #[test]
     fn agrees_with_a_second_step_size() {
         let arm = test_arm();
-        let ids: Vec<ParamId> = ParamId::all().collect();
+        let ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
         let samples = small_samples(6);
         let j1 = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
         let j2 = jacobian(&arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
@@ -161,9 +162,9 @@ mod tests {
     #[test]
     fn frame_columns_match_their_meaning() {
         let arm = test_arm();
-        let ids: Vec<ParamId> = ["base.x", "base.z", "tool.roll"]
+        let ids: Vec<ParamKey> = ["base.x", "base.z", "tool.roll"]
             .iter()
-            .map(|n| ParamId::from_name(n).unwrap())
+            .map(|n| ParamKey::from_name(n).unwrap())
             .collect();
         let samples = small_samples(5);
         let j = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
@@ -183,8 +184,8 @@ mod tests {
     fn compliance_column_at_zero_is_joint_column_times_torque() {
         let mut arm = test_arm();
         arm.joints[1].compliance = 0.0;
-        let k2 = ParamId::from_name("k2").unwrap();
-        let theta2 = ParamId::from_name("j2.theta").unwrap();
+        let k2 = ParamKey::from_name("k2").unwrap();
+        let theta2 = ParamKey::from_name("j2.theta").unwrap();
         let samples = small_samples(4);
         let j = jacobian(&arm, &[k2, theta2], &samples, &JacobianOptions::default()).unwrap();
         let chain = arm.chain();

@@ -4,18 +4,22 @@
 //!
 //! | module | stage |
 //! |---|---|
-//! | [`option`] | the three model options and their candidate parameters |
+//! | [`params`] | the free parameters: typed keys and the registry of their values |
+//! | [`option`] | the candidate parameters of each model option |
 //! | [`jacobian`] | d(measured point)/d(error parameters), through the elastic model |
 //! | [`identifiability`] | the largest identifiable parameter subset, by rank analysis |
 //! | [`observability`] | column scaling and the observability indices O1..O5 |
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
-//! | [`identify`] | Levenberg–Marquardt fit with non-negative compliances, robust option |
+//! | [`identify`] | Levenberg–Marquardt fit in named steps: active set for bounds, robust option |
 //! | [`validate`] | error statistics before/after on held-out poses |
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
+//! | [`pipeline`] | select → identify → validate for one option |
+//! | [`experiments`] | DETMAX against random selections, O1 against the number of poses |
 //! | [`calibration_file`] | the calibration JSON the firmware receives |
-//! | [`report`] | the machine-readable report and the paper-style table |
+//! | [`report`] | the machine-readable report, schema header included |
+//! | [`summary`] | the paper-style table and the lines the commands print |
 //! | [`plots`] | the figures a person looks at first (SVG + PNG) |
-//! | [`pipeline`] | select → identify → validate for one option, as the demo runs it |
+//! | [`progress`] | how long steps report progress without a terminal |
 //!
 //! Each stage is a plain function over `model` types so it can be tested and
 //! benchmarked alone; the subcommands in `crate::commands` only read files,
@@ -25,20 +29,25 @@ pub mod calibration_file;
 pub mod checks;
 pub mod detmax;
 pub mod error;
+pub mod experiments;
 pub mod identifiability;
 pub mod identify;
 pub mod jacobian;
 pub mod observability;
 pub mod option;
+pub mod params;
 pub mod pipeline;
 pub mod plots;
+pub mod progress;
 pub mod report;
+pub mod summary;
 #[cfg(test)]
 mod testing;
 pub mod validate;
 
 pub use error::CalibError;
-pub use option::ModelOption;
+pub use params::{ParamKey, ParamVector};
+pub use protocol::ModelOption;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,11 +1,15 @@
-//! The stages chained as the demo (and `identify --select N`) run them for one
-//! model option: rank analysis over the candidates, DETMAX selection,
-//! identification on the selected poses, validation on the rest, and the
-//! cross-load check.
+//! The stages chained for one model option, as `lrmcal identify` and the demo
+//! run them: rank analysis over the candidates, pose selection (DETMAX or
+//! given), identification on the selected poses, validation on the rest, and
+//! the cross-load check.
+//!
+//! The candidates' analysis ([`CandidateBlocks`]: a finite-difference
+//! Jacobian over every candidate) is the costly part; it is built once per
+//! option and carried in the result, so what follows (checks, experiments,
+//! reports) reuses it.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
-use indicatif::ProgressBar;
 use model::Arm;
 use nalgebra::DMatrix;
 
@@ -14,7 +18,9 @@ use super::identifiability::{Identifiability, analyse_jacobian};
 use super::identify::{Identified, IdentifyOptions, identify};
 use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::{ColumnScale, Observability};
-use super::validate::{Validation, validate};
+use super::option::candidates as option_candidates;
+use super::progress::Progress;
+use super::validate::{LoadValidation, Validation, validate};
 use super::{CalibError, ModelOption, Sample};
 use crate::dataset::{Measurement, Pose};
 
@@ -53,13 +59,15 @@ impl CandidateBlocks {
                 })
             })
             .collect();
-        let ids = option.candidates();
+        let ids = option_candidates(option);
         let j = jacobian(nominal, &ids, &samples, &JacobianOptions::default())?;
         let identifiability = analyse_jacobian(option, &ids, &j);
-        let cols: Vec<usize> = identifiability
-            .kept
+        // The kept parameters are a subsequence of the candidates, in order.
+        let cols: Vec<usize> = ids
             .iter()
-            .filter_map(|k| ids.iter().position(|p| p == k))
+            .enumerate()
+            .filter(|(_, k)| identifiability.kept.contains(k))
+            .map(|(c, _)| c)
             .collect();
         let kept = j.select_columns(&cols);
         let scale = ColumnScale::from_jacobian(&kept, candidates.len());
@@ -71,13 +79,18 @@ impl CandidateBlocks {
         })
     }
 
+    /// The option analysed.
+    pub fn option(&self) -> ModelOption {
+        self.identifiability.option
+    }
+
     /// O1..O5 of the candidate subset `chosen` (indices into the candidates).
     pub fn observability(&self, chosen: &[usize]) -> Observability {
         Observability::of_scaled(&stack(&self.blocks, chosen), chosen.len())
     }
 }
 
-/// A DETMAX selection for one option.
+/// A pose selection for one option.
 #[derive(Clone, Debug)]
 pub struct Selection {
     /// The option.
@@ -101,6 +114,59 @@ pub enum Choice {
     Given(Vec<u32>),
 }
 
+impl Selection {
+    /// Chooses among `candidates`, whose analysis is `blocks`; a DETMAX
+    /// choice reports one progress unit per start.
+    pub fn choose(
+        blocks: CandidateBlocks,
+        candidates: &[Pose],
+        choice: &Choice,
+        progress: &dyn Progress,
+    ) -> Result<Self, CalibError> {
+        let design = match choice {
+            Choice::Detmax(options) => {
+                progress.begin(
+                    &format!("{}: DETMAX starts", blocks.option()),
+                    options.starts.max(1) as u64,
+                );
+                let design = detmax(&blocks.blocks, options, progress);
+                progress.end();
+                design?
+            }
+            Choice::Given(ids) => {
+                let chosen = ids
+                    .iter()
+                    .map(|id| {
+                        candidates.iter().position(|p| p.id == *id).ok_or_else(|| {
+                            CalibError::PoseNotInCandidates {
+                                pose: *id,
+                                file: "the pose selection".into(),
+                                detail: "no candidate (measured pose) has this id".into(),
+                            }
+                        })
+                    })
+                    .collect::<Result<Vec<usize>, _>>()?;
+                let log_det = log_det(&blocks.blocks, &chosen);
+                Design {
+                    chosen,
+                    log_det,
+                    excursions: 0,
+                    start_log_dets: vec![log_det],
+                }
+            }
+        };
+        let observability = blocks.observability(&design.chosen);
+        let poses = design.chosen.iter().map(|&c| candidates[c]).collect();
+        Ok(Self {
+            option: blocks.option(),
+            candidates: blocks,
+            design,
+            poses,
+            observability,
+        })
+    }
+}
+
 /// Chooses poses among `candidates` for `option`, measured under `loads_kg`.
 pub fn select(
     nominal: &Arm<f64>,
@@ -108,42 +174,10 @@ pub fn select(
     candidates: &[Pose],
     loads_kg: &[f64],
     choice: &Choice,
-    progress: &ProgressBar,
+    progress: &dyn Progress,
 ) -> Result<Selection, CalibError> {
     let blocks = CandidateBlocks::build(nominal, option, candidates, loads_kg)?;
-    let design = match choice {
-        Choice::Detmax(options) => detmax(&blocks.blocks, options, progress)?,
-        Choice::Given(ids) => {
-            let chosen = ids
-                .iter()
-                .map(|id| {
-                    candidates.iter().position(|p| p.id == *id).ok_or_else(|| {
-                        CalibError::PoseNotInCandidates {
-                            pose: *id,
-                            file: "the pose selection".into(),
-                            detail: "no candidate (measured pose) has this id".into(),
-                        }
-                    })
-                })
-                .collect::<Result<Vec<usize>, _>>()?;
-            let log_det = log_det(&blocks.blocks, &chosen);
-            Design {
-                chosen,
-                log_det,
-                excursions: 0,
-                start_log_dets: vec![log_det],
-            }
-        }
-    };
-    let observability = blocks.observability(&design.chosen);
-    let poses = design.chosen.iter().map(|&c| candidates[c]).collect();
-    Ok(Selection {
-        option,
-        candidates: blocks,
-        design,
-        poses,
-        observability,
-    })
+    Selection::choose(blocks, candidates, choice, progress)
 }
 
 /// Measurements indexed by (pose id, load).
@@ -171,10 +205,61 @@ impl<'a> MeasurementIndex<'a> {
     }
 }
 
-/// Everything the demo learns about one option.
+/// What the runs of one calibration work from: the nominal arm, the candidate
+/// poses selection chooses among, and every measurement, indexed once.
+pub struct Inputs<'a> {
+    /// The nominal arm.
+    pub nominal: &'a Arm<f64>,
+    /// The candidate poses, in order (a selection's indices point here).
+    pub candidates: &'a [Pose],
+    /// The measurements by (pose, load).
+    pub measurements: MeasurementIndex<'a>,
+}
+
+impl<'a> Inputs<'a> {
+    /// Indexes `measurements` of `candidates` for `nominal`.
+    pub fn new(
+        nominal: &'a Arm<f64>,
+        candidates: &'a [Pose],
+        measurements: &'a [Measurement],
+    ) -> Self {
+        Self {
+            nominal,
+            candidates,
+            measurements: MeasurementIndex::new(measurements),
+        }
+    }
+
+    /// The ids of the candidates not in `chosen` (pose ids), in candidate order.
+    pub fn held_out(&self, chosen: &[u32]) -> Vec<u32> {
+        let chosen: HashSet<u32> = chosen.iter().copied().collect();
+        self.candidates
+            .iter()
+            .map(|p| p.id)
+            .filter(|id| !chosen.contains(id))
+            .collect()
+    }
+}
+
+/// How one option is calibrated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunSettings {
+    /// The load whose measurements are fitted and validated on, kg.
+    pub identify_load_kg: f64,
+    /// Another measured load to validate on (the cross-load check), kg.
+    pub other_load_kg: Option<f64>,
+    /// How the poses are chosen.
+    pub choice: Choice,
+    /// How the fit runs.
+    pub identify: IdentifyOptions,
+}
+
+/// Everything one option's run learns.
 #[derive(Clone, Debug)]
 pub struct OptionResult {
-    /// The selection.
+    /// The load the fit used, kg.
+    pub identify_load_kg: f64,
+    /// The selection, with the candidates' analysis.
     pub selection: Selection,
     /// The identification on the selected poses.
     pub identified: Identified,
@@ -182,64 +267,94 @@ pub struct OptionResult {
     /// (none when every candidate was used for the fit).
     pub validation: Option<Validation>,
     /// Validation on the other candidates under the other load, if measured.
-    pub cross_load: Option<(f64, Validation)>,
+    pub cross_load: Option<LoadValidation>,
 }
 
-/// Selects, identifies and validates `option`: identification under
-/// `identify_load_kg`, validation on every candidate not selected under the
-/// same load and, when given, under `other_load_kg`.
-#[allow(clippy::too_many_arguments)]
+impl OptionResult {
+    /// The option.
+    pub fn option(&self) -> ModelOption {
+        self.selection.option
+    }
+
+    /// Ids of the poses the fit used.
+    pub fn pose_ids(&self) -> Vec<u32> {
+        self.selection.poses.iter().map(|p| p.id).collect()
+    }
+
+    /// The validation on held-out poses, which a run over every candidate does not have.
+    pub fn held_out(&self) -> Result<&Validation, CalibError> {
+        self.validation.as_ref().ok_or_else(|| CalibError::Empty {
+            what: format!(
+                "validate the {} calibration: every candidate was selected, none is left to validate on",
+                self.option()
+            ),
+        })
+    }
+}
+
+/// Selects, identifies and validates `option` over `inputs` as `settings` say.
 pub fn calibrate_option(
-    nominal: &Arm<f64>,
+    inputs: &Inputs,
     option: ModelOption,
-    candidates: &[Pose],
-    measurements: &[Measurement],
-    identify_load_kg: f64,
-    other_load_kg: Option<f64>,
-    choice: &Choice,
-    identify_options: &IdentifyOptions,
-    progress: &ProgressBar,
+    settings: &RunSettings,
+    progress: &dyn Progress,
 ) -> Result<OptionResult, CalibError> {
-    let selection = select(
-        nominal,
+    let blocks = CandidateBlocks::build(
+        inputs.nominal,
         option,
-        candidates,
-        &[identify_load_kg],
-        choice,
-        progress,
+        inputs.candidates,
+        &[settings.identify_load_kg],
     )?;
-    let index = MeasurementIndex::new(measurements);
+    calibrate_blocks(inputs, blocks, settings, progress)
+}
+
+/// [`calibrate_option`] from the candidates' analysis `blocks` (built under
+/// the identification load), when the caller needed it first.
+pub fn calibrate_blocks(
+    inputs: &Inputs,
+    blocks: CandidateBlocks,
+    settings: &RunSettings,
+    progress: &dyn Progress,
+) -> Result<OptionResult, CalibError> {
+    let load = settings.identify_load_kg;
+    let selection = Selection::choose(blocks, inputs.candidates, &settings.choice, progress)?;
     let chosen: Vec<u32> = selection.poses.iter().map(|p| p.id).collect();
-    let fit_set = index.of(chosen.iter().copied(), identify_load_kg);
+    let fit_set = inputs.measurements.of(chosen.iter().copied(), load);
     if fit_set.len() < chosen.len() {
         return Err(CalibError::Empty {
             what: format!(
-                "identify from the selected poses: only {} of {} have a measurement under {identify_load_kg} kg",
+                "identify from the selected poses: only {} of {} have a measurement under {load} kg",
                 fit_set.len(),
                 chosen.len()
             ),
         });
     }
-    let ids = selection.candidates.identifiability.kept.clone();
-    let identified = identify(nominal, option, &ids, &fit_set, identify_options)?;
-    let rest: Vec<u32> = candidates
-        .iter()
-        .map(|p| p.id)
-        .filter(|id| !chosen.contains(id))
-        .collect();
-    let held_out = index.of(rest.iter().copied(), identify_load_kg);
+    let identified = identify(
+        inputs.nominal,
+        selection.option,
+        &selection.candidates.identifiability.kept,
+        &fit_set,
+        &settings.identify,
+    )?;
+    let rest = inputs.held_out(&chosen);
+    let held_out = inputs.measurements.of(rest.iter().copied(), load);
     let validation = if held_out.is_empty() {
         None
     } else {
-        Some(validate(nominal, &identified.arm, &held_out)?)
+        Some(validate(inputs.nominal, &identified.arm, &held_out)?)
     };
-    let cross_load = match other_load_kg.map(|load| (load, index.of(rest.iter().copied(), load))) {
-        Some((load, set)) if !set.is_empty() => {
-            Some((load, validate(nominal, &identified.arm, &set)?))
-        }
+    let cross_load = match settings
+        .other_load_kg
+        .map(|load| (load, inputs.measurements.of(rest.iter().copied(), load)))
+    {
+        Some((load_kg, set)) if !set.is_empty() => Some(LoadValidation {
+            load_kg,
+            validation: validate(inputs.nominal, &identified.arm, &set)?,
+        }),
         _ => None,
     };
     Ok(OptionResult {
+        identify_load_kg: load,
         selection,
         identified,
         validation,

@@ -1,7 +1,8 @@
 //! The figures a person looks at first, each written as SVG and PNG:
 //! the error distribution per option before/after (box and points, like the
 //! paper's figure 2), the error of every validation pose, and O1 against the
-//! number of selected poses.
+//! number of selected poses. [`demo_figures`] shapes a run's results into
+//! them; the drawing functions take plain series.
 //!
 //! Text is drawn with DejaVu Sans embedded in the binary (the `dejavu` crate),
 //! so plotting needs no system fonts.
@@ -13,7 +14,10 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::CalibError;
+use super::experiments::O1Point;
+use super::pipeline::OptionResult;
+use super::validate::Validation;
+use super::{CalibError, ModelOption};
 
 const SIZE: (u32, u32) = (960, 600);
 static FONT: Once = Once::new();
@@ -240,6 +244,126 @@ pub fn xy(
     both(stem, &Fig((title, x_desc, y_desc), series, lines))
 }
 
+/// One box per option of the validation error after calibration, after a box
+/// of the error before (taken from the first option: every option validates
+/// on the same held-out measurements); on the cross-load validations when
+/// `cross_load`.
+pub fn validation_boxes(results: &[OptionResult], cross_load: bool) -> Vec<Distribution> {
+    fn pick(r: &OptionResult, cross_load: bool) -> Option<&Validation> {
+        if cross_load {
+            r.cross_load.as_ref().map(|c| &c.validation)
+        } else {
+            r.validation.as_ref()
+        }
+    }
+    let mm = |v: &Validation, after: bool| -> Vec<f64> {
+        v.per_measurement
+            .iter()
+            .map(|p| {
+                let e = if after { p.after_m } else { p.before_m };
+                e * 1e3
+            })
+            .collect()
+    };
+    let before = results
+        .first()
+        .and_then(|r| pick(r, cross_load))
+        .map(|v| Distribution {
+            label: "uncalibrated".into(),
+            values_mm: mm(v, false),
+        });
+    let after = results.iter().filter_map(|r| {
+        pick(r, cross_load).map(|v| Distribution {
+            label: r.option().name().into(),
+            values_mm: mm(v, true),
+        })
+    });
+    before.into_iter().chain(after).collect()
+}
+
+/// The error of every held-out pose of `result` before and after, mm against the pose id.
+pub fn per_pose_series(result: &OptionResult) -> Vec<Series> {
+    let points = |after: bool| -> Vec<(f64, f64)> {
+        result
+            .validation
+            .iter()
+            .flat_map(|v| &v.per_measurement)
+            .map(|p| {
+                let e = if after { p.after_m } else { p.before_m };
+                (p.pose as f64, e * 1e3)
+            })
+            .collect()
+    };
+    vec![
+        Series {
+            label: "uncalibrated".into(),
+            points: points(false),
+        },
+        Series {
+            label: "calibrated".into(),
+            points: points(true),
+        },
+    ]
+}
+
+/// One series per option of O1 against the number of poses.
+pub fn o1_series(points: &[O1Point]) -> Vec<Series> {
+    ModelOption::ALL
+        .iter()
+        .map(|&o| Series {
+            label: o.name().into(),
+            points: points
+                .iter()
+                .filter(|p| p.option == o)
+                .map(|p| (p.poses as f64, p.o1))
+                .collect(),
+        })
+        .collect()
+}
+
+/// The demo's figures in `dir` (`errors`, `errors-cross-load`, `per-pose` of
+/// the elasto-kinematic option, `o1-vs-poses`); returns the files written.
+pub fn demo_figures(
+    dir: &Path,
+    results: &[OptionResult],
+    o1: &[O1Point],
+) -> Result<Vec<PathBuf>, CalibError> {
+    let load = results.first().map_or(0.0, |r| r.identify_load_kg);
+    let mut files = Vec::new();
+    files.extend(error_distribution(
+        &dir.join("errors"),
+        &format!("Validation error, {load} kg, poses not used for identification"),
+        &validation_boxes(results, false),
+    )?);
+    files.extend(error_distribution(
+        &dir.join("errors-cross-load"),
+        &format!("Cross-load: identified with {load} kg, validated without load"),
+        &validation_boxes(results, true),
+    )?);
+    if let Some(ek) = results
+        .iter()
+        .find(|r| r.option() == ModelOption::ElastoKinematic)
+    {
+        files.extend(xy(
+            &dir.join("per-pose"),
+            "Error per validation pose (elasto-kinematic)",
+            "pose id",
+            "3D error norm (mm)",
+            &per_pose_series(ek),
+            false,
+        )?);
+    }
+    files.extend(xy(
+        &dir.join("o1-vs-poses"),
+        "O1 of DETMAX selections",
+        "number of poses",
+        "O1",
+        &o1_series(o1),
+        true,
+    )?);
+    Ok(files)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -276,5 +400,20 @@ mod tests {
                 .unwrap()
                 .contains("DETMAX")
         );
+    }
+
+    #[test]
+    fn o1_points_are_grouped_per_option_in_table_order() {
+        let p = |option, poses, o1| O1Point { option, poses, o1 };
+        let series = o1_series(&[
+            p(ModelOption::ElastoKinematic, 50, 0.7),
+            p(ModelOption::Kinematic, 10, 0.2),
+            p(ModelOption::ElastoKinematic, 60, 0.75),
+        ]);
+        let labels: Vec<&str> = series.iter().map(|s| s.label.as_str()).collect();
+        assert_eq!(labels, ["kinematic", "elastic", "elasto-kinematic"]);
+        assert_eq!(series[0].points, [(10.0, 0.2)]);
+        assert!(series[1].points.is_empty());
+        assert_eq!(series[2].points, [(50.0, 0.7), (60.0, 0.75)]);
     }
 }

@@ -1,37 +1,70 @@
-//! The machine-readable report (JSON) and the paper-style table a person reads.
+//! The machine-readable report (JSON): what a run learnt, per option, in one
+//! document with its schema header.
 //!
-//! The report carries everything a run learnt per option: the rank analysis
-//! (kept, removed and what each removed parameter is confounded with), the
-//! selection and its observability indices, the fitted parameters with their
-//! deviations, the solver diagnostics, named outliers, and the validation and
-//! cross-load statistics. Bump [`REPORT_SCHEMA_VERSION`] when a field changes meaning.
+//! The report carries the rank analysis (kept, removed and what each removed
+//! parameter is confounded with), the selection and its observability
+//! indices, the fitted parameters with their deviations, the solver
+//! diagnostics, named outliers, the validation and cross-load statistics,
+//! and the demo's experiments. Every list entry is an object with named
+//! fields. Bump [`REPORT_SCHEMA_VERSION`] when a field changes meaning or shape.
 
 use serde::Serialize;
 
 use super::ModelOption;
 use super::calibration_file::FittedParam;
+use super::experiments::{O1Point, RandomBaseline};
 use super::identifiability::Identifiability;
-use super::identify::Identified;
+use super::identify::{Identified, Outlier};
 use super::observability::Observability;
 use super::pipeline::OptionResult;
 use super::validate::{ErrorStats, Validation};
 
-/// Version of the report schema.
-pub const REPORT_SCHEMA_VERSION: u32 = 1;
+/// Name of the report schema.
+pub const REPORT_SCHEMA: &str = "lrmcal-report";
+/// Version of the report schema (2: named list entries).
+pub const REPORT_SCHEMA_VERSION: u32 = 2;
+
+/// A kept parameter that reproduces a removed one.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Confounder {
+    /// Kept parameter name.
+    pub name: String,
+    /// Its coefficient in the combination of unit columns.
+    pub coefficient: f64,
+}
 
 /// A removed parameter and what explains it.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RemovedReport {
     /// Parameter name.
     pub name: String,
     /// Sine of the angle between its column and the kept columns' span.
     pub residual: f64,
-    /// Kept parameters reproducing its column, with coefficients.
-    pub confounded_with: Vec<(String, f64)>,
+    /// Kept parameters reproducing its column, largest coefficient first.
+    pub confounded_with: Vec<Confounder>,
+}
+
+impl RemovedReport {
+    /// One line: what the parameter is confounded with, or that it has no effect.
+    pub fn explain(&self) -> String {
+        if self.confounded_with.is_empty() {
+            format!(
+                "{}: no effect on the measured point (zero column)",
+                self.name
+            )
+        } else {
+            let with: Vec<String> = self
+                .confounded_with
+                .iter()
+                .map(|c| format!("{:+.3}·{}", c.coefficient, c.name))
+                .collect();
+            format!("{}: confounded with {}", self.name, with.join(" "))
+        }
+    }
 }
 
 /// The rank analysis of one option.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct IdentifiabilityReport {
     /// Candidates before the analysis.
     pub candidates: usize,
@@ -49,17 +82,20 @@ impl From<&Identifiability> for IdentifiabilityReport {
     fn from(a: &Identifiability) -> Self {
         Self {
             candidates: a.kept.len() + a.removed.len(),
-            kept: a.kept.iter().map(|p| p.name().into()).collect(),
+            kept: a.kept.iter().map(|p| p.to_string()).collect(),
             removed: a
                 .removed
                 .iter()
                 .map(|r| RemovedReport {
-                    name: r.id.name().into(),
+                    name: r.id.to_string(),
                     residual: r.residual,
                     confounded_with: r
                         .confounded_with
                         .iter()
-                        .map(|(p, c)| (p.name().into(), *c))
+                        .map(|(p, c)| Confounder {
+                            name: p.to_string(),
+                            coefficient: *c,
+                        })
                         .collect(),
                 })
                 .collect(),
@@ -69,8 +105,32 @@ impl From<&Identifiability> for IdentifiabilityReport {
     }
 }
 
+/// A measurement named as an outlier, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OutlierReport {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Norm of its residual after the fit, mm.
+    pub residual_mm: f64,
+    /// Its final weight in the fit.
+    pub weight: f64,
+}
+
+impl From<&Outlier> for OutlierReport {
+    fn from(o: &Outlier) -> Self {
+        Self {
+            pose: o.pose,
+            load_kg: o.load_kg,
+            residual_mm: o.residual_m * 1e3,
+            weight: o.weight,
+        }
+    }
+}
+
 /// Solver diagnostics, in report units.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct FitReport {
     /// Last LM termination reason.
     pub termination: String,
@@ -94,8 +154,8 @@ pub struct FitReport {
     pub condition: f64,
     /// Fitted parameters.
     pub parameters: Vec<FittedParam>,
-    /// Outliers: (pose, load kg, residual mm, weight).
-    pub outliers: Vec<(u32, f64, f64, f64)>,
+    /// Measurements named as outliers, largest residual first.
+    pub outliers: Vec<OutlierReport>,
 }
 
 impl From<&Identified> for FitReport {
@@ -107,23 +167,19 @@ impl From<&Identified> for FitReport {
             evaluations: d.evaluations,
             active_set_rounds: d.active_set_rounds,
             irls_rounds: d.irls_rounds,
-            at_bound: d.at_bound.iter().map(|p| p.name().into()).collect(),
+            at_bound: d.at_bound.iter().map(|p| p.to_string()).collect(),
             rms_before_mm: d.rms_before_m * 1e3,
             rms_after_mm: d.rms_after_m * 1e3,
             sigma_mm: d.sigma_m * 1e3,
             condition: d.condition,
             parameters: f.estimates.iter().map(FittedParam::from).collect(),
-            outliers: f
-                .outliers
-                .iter()
-                .map(|o| (o.pose, o.load_kg, o.residual_m * 1e3, o.weight))
-                .collect(),
+            outliers: f.outliers.iter().map(OutlierReport::from).collect(),
         }
     }
 }
 
 /// Validation statistics of one measurement set.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ValidationReport {
     /// Payload, kg.
     pub load_kg: f64,
@@ -148,10 +204,12 @@ impl ValidationReport {
 }
 
 /// Everything about one option.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OptionReport {
     /// The option.
     pub option: ModelOption,
+    /// The load whose measurements were fitted, kg.
+    pub identify_load_kg: f64,
     /// Rank analysis.
     pub identifiability: IdentifiabilityReport,
     /// Selected pose ids.
@@ -170,13 +228,13 @@ pub struct OptionReport {
     pub cross_load: Option<ValidationReport>,
 }
 
-impl OptionReport {
-    /// Builds the report of one option's run, identified under `load_kg`.
-    pub fn new(r: &OptionResult, load_kg: f64) -> Self {
+impl From<&OptionResult> for OptionReport {
+    fn from(r: &OptionResult) -> Self {
         Self {
-            option: r.selection.option,
+            option: r.option(),
+            identify_load_kg: r.identify_load_kg,
             identifiability: (&r.selection.candidates.identifiability).into(),
-            selected_poses: r.selection.poses.iter().map(|p| p.id).collect(),
+            selected_poses: r.pose_ids(),
             log_det: r.selection.design.log_det,
             start_log_dets: r.selection.design.start_log_dets.clone(),
             observability: r.selection.observability,
@@ -184,36 +242,19 @@ impl OptionReport {
             validation: r
                 .validation
                 .as_ref()
-                .map(|v| ValidationReport::new(load_kg, v)),
+                .map(|v| ValidationReport::new(r.identify_load_kg, v)),
             cross_load: r
                 .cross_load
                 .as_ref()
-                .map(|(l, v)| ValidationReport::new(*l, v)),
+                .map(|c| ValidationReport::new(c.load_kg, &c.validation)),
         }
     }
 }
 
-/// DETMAX against random selections of the same size.
-#[derive(Clone, Debug, Serialize)]
-pub struct RandomBaseline {
-    /// Option compared.
-    pub option: ModelOption,
-    /// Random sets drawn.
-    pub sets: usize,
-    /// O1 of the DETMAX selection.
-    pub detmax_o1: f64,
-    /// Median O1 of the random sets.
-    pub random_o1_median: f64,
-    /// Mean validation error of the DETMAX selection, m.
-    pub detmax_mean_m: f64,
-    /// Median over the random sets of the mean validation error, m.
-    pub random_mean_median_m: f64,
-}
-
 /// The whole report of a run.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Report {
-    /// Always `lrmcal-report`.
+    /// Always [`REPORT_SCHEMA`].
     pub schema: &'static str,
     /// [`REPORT_SCHEMA_VERSION`].
     pub schema_version: u32,
@@ -225,15 +266,39 @@ pub struct Report {
     pub identify_load_kg: f64,
     /// How the measurements were made (simulator settings for the demo).
     pub measurements: serde_json::Value,
-    /// Per option, in table order.
+    /// Per option, in the order run.
     pub options: Vec<OptionReport>,
     /// DETMAX versus random selection, when computed.
     pub random_baseline: Option<RandomBaseline>,
-    /// O1 of the DETMAX selection per number of poses (option, N, O1).
-    pub o1_vs_poses: Vec<(ModelOption, usize, f64)>,
+    /// O1 of DETMAX selections per number of poses, when computed.
+    pub o1_vs_poses: Vec<O1Point>,
 }
 
 impl Report {
+    /// The report of `results` (fitted under `identify_load_kg`, except the
+    /// demo's reverse cross-load check, which says its own load), with the
+    /// arm's origin, the number of candidate poses and how the measurements
+    /// were made; without experiments until the caller adds them.
+    pub fn new<'a>(
+        arm: String,
+        candidates: usize,
+        identify_load_kg: f64,
+        measurements: serde_json::Value,
+        results: impl IntoIterator<Item = &'a OptionResult>,
+    ) -> Self {
+        Self {
+            schema: REPORT_SCHEMA,
+            schema_version: REPORT_SCHEMA_VERSION,
+            arm,
+            candidates,
+            identify_load_kg,
+            measurements,
+            options: results.into_iter().map(OptionReport::from).collect(),
+            random_baseline: None,
+            o1_vs_poses: Vec::new(),
+        }
+    }
+
     /// The report as pretty JSON.
     pub fn to_json(&self) -> String {
         // Numbers, strings and vectors only: serialisation cannot fail.
@@ -241,37 +306,59 @@ impl Report {
     }
 }
 
-/// The paper-style table: option, parameters, mean error before → after, reduction,
-/// and the cross-load reduction when there is one.
-pub fn table(options: &[OptionReport]) -> String {
-    let mut s = String::new();
-    s.push_str(&format!(
-        "{:<18} {:>6} {:>26} {:>10} {:>11}\n",
-        "model", "params", "mean error before -> after", "reduction", "cross-load"
-    ));
-    for o in options {
-        let cross = o
-            .cross_load
-            .as_ref()
-            .map(|c| format!("{:.1} %", c.reduction_pct))
-            .unwrap_or("-".into());
-        let (before, after, reduction) = match &o.validation {
-            Some(v) => (
-                format!("{:.2}", v.before.mean_m * 1e3),
-                format!("{:.2}", v.after.mean_m * 1e3),
-                format!("{:.1} %", v.reduction_pct),
-            ),
-            None => ("-".into(), "-".into(), "-".into()),
-        };
-        s.push_str(&format!(
-            "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
-            o.option.name(),
-            o.identifiability.kept.len(),
-            before,
-            after,
-            reduction,
-            cross
-        ));
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::experiments::{O1_SIZES, o1_vs_poses};
+    use crate::calib::pipeline::{Inputs, calibrate_option};
+    use crate::calib::progress::Silent;
+    use crate::calib::testing::{LOAD_KG, elastic_run, elastic_settings};
+
+    /// The schema header comes from one place, and every list entry is an
+    /// object with named fields.
+    #[test]
+    fn report_json_has_its_header_and_named_entries() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let mut report = Report::new(
+            "test arm".into(),
+            poses.len(),
+            LOAD_KG,
+            serde_json::json!({ "source": "test" }),
+            [&r],
+        );
+        report.o1_vs_poses = o1_vs_poses(std::slice::from_ref(&r), &O1_SIZES, &Silent).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+        assert_eq!(json["schema"], REPORT_SCHEMA);
+        assert_eq!(json["schema_version"], REPORT_SCHEMA_VERSION);
+        let option = &json["options"][0];
+        assert_eq!(option["option"], "elastic");
+        assert_eq!(option["identify_load_kg"], LOAD_KG);
+        assert_eq!(option["identifiability"]["removed"][0]["name"], "k1");
+        let point = &json["o1_vs_poses"][0];
+        assert_eq!(point["option"], "elastic");
+        assert_eq!(point["poses"], 10);
+        assert!(point["o1"].as_f64().unwrap() > 0.0);
+        let outlier = serde_json::to_value(OutlierReport {
+            pose: 3,
+            load_kg: LOAD_KG,
+            residual_mm: 1.5,
+            weight: 1.0,
+        })
+        .unwrap();
+        assert_eq!(outlier["residual_mm"], 1.5);
+        let removed = serde_json::to_value(RemovedReport {
+            name: "j3.d".into(),
+            residual: 0.0,
+            confounded_with: vec![Confounder {
+                name: "j2.d".into(),
+                coefficient: 1.0,
+            }],
+        })
+        .unwrap();
+        assert_eq!(removed["confounded_with"][0]["name"], "j2.d");
+        assert_eq!(removed["confounded_with"][0]["coefficient"], 1.0);
     }
-    s
 }

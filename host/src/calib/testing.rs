@@ -5,6 +5,12 @@ use model::{Arm, Frame, Joint, ParamId, ServoCurve};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 use super::Sample;
+use super::detmax::DetmaxOptions;
+use super::identify::IdentifyOptions;
+use super::jacobian::tool_points;
+use super::params::{ParamKey, ParamVector};
+use super::pipeline::{Choice, RunSettings};
+use crate::dataset::{Measurement, Pose};
 
 /// A 6R elbow arm with a spherical wrist (~0.45 m reach), compliant joints and base.
 pub fn test_arm() -> Arm<f64> {
@@ -77,4 +83,60 @@ pub fn small_samples(n: usize) -> Vec<Sample> {
             load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
         })
         .collect()
+}
+
+/// Exact measurements of `arm` at `samples` (no noise).
+pub fn measure(arm: &Arm<f64>, samples: &[Sample]) -> Vec<Measurement> {
+    tool_points(arm, samples)
+        .expect("the test arm deflects")
+        .into_iter()
+        .zip(samples)
+        .map(|(position, s)| Measurement {
+            pose: Pose { id: s.id, q: s.q },
+            load_kg: s.load_kg,
+            position,
+        })
+        .collect()
+}
+
+/// The load of [`elastic_run`]'s measurements, kg.
+pub const LOAD_KG: f64 = 0.0663;
+
+/// 30 poses of an arm whose compliances differ from [`rigid_nominal`]'s,
+/// each measured exactly under [`LOAD_KG`]: (nominal, poses, measurements).
+pub fn elastic_run() -> (Arm<f64>, Vec<Pose>, Vec<Measurement>) {
+    let nominal = rigid_nominal();
+    let keys = ["k2", "k3", "k4", "k5", "k6", "k0"].map(key);
+    let mut truth = ParamVector::new(keys).expect("distinct keys");
+    for (k, e) in keys.into_iter().zip([0.1, 0.05, 0.08, 0.03, 0.04, 0.02]) {
+        truth.set(k, e).expect("held key");
+    }
+    let samples: Vec<Sample> = small_samples(30)
+        .into_iter()
+        .map(|s| Sample {
+            load_kg: LOAD_KG,
+            ..s
+        })
+        .collect();
+    let poses = samples.iter().map(|s| Pose { id: s.id, q: s.q }).collect();
+    (nominal, poses, measure(&truth.apply(&nominal), &samples))
+}
+
+/// A DETMAX selection of 10 poses (two starts) under [`LOAD_KG`], no cross-load.
+pub fn elastic_settings() -> RunSettings {
+    RunSettings {
+        identify_load_kg: LOAD_KG,
+        other_load_kg: None,
+        choice: Choice::Detmax(DetmaxOptions {
+            n: 10,
+            starts: 2,
+            ..Default::default()
+        }),
+        identify: IdentifyOptions::default(),
+    }
+}
+
+/// The parameter called `name`.
+pub fn key(name: &str) -> ParamKey {
+    ParamKey::from_name(name).expect("a parameter name")
 }

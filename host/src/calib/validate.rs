@@ -62,8 +62,21 @@ impl ErrorStats {
     }
 }
 
+/// The error of one measurement before and after calibration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseError {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// 3D error of the nominal model, m.
+    pub before_m: f64,
+    /// 3D error of the calibrated model, m.
+    pub after_m: f64,
+}
+
 /// Before/after comparison on one measurement set.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Validation {
     /// Errors of the nominal (uncalibrated) model.
     pub before: ErrorStats,
@@ -71,8 +84,39 @@ pub struct Validation {
     pub after: ErrorStats,
     /// `100 (1 − mean after / mean before)`, %.
     pub reduction_pct: f64,
-    /// Per measurement: (pose id, load kg, error before m, error after m).
-    pub per_measurement: Vec<(u32, f64, f64, f64)>,
+    /// Each measurement's error, in the order given.
+    pub per_measurement: Vec<PoseError>,
+}
+
+/// A validation on the measurements under one load.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadValidation {
+    /// The load of the measurements, kg.
+    pub load_kg: f64,
+    /// Errors before and after on them.
+    pub validation: Validation,
+}
+
+/// Compares `nominal` and `calibrated` on `measurements`, load by load (ascending).
+pub fn validate_per_load(
+    nominal: &Arm<f64>,
+    calibrated: &Arm<f64>,
+    measurements: &[Measurement],
+) -> Result<Vec<LoadValidation>, CalibError> {
+    crate::dataset::loads_of(measurements)
+        .into_iter()
+        .map(|load_kg| {
+            let set: Vec<Measurement> = measurements
+                .iter()
+                .filter(|m| m.load_kg == load_kg)
+                .copied()
+                .collect();
+            Ok(LoadValidation {
+                load_kg,
+                validation: validate(nominal, calibrated, &set)?,
+            })
+        })
+        .collect()
 }
 
 /// 3D error norms of `arm`'s predictions against `measurements`, m.
@@ -110,7 +154,12 @@ pub fn validate(
         per_measurement: measurements
             .iter()
             .zip(before.iter().zip(&after))
-            .map(|(m, (b, a))| (m.pose.id, m.load_kg, *b, *a))
+            .map(|(m, (b, a))| PoseError {
+                pose: m.pose.id,
+                load_kg: m.load_kg,
+                before_m: *b,
+                after_m: *a,
+            })
             .collect(),
     })
 }

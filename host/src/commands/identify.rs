@@ -5,52 +5,21 @@
 
 use std::path::{Path, PathBuf};
 
-use indicatif::{ProgressBar, ProgressStyle};
-
 use crate::calib::calibration_file::{CalibrationFile, ValidationSummary};
-use crate::calib::checks::{check_in_candidates, check_plausible};
-use crate::calib::detmax::DetmaxOptions;
-use crate::calib::identify::IdentifyOptions;
-use crate::calib::pipeline::{
-    CandidateBlocks, Choice, MeasurementIndex, OptionResult, calibrate_option,
+use crate::calib::checks::{
+    check_in_candidates, check_measured, check_plausible, identification_load,
 };
-use crate::calib::report::{OptionReport, Report, table};
-use crate::calib::validate::{ErrorStats, error_norms};
-use crate::calib::{CalibError, ModelOption};
-use crate::dataset::{Measurement, Pose};
+use crate::calib::detmax::DetmaxOptions;
+use crate::calib::identifiability::check_structure;
+use crate::calib::identify::IdentifyOptions;
+use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
+use crate::calib::report::Report;
+use crate::calib::{CalibError, summary};
+use crate::commands::helpers::{Bar, OptionChoice};
+use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::{atomic, measurements, pose_list};
-
-/// Which options to fit: one, or all three for comparison.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OptionChoice {
-    /// One option.
-    One(ModelOption),
-    /// All three.
-    All,
-}
-
-impl std::str::FromStr for OptionChoice {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        if s == "all" {
-            Ok(Self::All)
-        } else {
-            s.parse().map(Self::One).map_err(|e| format!("{e}, or all"))
-        }
-    }
-}
-
-impl OptionChoice {
-    /// The options to run.
-    pub fn options(self) -> Vec<ModelOption> {
-        match self {
-            Self::One(o) => vec![o],
-            Self::All => ModelOption::ALL.to_vec(),
-        }
-    }
-}
 
 /// Identify the arm's error parameters from measured tool positions.
 #[derive(Debug, clap::Args)]
@@ -96,23 +65,6 @@ pub struct Args {
     pub out: PathBuf,
 }
 
-/// The distinct loads of a measurement set, ascending.
-pub fn loads_of(rows: &[Measurement]) -> Vec<f64> {
-    let mut loads: Vec<f64> = rows.iter().map(|m| m.load_kg).collect();
-    loads.sort_by(f64::total_cmp);
-    loads.dedup();
-    loads
-}
-
-/// The distinct poses of a measurement set, in file order.
-pub fn poses_of(rows: &[Measurement]) -> Vec<Pose> {
-    let mut seen = std::collections::HashSet::new();
-    rows.iter()
-        .filter(|m| seen.insert(m.pose.id))
-        .map(|m| m.pose)
-        .collect()
-}
-
 fn write_text(path: &Path, text: &str) -> Result<(), Error> {
     atomic::write(path, |w| w.write_all(text.as_bytes()))
 }
@@ -131,32 +83,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     check_plausible(&nominal, &all, &file)?;
     let loads = loads_of(&all);
-    let load = match (args.load_kg, loads.as_slice()) {
-        (Some(l), _) if loads.contains(&l) => l,
-        (Some(l), _) => {
-            return Err(CalibError::Ambiguous {
-                what: format!("identify under {l} kg: {file} has no measurement with that load (it has {loads:?} kg)"),
-            }
-            .into());
-        }
-        (None, [only]) => *only,
-        (None, _) => {
-            return Err(CalibError::Ambiguous {
-                what: format!("choose the load to identify from: {file} has measurements under {loads:?} kg; pass --load-kg"),
-            }
-            .into());
-        }
-    };
+    let load = identification_load(&loads, args.load_kg, &file)?;
     if let Some(path) = &args.candidates {
         let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
         check_in_candidates(&all, &candidates, &file)?;
     }
-    let measured: Vec<Pose> = poses_of(
-        &all.iter()
-            .filter(|m| m.load_kg == load)
-            .copied()
-            .collect::<Vec<_>>(),
-    );
+    let measured = poses_under(&all, load);
     let choice = match (&args.select, &args.poses) {
         (Some(n), _) => Choice::Detmax(DetmaxOptions {
             n: *n,
@@ -164,159 +96,65 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ..Default::default()
         }),
         (None, Some(path)) => {
-            let list = pose_list::read(path)?;
-            let ids: Vec<u32> = list.iter().map(|r| r.pose.id).collect();
-            let as_rows: Vec<Measurement> =
-                all.iter().filter(|m| m.load_kg == load).copied().collect();
-            for r in &list {
-                if !as_rows.iter().any(|m| m.pose.id == r.pose.id) {
-                    return Err(CalibError::PoseNotInCandidates {
-                        pose: r.pose.id,
-                        file: path.display().to_string(),
-                        detail: format!("{file} has no measurement of it under {load} kg"),
-                    }
-                    .into());
-                }
-            }
+            let ids: Vec<u32> = pose_list::read(path)?.iter().map(|r| r.pose.id).collect();
+            check_measured(&ids, &measured, &path.display().to_string(), &file, load)?;
             Choice::Given(ids)
         }
         (None, None) => Choice::Given(measured.iter().map(|p| p.id).collect()),
     };
-    let other = loads.iter().copied().find(|l| *l != load);
-    let identify_options = IdentifyOptions {
-        robust: args.robust,
-        ..Default::default()
+    let settings = RunSettings {
+        identify_load_kg: load,
+        other_load_kg: loads.iter().copied().find(|l| *l != load),
+        choice,
+        identify: IdentifyOptions {
+            robust: args.robust,
+            ..Default::default()
+        },
     };
     std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
         path: args.out.clone(),
         source,
     })?;
 
-    let mut results: Vec<OptionResult> = Vec::new();
-    // What the arm's structure lets positions identify, over the whole
-    // -100/0/+100° grid: the measured poses must identify no less.
-    let grid: Vec<Pose> = crate::plan::Levels::paper().grid().collect();
+    let inputs = Inputs::new(&nominal, &measured, &all);
+    let bar = Bar::new();
+    let mut results = Vec::new();
     for option in args.option.options() {
-        let structural = CandidateBlocks::build(&nominal, option, &grid, &[load])?
-            .identifiability
-            .kept;
-        let measured_blocks = CandidateBlocks::build(&nominal, option, &measured, &[load])?;
-        let kept = &measured_blocks.identifiability.kept;
-        if kept.len() < structural.len() {
-            let missing: Vec<&str> = structural
-                .iter()
-                .filter(|p| !kept.contains(p))
-                .map(|p| p.name())
-                .collect();
-            return Err(CalibError::RankDeficient {
-                option: option.name().into(),
-                rank: kept.len(),
-                params: structural.len(),
-                weakest: missing.join(", "),
-            }
-            .into());
-        }
-        let pb = ProgressBar::new(args.starts as u64);
-        if let Ok(style) = ProgressStyle::with_template("{msg:<30} {bar:30} {pos}/{len} {elapsed}")
-        {
-            pb.set_style(style);
-        }
-        pb.set_message(format!("{option}: selecting"));
-        let r = calibrate_option(
-            &nominal,
-            option,
-            &measured,
-            &all,
-            load,
-            other,
-            &choice,
-            &identify_options,
-            &pb,
-        )?;
-        pb.finish_and_clear();
-        results.push(r);
+        let blocks = CandidateBlocks::build(&nominal, option, &measured, &[load])?;
+        // The measured poses must identify what positions can reveal on this arm at all.
+        check_structure(&nominal, &blocks.identifiability, load)?;
+        results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
     }
 
-    let index = MeasurementIndex::new(&all);
-    let mut reports = Vec::new();
-    for r in &results {
-        let used: Vec<u32> = r.selection.poses.iter().map(|p| p.id).collect();
-        let fit = index.of(used.iter().copied(), load);
+    let report = Report::new(
+        loaded.origin,
+        measured.len(),
+        load,
+        serde_json::json!({ "source": file, "loads_kg": loads }),
+        &results,
+    );
+    for (r, details) in results.iter().zip(&report.options) {
         let cal = CalibrationFile::new(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),
-            used,
+            r.pose_ids(),
             vec![load],
-            ErrorStats::of(&error_norms(&r.identified.arm, &fit)?),
+            r.identified.fit_residual,
             r.validation.as_ref().map(|v| ValidationSummary {
                 load_kg: load,
                 before: v.before,
                 after: v.after,
             }),
         );
-        let path = args
-            .out
-            .join(format!("calibration-{}.json", r.selection.option));
+        let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
-        print_option(r, &path);
-        reports.push(OptionReport::new(r, load));
+        println!("\n{}", summary::option_details(details));
+        println!("  wrote {}", path.display());
     }
-    let report = Report {
-        schema: "lrmcal-report",
-        schema_version: crate::calib::report::REPORT_SCHEMA_VERSION,
-        arm: loaded.origin,
-        candidates: measured.len(),
-        identify_load_kg: load,
-        measurements: serde_json::json!({ "source": file, "loads_kg": loads }),
-        options: reports.clone(),
-        random_baseline: None,
-        o1_vs_poses: Vec::new(),
-    };
     write_text(&args.out.join("report.json"), &report.to_json())?;
     println!("\nValidation on the measured poses not used for the fit, {load} kg (mean 3D error):");
-    print!("{}", table(&reports));
+    print!("{}", summary::table(&report.options));
     println!("wrote {}", args.out.display());
     Ok(())
-}
-
-/// Prints what a person checks first about one fit.
-fn print_option(r: &OptionResult, path: &Path) {
-    let d = &r.identified.diagnostics;
-    let ident = &r.selection.candidates.identifiability;
-    println!(
-        "\n{}: {} parameters ({} removed as unidentifiable), {} poses, O1 {:.4}; {} after {} evaluations, residual RMS {:.3} mm",
-        r.selection.option,
-        ident.kept.len(),
-        ident.removed.len(),
-        r.selection.poses.len(),
-        r.selection.observability.o1,
-        if d.converged {
-            "converged"
-        } else {
-            "NOT converged"
-        },
-        d.evaluations,
-        d.rms_after_m * 1e3
-    );
-    for line in ident.explain() {
-        println!("  removed {line}");
-    }
-    for e in &r.identified.estimates {
-        let std = e
-            .std
-            .map(|s| format!("± {s:.3e}"))
-            .unwrap_or("(held at 0)".into());
-        println!("  {:<11} {:+.6e} {std}", e.id.name(), e.error);
-    }
-    for o in &r.identified.outliers {
-        println!(
-            "  outlier: pose {} ({} kg), residual {:.2} mm, weight {:.2}",
-            o.pose,
-            o.load_kg,
-            o.residual_m * 1e3,
-            o.weight
-        );
-    }
-    println!("  wrote {}", path.display());
 }

@@ -1,4 +1,5 @@
-//! One file per `lrmcal` subcommand: its clap `Args` and its `run`.
+//! One file per `lrmcal` subcommand: its clap `Args` and its `run`; what
+//! several share is in [`helpers`].
 //!
 //! See `crate::cli` for how to add one.
 
@@ -8,6 +9,7 @@ pub mod detach;
 pub mod emulator;
 pub mod export;
 pub mod flash;
+pub mod helpers;
 pub mod home;
 pub mod identify;
 pub mod import_tracker;

@@ -4,11 +4,11 @@
 
 use std::path::PathBuf;
 
-use indicatif::ProgressBar;
-
-use crate::calib::detmax::{DetmaxOptions, random_design};
+use crate::calib::detmax::DetmaxOptions;
+use crate::calib::experiments::{median, random_o1};
 use crate::calib::pipeline::{Choice, select};
-use crate::commands::identify::OptionChoice;
+use crate::calib::report::IdentifiabilityReport;
+use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, PoseRow};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
@@ -65,9 +65,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .map(|r| r.pose)
         .collect();
     let options = args.option.options();
+    let bar = Bar::new();
     for option in &options {
-        let pb = ProgressBar::new(args.starts as u64);
-        pb.set_message(format!("{option}: DETMAX"));
         let choice = match &args.evaluate {
             Some(path) => Choice::Given(pose_list::read(path)?.iter().map(|r| r.pose.id).collect()),
             None => Choice::Detmax(DetmaxOptions {
@@ -77,18 +76,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 ..Default::default()
             }),
         };
-        let s = select(&nominal, *option, &candidates, &args.load_kg, &choice, &pb)?;
-        pb.finish_and_clear();
-        let ident = &s.candidates.identifiability;
+        let s = select(&nominal, *option, &candidates, &args.load_kg, &choice, &bar)?;
+        let ident = IdentifiabilityReport::from(&s.candidates.identifiability);
         println!(
             "{option}: {} of {} candidate parameters identifiable over {} candidate poses (SVD rank {})",
             ident.kept.len(),
-            ident.kept.len() + ident.removed.len(),
+            ident.candidates,
             candidates.len(),
             ident.svd_rank
         );
-        for line in ident.explain() {
-            println!("  removed {line}");
+        for r in &ident.removed {
+            println!("  removed {}", r.explain());
         }
         let o = s.observability;
         println!(
@@ -107,18 +105,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
         let n = s.poses.len();
         if args.compare_random > 0 {
-            let mut o1: Vec<f64> = (0..args.compare_random)
-                .map(|k| {
-                    s.candidates
-                        .observability(&random_design(candidates.len(), n, 1000 + k as u64))
-                        .o1
-                })
-                .collect();
-            o1.sort_by(f64::total_cmp);
             println!(
                 "  median O1 of {} random {n}-pose sets: {:.4}",
-                o1.len(),
-                o1[o1.len() / 2]
+                args.compare_random,
+                median(random_o1(&s.candidates, n, args.compare_random))
             );
         }
         let Some(out) = &args.out else { continue };

@@ -5,8 +5,7 @@ use std::path::PathBuf;
 
 use crate::calib::calibration_file::CalibrationFile;
 use crate::calib::checks::check_plausible;
-use crate::calib::validate::validate;
-use crate::commands::identify::loads_of;
+use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
 use crate::io::measurements;
@@ -53,22 +52,22 @@ pub fn run(args: &Args) -> Result<(), Error> {
         "after: mean median rms p95 max",
         "reduction"
     );
-    for load in loads_of(&rows) {
-        let set: Vec<_> = rows.iter().filter(|m| m.load_kg == load).copied().collect();
-        let v = validate(&cal.nominal, &cal.arm, &set)?;
-        let fmt = |s: &crate::calib::validate::ErrorStats| {
-            format!(
-                "{:5.2} {:5.2} {:5.2} {:5.2} {:6.2}",
-                s.mean_m * 1e3,
-                s.median_m * 1e3,
-                s.rms_m * 1e3,
-                s.p95_m * 1e3,
-                s.max_m * 1e3
-            )
-        };
+    let fmt = |s: &ErrorStats| {
+        format!(
+            "{:5.2} {:5.2} {:5.2} {:5.2} {:6.2}",
+            s.mean_m * 1e3,
+            s.median_m * 1e3,
+            s.rms_m * 1e3,
+            s.p95_m * 1e3,
+            s.max_m * 1e3
+        )
+    };
+    for lv in validate_per_load(&cal.nominal, &cal.arm, &rows)? {
+        let v = &lv.validation;
         println!(
-            "{load:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",
-            set.len(),
+            "{:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",
+            lv.load_kg,
+            v.before.count,
             fmt(&v.before),
             fmt(&v.after),
             v.reduction_pct

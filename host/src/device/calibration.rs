@@ -2,19 +2,9 @@
 //! payload the board stores, and back to readable form.
 
 use protocol::calibration::MAX_CALIBRATION_LEN;
-use protocol::{Calibration, CalibrationFault, ModelOption};
+use protocol::{Calibration, CalibrationFault};
 
-use crate::calib::ModelOption as HostOption;
 use crate::calib::calibration_file::CalibrationFile;
-
-/// The board's name for a host model option.
-pub fn wire_option(option: HostOption) -> ModelOption {
-    match option {
-        HostOption::ElastoKinematic => ModelOption::ElastoKinematic,
-        HostOption::Kinematic => ModelOption::Kinematic,
-        HostOption::Elastic => ModelOption::Elastic,
-    }
-}
 
 /// The payload for `file`, in single precision, with the home pose `home_rad`.
 pub fn payload(
@@ -23,7 +13,7 @@ pub fn payload(
 ) -> Result<Calibration, CalibrationFault> {
     identified(Calibration {
         id: 0,
-        option: wire_option(file.option),
+        option: file.option,
         nominal: file.nominal.map(|x| x as f32),
         calibrated: file.arm.map(|x| x as f32),
         home_rad,

@@ -1,0 +1,242 @@
+//! Experiments on top of a calibration run: how DETMAX compares with random
+//! selections of the same size, and how O1 grows with the number of poses.
+
+use serde::Serialize;
+
+use super::detmax::{DetmaxOptions, detmax, random_design};
+use super::identify::{IdentifyOptions, identify};
+use super::pipeline::{CandidateBlocks, Inputs, OptionResult};
+use super::progress::{Progress, Silent};
+use super::validate::validate;
+use super::{CalibError, ModelOption};
+
+/// Random set `s` of a comparison is drawn with seed `RANDOM_SEED + s`.
+pub const RANDOM_SEED: u64 = 1000;
+
+/// Selection sizes of the O1 sweep.
+pub const O1_SIZES: [usize; 9] = [10, 15, 20, 30, 40, 50, 60, 80, 100];
+
+/// The middle value of `v` (the upper one of the two middle values when
+/// their number is even); NaN when empty.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+/// O1 of `sets` random selections of `n` of the candidates analysed in
+/// `blocks`, drawn as [`random_baseline`] draws them.
+pub fn random_o1(blocks: &CandidateBlocks, n: usize, sets: usize) -> Vec<f64> {
+    (0..sets)
+        .map(|s| {
+            blocks
+                .observability(&random_design(
+                    blocks.blocks.len(),
+                    n,
+                    RANDOM_SEED + s as u64,
+                ))
+                .o1
+        })
+        .collect()
+}
+
+/// DETMAX against random selections of the same size.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RandomBaseline {
+    /// Option compared.
+    pub option: ModelOption,
+    /// Random sets drawn.
+    pub sets: usize,
+    /// Poses in each set (as many as DETMAX selected).
+    pub poses: usize,
+    /// O1 of the DETMAX selection.
+    pub detmax_o1: f64,
+    /// Median O1 of the random sets.
+    pub random_o1_median: f64,
+    /// Mean validation error of the DETMAX selection, m.
+    pub detmax_mean_m: f64,
+    /// Median over the random sets of the mean validation error, m.
+    pub random_mean_median_m: f64,
+}
+
+/// Identifies `result`'s option from `sets` random selections of as many
+/// candidates as it selected, validates each on the rest, and compares O1
+/// and the mean validation error with `result`'s own. One progress unit per set.
+pub fn random_baseline(
+    inputs: &Inputs,
+    result: &OptionResult,
+    sets: usize,
+    options: &IdentifyOptions,
+    progress: &dyn Progress,
+) -> Result<RandomBaseline, CalibError> {
+    let load = result.identify_load_kg;
+    let keys = &result.selection.candidates.identifiability.kept;
+    let n = result.selection.poses.len();
+    progress.begin("random selections: identify + validate", sets as u64);
+    let mut means = Vec::new();
+    for s in 0..sets {
+        let chosen = random_design(inputs.candidates.len(), n, RANDOM_SEED + s as u64);
+        let chosen_ids: Vec<u32> = chosen.iter().map(|&c| inputs.candidates[c].id).collect();
+        let fit = inputs.measurements.of(chosen_ids.iter().copied(), load);
+        let rest = inputs.measurements.of(inputs.held_out(&chosen_ids), load);
+        // A random set may be rank deficient: that is a loss for random selection.
+        let mean = match identify(inputs.nominal, result.option(), keys, &fit, options) {
+            Ok(f) => validate(inputs.nominal, &f.arm, &rest)?.after.mean_m,
+            Err(_) => f64::INFINITY,
+        };
+        means.push(mean);
+        progress.advance(1);
+    }
+    progress.end();
+    Ok(RandomBaseline {
+        option: result.option(),
+        sets,
+        poses: n,
+        detmax_o1: result.selection.observability.o1,
+        random_o1_median: median(random_o1(&result.selection.candidates, n, sets)),
+        detmax_mean_m: result.held_out()?.after.mean_m,
+        random_mean_median_m: median(means),
+    })
+}
+
+/// O1 of a DETMAX selection of `poses` poses for `option`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct O1Point {
+    /// The option.
+    pub option: ModelOption,
+    /// Poses selected.
+    pub poses: usize,
+    /// O1 of the selection.
+    pub o1: f64,
+}
+
+/// O1 of DETMAX selections (two starts each) of each of `sizes` poses, per
+/// option of `results`, over the candidates they analysed; sizes that cannot
+/// determine the option's parameters, or exceed the candidates, are skipped.
+/// One progress unit per option and size.
+pub fn o1_vs_poses(
+    results: &[OptionResult],
+    sizes: &[usize],
+    progress: &dyn Progress,
+) -> Result<Vec<O1Point>, CalibError> {
+    progress.begin(
+        "O1 against the number of poses",
+        (results.len() * sizes.len()) as u64,
+    );
+    let mut out = Vec::new();
+    for r in results {
+        let blocks = &r.selection.candidates;
+        let m = blocks.identifiability.kept.len();
+        let rows_per_pose = blocks.blocks.first().map_or(0, |b| b.nrows());
+        for &n in sizes {
+            progress.advance(1);
+            if rows_per_pose * n < m + 3 || n > blocks.blocks.len() {
+                continue;
+            }
+            let d = detmax(
+                &blocks.blocks,
+                &DetmaxOptions {
+                    n,
+                    starts: 2,
+                    ..Default::default()
+                },
+                &Silent,
+            )?;
+            out.push(O1Point {
+                option: r.option(),
+                poses: n,
+                o1: blocks.observability(&d.chosen).o1,
+            });
+        }
+    }
+    progress.end();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use std::cell::Cell;
+
+    use super::*;
+    use crate::calib::pipeline::calibrate_option;
+    use crate::calib::testing::{elastic_run, elastic_settings};
+
+    /// Counts what the engine reports.
+    #[derive(Default)]
+    struct Count {
+        steps: Cell<usize>,
+        announced: Cell<u64>,
+        done: Cell<u64>,
+        ended: Cell<usize>,
+    }
+
+    impl Progress for Count {
+        fn begin(&self, _label: &str, len: u64) {
+            self.steps.set(self.steps.get() + 1);
+            self.announced.set(self.announced.get() + len);
+        }
+        fn advance(&self, units: u64) {
+            self.done.set(self.done.get() + units);
+        }
+        fn end(&self) {
+            self.ended.set(self.ended.get() + 1);
+        }
+    }
+
+    #[test]
+    fn median_is_the_upper_middle_value() {
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(vec![4.0, 1.0, 3.0, 2.0]), 3.0);
+        assert!(median(Vec::new()).is_nan());
+    }
+
+    /// Sizes that cannot determine the parameters or exceed the candidates
+    /// are skipped; every size is reported as progress.
+    #[test]
+    fn o1_sweep_covers_the_feasible_sizes() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        // Two poses give 6 coordinates, too few for the kept compliances and a margin of 3.
+        assert!(r.selection.candidates.identifiability.kept.len() > 3);
+        let count = Count::default();
+        let points = o1_vs_poses(std::slice::from_ref(&r), &[2, 5, 10, 40], &count).unwrap();
+        let sizes: Vec<usize> = points.iter().map(|p| p.poses).collect();
+        assert_eq!(sizes, [5, 10]);
+        assert!(
+            points
+                .iter()
+                .all(|p| p.option == ModelOption::Elastic && p.o1 > 0.0)
+        );
+        assert_eq!(
+            (
+                count.steps.get(),
+                count.announced.get(),
+                count.done.get(),
+                count.ended.get()
+            ),
+            (1, 4, 4, 1)
+        );
+    }
+
+    /// On exact data any full-rank random set identifies the arm exactly, and
+    /// DETMAX's O1 is at least the random sets' median.
+    #[test]
+    fn random_baseline_compares_like_with_like() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let count = Count::default();
+        let b = random_baseline(&inputs, &r, 3, &IdentifyOptions::default(), &count).unwrap();
+        assert_eq!((b.option, b.sets, b.poses), (ModelOption::Elastic, 3, 10));
+        assert_eq!(b.detmax_o1, r.selection.observability.o1);
+        assert_eq!(
+            b.random_o1_median,
+            median(random_o1(&r.selection.candidates, 10, 3))
+        );
+        assert!(b.detmax_o1 >= b.random_o1_median, "{b:?}");
+        assert!(b.random_mean_median_m < 1e-6, "{b:?}");
+        assert_eq!((count.announced.get(), count.done.get()), (3, 3));
+    }
+}

@@ -1,0 +1,203 @@
+//! What a person reads: the paper-style table and the lines `lrmcal identify`
+//! and `lrmcal demo` print, rendered from the report, so the terminal and
+//! `report.json` always tell the same story.
+
+use super::experiments::RandomBaseline;
+use super::report::{OptionReport, OutlierReport};
+
+/// The paper-style table: option, parameters, mean error before → after,
+/// reduction, and the cross-load reduction when there is one.
+pub fn table(options: &[OptionReport]) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "{:<18} {:>6} {:>26} {:>10} {:>11}\n",
+        "model", "params", "mean error before -> after", "reduction", "cross-load"
+    ));
+    for o in options {
+        let cross = o
+            .cross_load
+            .as_ref()
+            .map(|c| format!("{:.1} %", c.reduction_pct))
+            .unwrap_or("-".into());
+        let (before, after, reduction) = match &o.validation {
+            Some(v) => (
+                format!("{:.2}", v.before.mean_m * 1e3),
+                format!("{:.2}", v.after.mean_m * 1e3),
+                format!("{:.1} %", v.reduction_pct),
+            ),
+            None => ("-".into(), "-".into(), "-".into()),
+        };
+        s.push_str(&format!(
+            "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
+            o.option.name(),
+            o.identifiability.kept.len(),
+            before,
+            after,
+            reduction,
+            cross
+        ));
+    }
+    s
+}
+
+/// One option's fit as `lrmcal identify` prints it: counts, selection,
+/// convergence, removed parameters, every estimate and the outliers.
+pub fn option_details(o: &OptionReport) -> String {
+    let f = &o.fit;
+    let ident = &o.identifiability;
+    let mut lines = vec![format!(
+        "{}: {} parameters ({} removed as unidentifiable), {} poses, O1 {:.4}; {} after {} evaluations, residual RMS {:.3} mm",
+        o.option,
+        ident.kept.len(),
+        ident.removed.len(),
+        o.selected_poses.len(),
+        o.observability.o1,
+        if f.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        },
+        f.evaluations,
+        f.rms_after_mm
+    )];
+    lines.extend(
+        ident
+            .removed
+            .iter()
+            .map(|r| format!("  removed {}", r.explain())),
+    );
+    lines.extend(f.parameters.iter().map(|p| {
+        let std = p
+            .std
+            .map(|s| format!("± {s:.3e}"))
+            .unwrap_or("(held at 0)".into());
+        format!("  {:<11} {:+.6e} {std}", p.name, p.error)
+    }));
+    lines.extend(f.outliers.iter().map(|x| format!("  {}", outlier(x))));
+    lines.join("\n")
+}
+
+/// A measurement named as an outlier.
+pub fn outlier(o: &OutlierReport) -> String {
+    format!(
+        "outlier: pose {} ({} kg), residual {:.2} mm, weight {:.2}",
+        o.pose, o.load_kg, o.residual_mm, o.weight
+    )
+}
+
+/// The cross-load check of a fit validated under another load, if it has one.
+pub fn cross_load(o: &OptionReport) -> Option<String> {
+    let c = o.cross_load.as_ref()?;
+    let fitted = if o.identify_load_kg == 0.0 {
+        "without load".to_string()
+    } else {
+        format!("with {} kg", o.identify_load_kg)
+    };
+    Some(format!(
+        "cross-load: fitted {fitted}, validated with {} kg: {:.2} -> {:.2} mm ({:.1} %)",
+        c.load_kg,
+        c.before.mean_m * 1e3,
+        c.after.mean_m * 1e3,
+        c.reduction_pct
+    ))
+}
+
+/// How many of an option's candidate parameters are identifiable and why the others are not.
+pub fn identifiable(o: &OptionReport) -> String {
+    let ident = &o.identifiability;
+    let removed: Vec<String> = ident.removed.iter().map(|r| r.explain()).collect();
+    format!(
+        "{}: {} of {} parameters identifiable; removed: {}",
+        o.option,
+        ident.kept.len(),
+        ident.candidates,
+        removed.join("; ")
+    )
+}
+
+/// O1 of an option's selection.
+pub fn selection(o: &OptionReport) -> String {
+    format!(
+        "O1 of the {} selected poses: {:.4} ({})",
+        o.selected_poses.len(),
+        o.observability.o1,
+        o.option
+    )
+}
+
+/// DETMAX against random selections of the same size.
+pub fn random_baseline(b: &RandomBaseline) -> String {
+    format!(
+        "DETMAX vs {} random {}-pose sets: O1 {:.4} vs median {:.4}; validation mean {:.2} vs median {:.2} mm",
+        b.sets,
+        b.poses,
+        b.detmax_o1,
+        b.random_o1_median,
+        b.detmax_mean_m * 1e3,
+        b.random_mean_median_m * 1e3
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::ModelOption;
+    use crate::calib::pipeline::{Inputs, calibrate_option};
+    use crate::calib::progress::Silent;
+    use crate::calib::testing::{elastic_run, elastic_settings};
+
+    fn elastic_report() -> OptionReport {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        OptionReport::from(&r)
+    }
+
+    #[test]
+    fn lines_count_what_the_run_had() {
+        let o = elastic_report();
+        let kept = o.identifiability.kept.len();
+        assert!(
+            identifiable(&o).starts_with(&format!(
+                "elastic: {kept} of 7 parameters identifiable; removed: k1: no effect"
+            )),
+            "{}",
+            identifiable(&o)
+        );
+        assert!(selection(&o).starts_with("O1 of the 10 selected poses: "));
+        let details = option_details(&o);
+        assert!(details.contains("  removed k1: no effect on the measured point"));
+        assert_eq!(details.lines().filter(|l| l.contains("± ")).count(), kept);
+        let t = table(&[o]);
+        assert!(t.lines().nth(1).unwrap().starts_with("elastic "), "{t}");
+        assert!(t.contains(" -> ") && t.contains('%'), "{t}");
+    }
+
+    #[test]
+    fn an_outlier_and_the_random_baseline_read_in_mm() {
+        let o = OutlierReport {
+            pose: 12,
+            load_kg: 0.0663,
+            residual_mm: 29.4394,
+            weight: 0.25,
+        };
+        assert_eq!(
+            outlier(&o),
+            "outlier: pose 12 (0.0663 kg), residual 29.44 mm, weight 0.25"
+        );
+        let b = RandomBaseline {
+            option: ModelOption::ElastoKinematic,
+            sets: 20,
+            poses: 40,
+            detmax_o1: 0.69134,
+            random_o1_median: 0.647,
+            detmax_mean_m: 0.00328,
+            random_mean_median_m: 0.00341,
+        };
+        assert_eq!(
+            random_baseline(&b),
+            "DETMAX vs 20 random 40-pose sets: O1 0.6913 vs median 0.6470; validation mean 3.28 vs median 3.41 mm"
+        );
+    }
+}

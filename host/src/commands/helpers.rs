@@ -1,0 +1,99 @@
+//! What several subcommands share: the terminal progress bar the engine's
+//! long steps draw, and the `--option` choice of one model option or all.
+
+use std::cell::RefCell;
+
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::calib::ModelOption;
+use crate::calib::progress::Progress;
+
+/// The engine's progress as a terminal bar (on stderr, drawn only on a
+/// terminal): a new bar for each step of the engine, with the step's label
+/// and length, cleared when the step ends.
+#[derive(Default)]
+pub struct Bar(RefCell<Option<ProgressBar>>);
+
+impl Bar {
+    /// No bar until a step begins.
+    pub fn new() -> Self {
+        Self::default()
+    }
+}
+
+impl Progress for Bar {
+    fn begin(&self, label: &str, len: u64) {
+        let bar = ProgressBar::new(len);
+        if let Ok(style) = ProgressStyle::with_template("{msg:<40} {bar:30} {pos}/{len} {elapsed}")
+        {
+            bar.set_style(style);
+        }
+        bar.set_message(label.to_owned());
+        if let Some(previous) = self.0.replace(Some(bar)) {
+            previous.finish_and_clear();
+        }
+    }
+
+    fn advance(&self, units: u64) {
+        if let Some(bar) = self.0.borrow().as_ref() {
+            bar.inc(units);
+        }
+    }
+
+    fn end(&self) {
+        if let Some(bar) = self.0.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// Which options to fit: one, or all three for comparison.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OptionChoice {
+    /// One option.
+    One(ModelOption),
+    /// All three.
+    All,
+}
+
+impl std::str::FromStr for OptionChoice {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match (s, ModelOption::from_name(s)) {
+            ("all", _) => Ok(Self::All),
+            (_, Some(option)) => Ok(Self::One(option)),
+            (_, None) => Err(format!(
+                "unknown model option `{s}`: expected elasto-kinematic, kinematic, elastic or all"
+            )),
+        }
+    }
+}
+
+impl OptionChoice {
+    /// The options to run, in the paper's table order.
+    pub fn options(self) -> Vec<ModelOption> {
+        match self {
+            Self::One(o) => vec![o],
+            Self::All => ModelOption::ALL.to_vec(),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn option_choice_parses_each_name_and_all() {
+        for o in ModelOption::ALL {
+            assert_eq!(o.name().parse(), Ok(OptionChoice::One(o)));
+        }
+        assert_eq!(
+            "all".parse::<OptionChoice>().map(|c| c.options().len()),
+            Ok(3)
+        );
+        let e = "rigid".parse::<OptionChoice>().unwrap_err();
+        assert!(e.contains("rigid") && e.contains("elasto-kinematic, kinematic, elastic or all"));
+    }
+}
