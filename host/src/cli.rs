@@ -40,7 +40,8 @@ lrmcal identify --measurements measurements.csv --load-kg 0.0663 --select 50 --o
 lrmcal predict --arm cal/calibration-elasto-kinematic.json --poses poses.csv --out predicted.csv\n  \
 lrmcal help identify\n\n\
 Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
-written, 5 model evaluation failed, 6 the board could not be reached or refused."
+written, 5 model evaluation failed, 6 the board could not be reached or refused (or the \
+emulated board could not be started)."
 )]
 pub struct Cli {
     /// What to do.
@@ -89,6 +90,8 @@ pub enum Command {
     Measure(commands::measure::Args),
     /// Put a firmware image (UF2) on the board through its USB bootloader.
     Flash(commands::flash::Args),
+    /// Run the board's real firmware in an emulated RP2040 (no hardware needed).
+    Emulator(commands::emulator::Args),
     /// Export an arm for other tools: a URDF of its rigid geometry for ROS.
     Export(commands::export::Args),
     /// Turn a recorded tracker take (OptiTrack Motive CSV) into a measurement CSV.
@@ -118,6 +121,7 @@ impl Command {
             Self::ServoTune(args) => commands::servo_tune::run(args),
             Self::Measure(args) => commands::measure::run(args),
             Self::Flash(args) => commands::flash::run(args),
+            Self::Emulator(args) => commands::emulator::run(args),
             Self::Export(args) => commands::export::run(args),
             Self::ImportTracker(args) => commands::import_tracker::run(args),
         }

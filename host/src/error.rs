@@ -20,7 +20,8 @@ pub mod exit_codes {
     pub const FILE_ACCESS: u8 = 4;
     /// The model could not be evaluated (e.g. the elastic deflection did not converge).
     pub const MODEL: u8 = 5;
-    /// The board could not be reached, or it refused a request.
+    /// The board could not be reached, or it refused a request (or the emulated board could
+    /// not be started).
     pub const DEVICE: u8 = 6;
 }
 
@@ -128,6 +129,25 @@ pub enum Error {
         #[source]
         source: crate::ik::IkError,
     },
+    /// The emulated board could not be started, or stopped on its own (`lrmcal emulator`).
+    #[error("run the emulated board: {reason}")]
+    Emulator {
+        /// What is missing or went wrong, and how to mend it.
+        reason: String,
+    },
+    /// A file named as the emulated board's flash is not a flash image.
+    #[error(
+        "use `{}` as the board's flash: expected a {expected}-byte image of the flash chip, found {found} bytes",
+        path.display()
+    )]
+    FlashImage {
+        /// The file.
+        path: PathBuf,
+        /// The board's flash size, bytes.
+        expected: u64,
+        /// The file's size, bytes.
+        found: u64,
+    },
     /// A tracker could not be heard, or a recorded take could not be used.
     #[error(transparent)]
     Tracker(#[from] crate::tracker::TrackerError),
@@ -190,7 +210,8 @@ impl Error {
             | Self::Plan { .. }
             | Self::Ik { .. } => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
-            Self::Device { .. } => exit_codes::DEVICE,
+            Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
+            Self::FlashImage { .. } => exit_codes::INVALID_INPUT,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
             Self::Tracker(e) => e.exit_code(),
             Self::Calib(e) => match e {

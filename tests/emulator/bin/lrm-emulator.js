@@ -5,6 +5,8 @@
 //! For people: `node tests/emulator/bin/lrm-emulator.js` (after `npm ci` there and
 //! `cargo firmware`), then in another terminal `lrmcal status --port socket://127.0.0.1:4040`.
 //! For tests: `--control` adds the JSON-lines control channel of `src/control.js` on stdio.
+//! For a parent process (`lrmcal emulator`): `--child` announces the port on stdout and stops
+//! the board when stdin closes.
 
 import { existsSync, readFileSync, renameSync, writeFileSync } from 'node:fs';
 import { dirname, join, resolve } from 'node:path';
@@ -14,6 +16,7 @@ import { Board } from '../src/board.js';
 import { Control } from '../src/control.js';
 import { DefmtDecoder, findDefmtPrint } from '../src/decoder.js';
 import { Elf, ElfError } from '../src/elf.js';
+import { FLASH_TIMINGS } from '../src/flash.js';
 import { SerialServer } from '../src/serial-server.js';
 
 const HERE = dirname(fileURLToPath(import.meta.url));
@@ -37,7 +40,11 @@ options:
   --flash FILE        keep the board's flash in FILE across runs (a calibration survives)
   --servo-pins LIST   GPIOs whose pulses are shown/measured (default ${DEFAULT_SERVO_PINS})
   --fast              run ahead of wall-clock time when idle (default: real time)
+  --flash-timing T    how long the flash chip is busy per erase/program: typical (default),
+                      max (the W25Q16JV datasheet's) or none (instantaneous)
   --control           JSON-lines control channel on stdin/stdout (for tests)
+  --child             for a parent process: print {"event":"listening","port":N} on stdout,
+                      stop (flash saved) when stdin closes
   --verbose           show the emulator's own warnings (unmodelled registers)
   -h, --help          this text
 
@@ -59,7 +66,9 @@ try {
       flash: { type: 'string' },
       'servo-pins': { type: 'string', default: DEFAULT_SERVO_PINS },
       fast: { type: 'boolean', default: false },
+      'flash-timing': { type: 'string', default: 'typical' },
       control: { type: 'boolean', default: false },
+      child: { type: 'boolean', default: false },
       verbose: { type: 'boolean', default: false },
       help: { type: 'boolean', short: 'h', default: false },
     },
@@ -77,6 +86,10 @@ const servoPins = args['servo-pins'].split(',').map(Number);
 if (servoPins.some((p) => !Number.isInteger(p) || p < 0 || p > 29)) {
   fail(`--servo-pins: expected GPIO numbers 0..29 separated by commas, got '${args['servo-pins']}'`);
 }
+if (!(args['flash-timing'] in FLASH_TIMINGS)) {
+  fail(`--flash-timing: expected ${Object.keys(FLASH_TIMINGS).join(', ')}, got '${args['flash-timing']}'`);
+}
+if (args.control && args.child) fail('--control and --child both use stdin and stdout: choose one');
 if (!existsSync(args.elf)) {
   fail(`no firmware ELF at ${args.elf}\nbuild it with: cargo firmware  (cargo build -p firmware --release --target thumbv6m-none-eabi)`);
 }
@@ -106,7 +119,14 @@ if (args.flash && existsSync(args.flash)) {
 
 let board;
 try {
-  board = new Board({ elf, flash: flashImage, servoPins, realtime: !args.fast, log: emulatorLog });
+  board = new Board({
+    elf,
+    flash: flashImage,
+    servoPins,
+    realtime: !args.fast,
+    flashTiming: args['flash-timing'],
+    log: emulatorLog,
+  });
 } catch (e) {
   fail(`${args.elf}: ${e.message}`);
 }
@@ -185,9 +205,16 @@ if (args.control) {
   control.event({ event: 'listening', port: actualPort, elf: args.elf, defmt_print: tool });
   control.listen();
 } else {
-  log(`emulated board running ${args.elf}`);
-  log(`serial port: socket://127.0.0.1:${actualPort}   e.g.  lrmcal status --port socket://127.0.0.1:${actualPort}`);
-  log('Ctrl-C stops the board' + (args.flash ? ` (flash saved to ${args.flash})` : ''));
+  if (args.child) {
+    process.stdout.write(`${JSON.stringify({ event: 'listening', port: actualPort })}\n`);
+    // The parent closes our stdin to stop the board, or by exiting however it ends.
+    process.stdin.on('end', quit);
+    process.stdin.resume();
+  } else {
+    log(`emulated board running ${args.elf}`);
+    log(`serial port: socket://127.0.0.1:${actualPort}   e.g.  lrmcal status --port socket://127.0.0.1:${actualPort}`);
+    log('Ctrl-C stops the board' + (args.flash ? ` (flash saved to ${args.flash})` : ''));
+  }
   board.on('configured', () => log('USB enumerated: the serial port is ready'));
   board.on('halted', ({ reason }) => log(`board stopped: ${reason}`));
   // Show the servo pulses whenever they change (once per second at most).

@@ -58,16 +58,21 @@ export class Board extends EventEmitter {
    * @param {Uint8Array} [options.flash] a whole flash image to start from (else the ELF alone)
    * @param {number[]} options.servoPins GPIOs whose pulses are captured
    * @param {boolean} [options.realtime] never run ahead of wall-clock time (default true)
+   * @param {string} [options.flashTiming] the flash chip's busy times (see FLASH_TIMINGS)
    * @param {(line:string)=>void} [options.log]
    */
-  constructor({ elf, flash, servoPins, realtime = true, log = () => {} }) {
+  constructor({ elf, flash, servoPins, realtime = true, flashTiming = 'typical', log = () => {} }) {
     super();
     this.elf = elf;
     this.servoPins = servoPins;
     this.realtime = realtime;
     this.log = log;
     this.rom = buildRom();
-    this.flashServices = new FlashServices(log);
+    this.flashServices = new FlashServices(log, flashTiming);
+    /** Emulated time the core still waits for the flash chip, ns (no instruction runs). */
+    this.stallNanos = 0;
+    /** Emulated time of the last flash erase's start, ns (null before the first). */
+    this.lastEraseNanos = null;
     this.resets = 0;
     this.halted = null;
     this.running = false;
@@ -133,6 +138,7 @@ export class Board extends EventEmitter {
     const flash = this.mcu.flash.slice();
     this.baseNanos += this.mcu.clock.nanos;
     this.resets += 1;
+    this.stallNanos = 0;
     this.log(`chip reset (${reason}); flash kept`);
     this.powerOn(flash);
     this.halted = null;
@@ -174,7 +180,9 @@ export class Board extends EventEmitter {
       return;
     }
     const name = serviceName(code);
+    if (name === 'RE') this.lastEraseNanos = this.nanos;
     const outcome = this.flashServices.call(name, this.mcu, r);
+    this.stallNanos += this.flashServices.takeBusy();
     if (outcome === 'reset') this.requestReset(`power cut during flash ${name}`);
     else if (outcome === 'usb-boot') this.halt('rebooted to the USB bootloader (reset_to_usb_boot)');
   }
@@ -183,7 +191,7 @@ export class Board extends EventEmitter {
   addProbe(part) {
     const functions = this.elf.functionsMatching(part);
     if (functions.length === 0) throw new Error(`no function symbol contains '${part}'`);
-    const probe = new CycleProbe(part, functions);
+    const probe = new CycleProbe(part, functions, () => this.nanos);
     probe.attach(this.mcu);
     this.probes.set(part, probe);
     return probe;
@@ -251,7 +259,18 @@ export class Board extends EventEmitter {
       if (this.pendingReset) this.doReset(this.pendingReset);
       if (this.halted) return true;
       const m = this.mcu;
-      if (m.core.waiting) {
+      if (this.stallNanos > 0) {
+        // The core waits for the flash chip: time passes (timers, PWM) but no instruction runs.
+        const timer = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);
+        const target = Math.min(this.nanos + this.stallNanos, timer, limitNanos);
+        if (target > this.nanos) {
+          const step = target - this.nanos;
+          m.clock.tick(step);
+          this.stallNanos = this.stallNanos - step < 1 ? 0 : this.stallNanos - step;
+        }
+        if (target === timer) this.fireTimers();
+        else if (target === limitNanos) return true;
+      } else if (m.core.waiting) {
         // Sleep to the next clock alarm or harness timer, but not past the wall-time limit.
         const alarm = m.clock.nextAlarm ? this.nanos + m.clock.nanosToNextAlarm : Infinity;
         const timer = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);

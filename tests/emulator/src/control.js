@@ -7,19 +7,21 @@
 //!
 //! | cmd | arguments | reply |
 //! |---|---|---|
-//! | `status` | | `nanos`, `resets`, `halted`, `configured`, `erases`, `programs` |
+//! | `status` | | `nanos`, `resets`, `halted`, `configured`, `erases`, `programs`, `flash_busy_ns`, `flash_timing`, `last_erase_ns` |
 //! | `wait_configured` | `timeout_ms` | `nanos` once USB is enumerated |
 //! | `run` | `us` | `nanos` after that much emulated time |
 //! | `pulses` | `pins`, `count`, `timeout_ms` | per pin `widths_us`, `periods_us` of the next `count` pulses |
 //! | `pulses_since` | `pins`, `since_ns` | per pin `widths_us` of every pulse since that time |
 //! | `reset` | | chip reset now, flash kept |
 //! | `cut_flash` | `op` (erase/program/any), `nth`, `bytes` | arms a power cut |
+//! | `flash_timing` | `timing` (none/typical/max) | the flash chip's busy time per erase and program from now on |
 //! | `cut_status` | | `armed`, `fired` |
 //! | `flash_read` | `offset`, `length` | `hex` |
 //! | `rtt` | | `hex` (all raw defmt bytes so far), `lines` (decoded, if defmt-print) |
 //! | `busy_cycles` | `windows`, `window_us` | CPU cycles executed (not asleep) in each window |
 //! | `probe` | `symbol` | adds a cycle probe; `functions` |
 //! | `probe_stats` | `symbol`, `clear` | `calls`, `min`, `mean`, `max`, `last` cycles |
+//! | `probe_calls` | `symbol`, `since_ns` | `starts_ns` (emulated start time) and `cycles` of each call since then |
 //! | `call` | `symbol` (exact name), `args` (lists of up to four u32) | `results` (r0 of each call), `cycles` of each |
 //! | `quit` | | the process exits |
 
@@ -103,6 +105,9 @@ export class Control {
           configured: this.configured,
           erases: board.flashServices.erases,
           programs: board.flashServices.programs,
+          flash_busy_ns: board.flashServices.busyTotalNs,
+          flash_timing: board.flashServices.timingName,
+          last_erase_ns: board.lastEraseNanos,
         };
       case 'wait_configured':
         await this.waitFor(() => this.configured, request.timeout_ms ?? 2000, 'USB enumeration');
@@ -146,6 +151,9 @@ export class Control {
         board.flashServices.armCut(op, request.nth ?? 1, request.bytes ?? 0);
         return {};
       }
+      case 'flash_timing':
+        board.flashServices.setTiming(request.timing);
+        return {};
       case 'cut_status': {
         const cut = board.flashServices.cut;
         return { armed: !!cut && !cut.fired, fired: !!cut?.fired };
@@ -187,6 +195,11 @@ export class Control {
         const stats = probe.stats();
         if (request.clear) probe.clear();
         return stats;
+      }
+      case 'probe_calls': {
+        const probe = board.probes.get(request.symbol);
+        if (!probe) throw new Error(`no probe on '${request.symbol}'`);
+        return probe.callsSince(request.since_ns ?? 0);
       }
       case 'call':
         if (!Array.isArray(request.args)) throw new Error("'args' must be a list of argument lists");

@@ -5,8 +5,26 @@
 //! whole 4 KiB sectors to 0xFF; program ANDs bytes in, as NOR flash can only clear bits. A
 //! fault armed with `armCut` stops the n-th erase/program after `bytes` bytes and asks for a chip
 //! reset: the state a power loss in the middle of a flash write leaves behind.
+//!
+//! The flash chip is busy for a while after each erase and program, and the core waits for it
+//! (the ROM polls the chip's status with interrupts off): `takeBusy` hands that time to the run
+//! loop, which lets it pass without running an instruction. The times are a W25Q16JV's (the
+//! Raspberry Pi Pico's flash chip), from its datasheet.
 
 const SECTOR = 4096;
+/** The chip programs at most one 256-byte page per program command. */
+const PAGE = 256;
+
+/**
+ * Busy time of the flash chip per 4 KiB sector erase (tSE) and per page program (tPP), ns:
+ * `typical` and `max` are the W25Q16JV datasheet's typical and maximum; `none` makes flash
+ * writes instantaneous.
+ */
+export const FLASH_TIMINGS = {
+  none: { eraseSectorNs: 0, programPageNs: 0 },
+  typical: { eraseSectorNs: 45e6, programPageNs: 0.4e6 },
+  max: { eraseSectorNs: 400e6, programPageNs: 3e6 },
+};
 
 /** A flash fault armed for a coming erase or program. */
 export class FlashCut {
@@ -26,11 +44,36 @@ export class FlashCut {
 
 /** Flash erase/program plus bookkeeping the tests read. */
 export class FlashServices {
-  constructor(log) {
+  constructor(log, timing = 'typical') {
     this.log = log;
     this.cut = null;
     this.erases = 0;
     this.programs = 0;
+    this.setTiming(timing);
+    /** Chip busy time of the operations done but not yet waited for, ns. */
+    this.busyNs = 0;
+    /** Chip busy time of every operation so far, ns. */
+    this.busyTotalNs = 0;
+  }
+
+  /** Chooses the chip's busy times by name (a key of FLASH_TIMINGS). */
+  setTiming(name) {
+    const timing = FLASH_TIMINGS[name];
+    if (!timing) throw new Error(`unknown flash timing '${name}' (expected ${Object.keys(FLASH_TIMINGS).join(', ')})`);
+    this.timingName = name;
+    this.timing = timing;
+  }
+
+  /** The chip busy time of the operations since the last call, ns (the core waits that long). */
+  takeBusy() {
+    const busy = this.busyNs;
+    this.busyNs = 0;
+    return busy;
+  }
+
+  busy(ns) {
+    this.busyNs += ns;
+    this.busyTotalNs += ns;
   }
 
   /** Arms a power cut; replaces any armed before. */
@@ -71,7 +114,9 @@ export class FlashServices {
         const cut = this.cutNow('erase');
         const stop = cut ? Math.min(end, start + cut.bytes) : end;
         flash.fill(0xff, start, stop);
-        return cut ? 'reset' : 'ok';
+        if (cut) return 'reset';
+        this.busy(((end - start) / SECTOR) * this.timing.eraseSectorNs);
+        return 'ok';
       }
       case 'RP': {
         const [offset, data, count] = [r[0], r[1], r[2]];
@@ -81,7 +126,10 @@ export class FlashServices {
         for (let i = 0; i < n && offset + i < flash.length; i++) {
           flash[offset + i] &= mcu.readUint8(data + i);
         }
-        return cut ? 'reset' : 'ok';
+        if (cut) return 'reset';
+        const pages = count === 0 ? 0 : Math.ceil((offset + count) / PAGE) - Math.floor(offset / PAGE);
+        this.busy(pages * this.timing.programPageNs);
+        return 'ok';
       }
       case 'UB':
         return 'usb-boot';

@@ -4,7 +4,7 @@
 import assert from 'node:assert/strict';
 import { test } from 'node:test';
 import { RP2040 } from 'rp2040js';
-import { FlashServices } from '../src/flash.js';
+import { FLASH_TIMINGS, FlashServices } from '../src/flash.js';
 import { buildRom, LOOKUP_TRAP, romCode, serviceName, SERVICES } from '../src/rom.js';
 
 /** A bare chip on our ROM; BKPTs run the flash services like the board does. */
@@ -104,6 +104,32 @@ test('an armed power cut stops the n-th program part-way and asks for a reset', 
   assert.equal(services.call('RP', mcu, regs(0x5000)), 'reset');
   assert.deepEqual([...mcu.flash.subarray(0x5000, 0x5006)], [0, 1, 2, 3, 4, 0xff]);
   assert.equal(services.call('RP', mcu, regs(0x6000)), 'ok', 'a cut fires once');
+});
+
+test('the flash chip is busy per erased sector and per programmed page, as timed', () => {
+  const { mcu } = chip();
+  const data = 0x20020000;
+  const services = new FlashServices(() => {});
+  assert.equal(services.timingName, 'typical', 'the default is the datasheet\'s typical timing');
+  services.call('RE', mcu, Uint32Array.from([0x2000, 0x2000, 0, 0]));
+  assert.equal(services.takeBusy(), 2 * FLASH_TIMINGS.typical.eraseSectorNs, 'two sectors');
+  assert.equal(services.takeBusy(), 0, 'busy time is handed out once');
+  // 300 bytes from offset 250 touch three 256-byte pages.
+  services.call('RP', mcu, Uint32Array.from([0x2000 + 250, data, 300, 0]));
+  assert.equal(services.takeBusy(), 3 * FLASH_TIMINGS.typical.programPageNs);
+  services.setTiming('max');
+  services.call('RP', mcu, Uint32Array.from([0x2000, data, 256, 0]));
+  assert.equal(services.takeBusy(), FLASH_TIMINGS.max.programPageNs);
+  assert.equal(services.busyTotalNs, 2 * 45e6 + 3 * 0.4e6 + 3e6);
+  services.setTiming('none');
+  services.call('RE', mcu, Uint32Array.from([0x2000, 0x1000, 0, 0]));
+  assert.equal(services.takeBusy(), 0);
+  assert.throws(() => services.setTiming('slow'), /unknown flash timing 'slow'/);
+  // A write cut by a power loss leaves no wait behind: the chip resets.
+  services.setTiming('typical');
+  services.armCut('erase', 1, 100);
+  assert.equal(services.call('RE', mcu, Uint32Array.from([0x2000, 0x1000, 0, 0])), 'reset');
+  assert.equal(services.takeBusy(), 0);
 });
 
 test('memcpy44 copies words (the flash driver copies boot2 with it)', () => {

@@ -46,6 +46,8 @@ pub struct EmulatedBoard {
     replies: Receiver<Value>,
     events: Arc<Mutex<Vec<Value>>>,
     log: Arc<Mutex<String>>,
+    /// Ends when the emulator's stderr closes: joined to have its last words (a crash's trace).
+    log_reader: Option<thread::JoinHandle<()>>,
     next_id: u64,
     /// TCP port of the board's USB serial port on 127.0.0.1.
     pub port: u16,
@@ -87,7 +89,7 @@ impl EmulatedBoard {
         let log = Arc::new(Mutex::new(String::new()));
         let stderr = child.stderr.take().expect("piped stderr");
         let log_writer = Arc::clone(&log);
-        thread::spawn(move || {
+        let log_reader = thread::spawn(move || {
             for line in BufReader::new(stderr).lines().map_while(Result::ok) {
                 let mut log = log_writer.lock().unwrap_or_else(|e| e.into_inner());
                 log.push_str(&line);
@@ -122,6 +124,7 @@ impl EmulatedBoard {
             replies,
             events,
             log,
+            log_reader: Some(log_reader),
             next_id: 1,
             port: 0,
         };
@@ -140,6 +143,21 @@ impl EmulatedBoard {
     /// The emulator's log so far (its own messages and the firmware's).
     pub fn log(&self) -> String {
         self.log.lock().unwrap_or_else(|e| e.into_inner()).clone()
+    }
+
+    /// How the emulator ended, once its stdout has closed; its whole log is read by then.
+    fn exit_status(&mut self) -> String {
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while Instant::now() < deadline {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                if let Some(reader) = self.log_reader.take() {
+                    let _ = reader.join();
+                }
+                return format!("the emulator exited ({status})");
+            }
+            thread::sleep(Duration::from_millis(20));
+        }
+        "the emulator closed its stdout".into()
     }
 
     /// Events (`configured`, `reset`, `halted`, ...) seen so far.
@@ -161,7 +179,7 @@ impl EmulatedBoard {
                     panic!("no '{name}' event from the emulator\n{}", self.log())
                 }
                 Err(RecvTimeoutError::Disconnected) => {
-                    panic!("the emulator exited before '{name}'\n{}", self.log())
+                    panic!("{} before '{name}'\n{}", self.exit_status(), self.log())
                 }
             }
         }
@@ -194,7 +212,14 @@ impl EmulatedBoard {
             match self.replies.recv_timeout(left) {
                 Ok(v) if v["id"] == json!(id) => return v,
                 Ok(_) => {}
-                Err(_) => panic!("no reply to {request} from the emulator\n{}", self.log()),
+                Err(RecvTimeoutError::Timeout) => {
+                    panic!("no reply to {request} from the emulator\n{}", self.log())
+                }
+                Err(RecvTimeoutError::Disconnected) => panic!(
+                    "{} instead of answering {request}\n{}",
+                    self.exit_status(),
+                    self.log()
+                ),
             }
         }
     }
@@ -470,4 +495,36 @@ pub fn expected_pulses(
     };
     let command = calibrated.clamp_to_limits(&command);
     std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
+}
+
+/// `lrmcal` run as a process (this package's `lrmcal-e2e`, the same program) against the
+/// board's serial port `port`. Device commands wait up to 5 s per reply: the emulated board
+/// answers in emulated time, which runs slower than the wall clock while the CPU is busy.
+pub fn lrmcal_process(port: &str, args: &[&str]) -> std::process::Output {
+    let output = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"))
+        .args(args)
+        .args(["--timeout-ms", "5000"])
+        .env("LRMCAL_PORT", port)
+        .output()
+        .expect("lrmcal runs");
+    assert!(
+        output.status.success(),
+        "lrmcal {} failed ({}): {}",
+        args.join(" "),
+        output.status,
+        String::from_utf8_lossy(&output.stderr)
+    );
+    output
+}
+
+/// The calibration files of `lrmcal demo` (quick settings), made in `dir` by the CLI.
+pub fn demo_calibrations(dir: &std::path::Path) -> PathBuf {
+    let status = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"))
+        .args(["demo", "--starts", "1", "--compare-random", "0", "--out"])
+        .arg(dir)
+        .stdout(Stdio::null())
+        .status()
+        .expect("lrmcal demo runs");
+    assert!(status.success(), "lrmcal demo failed: {status}");
+    dir.join("calibration-elasto-kinematic.json")
 }
