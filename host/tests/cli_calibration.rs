@@ -125,8 +125,47 @@ fn bad_inputs_are_named() {
         "{}",
         text(&out)
     );
-    // Metres where millimetres are expected.
+    // A measured pose beyond a joint limit (the bundled arm's are ±105°):
+    // refused with file, line and joint unless the user accepts it.
     let rows = measurements::read(Path::new(&meas)).unwrap();
+    let mut beyond = rows.clone();
+    let moved = beyond[1].pose.id;
+    for m in beyond.iter_mut().filter(|m| m.pose.id == moved) {
+        m.pose.q[1] = 120f64.to_radians();
+    }
+    let bad = dir.path().join("beyond.csv");
+    measurements::write(&bad, &beyond).unwrap();
+    let identify_beyond = |extra: &[&str]| {
+        let out_dir = dir.path().join("beyond");
+        let args = [
+            &["identify", "--measurements", p(&bad), "--load-kg", "0"][..],
+            &["--out", p(&out_dir)],
+            extra,
+        ]
+        .concat();
+        lrmcal(&args)
+    };
+    let out = identify_beyond(&[]);
+    assert_eq!(out.status.code(), Some(3), "{}", text(&out));
+    assert!(
+        text(&out).contains("beyond.csv")
+            && text(&out).contains("line 3")
+            && text(&out).contains("outside joint 2's limits")
+            && text(&out).contains("--allow-outside-limits"),
+        "{}",
+        text(&out)
+    );
+    // Accepted, the pose goes on to the next check (its position no longer
+    // matches its angles, so the plausibility check names it).
+    let out = identify_beyond(&["--allow-outside-limits"]);
+    assert!(
+        text(&out).contains("warning: 2 of the 810 rows")
+            && text(&out).contains("used anyway")
+            && text(&out).contains("from where the nominal arm puts the tool"),
+        "{}",
+        text(&out)
+    );
+    // Metres where millimetres are expected.
     let metres: Vec<Measurement> = rows
         .iter()
         .map(|m| Measurement {

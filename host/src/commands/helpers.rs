@@ -84,6 +84,11 @@ impl OptionChoice {
     }
 }
 
+/// Writes a text file (JSON, a report) whole or not at all (see [`atomic`]).
+pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
+    atomic::write(path, |w| w.write_all(text.as_bytes()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -100,9 +105,4 @@ mod tests {
         let e = "rigid".parse::<OptionChoice>().unwrap_err();
         assert!(e.contains("rigid") && e.contains("elasto-kinematic, kinematic, elastic or all"));
     }
-}
-
-/// Writes a text file (JSON, a report) whole or not at all (see [`atomic`]).
-pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
 }

@@ -59,6 +59,10 @@ pub struct Args {
     /// Down-weight outliers (Huber) and name them.
     #[arg(long)]
     pub robust: bool,
+    /// Fit measured poses outside the arm's joint limits too (with a warning)
+    /// instead of refusing the file.
+    #[arg(long)]
+    pub allow_outside_limits: bool,
     /// DETMAX random starts.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
@@ -73,6 +77,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let nominal = loaded.arm;
     let file = args.measurements.display().to_string();
     let all = measurements::read(&args.measurements)?;
+    if let Some(warning) = pose_list::check_file_within_limits(
+        &nominal,
+        &args.measurements,
+        args.allow_outside_limits,
+    )? {
+        eprintln!("warning: {warning}");
+    }
     if all.is_empty() {
         return Err(CalibError::Empty {
             what: format!("identify from {file}"),
