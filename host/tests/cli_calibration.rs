@@ -1,19 +1,16 @@
 //! `lrmcal select`, `identify`, `validate` and `demo` run as a user runs them,
 //! and the bad inputs of issue 3: each a clear error naming the problem.
 
+mod common;
+
+use common::lrmcal;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::dataset::Measurement;
 use host::io::calibration_file::CalibrationFile;
 use host::io::measurements;
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 fn text(out: &Output) -> String {
     format!(

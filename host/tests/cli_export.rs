@@ -4,22 +4,19 @@
 //! tool point of the same rigid arm, to 1e-6 mm, for the bundled arm and for a
 //! calibrated arm with an error in every parameter. Bad input is named.
 
+mod common;
+
+use common::lrmcal;
+
 use std::collections::HashSet;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::io::{arm_source, predictions};
 use model::testing::{ErrorSizes, random_errors};
 use model::{Arm, JOINTS, ParamId};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

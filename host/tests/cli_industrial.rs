@@ -3,17 +3,14 @@
 //! ±400°, no servo tables) is planned, simulated, calibrated and predicted,
 //! and the board commands refuse it, naming the joint without a servo table.
 
+mod common;
+
+use common::lrmcal;
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::io::{arm_toml, pose_list, predictions};
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

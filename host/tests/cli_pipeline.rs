@@ -5,9 +5,12 @@
 //! documented fields) and that the calibrated arm predicts held-out poses far
 //! better than the nominal one; then the exit codes of a few bad inputs.
 
+mod common;
+
+use common::lrmcal;
+
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use host::dataset::{Measurement, PoseRow};
 use host::error::exit_codes;
@@ -18,13 +21,6 @@ use serde_json::Value;
 const LOAD_KG: f64 = 0.0663;
 /// Poses DETMAX selects for the fit.
 const SELECT: usize = 30;
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 /// Runs `lrmcal`, asserting success; returns standard output.
 fn ok(args: &[&str]) -> String {

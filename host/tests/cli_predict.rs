@@ -2,17 +2,14 @@
 //! loads deflect the arm, bad input gives the documented exit code and a
 //! message naming the file, and `--help` teaches.
 
+mod common;
+
+use common::lrmcal;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::io::{arm_toml, predictions};
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 fn fixture() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))

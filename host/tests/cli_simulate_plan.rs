@@ -1,20 +1,17 @@
 //! `lrmcal plan` and `lrmcal simulate` run as a user runs them, and the
 //! simulator's headline figure: the bundled arm's uncalibrated error.
 
+mod common;
+
+use common::lrmcal;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::dataset::Measurement;
 use host::io::{arm_source::ArmSource, measurements, pose_list};
 use host::plan::{PlanConfig, candidates};
 use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
-}
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()

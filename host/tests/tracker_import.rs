@@ -5,9 +5,13 @@
 //! periods do not pair with the poses, or whose units are not Motive's, is
 //! refused naming the file and what was expected, with nothing written.
 
+mod common;
+
+use common::lrmcal;
+
 use std::fmt::Write as _;
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
 use host::io::measurements;
 use nalgebra::Vector3;
@@ -112,13 +116,6 @@ fn motive_take(units: &str, per_m: f64) -> String {
         writeln!(out, "{:.6},{:.6},{:.6}", base.x, base.y, base.z).unwrap();
     }
     out
-}
-
-fn lrmcal(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_lrmcal"))
-        .args(args)
-        .output()
-        .expect("lrmcal runs")
 }
 
 /// `lrmcal import-tracker` on the files of [`files`], reading rigid body `body`.
