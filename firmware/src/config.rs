@@ -45,7 +45,7 @@ impl Default for Config {
                 minor: 1,
                 patch: 0,
             },
-            pulse_range_us: [500, 2500],
+            pulse_range_us: model::servo::PULSE_RANGE_US,
             hard_limits_rad: [-150f32.to_radians(), 150f32.to_radians()],
             default_limits_rad: [-100f32.to_radians(), 100f32.to_radians()],
             max_speed_rad_s: 1.5,

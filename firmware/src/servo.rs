@@ -1,5 +1,10 @@
 //! The servo outputs: the bus trait, and the pure maths from a joint angle to
 //! a pulse that can never leave the joint's limits or the safe pulse range.
+//!
+//! The angle -> pulse map is the calibration's [`ServoCurve`] of 2 to 9
+//! knots, evaluated by `model` itself, so the board's pulses are the host's
+//! to rounding. Its cost per channel and servo frame is a binary search over
+//! at most seven inner knots and one segment's slope.
 
 use model::ServoCurve;
 
@@ -81,17 +86,39 @@ mod tests {
 
     #[test]
     fn three_point_curve_gives_its_pulses() {
-        let c = ServoCurve {
-            minus100: 1000.0,
-            zero: 1500.0,
-            plus100: 2100.0,
-        };
+        let c = ServoCurve::from_three_points(1000.0, 1500.0, 2100.0);
         let r = 100f32.to_radians();
         assert_eq!(pulse_for(&c, -r, LIMITS, RANGE).unwrap().us, 1000);
         assert_eq!(pulse_for(&c, 0.0, LIMITS, RANGE).unwrap().us, 1500);
         assert_eq!(pulse_for(&c, r, LIMITS, RANGE).unwrap().us, 2100);
         assert_eq!(pulse_for(&c, r / 2.0, LIMITS, RANGE).unwrap().us, 1800);
         assert_eq!(pulse_for(&c, -r / 2.0, LIMITS, RANGE).unwrap().us, 1250);
+    }
+
+    #[test]
+    fn a_many_knot_curve_gives_the_pulse_of_its_segment() {
+        let d = |x: f32| x.to_radians();
+        let c = ServoCurve::new(
+            &[d(-100.0), d(-75.0), d(-25.0), d(0.0), d(40.0), d(100.0)],
+            &[950.0, 1100.0, 1420.0, 1600.0, 1840.0, 2200.0],
+        )
+        .unwrap();
+        for (deg, us) in [
+            (-100.0, 950),
+            (-87.5, 1025),
+            (-50.0, 1260),
+            (-10.0, 1528),
+            (0.0, 1600),
+            (20.0, 1720),
+            (70.0, 2020),
+            (100.0, 2200),
+            // Beyond the outer knots the end segments go on.
+            (-110.0, 890),
+            (110.0, 2260),
+        ] {
+            let p = pulse_for(&c, d(deg), [-2.0, 2.0], RANGE).unwrap();
+            assert_eq!((deg, p.us), (deg, us));
+        }
     }
 
     #[test]
@@ -105,11 +132,7 @@ mod tests {
                 .unwrap()
         );
         // A wild calibration curve cannot push the pulse out of the safe range.
-        let wild = ServoCurve {
-            minus100: -4000.0,
-            zero: 1500.0,
-            plus100: 9000.0,
-        };
+        let wild = ServoCurve::from_three_points(-4000.0, 1500.0, 9000.0);
         assert_eq!(
             pulse_for(&wild, 1.7, LIMITS, RANGE).unwrap(),
             Pulse {

@@ -165,7 +165,7 @@ fn plan_simulate_identify_validate_predict() {
     let measured = measurements::read(&meas).unwrap();
     assert_eq!(measured.len(), 2 * small.len());
     let truth_json = json(&truth);
-    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/1");
+    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/2");
     assert_eq!(truth_json["seed"], 3);
     assert_documented(
         &truth_json,

@@ -7,10 +7,14 @@
 //! mismatched arm is caught), the option, every fitted parameter with its
 //! standard deviation, the poses used and the statistics. Bump
 //! [`SCHEMA_VERSION`] on any change that an older reader would misread.
+//!
+//! Version 2 writes each servo curve as its knots (`angles_rad`,
+//! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
+//! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
 
 use std::path::Path;
 
-use model::{Arm, ParamId};
+use model::{Arm, ParamId, ServoCurve};
 use serde::{Deserialize, Serialize};
 
 use super::identify::{Estimate, Identified};
@@ -19,8 +23,45 @@ use super::{CalibError, ModelOption};
 
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
-/// Version of the schema this build writes and reads.
-pub const SCHEMA_VERSION: u32 = 1;
+/// Version of the schema this build writes (and the newest it reads).
+pub const SCHEMA_VERSION: u32 = 2;
+/// The oldest version this build reads.
+pub const OLDEST_SCHEMA_VERSION: u32 = 1;
+
+/// A servo curve as schema 1 wrote it: the pulses at -100°, 0° and +100°.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ThreePoints {
+    minus100: f64,
+    zero: f64,
+    plus100: f64,
+}
+
+/// Rewrites the servo curves of a schema-1 file's two arms as knots, so the
+/// rest of it reads like a schema-2 file.
+fn upgrade_servo_curves(value: &mut serde_json::Value) -> Result<(), String> {
+    for arm in ["nominal", "arm"] {
+        let joints = value
+            .get_mut(arm)
+            .and_then(|a| a.get_mut("joints"))
+            .and_then(|j| j.as_array_mut());
+        // Missing pieces are reported by the typed read that follows.
+        for (i, joint) in joints.into_iter().flatten().enumerate() {
+            let Some(servo) = joint.get_mut("servo") else {
+                continue;
+            };
+            let three: ThreePoints = serde_json::from_value(servo.take()).map_err(|e| {
+                format!(
+                    "{arm}.joints[{}].servo: expected the pulses minus100, zero and plus100 of a schema-1 file: {e}",
+                    i + 1
+                )
+            })?;
+            let curve = ServoCurve::from_three_points(three.minus100, three.zero, three.plus100);
+            *servo = serde_json::to_value(curve).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -142,12 +183,25 @@ impl CalibrationFile {
             )));
         }
         let version = value.get("schema_version").and_then(|v| v.as_u64());
-        if version != Some(SCHEMA_VERSION as u64) {
-            return Err(err(format!(
-                "schema_version {version:?} is not the version {SCHEMA_VERSION} this lrmcal reads"
-            )));
-        }
-        let file: Self = serde_json::from_str(text).map_err(|e| err(e.to_string()))?;
+        let file: Self = match version {
+            Some(v) if v == u64::from(SCHEMA_VERSION) => {
+                serde_json::from_str(text).map_err(|e| err(e.to_string()))?
+            }
+            Some(1) => {
+                let mut value = value;
+                upgrade_servo_curves(&mut value).map_err(err)?;
+                if let Some(v) = value.get_mut("schema_version") {
+                    *v = SCHEMA_VERSION.into();
+                }
+                serde_path_to_error::deserialize(value)
+                    .map_err(|e| err(format!("{}: {}", e.path(), e.inner())))?
+            }
+            _ => {
+                return Err(err(format!(
+                    "schema_version {version:?} is not one of the versions {OLDEST_SCHEMA_VERSION} to {SCHEMA_VERSION} this lrmcal reads"
+                )));
+            }
+        };
         if !file.arm.is_finite() || !file.nominal.is_finite() {
             return Err(err("an arm holds a non-finite number".into()));
         }
@@ -259,7 +313,7 @@ mod tests {
             .to_string();
         assert!(e.contains("schema") && e.contains("cal.json"), "{e}");
         let e = CalibrationFile::parse(
-            &json.replace("\"schema_version\": 1", "\"schema_version\": 9"),
+            &json.replace("\"schema_version\": 2", "\"schema_version\": 9"),
             path,
         )
         .unwrap_err()
@@ -273,5 +327,43 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("not JSON"), "{e}");
+    }
+
+    #[test]
+    fn schema_1_files_read_as_the_same_curves() {
+        let mut file = sample_file();
+        file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
+        let json = file.to_json();
+        assert!(json.contains("\"schema_version\": 2") && json.contains("\"angles_rad\""));
+        // The same file as schema 1 wrote it: each curve as its three pulses.
+        let mut v1: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v1["schema_version"] = 1.into();
+        for arm in ["nominal", "arm"] {
+            for joint in v1[arm]["joints"].as_array_mut().unwrap() {
+                let p = joint["servo"]["pulses_us"].clone();
+                joint["servo"] =
+                    serde_json::json!({ "minus100": p[0], "zero": p[1], "plus100": p[2] });
+            }
+        }
+        let path = Path::new("old.json");
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        assert!(text.contains("\"minus100\": 880.5"), "{text}");
+        assert_eq!(CalibrationFile::parse(&text, path).unwrap(), file);
+
+        v1["arm"]["joints"][2]["servo"] = serde_json::json!({ "minus100": 900.0, "zero": 1650.0 });
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        let e = CalibrationFile::parse(&text, path).unwrap_err().to_string();
+        assert!(
+            e.contains("old.json") && e.contains("arm.joints[3].servo") && e.contains("plus100"),
+            "{e}"
+        );
+        // A schema-2 file must hold knots: the three points alone are refused.
+        v1["schema_version"] = 2.into();
+        v1["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let e = CalibrationFile::parse(&serde_json::to_string(&v1).unwrap(), path)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("minus100"), "{e}");
     }
 }
