@@ -113,6 +113,10 @@ impl core::fmt::Display for KnotCount {
     }
 }
 
+/// The slopes of a curve's segments, µs/rad ([`ServoCurve::slopes`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slopes<T>([T; MAX_KNOTS - 1]);
+
 /// Why a curve does not map angle to pulse one-to-one. Knots count from 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CurveFault {
@@ -268,11 +272,38 @@ impl<T: Real> ServoCurve<T> {
     /// Pulse (µs) for a joint angle (rad); beyond the outer knots the end
     /// segments are extended.
     pub fn pulse_us(&self, angle: T) -> T {
-        let inner = &self.angles[1..self.knot_count() - 1];
-        let (lo, hi, at) = self.segment(inner.partition_point(|&x| x <= angle));
+        self.pulse_through(angle, |k| self.slope(k))
+    }
+
+    /// The slope of segment `[k, k + 1]`, µs/rad.
+    fn slope(&self, k: usize) -> T {
         let (a, p) = (&self.angles, &self.pulses);
-        let slope = (p[hi] - p[lo]) / (a[hi] - a[lo]);
-        p[at] + slope * (angle - a[at])
+        (p[k + 1] - p[k]) / (a[k + 1] - a[k])
+    }
+
+    /// Every segment's slope, worked out once for a curve evaluated often.
+    pub fn slopes(&self) -> Slopes<T> {
+        let mut out = [T::zero(); MAX_KNOTS - 1];
+        for (k, s) in out.iter_mut().enumerate().take(self.knot_count() - 1) {
+            *s = self.slope(k);
+        }
+        Slopes(out)
+    }
+
+    /// [`ServoCurve::pulse_us`], bit for bit, with the slopes of
+    /// [`ServoCurve::slopes`] instead of a division: what the board does six
+    /// times a servo frame. Slopes of another curve give a wrong pulse, never
+    /// a panic.
+    pub fn pulse_us_with(&self, slopes: &Slopes<T>, angle: T) -> T {
+        self.pulse_through(angle, |k| slopes.0[k])
+    }
+
+    /// The pulse at `angle` on its segment `k`, whose slope `slope(k)` gives.
+    #[inline]
+    fn pulse_through(&self, angle: T, slope: impl FnOnce(usize) -> T) -> T {
+        let inner = &self.angles[1..self.knot_count() - 1];
+        let (lo, _, at) = self.segment(inner.partition_point(|&x| x <= angle));
+        self.pulses[at] + slope(lo) * (angle - self.angles[at])
     }
 
     /// Joint angle (rad) for a pulse (µs): the inverse of [`ServoCurve::pulse_us`].
@@ -367,6 +398,30 @@ mod tests {
             let pulse: f64 = rng.random_range(400.0..2600.0);
             // Equal up to the sign of a zero.
             assert_eq!(c.angle(pulse), two_lines_angle(m, z, p, pulse));
+        }
+    }
+
+    #[test]
+    fn worked_out_slopes_give_the_same_pulses_bit_for_bit() {
+        let mut rng = rand::rng();
+        use rand::Rng;
+        for n in 2..=MAX_KNOTS {
+            let mut angles = [0.0f32; MAX_KNOTS];
+            let mut pulses = [0.0f32; MAX_KNOTS];
+            for k in 0..n {
+                angles[k] = -1.8 + 3.6 * k as f32 / (n - 1) as f32 + rng.random_range(-0.1..0.1);
+                pulses[k] =
+                    900.0 + 1500.0 * k as f32 / (n - 1) as f32 + rng.random_range(-20.0..20.0);
+            }
+            let c = ServoCurve::new(&angles[..n], &pulses[..n]).unwrap();
+            let slopes = c.slopes();
+            for _ in 0..200 {
+                let a: f32 = rng.random_range(-2.5..2.5);
+                assert_eq!(
+                    c.pulse_us_with(&slopes, a).to_bits(),
+                    c.pulse_us(a).to_bits()
+                );
+            }
         }
     }
 
