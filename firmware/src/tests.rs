@@ -324,12 +324,24 @@ fn calibrated_curves_and_limits_drive_the_servos() {
     }
 }
 
-/// The steepest segment of a curve, µs per rad.
-fn steepest_slope(curve: &model::ServoCurve<f32>) -> f32 {
-    let (a, p) = (curve.angles_rad(), curve.pulses_us());
-    (1..a.len())
-        .map(|k| ((p[k] - p[k - 1]) / (a[k] - a[k - 1])).abs())
-        .fold(0.0, f32::max)
+/// The most a held servo's pulse may change from one frame to the next while
+/// a correction fades in or out, µs: the steepest segment of `cal`'s curves
+/// (µs per rad) times the largest correction change per 20 ms frame, plus
+/// one for rounding.
+fn largest_fading_step_us(cal: &Calibration) -> f32 {
+    let steepest = |curve: &model::ServoCurve<f32>| {
+        let (a, p) = (curve.angles_rad(), curve.pulses_us());
+        (1..a.len())
+            .map(|k| ((p[k] - p[k - 1]) / (a[k] - a[k - 1])).abs())
+            .fold(0.0, f32::max)
+    };
+    let slope = cal
+        .calibrated
+        .joints
+        .iter()
+        .map(|j| steepest(&j.servo))
+        .fold(0.0, f32::max);
+    slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0
 }
 
 #[test]
@@ -591,15 +603,7 @@ fn switching_compensation_fades_the_correction_in_and_out() {
     });
     h.frames(100);
     let off = h.dev.bus().now;
-    // µs per rad of the steepest curve, times the largest correction change per 20 ms frame.
-    let cal = test_calibration(4);
-    let slope = cal
-        .calibrated
-        .joints
-        .iter()
-        .map(|j| steepest_slope(&j.servo))
-        .fold(0.0, f32::max);
-    let per_frame = slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    let per_frame = largest_fading_step_us(&test_calibration(4));
     for mode in [CompensationMode::Full, CompensationMode::Off] {
         assert_eq!(
             h.request(&Request::SetCompensation { mode }),
@@ -653,13 +657,7 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
             *p += 40.0;
         }
     }
-    let slope = next
-        .calibrated
-        .joints
-        .iter()
-        .map(|j| steepest_slope(&j.servo))
-        .fold(0.0, f32::max);
-    let per_frame = slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    let per_frame = largest_fading_step_us(&next);
     for step in [Request::CalibrationErase, Request::Status] {
         let before = h.dev.bus().now;
         if step == Request::CalibrationErase {

@@ -268,8 +268,16 @@ fn calibrated_arm_urdf_puts_the_tool_where_predict_does_without_sag() {
         joint.compliance = 0.0;
     }
     let (cal, rigid_cal) = (dir.path().join("cal.json"), dir.path().join("rigid.json"));
-    std::fs::write(&cal, calibration_json(&nominal, &calibrated, SCHEMA_VERSION)).unwrap();
-    std::fs::write(&rigid_cal, calibration_json(&nominal, &rigid, SCHEMA_VERSION)).unwrap();
+    std::fs::write(
+        &cal,
+        calibration_json(&nominal, &calibrated, SCHEMA_VERSION),
+    )
+    .unwrap();
+    std::fs::write(
+        &rigid_cal,
+        calibration_json(&nominal, &rigid, SCHEMA_VERSION),
+    )
+    .unwrap();
 
     let out = dir.path().join("cal.urdf");
     let text = export(&[

@@ -328,22 +328,18 @@ fn garbage_on_the_line_is_survived_and_the_next_request_works() {
     assert!(s.frames_dropped > 0);
 }
 
+/// What `hello` says to a board that answers every frame with `reply` under protocol `version`.
+fn hello_to_a_board_of(version: u8, reply: &protocol::Response) -> ClientError {
+    let mut out = [0u8; MAX_FRAME];
+    let n = protocol::frame::encode_with_version(version, 1, reply, &mut out).unwrap();
+    let mut c = client(Board::new(SimFlash::new()));
+    c.link_mut().replies.extend(&out[..n]);
+    c.hello().unwrap_err()
+}
+
 #[test]
 fn a_board_of_another_protocol_version_is_named_clearly() {
-    let mut board = Board::new(SimFlash::new());
-    // The board answers anything with a frame of version 9.
-    let mut out = [0u8; MAX_FRAME];
-    let n =
-        protocol::frame::encode_with_version(9, 1, &protocol::Response::Done, &mut out).unwrap();
-    board.device = Some(Device::new(
-        MockBus::default(),
-        SimFlash::new(),
-        Config::default(),
-        0,
-    ));
-    let mut c = client(board);
-    c.link_mut().replies.extend(&out[..n]);
-    let err = c.hello().unwrap_err();
+    let err = hello_to_a_board_of(9, &protocol::Response::Done);
     assert!(
         matches!(err, ClientError::Comms(CommsError::Version { board: 9 })),
         "{err:?}"
@@ -353,25 +349,8 @@ fn a_board_of_another_protocol_version_is_named_clearly() {
 
 #[test]
 fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
-    let mut board = Board::new(SimFlash::new());
     // A board of protocol 1 refuses every frame of ours under its own version.
-    let mut out = [0u8; MAX_FRAME];
-    let n = protocol::frame::encode_with_version(
-        1,
-        1,
-        &protocol::Response::Error(WireError::VersionMismatch),
-        &mut out,
-    )
-    .unwrap();
-    board.device = Some(Device::new(
-        MockBus::default(),
-        SimFlash::new(),
-        Config::default(),
-        0,
-    ));
-    let mut c = client(board);
-    c.link_mut().replies.extend(&out[..n]);
-    let err = c.hello().unwrap_err();
+    let err = hello_to_a_board_of(1, &protocol::Response::Error(WireError::VersionMismatch));
     assert!(
         matches!(err, ClientError::Comms(CommsError::Version { board: 1 })),
         "{err:?}"
