@@ -23,9 +23,9 @@
 //! average the tracker's noise. Eleven knots would leave under two
 //! coordinates per parameter. So a curve holds at most 9 knots; `servo-tune`
 //! starts with 5 (every 50°) at the protractor, and the identification may
-//! refine with more. On the board a pulse costs a binary search over at most
-//! seven inner knots, one division and three other operations per channel
-//! and servo frame.
+//! refine with more. On the board, with the slopes worked out once per
+//! calibration ([`ServoCurve::slopes`]), a pulse costs a binary search over
+//! at most seven inner knots and three operations per channel and servo frame.
 //!
 //! Each segment is evaluated from its end nearer 0 rad, so a curve through
 //! -100°, 0° and +100° gives bit for bit the pulses of the two straight lines
