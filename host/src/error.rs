@@ -458,10 +458,10 @@ pub enum Problem {
         found: String,
     },
     /// A JSON file is of another version of its schema than this build reads.
-    #[error("expected {expected}, the version this lrmcal reads, found {found}")]
+    #[error("expected {expected}, the versions this lrmcal reads, found {found}")]
     WrongVersion {
-        /// The version this build reads.
-        expected: u32,
+        /// The versions this build reads, as a range (`1 to 2`) or one number.
+        expected: String,
         /// What the file says, as written.
         found: String,
     },

@@ -161,7 +161,7 @@ fn plan_simulate_identify_validate_predict() {
     let measured = measurements::read(&meas).unwrap();
     assert_eq!(measured.len(), 2 * small.len());
     let truth_json = json(&truth);
-    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/1");
+    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/2");
     assert_eq!(truth_json["seed"], 3);
     assert_documented(
         &truth_json,
@@ -192,7 +192,7 @@ fn plan_simulate_identify_validate_predict() {
     let report = cal_dir.join("report.json");
     let cal_json = json(&cal);
     assert_eq!(cal_json["schema"], "lrmcal-calibration");
-    assert_eq!(cal_json["schema_version"], 1);
+    assert_eq!(cal_json["schema_version"], 2);
     assert_eq!(cal_json["option"], "elasto-kinematic");
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);
@@ -328,7 +328,7 @@ fn bad_inputs_give_the_documented_exit_codes() {
     let future = path("future.json");
     std::fs::write(
         &future,
-        calibration_json().replace("\"schema_version\": 1", "\"schema_version\": 2"),
+        calibration_json().replace("\"schema_version\": 2", "\"schema_version\": 3"),
     )
     .unwrap();
     let e = fails(

@@ -47,7 +47,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
     let payload = calibration::payload(&file, home_rad).map_err(|fault| Error::DeviceInput {
         what: format!("prepare `{}` for the board", args.calibration.display()),
-        reason: fault.to_string(),
+        reason: calibration::explain(fault, &file.arm),
     })?;
     let mut client = args.device.connect()?;
     let bar = ProgressBar::new(0).with_style(

@@ -8,10 +8,14 @@
 //! standard deviation, the poses used and the statistics. The engine fills it
 //! from its results (`crate::calib::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
+//!
+//! Version 2 writes each servo curve as its knots (`angles_rad`,
+//! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
+//! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
 
 use std::path::Path;
 
-use model::{Arm, ParamId};
+use model::{Arm, ParamId, ServoCurve};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
@@ -20,8 +24,49 @@ use crate::error::{Error, InputError, Location, Problem};
 
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
-/// Version of the schema this build writes and reads.
-pub const SCHEMA_VERSION: u32 = 1;
+/// Version of the schema this build writes (and the newest it reads).
+pub const SCHEMA_VERSION: u32 = 2;
+/// The oldest version this build reads.
+pub const OLDEST_SCHEMA_VERSION: u32 = 1;
+
+/// A servo curve as schema 1 wrote it: the pulses at -100°, 0° and +100°.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ThreePoints {
+    minus100: f64,
+    zero: f64,
+    plus100: f64,
+}
+
+/// Rewrites the servo curves of a schema-1 file's two arms as knots, so the
+/// rest of it reads like a schema-2 file.
+fn upgrade_servo_curves(value: &mut serde_json::Value) -> Result<(), InputError> {
+    for arm in ["nominal", "arm"] {
+        let joints = value
+            .get_mut(arm)
+            .and_then(|a| a.get_mut("joints"))
+            .and_then(|j| j.as_array_mut());
+        // Missing pieces are reported by the typed read that follows.
+        for (i, joint) in joints.into_iter().flatten().enumerate() {
+            let Some(servo) = joint.get_mut("servo") else {
+                continue;
+            };
+            let three: ThreePoints = serde_json::from_value(servo.take()).map_err(|e| {
+                InputError::new(
+                    Location::key(None, format!("{arm}.joints[{}].servo", i + 1)),
+                    Problem::Syntax {
+                        message: format!(
+                            "expected the pulses minus100, zero and plus100 of a schema-1 file: {e}"
+                        ),
+                    },
+                )
+            })?;
+            let curve = ServoCurve::from_three_points(three.minus100, three.zero, three.plus100);
+            *servo = serde_json::to_value(curve).expect("a servo curve always serialises");
+        }
+    }
+    Ok(())
+}
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -141,7 +186,12 @@ impl CalibrationFile {
 
     /// Parses and checks a calibration file's text.
     pub fn parse(text: &str) -> Result<Self, InputError> {
-        let file: Self = json::parse(text, SCHEMA, SCHEMA_VERSION)?;
+        let file: Self = json::parse_upgrading(
+            text,
+            SCHEMA,
+            OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
+            |_, value| upgrade_servo_curves(value),
+        )?;
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
             let compliances = arm.joints.iter().map(|j| j.compliance);
             let negative = compliances
@@ -259,7 +309,7 @@ mod tests {
         let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
         let e = refused("{\"a\": 1}");
         assert!(e.contains("key `schema`") && e.contains(SCHEMA), "{e}");
-        let e = refused(&json.replace("\"schema_version\": 1", "\"schema_version\": 9"));
+        let e = refused(&json.replace("\"schema_version\": 2", "\"schema_version\": 9"));
         assert!(e.contains("key `schema_version`") && e.contains('9'), "{e}");
         let e = refused(&json.replacen("\"k2\"", "\"k9\"", 1));
         assert!(
@@ -292,5 +342,42 @@ mod tests {
         assert!((s.p95_m - 4.8).abs() < 1e-12);
         assert_eq!(s.max_m, 5.0);
         assert_eq!(ErrorStats::of(&[]).count, 0);
+    }
+
+    #[test]
+    fn schema_1_files_read_as_the_same_curves() {
+        let mut file = sample_file();
+        file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
+        let json = file.to_json();
+        assert!(json.contains("\"schema_version\": 2") && json.contains("\"angles_rad\""));
+        // The same file as schema 1 wrote it: each curve as its three pulses.
+        let mut v1: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v1["schema_version"] = 1.into();
+        for arm in ["nominal", "arm"] {
+            for joint in v1[arm]["joints"].as_array_mut().unwrap() {
+                let p = joint["servo"]["pulses_us"].clone();
+                joint["servo"] =
+                    serde_json::json!({ "minus100": p[0], "zero": p[1], "plus100": p[2] });
+            }
+        }
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        assert!(text.contains("\"minus100\": 880.5"), "{text}");
+        assert_eq!(CalibrationFile::parse(&text).unwrap(), file);
+
+        v1["arm"]["joints"][2]["servo"] = serde_json::json!({ "minus100": 900.0, "zero": 1650.0 });
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        let e = CalibrationFile::parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("arm.joints[3].servo") && e.contains("plus100"),
+            "{e}"
+        );
+        // A schema-2 file must hold knots: the three points alone are refused.
+        v1["schema_version"] = 2.into();
+        v1["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let e = CalibrationFile::parse(&serde_json::to_string(&v1).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("minus100"), "{e}");
     }
 }
