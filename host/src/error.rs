@@ -458,14 +458,25 @@ pub enum Problem {
         found: String,
     },
     /// A JSON file is of another version of its schema than this build reads.
-    #[error("expected {expected}, the versions this lrmcal reads, found {found}")]
+    #[error("expected {}, the versions this lrmcal reads, found {found}", version_range(*oldest, *newest))]
     WrongVersion {
-        /// The versions this build reads, as a range (`1 to 2`) or one number.
-        expected: String,
+        /// The oldest version this build reads.
+        oldest: u32,
+        /// The version this build writes.
+        newest: u32,
         /// What the file says, as written.
         found: String,
     },
     /// A file with a header but no data.
     #[error("expected at least one data row, found none")]
     NoRows,
+}
+
+/// `2`, or `1 to 2`, for [`Problem::WrongVersion`].
+fn version_range(oldest: u32, newest: u32) -> String {
+    if oldest == newest {
+        newest.to_string()
+    } else {
+        format!("{oldest} to {newest}")
+    }
 }

@@ -63,15 +63,11 @@ pub fn parse_upgrading<T: DeserializeOwned>(
         .and_then(|v| u32::try_from(v).ok())
         .filter(|v| versions.contains(v));
     let Some(version) = version else {
-        let expected = if versions.start() == versions.end() {
-            versions.start().to_string()
-        } else {
-            format!("{} to {}", versions.start(), versions.end())
-        };
         return Err(InputError::new(
             Location::key(None, "schema_version"),
             Problem::WrongVersion {
-                expected,
+                oldest: *versions.start(),
+                newest: *versions.end(),
                 found: shown(found),
             },
         ));
