@@ -467,6 +467,16 @@ pub enum Problem {
         /// What the file says, as written.
         found: String,
     },
+    /// A file that is not UTF-8 text.
+    #[error(
+        "expected UTF-8 text, found the byte 0x{byte:02x} at column {column} (save the file as UTF-8)"
+    )]
+    NotUtf8 {
+        /// The first byte that is not UTF-8.
+        byte: u8,
+        /// Its 1-based byte position in its line.
+        column: usize,
+    },
     /// A file with a header but no data.
     #[error("expected at least one data row, found none")]
     NoRows,

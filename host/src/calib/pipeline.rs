@@ -49,8 +49,14 @@ impl CandidateBlocks {
                 what: "analyse the candidate poses".into(),
             });
         }
-        let samples: Vec<Sample> = candidates
+        // Analysed in the canonical order, so that the rank analysis, the
+        // column scale and every block come out bit for bit the same however
+        // the file orders its rows; the blocks are then put back in the
+        // caller's order.
+        let order = canonical_order(candidates);
+        let samples: Vec<Sample> = order
             .iter()
+            .map(|&i| &candidates[i])
             .flat_map(|p| {
                 loads_kg.iter().map(|&load_kg| Sample {
                     id: p.id,
@@ -71,7 +77,13 @@ impl CandidateBlocks {
             .collect();
         let kept = j.select_columns(&cols);
         let scale = ColumnScale::from_jacobian(&kept, candidates.len());
-        let blocks = split_blocks(&scale.apply(&kept), 3 * loads_kg.len());
+        let mut blocks = vec![DMatrix::zeros(0, 0); candidates.len()];
+        for (block, &i) in split_blocks(&scale.apply(&kept), 3 * loads_kg.len())
+            .into_iter()
+            .zip(&order)
+        {
+            blocks[i] = block;
+        }
         Ok(Self {
             identifiability,
             scale,
@@ -129,9 +141,18 @@ impl Selection {
                     &format!("{}: DETMAX starts", blocks.option()),
                     options.starts.max(1) as u64,
                 );
-                let design = detmax(&blocks.blocks, options, progress);
+                // DETMAX sees the candidates in the canonical order: its
+                // random starts and its ties then pick the same poses
+                // whatever the order of the rows they were read from.
+                let order = canonical_order(candidates);
+                let canonical: Vec<DMatrix<f64>> =
+                    order.iter().map(|&i| blocks.blocks[i].clone()).collect();
+                let design = detmax(&canonical, options, progress);
                 progress.end();
-                design?
+                let mut design = design?;
+                design.chosen = design.chosen.iter().map(|&c| order[c]).collect();
+                design.chosen.sort_unstable();
+                design
             }
             Choice::Given(ids) => {
                 let chosen = ids
@@ -165,6 +186,23 @@ impl Selection {
             observability,
         })
     }
+}
+
+/// The candidates' indices sorted by joint angles (joint 1 first), then by
+/// pose id: an order that depends on the set of poses only, not on the order
+/// of the rows they were read from.
+pub fn canonical_order(candidates: &[Pose]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (a, b) = (&candidates[a], &candidates[b]);
+        a.q.iter()
+            .zip(&b.q)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+            .then(a.id.cmp(&b.id))
+    });
+    order
 }
 
 /// Chooses poses among `candidates` for `option`, measured under `loads_kg`.
