@@ -51,6 +51,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
                 id: p.id,
                 q: p.q,
                 load_kg,
+                target: 0,
             })
         })
         .collect();
@@ -62,6 +63,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
             pose: Pose { id: s.id, q: s.q },
             load_kg: s.load_kg,
             position,
+            target: None,
         })
         .collect()
 }
@@ -277,6 +279,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 id: p.id,
                 q: p.q,
                 load_kg: LOAD,
+                target: 0,
             })
             .collect::<Vec<_>>(),
     )
@@ -316,6 +319,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 id: p.id,
                 q: p.q,
                 load_kg: LOAD,
+                target: 0,
             })
             .collect::<Vec<_>>(),
     )

@@ -3,12 +3,16 @@
 //! conversions from the engine's types live here.
 
 use model::Arm;
+use nalgebra::Vector3;
 
+use super::targets::{Rig, Targets};
 use super::ParamKey;
 use super::identify::{Estimate, Identified};
 use crate::io::calibration_file::{
-    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, ValidationSummary,
+    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool,
+    ValidationSummary,
 };
+use crate::dataset::TargetName;
 
 impl From<&Estimate> for FittedParam {
     fn from(e: &Estimate) -> Self {
@@ -23,7 +27,9 @@ impl From<&Estimate> for FittedParam {
 
 /// The calibration file of an identification from `nominal`: `removed` are
 /// the candidates left out as unidentifiable, `poses_used` and `loads_kg`
-/// the measurements fitted, `fit_residual` the error on them.
+/// the measurements fitted, `fit_residual` the error on them,
+/// `validation_per_target` the held-out error per target (empty without
+/// held-out measurements). Targets are listed when the measurements named them.
 pub fn calibration_file(
     nominal: &Arm<f64>,
     identified: &Identified,
@@ -32,13 +38,14 @@ pub fn calibration_file(
     loads_kg: Vec<f64>,
     fit_residual: ErrorStats,
     validation: Option<ValidationSummary>,
+    validation_per_target: &[ErrorStats],
 ) -> CalibrationFile {
     CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
         option: identified.option,
         nominal: *nominal,
-        arm: identified.arm,
+        arm: identified.rig.arm,
         parameters: identified.estimates.iter().map(FittedParam::from).collect(),
         at_bound: identified
             .diagnostics
@@ -51,7 +58,61 @@ pub fn calibration_file(
         loads_kg,
         fit_residual,
         validation,
+        targets: if identified.rig.targets.named() {
+            target_tools(identified, validation_per_target)
+        } else {
+            Vec::new()
+        },
     }
+}
+
+/// The nominal and the corrected rig of `file`: its arms with its targets'
+/// tool points (the nominal arm with the fitted ones: it has no idea where
+/// they are). A file without targets is its arms alone.
+pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
+    let names: Vec<TargetName> = file
+        .targets
+        .iter()
+        .filter_map(|t| TargetName::from(&t.name).ok())
+        .collect();
+    if file.targets.is_empty() || names.len() < file.targets.len() {
+        return (file.nominal.into(), file.arm.into());
+    }
+    let tools: Vec<Vector3<f64>> = file.targets[1..]
+        .iter()
+        .map(|t| Vector3::from(t.tool_m))
+        .collect();
+    let targets = Targets::named_as(&names);
+    let rig = |arm: Arm<f64>| Rig {
+        arm,
+        tools: tools.clone(),
+        targets: targets.clone(),
+    };
+    (rig(file.nominal), rig(file.arm))
+}
+
+/// Every target of `identified` with its tool point, fit residual and
+/// held-out error (`validation_per_target`, in target order, when there was one).
+pub fn target_tools(
+    identified: &Identified,
+    validation_per_target: &[ErrorStats],
+) -> Vec<TargetTool> {
+    let rig = &identified.rig;
+    rig.targets
+        .names()
+        .into_iter()
+        .enumerate()
+        .map(|(t, name)| TargetTool {
+            name,
+            tool_m: rig.tool_point(t).map_or(rig.arm.tool.xyz, Into::into),
+            fit_residual: identified
+                .fit_residual_per_target
+                .get(t)
+                .copied()
+                .unwrap_or_else(|| ErrorStats::of(&[])),
+            validation_after: validation_per_target.get(t).copied(),
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -29,7 +29,6 @@
 //! Gaussian residual exceeds 4.5 σ with probability 5e-4).
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use model::Arm;
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
@@ -38,7 +37,7 @@ use super::jacobian::{JacobianOptions, jacobian, tool_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::validate::ErrorStats;
-use super::{CalibError, ModelOption, Sample};
+use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
 
 /// Huber threshold on the residual norm, in units of the robust per-axis scale.
@@ -125,21 +124,23 @@ pub struct Diagnostics {
 pub struct Identified {
     /// The option fitted.
     pub option: ModelOption,
-    /// The nominal arm with the identified errors applied.
-    pub arm: Arm<f64>,
+    /// The nominal arm and targets with the identified errors applied.
+    pub rig: Rig,
     /// Every fitted parameter.
     pub estimates: Vec<Estimate>,
     /// Convergence diagnostics.
     pub diagnostics: Diagnostics,
     /// 3D error of the calibrated arm on the measurements it was fitted to (unweighted).
     pub fit_residual: ErrorStats,
+    /// [`Identified::fit_residual`] per target, in the rig's target order.
+    pub fit_residual_per_target: Vec<ErrorStats>,
     /// Measurements named as outliers, largest residual first.
     pub outliers: Vec<Outlier>,
 }
 
 /// The measurements of one fit, as the solver sees them.
 struct FitData<'a> {
-    nominal: &'a Arm<f64>,
+    nominal: &'a Rig,
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
@@ -147,7 +148,7 @@ struct FitData<'a> {
 
 impl FitData<'_> {
     /// Norms of the 3D residuals of `arm` against the measurements, m.
-    fn residual_norms(&self, arm: &Arm<f64>) -> Result<Vec<f64>, CalibError> {
+    fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
         Ok(tool_points(arm, &self.samples)?
             .iter()
             .zip(&self.measured)
@@ -156,7 +157,7 @@ impl FitData<'_> {
     }
 
     /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
-    fn weighted_residuals(&self, arm: &Arm<f64>, sqrt_w: &[f64]) -> Option<DVector<f64>> {
+    fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
         let points = tool_points(arm, &self.samples).ok()?;
         let mut r = DVector::zeros(3 * points.len());
         for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
@@ -169,7 +170,7 @@ impl FitData<'_> {
     /// The Jacobian of the weighted residuals with respect to `keys` at `arm`.
     fn weighted_jacobian(
         &self,
-        arm: &Arm<f64>,
+        arm: &Rig,
         keys: &[ParamKey],
         sqrt_w: &[f64],
     ) -> Result<DMatrix<f64>, CalibError> {
@@ -198,7 +199,7 @@ struct Problem<'a> {
 }
 
 impl Problem<'_> {
-    fn arm(&self) -> Arm<f64> {
+    fn arm(&self) -> Rig {
         self.params
             .apply_with_free(self.data.nominal, self.x.as_slice())
     }
@@ -280,7 +281,7 @@ fn fit(
 }
 
 /// The free parameters whose value in `arm` lies below their lower bound, with the bound.
-fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
+fn below_bound(params: &ParamVector, arm: &Rig) -> Vec<(ParamKey, f64)> {
     params
         .free()
         .filter_map(|k| k.lower_bound().map(|b| (k, b)))
@@ -291,7 +292,7 @@ fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
 /// Fixes each key at its bound: the correction that takes its nominal value there.
 fn fix_at_bound(
     params: &mut ParamVector,
-    nominal: &Arm<f64>,
+    nominal: &Rig,
     bounds: &[(ParamKey, f64)],
 ) -> Result<(), CalibError> {
     for &(key, bound) in bounds {
@@ -307,7 +308,7 @@ fn fix_at_bound(
 fn release_candidate(
     data: &FitData,
     params: &ParamVector,
-    arm: &Arm<f64>,
+    arm: &Rig,
     sqrt_w: &[f64],
 ) -> Option<ParamKey> {
     let fixed: Vec<ParamKey> = params.fixed().collect();
@@ -386,7 +387,7 @@ struct Covariance {
 /// with `s² = RSS / (3n − m)` of the weighted residual norms.
 fn covariance(
     data: &FitData,
-    arm: &Arm<f64>,
+    arm: &Rig,
     free: &[ParamKey],
     weights: &[f64],
     norms: &[f64],
@@ -441,11 +442,12 @@ fn name_outliers(samples: &[Sample], norms: &[f64], weights: &[f64]) -> Vec<Outl
     outliers
 }
 
-/// Fits the errors `keys` of `nominal` to `measurements`: the active-set fit,
+/// Fits the errors `keys` of `nominal` to `measurements` (each of one of
+/// `nominal`'s targets): the active-set fit,
 /// inside Huber reweighting when `options.robust`, then the covariance and
 /// the outliers at the solution.
 pub fn identify(
-    nominal: &Arm<f64>,
+    nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
@@ -454,7 +456,7 @@ pub fn identify(
     let data = FitData {
         nominal,
         option,
-        samples: measurements.iter().map(Sample::from).collect(),
+        samples: nominal.samples(measurements)?,
         measured: measurements.iter().map(|m| m.position).collect(),
     };
     let n = data.samples.len();
@@ -501,28 +503,28 @@ pub fn identify(
         }
     }
 
-    let arm = params.apply(nominal);
-    let norms = data.residual_norms(&arm).map_err(|e| {
+    let rig = params.apply(nominal);
+    let norms = data.residual_norms(&rig).map_err(|e| {
         data.solver_error(format!(
             "the fit ended where the model cannot be evaluated ({e}); {n} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
             keys.len()
         ))
     })?;
     let free: Vec<ParamKey> = params.free().collect();
-    let cov = covariance(&data, &arm, &free, &weights, &norms)?;
+    let cov = covariance(&data, &rig, &free, &weights, &norms)?;
     let mut std = cov.std.into_iter();
     let estimates = params
         .iter()
         .map(|p| Estimate {
             id: p.key,
             error: p.error,
-            value: p.key.value(&arm),
+            value: p.key.value(&rig),
             std: if p.fixed { None } else { std.next() },
         })
         .collect();
     Ok(Identified {
         option,
-        arm,
+        rig,
         estimates,
         diagnostics: Diagnostics {
             termination: tally.termination,
@@ -537,6 +539,17 @@ pub fn identify(
             condition: cov.condition,
         },
         fit_residual: ErrorStats::of(&norms),
+        fit_residual_per_target: (0..data.nominal.targets.len())
+            .map(|t| {
+                let of_t: Vec<f64> = norms
+                    .iter()
+                    .zip(&data.samples)
+                    .filter(|(_, s)| s.target == t)
+                    .map(|(e, _)| *e)
+                    .collect();
+                ErrorStats::of(&of_t)
+            })
+            .collect(),
         outliers: name_outliers(&data.samples, &norms, &weights),
     })
 }

@@ -4,10 +4,12 @@
 //! The model fixes the paper's 43 error parameters ([`model::ParamId`], fields
 //! of the arm). A calibration may correct more than that: a tool point per
 //! measured target, the base pose in the tracker's frame, servo curve knots,
-//! backlash widths. [`ParamKey`] is the host's name for any of them; today it
-//! has the arm's own parameters ([`ParamKey::Arm`]). A new kind is one variant
-//! here with its stable name, its kind and the quantity it corrects; the
-//! registry, the solver and the files take it as it is.
+//! backlash widths. [`ParamKey`] is the host's name for any of them: the
+//! arm's own parameters ([`ParamKey::Arm`]) and the tool points of further
+//! measured targets ([`ParamKey::TargetTool`], see `calib::targets`). A new
+//! kind is one variant here with its stable name, its kind and the quantity
+//! it corrects in a [`Rig`]; the registry, the solver and the files take it
+//! as it is.
 //!
 //! [`ParamVector`] keeps its keys in the order given (the solver's column
 //! order), finds a key through a sorted index (never by position), knows which
@@ -20,8 +22,10 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt;
 
+use model::ParamId;
 use model::params::ParamKind;
-use model::{Arm, ParamId};
+
+use super::targets::Rig;
 
 /// What [`ParamVector`] needs of a key: an order for its index, a stable
 /// name, and the quantity it corrects in the model it applies to.
@@ -42,25 +46,64 @@ pub trait Key: Copy + Ord + fmt::Debug {
 pub enum ParamKey {
     /// One of the model's 43 error parameters: a field of the arm.
     Arm(ParamId),
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of the tool point of measured
+    /// target `target` (1 or more; target 0's is the arm's `tool.x/y/z`),
+    /// frame 6, m.
+    TargetTool {
+        /// Index of the target in its measurement set, 1 or more.
+        target: u8,
+        /// 0 x, 1 y, 2 z.
+        axis: u8,
+    },
 }
 
+/// Axis letters of [`ParamKey::TargetTool`] names.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
 impl ParamKey {
-    /// Stable name: the arm's parameters keep the model's names (`j3.d`, `base.pitch`, `k0`).
+    /// Stable name: the arm's parameters keep the model's names (`j3.d`,
+    /// `base.pitch`, `k0`); a further target's tool point is `tool[2].x`.
     pub fn name(self) -> Cow<'static, str> {
         match self {
             Self::Arm(id) => Cow::Borrowed(id.name()),
+            Self::TargetTool { target, axis } => {
+                let axis = AXES.get(usize::from(axis)).copied().unwrap_or("?");
+                Cow::Owned(format!("tool[{target}].{axis}"))
+            }
         }
     }
 
     /// The key called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        ParamId::from_name(name).map(Self::Arm)
+        if let Some(id) = ParamId::from_name(name) {
+            return Some(Self::Arm(id));
+        }
+        let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+        let target: u8 = target.parse().ok().filter(|t| *t > 0)?;
+        let axis = AXES.iter().position(|a| *a == axis)?;
+        Some(Self::TargetTool {
+            target,
+            axis: axis as u8,
+        })
+    }
+
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of target `target`'s tool point:
+    /// the arm's `tool.x/y/z` for target 0. `None` past the last axis or key.
+    pub fn tool(target: usize, axis: usize) -> Option<Self> {
+        match target {
+            0 => ParamId::from_name(["tool.x", "tool.y", "tool.z"].get(axis)?).map(Self::Arm),
+            _ => Some(Self::TargetTool {
+                target: u8::try_from(target).ok()?,
+                axis: u8::try_from(axis).ok().filter(|a| *a < 3)?,
+            }),
+        }
     }
 
     /// Physical kind, which sets the unit and the scale of steps and typical errors.
     pub fn kind(self) -> ParamKind {
         match self {
             Self::Arm(id) => id.kind(),
+            Self::TargetTool { .. } => ParamKind::Length,
         }
     }
 
@@ -73,16 +116,27 @@ impl ParamKey {
         }
     }
 
-    /// The current value of the quantity in `arm`.
-    pub fn value(self, arm: &Arm<f64>) -> f64 {
-        let mut copy = *arm;
-        *self.slot(&mut copy)
+    /// The current value of the quantity in `rig`.
+    pub fn value(self, rig: &Rig) -> f64 {
+        match self {
+            Self::Arm(id) => id.value(&rig.arm),
+            Self::TargetTool { target, axis } => rig
+                .tool_point(usize::from(target))
+                .map_or(f64::NAN, |p| p[usize::from(axis)]),
+        }
     }
 
-    /// The quantity in `arm` this key corrects.
-    pub fn slot(self, arm: &mut Arm<f64>) -> &mut f64 {
+    /// The quantity in `rig` this key corrects.
+    ///
+    /// # Panics
+    /// For a target the rig does not have: keys are made for their rig
+    /// (`Rig::tool_keys`), so that is a bug of the caller.
+    pub fn slot(self, rig: &mut Rig) -> &mut f64 {
         match self {
-            Self::Arm(id) => id.value_mut(arm),
+            Self::Arm(id) => id.value_mut(&mut rig.arm),
+            Self::TargetTool { target, axis } => {
+                &mut rig.tools[usize::from(target) - 1][usize::from(axis)]
+            }
         }
     }
 }
@@ -100,7 +154,7 @@ impl fmt::Display for ParamKey {
 }
 
 impl Key for ParamKey {
-    type Model = Arm<f64>;
+    type Model = Rig;
 
     fn name(self) -> Cow<'static, str> {
         ParamKey::name(self)
@@ -110,8 +164,8 @@ impl Key for ParamKey {
         ParamKey::from_name(name)
     }
 
-    fn slot(self, arm: &mut Arm<f64>) -> &mut f64 {
-        ParamKey::slot(self, arm)
+    fn slot(self, rig: &mut Rig) -> &mut f64 {
+        ParamKey::slot(self, rig)
     }
 }
 

@@ -54,6 +54,7 @@ pub fn small_samples(n: usize) -> Vec<Sample> {
             id: i as u32,
             q: random_q(&mut rng),
             load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
+            target: 0,
         })
         .collect()
 }
