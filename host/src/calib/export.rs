@@ -5,14 +5,13 @@
 use model::Arm;
 use nalgebra::Vector3;
 
-use super::targets::{Rig, Targets};
 use super::ParamKey;
 use super::identify::{Estimate, Identified};
-use crate::io::calibration_file::{
-    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool,
-    ValidationSummary,
-};
+use super::targets::{Rig, Targets};
 use crate::dataset::TargetName;
+use crate::io::calibration_file::{
+    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
+};
 
 impl From<&Estimate> for FittedParam {
     fn from(e: &Estimate) -> Self {
@@ -131,7 +130,7 @@ mod tests {
         let k6 = ParamId::from_name("k6").unwrap();
         let identified = Identified {
             option: ModelOption::Elastic,
-            arm: nominal.with_errors(&[k2], &[0.1]),
+            rig: nominal.with_errors(&[k2], &[0.1]).into(),
             estimates: vec![
                 Estimate {
                     id: k2.into(),
@@ -159,6 +158,7 @@ mod tests {
                 condition: 1.0,
             },
             fit_residual: ErrorStats::of(&[0.001]),
+            fit_residual_per_target: vec![ErrorStats::of(&[0.001])],
             outliers: vec![],
         };
         let k1 = ParamId::from_name("k1").unwrap();
@@ -170,9 +170,10 @@ mod tests {
             vec![0.0663],
             ErrorStats::of(&[0.001]),
             None,
+            &[],
         );
         assert_eq!(file.option, protocol::ModelOption::Elastic);
-        assert_eq!(file.arm, identified.arm);
+        assert_eq!(file.arm, identified.rig.arm);
         assert_eq!(file.at_bound, ["k6"]);
         assert_eq!(file.removed, ["k1"]);
         assert_eq!(

@@ -565,7 +565,7 @@ mod tests {
     }
 
     /// `nominal` with `errors` added to `keys`.
-    fn with_errors(nominal: &Arm<f64>, keys: &[ParamKey], errors: &[f64]) -> Arm<f64> {
+    fn with_errors(nominal: &Rig, keys: &[ParamKey], errors: &[f64]) -> Rig {
         let mut v = ParamVector::new(keys.iter().copied()).unwrap();
         for (k, e) in keys.iter().zip(errors) {
             v.set(*k, *e).unwrap();
@@ -573,7 +573,7 @@ mod tests {
         v.apply(nominal)
     }
 
-    fn fit_data<'a>(nominal: &'a Arm<f64>, meas: &[Measurement]) -> FitData<'a> {
+    fn fit_data<'a>(nominal: &'a Rig, meas: &[Measurement]) -> FitData<'a> {
         FitData {
             nominal,
             option: ModelOption::Elastic,
@@ -583,8 +583,8 @@ mod tests {
     }
 
     /// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
-    fn upward_sag(nominal: &Arm<f64>) -> Vec<Measurement> {
-        let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]);
+    fn upward_sag(nominal: &Rig) -> Vec<Measurement> {
+        let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]).arm;
         true_arm.joints[2].compliance = -0.05;
         measure(&true_arm, &small_samples(16))
     }
@@ -593,10 +593,13 @@ mod tests {
     /// recovers them exactly and the residual vanishes.
     #[test]
     fn recovers_compliances_exactly() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
-        let meas = measure(&with_errors(&nominal, &keys, &truth), &small_samples(16));
+        let meas = measure(
+            &with_errors(&nominal, &keys, &truth).arm,
+            &small_samples(16),
+        );
         let fit = identify(
             &nominal,
             ModelOption::Elastic,
@@ -618,7 +621,7 @@ mod tests {
     /// bound, and the bound is reported.
     #[test]
     fn compliances_never_go_negative() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let meas = upward_sag(&nominal);
         let fit = identify(
             &nominal,
@@ -629,7 +632,8 @@ mod tests {
         )
         .unwrap();
         assert!(
-            fit.arm.joints.iter().all(|j| j.compliance >= 0.0) && fit.arm.base_compliance >= 0.0
+            fit.rig.arm.joints.iter().all(|j| j.compliance >= 0.0)
+                && fit.rig.arm.base_compliance >= 0.0
         );
         assert!(
             fit.diagnostics.at_bound.contains(&key("k3")),
@@ -638,10 +642,10 @@ mod tests {
         );
         // KKT: raising any compliance held at zero makes the fit worse.
         let data = fit_data(&nominal, &meas);
-        let cost = |arm: &Arm<f64>| rms(&data.residual_norms(arm).unwrap());
+        let cost = |arm: &Rig| rms(&data.residual_norms(arm).unwrap());
         for &p in &fit.diagnostics.at_bound {
-            let raised = with_errors(&fit.arm, &[p], &[1e-4]);
-            assert!(cost(&raised) > cost(&fit.arm), "{p} should stay at zero");
+            let raised = with_errors(&fit.rig, &[p], &[1e-4]);
+            assert!(cost(&raised) > cost(&fit.rig), "{p} should stay at zero");
         }
         assert!(fit.estimates[1].std.is_none());
     }
@@ -651,7 +655,7 @@ mod tests {
     /// is physical.
     #[test]
     fn a_spent_round_budget_still_ends_inside_the_bounds() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let one_round = IdentifyOptions {
             max_active_set_rounds: 1,
             ..Default::default()
@@ -668,7 +672,7 @@ mod tests {
         assert_eq!(fit.diagnostics.at_bound, [key("k3")]);
         let k3 = fit.estimates[1];
         assert_eq!((k3.id, k3.value, k3.std), (key("k3"), 0.0, None));
-        assert_eq!(fit.arm.joints[2].compliance, 0.0);
+        assert_eq!(fit.rig.arm.joints[2].compliance, 0.0);
         for e in &fit.estimates {
             assert_eq!(e.value, e.id.value(&nominal) + e.error, "{}", e.id);
         }
@@ -678,10 +682,10 @@ mod tests {
     /// the active set releases; one that belongs at zero is not.
     #[test]
     fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let meas = measure(
-            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
             &small_samples(16),
         );
         let data = fit_data(&nominal, &meas);
@@ -709,17 +713,17 @@ mod tests {
     /// The covariance from the scaled SVD equals `s² (JᵀJ)⁻¹` computed directly.
     #[test]
     fn covariance_matches_the_normal_equations() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let mut meas = measure(
-            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
             &small_samples(16),
         );
         for (k, m) in meas.iter_mut().enumerate() {
             m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
         }
         let data = fit_data(&nominal, &meas);
-        let arm = nominal;
+        let arm = nominal.clone();
         let norms = data.residual_norms(&arm).unwrap();
         let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
         let cov = covariance(&data, &arm, &keys, &weights, &norms).unwrap();
@@ -764,11 +768,11 @@ mod tests {
     /// One corrupted measurement is named, and the robust fit is not pulled by it.
     #[test]
     fn robust_fit_names_and_ignores_an_outlier() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
         let samples = small_samples(24);
-        let mut meas = measure(&with_errors(&nominal, &keys, &truth), &samples);
+        let mut meas = measure(&with_errors(&nominal, &keys, &truth).arm, &samples);
         // Small noise so the robust scale is not zero, then one gross error.
         for (k, m) in meas.iter_mut().enumerate() {
             m.position.x += 1e-4 * ((k * 7 % 5) as f64 - 2.0);
@@ -806,10 +810,10 @@ mod tests {
 
     #[test]
     fn too_few_and_rank_deficient_sets_are_refused() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let all: Vec<ParamKey> = ParamId::all().map(ParamKey::Arm).collect();
         let meas = measure(
-            &with_errors(&nominal, &all, &true_errors(1)),
+            &with_errors(&nominal, &all, &true_errors(1)).arm,
             &small_samples(20),
         );
         let opts = IdentifyOptions::default();

@@ -49,8 +49,8 @@ pub mod validate;
 
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
-pub use targets::Rig;
 pub use protocol::ModelOption;
+pub use targets::Rig;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -349,6 +349,7 @@ impl<K: Key> ParamVector<K> {
 mod tests {
     use super::*;
     use crate::calib::testing::{key, rigid_nominal};
+    use model::Arm;
 
     #[test]
     fn keys_carry_the_model_names_and_kinds() {
@@ -378,18 +379,19 @@ mod tests {
         assert_eq!(v.free().collect::<Vec<_>>(), [key("j2.a"), key("tool.z")]);
         assert_eq!(v.fixed().collect::<Vec<_>>(), [key("k3")]);
 
-        let nominal = rigid_nominal();
-        let arm = v.apply(&nominal);
+        let rig = Rig::from(rigid_nominal());
+        let nominal = rig.arm;
+        let arm = v.apply(&rig).arm;
         assert_eq!(arm.joints[1].a, nominal.joints[1].a + 0.002);
         // One meaning: a correction is added as it is, even to an unphysical value.
         assert_eq!(arm.joints[2].compliance, nominal.joints[2].compliance - 0.5);
         assert_eq!(arm.joints[0], nominal.joints[0]);
-        let trial = v.apply_with_free(&nominal, &[0.001, 0.003]);
+        let trial = v.apply_with_free(&rig, &[0.001, 0.003]).arm;
         assert_eq!(trial.joints[1].a, nominal.joints[1].a + 0.001);
         assert_eq!(trial.tool.xyz[2], nominal.tool.xyz[2] + 0.003);
         assert_eq!(trial.joints[2].compliance, arm.joints[2].compliance);
         v.set_free(&[0.001, 0.003]);
-        assert_eq!(v.apply(&nominal), trial);
+        assert_eq!(v.apply(&rig).arm, trial);
         v.release(key("k3")).unwrap();
         assert_eq!(v.free_errors(), [-0.5, 0.001, 0.003]);
     }
@@ -419,7 +421,7 @@ mod tests {
     /// A model with more to correct than the arm: the arm and a backlash width
     /// per joint, as a coming calibration will have.
     #[derive(Clone, Debug, PartialEq)]
-    struct Rig {
+    struct BacklashRig {
         arm: Arm<f64>,
         backlash_rad: [f64; 6],
     }
@@ -431,7 +433,7 @@ mod tests {
     }
 
     impl Key for RigKey {
-        type Model = Rig;
+        type Model = BacklashRig;
         fn name(self) -> Cow<'static, str> {
             match self {
                 Self::Arm(id) => Cow::Borrowed(id.name()),
@@ -449,7 +451,7 @@ mod tests {
                 None => ParamId::from_name(name).map(Self::Arm),
             }
         }
-        fn slot(self, rig: &mut Rig) -> &mut f64 {
+        fn slot(self, rig: &mut BacklashRig) -> &mut f64 {
             match self {
                 Self::Arm(id) => id.value_mut(&mut rig.arm),
                 Self::Backlash(j) => &mut rig.backlash_rad[j],
@@ -469,7 +471,7 @@ mod tests {
         v.set(RigKey::Backlash(2), 0.01).unwrap();
         v.set(RigKey::Arm(ParamId::from_name("k3").unwrap()), 0.05)
             .unwrap();
-        let nominal = Rig {
+        let nominal = BacklashRig {
             arm: rigid_nominal(),
             backlash_rad: [0.002; 6],
         };

@@ -20,8 +20,8 @@ use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::progress::Progress;
-use super::validate::{LoadValidation, Validation, validate};
 use super::targets::Targets;
+use super::validate::{LoadValidation, Validation, validate};
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 

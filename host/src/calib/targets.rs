@@ -85,12 +85,13 @@ impl Rig {
         measurements
             .iter()
             .map(|m| {
-                let target = self.targets.index(m.target).ok_or_else(|| {
-                    CalibError::UnknownTarget {
-                        target: name_of(m.target),
-                        known: self.targets.names().join(", "),
-                    }
-                })?;
+                let target =
+                    self.targets
+                        .index(m.target)
+                        .ok_or_else(|| CalibError::UnknownTarget {
+                            target: name_of(m.target),
+                            known: self.targets.names().join(", "),
+                        })?;
                 Ok(Sample {
                     target,
                     ..Sample::from(m)
@@ -172,6 +173,11 @@ impl Targets {
         self.names.iter().map(|n| name_of(*n)).collect()
     }
 
+    /// The name of target `t` (`None` for the unnamed one or past the last).
+    pub fn name_at(&self, t: usize) -> Option<TargetName> {
+        self.names.get(t).copied().flatten()
+    }
+
     /// Index of the target called `name`.
     pub fn index(&self, name: Option<TargetName>) -> Option<usize> {
         self.names.iter().position(|n| *n == name)
@@ -237,7 +243,10 @@ mod tests {
             [0, 1, 0, 1, 0, 1]
         );
         let plain = Targets::of(&measure(&rigid_nominal(), &small_samples(2)));
-        assert_eq!((plain.names(), plain.named()), (vec![UNNAMED.to_string()], false));
+        assert_eq!(
+            (plain.names(), plain.named()),
+            (vec![UNNAMED.to_string()], false)
+        );
         // Rows of a target the rig lacks are refused with the rig's names.
         let e = Rig::new(rigid_nominal(), names(&["b"]))
             .samples(&rows)

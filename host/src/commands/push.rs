@@ -51,12 +51,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; 6]);
     let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
-    let (nominal, arm) =
-        file.arms_for_target(args.target.as_deref())
-            .map_err(|reason| Error::DeviceInput {
-                what: format!("prepare `{}` for the board", args.calibration.display()),
-                reason,
-            })?;
+    let (nominal, arm) = file
+        .arms_for_target(args.target.as_deref())
+        .map_err(|reason| Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason,
+        })?;
     let file = CalibrationFile {
         nominal,
         arm,

@@ -401,11 +401,15 @@ mod tests {
         });
         let file = CalibrationFile::parse(&file.to_json()).unwrap();
         let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
-        assert_eq!((nominal.tool.xyz, arm.tool.xyz), ([0.0, 0.03, 0.05]; 2).into());
+        assert_eq!(nominal.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.tool.xyz, [0.0, 0.03, 0.05]);
         assert_eq!(arm.joints, file.arm.joints);
         assert_eq!(nominal.joints, file.nominal.joints);
         let (nominal, arm) = file.arms_for_target(None).unwrap();
-        assert_eq!((nominal.tool.xyz, arm.tool.xyz), (file.arm.tool.xyz, file.arm.tool.xyz));
+        assert_eq!(
+            (nominal.tool.xyz, arm.tool.xyz),
+            (file.arm.tool.xyz, file.arm.tool.xyz)
+        );
         let e = file.arms_for_target(Some("m9")).unwrap_err();
         assert!(e.contains("`m9`") && e.contains("m0, m1"), "{e}");
         // A parameter of a target the file does not list, a repeated name, a

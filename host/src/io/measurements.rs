@@ -55,7 +55,8 @@ pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
         let target = match row.text(TARGET_COLUMN) {
             None => None,
             Some(name) => {
-                let name = target_name(name).map_err(|problem| row.error(TARGET_COLUMN, problem))?;
+                let name =
+                    target_name(name).map_err(|problem| row.error(TARGET_COLUMN, problem))?;
                 if !targets.contains(&name) {
                     if targets.len() == MAX_TARGETS {
                         return Err(row.error(
