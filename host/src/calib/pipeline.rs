@@ -40,7 +40,7 @@ pub struct CandidateBlocks {
 impl CandidateBlocks {
     /// Analyses `candidates` measured under each of `loads_kg` for `option`
     /// at `nominal`, every target of the rig at every pose: the columns are
-    /// the option's candidates and the further targets' tool points, a
+    /// the further targets' tool points and the option's candidates, a
     /// pose's block has the rows of all its targets.
     pub fn build(
         nominal: &Rig,
@@ -67,8 +67,12 @@ impl CandidateBlocks {
                 })
             })
             .collect();
-        let mut ids = option_candidates(option);
-        ids.extend(nominal.tool_keys());
+        // The further targets' tool points come first: each is unknown
+        // (the nominal arm has no idea where the target sits), so what they
+        // are confounded with (the arm's own tool point, frame 6's
+        // translation) is what the rank analysis removes.
+        let mut ids = nominal.tool_keys();
+        ids.extend(option_candidates(option));
         let j = jacobian(nominal, &ids, &samples, &JacobianOptions::default())?;
         let identifiability = analyse_jacobian(option, &ids, &j);
         // The kept parameters are a subsequence of the candidates, in order.

@@ -211,7 +211,7 @@ impl Targets {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::testing::{measure, rigid_nominal, small_samples};
+    use crate::calib::testing::{measure, measure_rig, rigid_nominal, small_samples};
 
     fn names(names: &[&str]) -> Targets {
         let names: Vec<TargetName> = names
@@ -309,5 +309,116 @@ mod tests {
         assert_eq!(moved.tools[1].y, 0.025);
         assert_eq!(moved.tools[0], rig.tools[0]);
         assert_eq!(keys[7].value(&moved), 0.025);
+    }
+
+    /// Three markers 0, 30 and 60 mm apart measured at every pose, with
+    /// 0.1 mm noise: one fit shares the arm and gives each its tool point,
+    /// and on poses not used it is no worse for any marker than that marker
+    /// calibrated alone (it sees three times the data for the same arm).
+    #[test]
+    fn three_targets_fitted_together_beat_each_alone_on_held_out_poses() {
+        use crate::calib::ModelOption;
+        use crate::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+        use crate::calib::progress::Silent;
+        use crate::dataset::Pose;
+
+        let nominal = rigid_nominal();
+        let sizes = model::testing::ErrorSizes {
+            length_m: 1e-3,
+            angle_rad: 5e-3,
+            compliance: 1e-2..5e-2,
+        };
+        let errors = model::testing::random_errors(
+            &mut <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(3),
+            &sizes,
+        );
+        let mut truth = Rig::new(
+            nominal.with_errors(&model::ParamId::all().collect::<Vec<_>>(), &errors),
+            names(&["m0", "m30", "m60"]),
+        );
+        // The arm's own tool rotation is invisible; keep the truth's tool frame nominal.
+        truth.arm.tool = nominal.tool;
+        let base = Vector3::from(nominal.tool.xyz);
+        truth.tools = vec![
+            base + Vector3::new(0.03, 0.0, 0.0),
+            base + Vector3::new(0.0, 0.06, 0.0),
+        ];
+        let load = 0.0663;
+        let samples: Vec<Sample> = small_samples(60)
+            .into_iter()
+            .flat_map(|s| {
+                (0..3).map(move |target| Sample {
+                    id: s.id,
+                    q: s.q,
+                    load_kg: load,
+                    target,
+                })
+            })
+            .collect();
+        let mut rows = measure_rig(&truth, &samples);
+        for (k, m) in rows.iter_mut().enumerate() {
+            // Deterministic noise of about 0.1 mm per axis.
+            let n = |i: usize| 1e-4 * (((k * 7 + i * 13) % 11) as f64 - 5.0) / 3.0;
+            m.position += Vector3::new(n(0), n(1), n(2));
+        }
+        let poses: Vec<Pose> = rows.iter().step_by(3).map(|m| m.pose).collect();
+        let settings = RunSettings {
+            identify_load_kg: load,
+            other_load_kg: None,
+            choice: Choice::Given(poses[..30].iter().map(|p| p.id).collect()),
+            identify: Default::default(),
+        };
+        let option = ModelOption::ElastoKinematic;
+        let together = calibrate_option(
+            &Inputs::new(&nominal, &poses, &rows),
+            option,
+            &settings,
+            &Silent,
+        )
+        .unwrap();
+        let rig = &together.identified.rig;
+        assert_eq!(rig.targets.names(), ["m0", "m30", "m60"]);
+        // The tool points' offsets from the first are found to about a mm: they
+        // are expressed in the fitted frame 6, which carries the rotation
+        // errors positions cannot tell apart (j6.alpha, the tool rotation).
+        for t in 1..3 {
+            let found = rig.tool_point(t).unwrap() - rig.tool_point(0).unwrap();
+            let true_offset = truth.tools[t - 1] - base;
+            assert!(
+                (found - true_offset).norm() < 2e-3,
+                "target {t}: {found} vs {true_offset}"
+            );
+        }
+        let joint = together.validation.as_ref().unwrap().after_per_target(3);
+        for (t, name) in ["m0", "m30", "m60"].into_iter().enumerate() {
+            let alone_rows: Vec<Measurement> = rows
+                .iter()
+                .filter(|m| m.target.is_some_and(|n| n.as_str() == name))
+                .copied()
+                .collect();
+            // Alone, a marker is the arm's tool point: its arm file would say where.
+            let mut own = nominal;
+            own.tool.xyz = truth.tool_point(t).unwrap().into();
+            let alone = calibrate_option(
+                &Inputs::new(&own, &poses, &alone_rows),
+                option,
+                &settings,
+                &Silent,
+            )
+            .unwrap();
+            let alone_after = alone.validation.as_ref().unwrap().after;
+            assert_eq!(joint[t].count, alone_after.count);
+            assert!(
+                joint[t].mean_m <= alone_after.mean_m,
+                "{name}: together {:.4} mm, alone {:.4} mm",
+                joint[t].mean_m * 1e3,
+                alone_after.mean_m * 1e3
+            );
+            eprintln!(
+                "{name}: held-out mean together {:.4} mm, alone {:.4} mm",
+                joint[t].mean_m * 1e3,
+                alone_after.mean_m * 1e3
+            );
+        }
     }
 }
