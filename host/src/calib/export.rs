@@ -26,9 +26,9 @@ impl From<&Estimate> for FittedParam {
 
 /// The calibration file of an identification from `nominal`: `removed` are
 /// the candidates left out as unidentifiable, `poses_used` and `loads_kg`
-/// the measurements fitted, `fit_residual` the error on them,
-/// `validation_per_target` the held-out error per target (empty without
-/// held-out measurements). Targets are listed when the measurements named them.
+/// the measurements fitted, `fit_residual` the error on them. Targets are
+/// listed when the measurements named them, without their held-out error
+/// (the caller adds it where there was a validation).
 pub fn calibration_file(
     nominal: &Arm<f64>,
     identified: &Identified,
@@ -37,7 +37,6 @@ pub fn calibration_file(
     loads_kg: Vec<f64>,
     fit_residual: ErrorStats,
     validation: Option<ValidationSummary>,
-    validation_per_target: &[ErrorStats],
 ) -> CalibrationFile {
     CalibrationFile {
         schema: SCHEMA.into(),
@@ -58,7 +57,7 @@ pub fn calibration_file(
         fit_residual,
         validation,
         targets: if identified.rig.targets.named() {
-            target_tools(identified, validation_per_target)
+            target_tools(identified, &[])
         } else {
             Vec::new()
         },
@@ -170,7 +169,6 @@ mod tests {
             vec![0.0663],
             ErrorStats::of(&[0.001]),
             None,
-            &[],
         );
         assert_eq!(file.option, protocol::ModelOption::Elastic);
         assert_eq!(file.arm, identified.rig.arm);

@@ -176,7 +176,6 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 before: validation.before,
                 after: validation.after,
             }),
-            &[],
         );
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &file.to_json())?;

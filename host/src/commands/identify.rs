@@ -177,7 +177,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             .as_ref()
             .map(|v| v.after_per_target(targets.len()))
             .unwrap_or_default();
-        let cal = calibration_file(
+        let mut cal = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),
@@ -189,8 +189,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 before: v.before,
                 after: v.after,
             }),
-            &per_target,
         );
+        for (target, after) in cal.targets.iter_mut().zip(per_target) {
+            target.validation_after = Some(after);
+        }
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
