@@ -122,6 +122,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         loads_kg: vec![],
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
+        targets: vec![],
     };
     let path = dir.join("calibration.json");
     std::fs::write(&path, file.to_json()).unwrap();
