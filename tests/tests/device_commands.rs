@@ -150,6 +150,7 @@ fn device_commands_drive_a_board_on_a_socket() {
     push::run(&push::Args {
         calibration: cal.clone(),
         home_deg: None,
+        target: None,
         device: board.args(),
     })
     .unwrap();
@@ -415,6 +416,7 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     let err = push::run(&push::Args {
         calibration: path,
         home_deg: None,
+        target: None,
         device,
     })
     .unwrap_err();
