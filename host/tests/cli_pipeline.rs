@@ -295,6 +295,7 @@ fn calibration_json() -> String {
         loads_kg: vec![LOAD_KG],
         fit_residual: ErrorStats::of(&[1e-4]),
         validation: None,
+        targets: vec![],
     }
     .to_json()
 }

@@ -60,8 +60,9 @@ fn shuffled_candidate_rows_give_the_same_selection() {
             .iter()
             .map(|r| r.pose)
             .collect();
-        let blocks = CandidateBlocks::build(&arm, ModelOption::ElastoKinematic, &poses, &[0.0663])
-            .expect("the candidates are analysed");
+        let blocks =
+            CandidateBlocks::build(&arm.into(), ModelOption::ElastoKinematic, &poses, &[0.0663])
+                .expect("the candidates are analysed");
         let s = Selection::choose(blocks, &poses, &Choice::Detmax(options), &Silent)
             .expect("DETMAX selects");
         let set: BTreeSet<[u64; 6]> = s.poses.iter().map(key).collect();
@@ -99,8 +100,9 @@ fn the_canonical_order_is_as_d_optimal_as_the_file_order() {
         .map(|r| r.pose)
         .collect();
     let options = DetmaxOptions::default();
-    let blocks = CandidateBlocks::build(&arm, ModelOption::ElastoKinematic, &poses, &[0.0663])
-        .expect("analysed");
+    let blocks =
+        CandidateBlocks::build(&arm.into(), ModelOption::ElastoKinematic, &poses, &[0.0663])
+            .expect("analysed");
     let in_file_order = detmax(&blocks.blocks, &options, &Silent).expect("selects");
     // What DETMAX on the rows as given reached before the canonical order,
     // for two shuffles of the same file (printed for the record).

@@ -122,6 +122,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         loads_kg: vec![],
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
+        targets: vec![],
     };
     let path = dir.join("calibration.json");
     std::fs::write(&path, file.to_json()).unwrap();
@@ -149,6 +150,7 @@ fn device_commands_drive_a_board_on_a_socket() {
     push::run(&push::Args {
         calibration: cal.clone(),
         home_deg: None,
+        target: None,
         device: board.args(),
     })
     .unwrap();
@@ -422,6 +424,7 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     let err = push::run(&push::Args {
         calibration: path,
         home_deg: None,
+        target: None,
         device,
     })
     .unwrap_err();

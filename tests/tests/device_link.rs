@@ -10,7 +10,7 @@ use std::time::Duration;
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
 use host::device::{Client, ClientError, CommsError, Link, calibration};
-use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool};
 use model::{Arm, ParamId};
 use protocol::frame::{Feed, MAX_FRAME};
 use protocol::{CompensationMode, Faults, FrameReader, ModelOption, Timing, WireError};
@@ -165,7 +165,46 @@ fn calibration_file() -> CalibrationFile {
         loads_kg: vec![0.0663],
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
+        targets: vec![],
     }
+}
+
+/// A calibration of two targets pushed for the second: the board stores and
+/// hands back arms whose tool point is that target's, nothing else changed;
+/// an unknown name is refused before anything is sent, listing the names.
+#[test]
+fn push_for_a_named_target_sends_its_tool_point() {
+    let mut file = calibration_file();
+    let marker = [0.01, 0.03, 0.05];
+    for (name, tool_m) in [("m0", file.arm.tool.xyz), ("m1", marker)] {
+        file.targets.push(TargetTool {
+            name: name.into(),
+            tool_m,
+            fit_residual: ErrorStats::of(&[0.001]),
+            validation_after: None,
+        });
+    }
+    let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
+    let chosen = CalibrationFile {
+        nominal,
+        arm,
+        ..file.clone()
+    };
+    let payload = calibration::payload(&chosen, [0.0; 6]).unwrap();
+    let first = calibration::payload(&file, [0.0; 6]).unwrap();
+    assert_ne!(payload.id, first.id);
+    let mut c = client(Board::new(SimFlash::new()));
+    c.hello().unwrap();
+    assert_eq!(
+        c.push_calibration(&payload, |_, _| ()).unwrap().id,
+        payload.id
+    );
+    let stored = c.pull_calibration().unwrap();
+    assert_eq!(stored.calibrated.tool.xyz, marker.map(|x| x as f32));
+    assert_eq!(stored.nominal.tool.xyz, marker.map(|x| x as f32));
+    assert_eq!(stored.calibrated.joints, file.arm.map(|x| x as f32).joints);
+    let e = file.arms_for_target(Some("m7")).unwrap_err();
+    assert!(e.contains("`m7`") && e.contains("m0, m1"), "{e}");
 }
 
 #[test]

@@ -1,7 +1,10 @@
 //! `lrmcal identify`: fit the error parameters to a measurement file, from a
 //! DETMAX selection of N poses or an explicit pose list, for one model option
 //! or all three; validate on the measured poses not used; write the
-//! calibration file(s) and a report.
+//! calibration file(s) and a report. Measurements of several targets per
+//! pose (a `target` column) fit one arm and a tool point per target; with
+//! `--tool-only`, only the tool points are fitted, the arm of an earlier
+//! calibration held fixed (after a tool change).
 
 use std::path::PathBuf;
 
@@ -9,18 +12,19 @@ use crate::calib::checks::{
     check_in_candidates, check_measured, check_plausible, identification_load,
 };
 use crate::calib::detmax::DetmaxOptions;
-use crate::calib::export::calibration_file;
+use crate::calib::export::{calibration_file, target_tools};
 use crate::calib::identifiability::check_structure;
-use crate::calib::identify::IdentifyOptions;
+use crate::calib::identify::{IdentifyOptions, identify};
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
 use crate::calib::report::Report;
+use crate::calib::targets::{Rig, Targets, tool_keys};
 use crate::calib::{CalibError, summary};
 use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::ValidationSummary;
+use crate::io::calibration_file::{CalibrationFile, ValidationSummary};
 use crate::io::{measurements, pose_list};
 
 /// Identify the arm's error parameters from measured tool positions.
@@ -28,17 +32,22 @@ use crate::io::{measurements, pose_list};
 #[command(after_help = "Examples:\n  \
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
-lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n\n\
+lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n  \
+lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic.json --tool-only\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
 not used for the fit validate it, under every load in the file. Writes \
-calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.")]
+calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.\n\n\
+Several targets per pose: a `target` column in the measurements names the target of each row; \
+the fit shares the arm and gives each target its own tool point (every target needs at least \
+3 poses). After a tool change, re-teach only the tool points from a few poses with \
+--calibration OLD.json --tool-only: the arm of OLD.json stays as it is.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
-    /// Measurement CSV (`pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm`).
+    /// Measurement CSV (`pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm[,target]`).
     #[arg(long, value_name = "FILE")]
     pub measurements: PathBuf,
     /// Candidate pose list: every measured pose must be one of them.
@@ -63,6 +72,13 @@ pub struct Args {
     /// instead of refusing the file.
     #[arg(long)]
     pub allow_outside_limits: bool,
+    /// Re-teach only the tool points (one per target of the measurements)
+    /// with the arm of --calibration held fixed: after a tool change.
+    #[arg(long, requires = "calibration", conflicts_with_all = ["select", "poses", "candidates"])]
+    pub tool_only: bool,
+    /// The earlier calibration whose arm --tool-only keeps.
+    #[arg(long, value_name = "FILE", requires = "tool_only")]
+    pub calibration: Option<PathBuf>,
     /// DETMAX random starts.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
@@ -90,9 +106,22 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         .into());
     }
-    check_plausible(&nominal, &all, &file)?;
     let loads = loads_of(&all);
     let load = identification_load(&loads, args.load_kg, &file)?;
+    let targets = Targets::of(&all);
+    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
+    targets.check_poses(&under_load, &file)?;
+    if let Some(path) = &args.calibration {
+        return tool_only(args, path, targets, &under_load, load);
+    }
+    // The nominal arm knows the first target's tool point only: the others
+    // may sit anywhere on the flange.
+    let first: Vec<_> = all
+        .iter()
+        .filter(|m| targets.index(m.target) == Some(0))
+        .copied()
+        .collect();
+    check_plausible(&nominal, &first, &file)?;
     if let Some(path) = &args.candidates {
         let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
         check_in_candidates(&all, &candidates, &file)?;
@@ -129,7 +158,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let bar = Bar::new();
     let mut results = Vec::new();
     for option in args.option.options() {
-        let blocks = CandidateBlocks::build(&nominal, option, &measured, &[load])?;
+        let blocks = CandidateBlocks::build(&inputs.nominal, option, &measured, &[load])?;
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
         results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
@@ -143,7 +172,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &results,
     );
     for (r, details) in results.iter().zip(&report.options) {
-        let cal = calibration_file(
+        let per_target = r
+            .validation
+            .as_ref()
+            .map(|v| v.after_per_target(targets.len()))
+            .unwrap_or_default();
+        let mut cal = calibration_file(
             &nominal,
             &r.identified,
             &r.selection.candidates.identifiability.removed_ids(),
@@ -156,14 +190,80 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 after: v.after,
             }),
         );
+        for (target, after) in cal.targets.iter_mut().zip(per_target) {
+            target.validation_after = Some(after);
+        }
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
+        if !cal.targets.is_empty() {
+            print!("{}", summary::targets_table(&cal.targets));
+        }
         println!("  wrote {}", path.display());
     }
     write_text(&args.out.join("report.json"), &report.to_json())?;
     println!("\nValidation on the measured poses not used for the fit, {load} kg (mean 3D error):");
     print!("{}", summary::table(&report.options));
     println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// `--tool-only`: fits the tool point of every target of `measurements`
+/// (under `load`) with the arm of the calibration at `path` held fixed, and
+/// writes that calibration with the new tool points.
+fn tool_only(
+    args: &Args,
+    path: &std::path::Path,
+    targets: Targets,
+    measurements: &[crate::dataset::Measurement],
+    load: f64,
+) -> Result<(), Error> {
+    let old = CalibrationFile::read(path)?;
+    let mut rig = Rig::new(old.arm, targets);
+    // A target the old calibration knows starts from where it was.
+    for (t, name) in rig.targets.names().iter().enumerate().skip(1) {
+        if let Some(known) = old.targets.iter().find(|k| &k.name == name) {
+            rig.tools[t - 1] = known.tool_m.into();
+        }
+    }
+    let keys = tool_keys(0..rig.targets.len());
+    let options = IdentifyOptions {
+        robust: args.robust,
+        ..Default::default()
+    };
+    let fit = identify(&rig, old.option, &keys, measurements, &options)?;
+    let mut poses: Vec<u32> = measurements.iter().map(|m| m.pose.id).collect();
+    poses.dedup();
+    let mut parameters: Vec<_> = old
+        .parameters
+        .iter()
+        .filter(|p| !p.name.starts_with("tool.") && !p.name.starts_with("tool["))
+        .cloned()
+        .collect();
+    parameters.extend(fit.estimates.iter().map(Into::into));
+    let cal = CalibrationFile {
+        arm: fit.rig.arm,
+        parameters,
+        poses_used: poses,
+        loads_kg: vec![load],
+        fit_residual: fit.fit_residual,
+        // Every measurement fitted the tool points: none is left to validate on.
+        validation: None,
+        targets: target_tools(&fit, &[]),
+        ..old
+    };
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
+        path: args.out.clone(),
+        source,
+    })?;
+    let out = args.out.join(format!("calibration-{}.json", cal.option));
+    write_text(&out, &cal.to_json())?;
+    println!(
+        "tool points re-taught from {} measurements with the arm of {} held fixed:",
+        measurements.len(),
+        path.display()
+    );
+    print!("{}", summary::targets_table(&cal.targets));
+    println!("  wrote {}", out.display());
     Ok(())
 }

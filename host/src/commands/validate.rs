@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use crate::calib::checks::check_plausible;
+use crate::calib::export::rigs_of;
 use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
@@ -38,7 +39,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let rows = measurements::read(&args.measurements)?;
     let file = args.measurements.display().to_string();
-    check_plausible(&cal.nominal, &rows, &file)?;
+    let (nominal, calibrated) = rigs_of(&cal);
+    // The nominal arm knows where the first target is; the others are the fit's.
+    let first: Vec<_> = rows
+        .iter()
+        .filter(|m| calibrated.targets.index(m.target) == Some(0))
+        .copied()
+        .collect();
+    check_plausible(&cal.nominal, &first, &file)?;
     println!(
         "{} calibration {} on {file}:",
         cal.option.name(),
@@ -62,7 +70,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             s.max_m * 1e3
         )
     };
-    for lv in validate_per_load(&cal.nominal, &cal.arm, &rows)? {
+    for lv in validate_per_load(&nominal, &calibrated, &rows)? {
         let v = &lv.validation;
         println!(
             "{:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",

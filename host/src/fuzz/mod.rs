@@ -427,11 +427,12 @@ fn arm_values<'a>(which: &'a str, arm: &'a Arm<f64>) -> impl Iterator<Item = (St
             j.com[0],
             j.com[1],
             j.com[2],
-            j.servo.minus100,
-            j.servo.zero,
-            j.servo.plus100,
         ]
+        .into_iter()
+        .chain(j.servo.angles_rad().iter().copied())
+        .chain(j.servo.pulses_us().iter().copied())
         .map(move |v| (format!("{which} joint {}", i + 1), v))
+        .collect::<Vec<_>>()
     });
     whole
         .into_iter()

@@ -5,8 +5,11 @@
 //! It carries the *full* corrected arm (nominal + identified errors, the servo
 //! curves inside each joint), the nominal arm it was identified from (so a
 //! mismatched arm is caught), the option, every fitted parameter with its
-//! standard deviation, the poses used and the statistics. The engine fills it
-//! from its results (`crate::calib::export`); this module owns the format.
+//! standard deviation, the poses used and the statistics, and, when the
+//! measurements named several targets (or the tool was re-taught), every
+//! target's tool point: the board compensates one of them
+//! ([`CalibrationFile::arms_for_target`]). The engine fills it from its
+//! results (`crate::calib::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
 //!
 //! Version 2 writes each servo curve as its knots (`angles_rad`,
@@ -164,6 +167,26 @@ pub struct CalibrationFile {
     pub fit_residual: ErrorStats,
     /// Validation on held-out measurements, when there were any.
     pub validation: Option<ValidationSummary>,
+    /// The measured targets, in the order the measurements named them; absent
+    /// for one unnamed target (the arm's tool point). The first is the
+    /// arm's tool point and what the board compensates unless
+    /// `lrmcal push --target` names another.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<TargetTool>,
+}
+
+/// One measured target of a calibration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetTool {
+    /// The name the measurement file gave it.
+    pub name: String,
+    /// Its tool point in frame 6 (the tool frame's parent) of the corrected arm, m.
+    pub tool_m: [f64; 3],
+    /// Residual of the fit on its own measurements (3D error norm), m.
+    pub fit_residual: ErrorStats,
+    /// The corrected arm's error on its held-out measurements, when there were any, m.
+    pub validation_after: Option<ErrorStats>,
 }
 
 /// Before/after statistics on held-out measurements.
@@ -211,17 +234,79 @@ impl CalibrationFile {
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
-            if ParamId::from_name(&p.name).is_none() || repeated {
+            let known = ParamId::from_name(&p.name).is_some()
+                || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
+            if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
                     Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6), each once",
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, tool[N].x … tool[N].z of a listed target), each once",
                         found: format!("`{}`", p.name),
                     },
                 ));
             }
         }
+        for (i, t) in file.targets.iter().enumerate() {
+            let problem = if t.name.is_empty() {
+                Some("a name".to_string())
+            } else if file.targets[..i].iter().any(|u| u.name == t.name) {
+                Some(format!("a name not used before, found `{}` again", t.name))
+            } else if !t.tool_m.iter().all(|v| v.is_finite()) {
+                Some("finite coordinates in m".to_string())
+            } else {
+                None
+            };
+            if let Some(message) = problem {
+                return Err(InputError::new(
+                    Location::key(None, format!("targets[{}]", i + 1)),
+                    Problem::Invalid {
+                        message: format!("expected {message}"),
+                    },
+                ));
+            }
+        }
+        if let Some(first) = file.targets.first()
+            && first.tool_m != file.arm.tool.xyz
+        {
+            return Err(InputError::new(
+                Location::key(None, "targets[1].tool_m"),
+                Problem::Invalid {
+                    message: "the first target is the arm's tool point: expected arm.tool.xyz"
+                        .into(),
+                },
+            ));
+        }
         Ok(file)
+    }
+
+    /// The nominal and corrected arms the board gets for the target called
+    /// `name` (the first without one): both with that target's tool point,
+    /// so the board puts that target where the nominal arm's tool point
+    /// would be. A file without targets is its arms as they are.
+    pub fn arms_for_target(&self, name: Option<&str>) -> Result<(Arm<f64>, Arm<f64>), String> {
+        let chosen = match name {
+            None => self.targets.first(),
+            Some(name) => Some(self.targets.iter().find(|t| t.name == name).ok_or_else(|| {
+                if self.targets.is_empty() {
+                    format!(
+                        "it has no target `{name}`: it was identified from measurements without a \
+                         `target` column, so it has the one tool point; leave out --target"
+                    )
+                } else {
+                    let names: Vec<&str> = self.targets.iter().map(|t| t.name.as_str()).collect();
+                    format!(
+                        "it has no target `{name}`; its targets are {}",
+                        names.join(", ")
+                    )
+                }
+            })?),
+        };
+        let (mut nominal, mut arm) = (self.nominal, self.arm);
+        if let Some(target) = chosen {
+            nominal.tool.xyz = target.tool_m;
+            arm.tool.xyz = target.tool_m;
+        }
+        Ok((nominal, arm))
     }
 
     /// Reads and checks a calibration file.
@@ -245,6 +330,13 @@ impl CalibrationFile {
         }
         Ok(())
     }
+}
+
+/// The target index `N` of a further target's tool-point parameter `tool[N].x|y|z`.
+fn target_of_tool_name(name: &str) -> Option<usize> {
+    let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+    let target: usize = target.parse().ok().filter(|t| *t > 0)?;
+    ["x", "y", "z"].contains(&axis).then_some(target)
 }
 
 /// A calibration file for the unit tests of `io`.
@@ -276,6 +368,7 @@ pub(super) mod test_support {
             loads_kg: vec![0.0663],
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
+            targets: vec![],
         }
     }
 }
@@ -330,6 +423,57 @@ mod tests {
         // JSON has no NaN or infinity; a number too large for f64 is refused.
         let e = refused(&json.replacen("0.1", "1e999", 1));
         assert!(e.contains("not JSON") && e.contains("number"), "{e}");
+    }
+
+    /// The first target by default, another by name, both arms carrying its
+    /// tool point; an unknown name lists the names; a file without targets
+    /// sends its arms as they are and refuses any name.
+    #[test]
+    fn target_selection_moves_both_tool_points() {
+        let mut file = sample_file();
+        assert_eq!(file.arms_for_target(None), Ok((file.nominal, file.arm)));
+        let e = file.arms_for_target(Some("m1")).unwrap_err();
+        assert!(e.contains("`m1`") && e.contains("target` column"), "{e}");
+        let stats = ErrorStats::of(&[0.001]);
+        for (name, tool_m) in [("m0", file.arm.tool.xyz), ("m1", [0.0, 0.03, 0.05])] {
+            file.targets.push(TargetTool {
+                name: name.into(),
+                tool_m,
+                fit_residual: stats,
+                validation_after: None,
+            });
+        }
+        file.parameters.push(FittedParam {
+            name: "tool[1].y".into(),
+            error: 0.03,
+            value: 0.03,
+            std: None,
+        });
+        let file = CalibrationFile::parse(&file.to_json()).unwrap();
+        let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
+        assert_eq!(nominal.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.joints, file.arm.joints);
+        assert_eq!(nominal.joints, file.nominal.joints);
+        let (nominal, arm) = file.arms_for_target(None).unwrap();
+        assert_eq!(
+            (nominal.tool.xyz, arm.tool.xyz),
+            (file.arm.tool.xyz, file.arm.tool.xyz)
+        );
+        let e = file.arms_for_target(Some("m9")).unwrap_err();
+        assert!(e.contains("`m9`") && e.contains("m0, m1"), "{e}");
+        // A parameter of a target the file does not list, a repeated name, a
+        // first target away from the arm's tool point: refused with the key.
+        let json = file.to_json();
+        let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
+        let e = refused(&json.replacen("tool[1].y", "tool[2].y", 1));
+        assert!(e.contains("parameters[2].name"), "{e}");
+        let e = refused(&json.replacen("\"m1\"", "\"m0\"", 1));
+        assert!(e.contains("targets[2]") && e.contains("`m0` again"), "{e}");
+        let mut moved = file.clone();
+        moved.targets[0].tool_m[0] += 0.01;
+        let e = refused(&moved.to_json());
+        assert!(e.contains("targets[1].tool_m"), "{e}");
     }
 
     #[test]
