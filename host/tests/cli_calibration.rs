@@ -86,6 +86,32 @@ fn select_identify_validate_round_trip() {
     ]);
     assert!(out.status.success(), "{}", text(&out));
     assert!(text(&out).contains("0.0663"), "{}", text(&out));
+    assert!(!text(&out).contains("outlier"), "{}", text(&out));
+    // A held-out measurement 20 mm off is named by `validate`.
+    let mut rows = measurements::read(Path::new(&meas)).unwrap();
+    let off = rows
+        .iter_mut()
+        .find(|m| m.load_kg == 0.0663 && !parsed.poses_used.contains(&m.pose.id))
+        .expect("a held-out pose");
+    off.position.z += 0.02;
+    let bad = off.pose.id;
+    let moved = dir.path().join("moved.csv");
+    measurements::write(&moved, &rows).unwrap();
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        p(&moved),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains(&format!(
+            "validation outlier: pose {bad} (0.0663 kg), error "
+        )),
+        "{}",
+        text(&out)
+    );
 }
 
 #[test]

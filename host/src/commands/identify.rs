@@ -28,11 +28,12 @@ use crate::io::{measurements, pose_list};
 #[command(after_help = "Examples:\n  \
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
-lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n\n\
+lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --no-robust\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
-not used for the fit validate it, under every load in the file. Writes \
+not used for the fit validate it, under every load in the file. Measurements far off the \
+others are down-weighted (Huber) and named, in the fit and in the validation. Writes \
 calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
@@ -56,9 +57,10 @@ pub struct Args {
     /// Load whose measurements the fit uses, kg.
     #[arg(long, value_name = "KG")]
     pub load_kg: Option<f64>,
-    /// Down-weight outliers (Huber) and name them.
+    /// Plain least squares: measurements far off keep their full weight
+    /// (they are still named, with a warning).
     #[arg(long)]
-    pub robust: bool,
+    pub no_robust: bool,
     /// Fit measured poses outside the arm's joint limits too (with a warning)
     /// instead of refusing the file.
     #[arg(long)]
@@ -116,7 +118,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         other_load_kg: loads.iter().copied().find(|l| *l != load),
         choice,
         identify: IdentifyOptions {
-            robust: args.robust,
+            robust: !args.no_robust,
             ..Default::default()
         },
     };
@@ -159,6 +161,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
+        if args.no_robust && !details.fit.outliers.is_empty() {
+            let poses: Vec<String> = details
+                .fit
+                .outliers
+                .iter()
+                .map(|o| format!("{} ({:.1} mm)", o.pose, o.residual_mm))
+                .collect();
+            eprintln!(
+                "warning: {}: {} measurements of {file} are far off the others (poses {}) and keep their full weight because of --no-robust; without it they are down-weighted",
+                r.option(),
+                poses.len(),
+                poses.join(", ")
+            );
+        }
         println!("  wrote {}", path.display());
     }
     write_text(&args.out.join("report.json"), &report.to_json())?;
