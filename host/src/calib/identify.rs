@@ -41,7 +41,7 @@
 //! by more than [`WEAK_REACH_FRACTION`] of the reach. The fit keeps them (they
 //! do not harm the measured points), and says how little they mean.
 //!
-//! **Robust option (Huber, by iteratively reweighted least squares).** Each
+//! **Robust fit, the default (Huber, by iteratively reweighted least squares).** Each
 //! measurement's weight depends on the norm `e` of its 3D residual relative to
 //! a robust scale `s = median(e) / 1.5382` (the median of the norm of a 3D
 //! Gaussian with per-axis deviation σ is 1.5382 σ): weight 1 up to
@@ -788,6 +788,7 @@ mod tests {
     fn a_spent_round_budget_still_ends_inside_the_bounds() {
         let nominal = rigid_nominal();
         let one_round = IdentifyOptions {
+            robust: false,
             max_active_set_rounds: 1,
             ..Default::default()
         };
@@ -872,6 +873,61 @@ mod tests {
                 keys[c]
             );
         }
+    }
+
+    /// The ceiling of each compliance is MAX_SAG_RAD over the largest torque
+    /// its joint carries in the samples; a value above it is outside.
+    #[test]
+    fn compliance_ceilings_scale_with_the_torques() {
+        let nominal = rigid_nominal();
+        let meas = measure(&nominal, &small_samples(12));
+        let data = fit_data(&nominal, &meas);
+        let chain = nominal.chain();
+        let k3 = key("k3");
+        let torque = data
+            .samples
+            .iter()
+            .map(|s| chain.gravity_torques(&s.q, 0.0, s.load_kg).joints[2].abs())
+            .fold(0.0, f64::max);
+        let (lo, hi) = data.bounds(k3);
+        assert_eq!(lo, Some(0.0));
+        assert!((hi.unwrap() - MAX_SAG_RAD / torque).abs() < 1e-12 * hi.unwrap());
+        // k1 carries no torque on the level base: no ceiling.
+        assert_eq!(data.bounds(key("k1")).1, None);
+        let mut params = ParamVector::new(elastic_keys()).unwrap();
+        params.set(k3, 2.0 * hi.unwrap()).unwrap();
+        let arm = params.apply(&nominal);
+        assert_eq!(outside_bounds(&data, &params, &arm), [(k3, hi.unwrap())]);
+    }
+
+    /// A trial point whose deflection diverges is a failed step with a huge
+    /// residual, counted, not the end of the fit.
+    #[test]
+    fn an_unsolvable_trial_point_is_a_failed_step() {
+        let nominal = rigid_nominal();
+        let keys = elastic_keys();
+        let meas = measure(
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &small_samples(8),
+        );
+        let data = fit_data(&nominal, &meas);
+        let params = ParamVector::new(keys.iter().copied()).unwrap();
+        let sqrt_w = vec![1.0; meas.len()];
+        let mut problem = Problem {
+            data: &data,
+            params: &params,
+            free: keys.clone(),
+            sqrt_w: &sqrt_w,
+            x: DVector::zeros(keys.len()),
+            failed_entry: 7.0,
+            failed: std::cell::Cell::new(0),
+        };
+        assert!(problem.residuals().unwrap().iter().all(|r| *r != 7.0));
+        problem.set_params(&DVector::from_element(keys.len(), 500.0));
+        assert!(data.residual_norms(&problem.arm()).is_err());
+        let r = problem.residuals().unwrap();
+        assert!(r.len() == 3 * meas.len() && r.iter().all(|v| *v == 7.0));
+        assert_eq!(problem.failed.get(), 1);
     }
 
     #[test]
