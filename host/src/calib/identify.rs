@@ -557,12 +557,12 @@ fn covariance(
 /// on an arm of reach `reach_m` (module docs); a deviation that is not a
 /// number (a direction the data do not see at all) is weak too.
 fn is_weak(key: ParamKey, value: f64, std: f64, reach_m: f64) -> bool {
-    let moves_m = match key.kind() {
-        ParamKind::Compliance => return !(std <= value.abs()),
-        ParamKind::Length => std,
-        ParamKind::Angle => std * reach_m,
+    let (moves, limit) = match key.kind() {
+        ParamKind::Compliance => (std, value.abs()),
+        ParamKind::Length => (std, WEAK_REACH_FRACTION * reach_m),
+        ParamKind::Angle => (std * reach_m, WEAK_REACH_FRACTION * reach_m),
     };
-    !(moves_m <= WEAK_REACH_FRACTION * reach_m)
+    moves.is_nan() || moves > limit
 }
 
 /// The indices of the error norms beyond [`OUTLIER_K`] robust scales of
