@@ -21,9 +21,10 @@
 //! put on its joint (at the nominal arm): a joint that would sag further than
 //! that is not a spring that holds a pose. The bound scales with the arm's
 //! torques, so it is as loose for a light wrist (0.08 Nm: up to 6 rad/Nm) as
-//! for a UR10's shoulder (300 Nm: 1.7e-3 rad/Nm); it also keeps the deflection's
-//! fixed-point map a contraction, so the identified arm can always be
-//! evaluated. The active set treats it like the lower bound.
+//! for a UR10's shoulder (300 Nm: 1.7e-3 rad/Nm); it also keeps the
+//! deflection's fixed-point iteration well inside where it converges, so the
+//! identified arm can be evaluated. The active set treats it like the lower
+//! bound.
 //!
 //! **Failed steps.** Parameters the data barely determine let a trial step of
 //! LM go far, e.g. to a compliance whose deflection no longer converges.
@@ -647,8 +648,8 @@ pub fn identify(
     }
 
     let arm = params.apply(nominal);
-    // Every point LM accepted could be evaluated, and a bound keeps the
-    // deflection a contraction: failing here is a defect, not the data's fault.
+    // Every point LM accepted could be evaluated, and the ceiling keeps the
+    // deflection converging: failing here is not a question of more poses.
     let norms = data.residual_norms(&arm).map_err(|e| {
         data.solver_error(format!(
             "the fitted arm's deflection cannot be evaluated ({e})"
