@@ -86,6 +86,64 @@ fn select_identify_validate_round_trip() {
     ]);
     assert!(out.status.success(), "{}", text(&out));
     assert!(text(&out).contains("0.0663"), "{}", text(&out));
+    // A held-out measurement 20 mm off is named by `validate`.
+    let mut rows = measurements::read(Path::new(&meas)).unwrap();
+    let off = rows
+        .iter_mut()
+        .find(|m| m.load_kg == 0.0663 && !parsed.poses_used.contains(&m.pose.id))
+        .expect("a held-out pose");
+    off.position.z += 0.02;
+    let bad = off.pose.id;
+    let moved = dir.path().join("moved.csv");
+    measurements::write(&moved, &rows).unwrap();
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        p(&moved),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains(&format!(
+            "validation outlier: pose {bad} (0.0663 kg), error "
+        )),
+        "{}",
+        text(&out)
+    );
+    // A fitted measurement 20 mm off: named and down-weighted by default;
+    // with --no-robust it keeps its weight, and a warning says so.
+    let fitted = parsed.poses_used[0];
+    for m in rows
+        .iter_mut()
+        .filter(|m| m.pose.id == fitted && m.load_kg == 0.0663)
+    {
+        m.position.z += 0.02;
+    }
+    measurements::write(&moved, &rows).unwrap();
+    let cal2 = dir.path().join("cal2");
+    for flag in [None, Some("--no-robust")] {
+        let args = [
+            "identify",
+            "--measurements",
+            p(&moved),
+            "--load-kg",
+            "0.0663",
+            "--poses",
+            p(&sel),
+            "--out",
+            p(&cal2),
+        ];
+        let out = lrmcal(&[&args[..], flag.as_slice()].concat());
+        assert!(out.status.success(), "{}", text(&out));
+        let named = format!("outlier: pose {fitted} (0.0663 kg)");
+        assert!(text(&out).contains(&named), "{}", text(&out));
+        let warned = String::from_utf8_lossy(&out.stderr).contains(&format!(
+            "warning: elasto-kinematic: 1 measurements of {} are far off the others (poses {fitted} (",
+            p(&moved)
+        ));
+        assert_eq!(warned, flag.is_some(), "{}", text(&out));
+    }
 }
 
 #[test]

@@ -1,11 +1,16 @@
 //! Experiments on top of a calibration run: how DETMAX compares with random
-//! selections of the same size, and how O1 grows with the number of poses.
+//! selections of the same size, how O1 grows with the number of poses, and
+//! what a few gross measurement errors among the fitted poses cost a fit.
 
 use serde::Serialize;
 
+use nalgebra::Vector3;
+
 use super::detmax::{DetmaxOptions, detmax, random_design};
 use super::identify::{IdentifyOptions, identify};
-use super::pipeline::{CandidateBlocks, Inputs, OptionResult};
+use super::pipeline::{
+    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_option,
+};
 use super::progress::{Progress, Silent};
 use super::validate::validate;
 use super::{CalibError, ModelOption};
@@ -95,6 +100,66 @@ pub fn random_baseline(
         random_o1_median: median(random_o1(&result.selection.candidates, n, sets)),
         detmax_mean_m: result.held_out()?.after.mean_m,
         random_mean_median_m: median(means),
+    })
+}
+
+/// One fit on clean measurements and on the same measurements with a few of
+/// the fitted poses displaced (gross errors, as a tracker that jumped).
+#[derive(Clone, Debug, PartialEq)]
+pub struct OutlierTrial {
+    /// The fitted poses whose measurement was displaced.
+    pub displaced: Vec<u32>,
+    /// Mean held-out error of the fit on the clean measurements, m.
+    pub clean_mean_m: f64,
+    /// Mean held-out error of the fit on the displaced measurements, m
+    /// (held-out measurements are clean in both).
+    pub contaminated_mean_m: f64,
+    /// The fitted poses the contaminated fit named as outliers.
+    pub named: Vec<u32>,
+}
+
+/// Calibrates `option` over `inputs` as `settings` say, then again on the
+/// same poses with the identification-load measurements of `count` of them
+/// (spread over the selection) moved by `offset_m`, and compares the
+/// held-out errors.
+pub fn outlier_trial(
+    inputs: &Inputs,
+    option: ModelOption,
+    settings: &RunSettings,
+    count: usize,
+    offset_m: Vector3<f64>,
+) -> Result<OutlierTrial, CalibError> {
+    let clean = calibrate_option(inputs, option, settings, &Silent)?;
+    let chosen = clean.pose_ids();
+    let stride = (chosen.len() / count.max(1)).max(1);
+    let displaced: Vec<u32> = chosen.iter().step_by(stride).take(count).copied().collect();
+    let load = settings.identify_load_kg;
+    let moved: Vec<_> = inputs
+        .candidates
+        .iter()
+        .flat_map(|p| inputs.measurements.of([p.id], load))
+        .map(|mut m| {
+            if displaced.contains(&m.pose.id) {
+                m.position += offset_m;
+            }
+            m
+        })
+        .collect();
+    let dirty = calibrate_option(
+        &Inputs::new(&inputs.nominal.arm, inputs.candidates, &moved),
+        option,
+        &RunSettings {
+            choice: Choice::Given(chosen),
+            other_load_kg: None,
+            ..settings.clone()
+        },
+        &Silent,
+    )?;
+    Ok(OutlierTrial {
+        clean_mean_m: clean.held_out()?.after.mean_m,
+        contaminated_mean_m: dirty.held_out()?.after.mean_m,
+        named: dirty.identified.outliers.iter().map(|o| o.pose).collect(),
+        displaced,
     })
 }
 

@@ -136,12 +136,14 @@ mod tests {
                     error: 0.1,
                     value: 0.1,
                     std: Some(1e-3),
+                    weak: false,
                 },
                 Estimate {
                     id: k6.into(),
                     error: 0.0,
                     value: 0.0,
                     std: None,
+                    weak: false,
                 },
             ],
             diagnostics: Diagnostics {
@@ -149,6 +151,7 @@ mod tests {
                 converged: true,
                 evaluations: 3,
                 active_set_rounds: 1,
+                failed_steps: 0,
                 irls_rounds: 1,
                 at_bound: vec![k6.into()],
                 rms_before_m: 0.01,

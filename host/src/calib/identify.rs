@@ -16,11 +16,33 @@
 //! run out first, what is still outside is fixed at its bound, so the
 //! identified arm is always physical.
 //!
+//! **A physical range for compliances.** Above zero, a compliance is bounded
+//! by [`MAX_SAG_RAD`] divided by the largest gravity torque the fitted poses
+//! put on its joint (at the nominal arm): a joint that would sag further than
+//! that is not a spring that holds a pose. The bound scales with the arm's
+//! torques, so it is as loose for a light wrist (0.08 Nm: up to 6 rad/Nm) as
+//! for a UR10's shoulder (300 Nm: 1.7e-3 rad/Nm); it also keeps the
+//! deflection's fixed-point iteration well inside where it converges, so the
+//! identified arm can be evaluated. The active set treats it like the lower
+//! bound.
+//!
+//! **Failed steps.** Parameters the data barely determine let a trial step of
+//! LM go far, e.g. to a compliance whose deflection no longer converges.
+//! Such a trial point gets a residual [`FAILED_STEP_FACTOR`] times the one the
+//! run started from: LM's ratio test rejects it like any step that made
+//! things worse and raises the damping; the fit goes on from the last good
+//! point. The count is reported (`failed_steps`).
+//!
 //! **Standard deviations** come from the Jacobian J of the free parameters at
 //! the solution and the residual: `cov = s² (JᵀJ)⁻¹` with `s² = RSS / (3n − m)`.
-//! Parameters fixed at a bound are reported with no deviation.
+//! Parameters fixed at a bound are reported with no deviation. A free
+//! parameter is named **weak** when the data barely determine it: a compliance
+//! whose deviation exceeds its value (the data cannot tell it from zero), a
+//! length or angle whose deviation moves the tool point, at the arm's reach,
+//! by more than [`WEAK_REACH_FRACTION`] of the reach. The fit keeps them (they
+//! do not harm the measured points), and says how little they mean.
 //!
-//! **Robust option (Huber, by iteratively reweighted least squares).** Each
+//! **Robust fit, the default (Huber, by iteratively reweighted least squares).** Each
 //! measurement's weight depends on the norm `e` of its 3D residual relative to
 //! a robust scale `s = median(e) / 1.5382` (the median of the norm of a 3D
 //! Gaussian with per-axis deviation σ is 1.5382 σ): weight 1 up to
@@ -31,6 +53,8 @@
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
+
+use model::params::ParamKind;
 
 use super::identifiability::check_full_rank;
 use super::jacobian::{JacobianOptions, jacobian, tool_points};
@@ -46,11 +70,24 @@ pub const HUBER_K: f64 = 3.0;
 pub const OUTLIER_K: f64 = 4.5;
 /// Median of the norm of a 3D standard Gaussian vector.
 const CHI3_MEDIAN: f64 = 1.5382;
+/// Largest sag, rad, a compliance may give its joint under the largest
+/// gravity torque of the fitted poses: 0.5 rad (29°). Scaled by each joint's
+/// torque, so it suits a hobby arm and an industrial one alike.
+pub const MAX_SAG_RAD: f64 = 0.5;
+/// A free length or angle is weak when one standard deviation of it moves the
+/// tool point by more than this fraction of the arm's reach (1 %: 4 mm on
+/// the bundled arm, 14 mm on a UR10-sized one).
+pub const WEAK_REACH_FRACTION: f64 = 1e-2;
+/// A trial point whose deflection cannot be solved scores this many times the
+/// residual norm its LM run started from: far beyond the tenfold that makes
+/// LM count a step as failed.
+pub const FAILED_STEP_FACTOR: f64 = 1e6;
 
 /// How to fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IdentifyOptions {
-    /// Down-weight outliers with Huber's function.
+    /// Down-weight outliers with Huber's function (the default: on clean
+    /// data it loses nothing, see docs/METHOD.md).
     pub robust: bool,
     /// Most active-set rounds (each one a full LM fit), over all reweighting rounds.
     pub max_active_set_rounds: usize,
@@ -61,7 +98,7 @@ pub struct IdentifyOptions {
 impl Default for IdentifyOptions {
     fn default() -> Self {
         Self {
-            robust: false,
+            robust: true,
             max_active_set_rounds: 10,
             max_irls_rounds: 12,
         }
@@ -79,6 +116,8 @@ pub struct Estimate {
     pub value: f64,
     /// One standard deviation of the error, SI units; `None` when fixed at a bound.
     pub std: Option<f64>,
+    /// Whether the data barely determine it (see the module docs).
+    pub weak: bool,
 }
 
 /// A measurement whose residual is far beyond the others'.
@@ -105,9 +144,12 @@ pub struct Diagnostics {
     pub evaluations: usize,
     /// Active-set rounds used.
     pub active_set_rounds: usize,
+    /// Trial steps rejected because the deflection could not be solved there.
+    pub failed_steps: usize,
     /// Reweighting rounds used (1 when not robust).
     pub irls_rounds: usize,
-    /// Parameters fixed at their bound by the constraint, in fit order.
+    /// Parameters fixed at a bound (zero or the compliance's physical
+    /// ceiling) by the constraint, in fit order.
     pub at_bound: Vec<ParamKey>,
     /// RMS of the 3D residual norm before the fit (nominal model), m.
     pub rms_before_m: f64,
@@ -144,9 +186,37 @@ struct FitData<'a> {
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
+    /// Each compliance's physical ceiling over these samples ([`MAX_SAG_RAD`]).
+    ceilings: Vec<(ParamKey, f64)>,
 }
 
-impl FitData<'_> {
+impl<'a> FitData<'a> {
+    fn new(
+        nominal: &'a Rig,
+        option: ModelOption,
+        measurements: &[Measurement],
+    ) -> Result<Self, CalibError> {
+        let samples = nominal.samples(measurements)?;
+        let ceilings = compliance_ceilings(&nominal.arm, &samples);
+        Ok(Self {
+            nominal,
+            option,
+            samples,
+            measured: measurements.iter().map(|m| m.position).collect(),
+            ceilings,
+        })
+    }
+
+    /// The smallest and largest physical value of `key`'s quantity, if bounded.
+    fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
+        let upper = self
+            .ceilings
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, c)| *c);
+        (key.lower_bound(), upper)
+    }
+
     /// Norms of the 3D residuals of `arm` against the measurements, m.
     fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
         Ok(tool_points(arm, &self.samples)?
@@ -189,6 +259,30 @@ impl FitData<'_> {
     }
 }
 
+/// The largest gravity torque each joint (and the base) carries over
+/// `samples` at the nominal arm's commanded angles, turned into the
+/// compliance ceiling `MAX_SAG_RAD / torque`; a joint that never carries a
+/// torque gets none (its compliance has no effect).
+fn compliance_ceilings(nominal: &model::Arm<f64>, samples: &[Sample]) -> Vec<(ParamKey, f64)> {
+    let chain = nominal.chain();
+    let mut joints = [0.0f64; model::JOINTS];
+    let mut base = 0.0f64;
+    for s in samples {
+        let t = chain.gravity_torques(&s.q, 0.0, s.load_kg);
+        for (m, t) in joints.iter_mut().zip(t.joints) {
+            *m = m.max(t.abs());
+        }
+        base = base.max(t.base.abs());
+    }
+    (0..=model::JOINTS)
+        .filter_map(|i| {
+            let torque = if i == 0 { base } else { joints[i - 1] };
+            let key = ParamKey::from_name(&format!("k{i}"))?;
+            (torque > 0.0 && torque.is_finite()).then(|| (key, MAX_SAG_RAD / torque))
+        })
+        .collect()
+}
+
 /// The LM problem over the free parameters; the fixed ones stay where they are.
 struct Problem<'a> {
     data: &'a FitData<'a>,
@@ -196,6 +290,11 @@ struct Problem<'a> {
     free: Vec<ParamKey>,
     sqrt_w: &'a [f64],
     x: DVector<f64>,
+    /// The residual of a trial point whose deflection cannot be solved
+    /// (each entry), from the norm the run started from.
+    failed_entry: f64,
+    /// Trial points that could not be evaluated.
+    failed: std::cell::Cell<usize>,
 }
 
 impl Problem<'_> {
@@ -219,7 +318,15 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        self.data.weighted_residuals(&self.arm(), self.sqrt_w)
+        match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
+            Some(r) => Some(r),
+            None => {
+                // A failed step, not the end of the fit (module docs).
+                self.failed.set(self.failed.get() + 1);
+                let rows = 3 * self.data.samples.len();
+                Some(DVector::from_element(rows, self.failed_entry))
+            }
+        }
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
@@ -235,6 +342,7 @@ struct Tally {
     evaluations: usize,
     active_set_rounds: usize,
     irls_rounds: usize,
+    failed_steps: usize,
     termination: String,
     converged: bool,
 }
@@ -259,17 +367,26 @@ fn fit(
     sqrt_w: &[f64],
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
+    let start = data
+        .weighted_residuals(&params.apply(data.nominal), sqrt_w)
+        .ok_or_else(|| {
+            data.solver_error("the model cannot be evaluated where the fit starts".into())
+        })?;
+    let rows = start.len().max(1) as f64;
     let problem = Problem {
         data,
         params,
         free: params.free().collect(),
         sqrt_w,
         x: DVector::from_vec(params.free_errors()),
+        failed_entry: FAILED_STEP_FACTOR * start.norm().max(f64::MIN_POSITIVE) / rows.sqrt(),
+        failed: std::cell::Cell::new(0),
     };
     let (problem, report) = LevenbergMarquardt::new()
         .with_patience(50)
         .minimize(problem);
     tally.evaluations += report.number_of_evaluations;
+    tally.failed_steps += problem.failed.get();
     tally.converged = report.termination.was_successful();
     tally.termination = format!("{:?}", report.termination);
     if !problem.x.iter().all(|v| v.is_finite()) {
@@ -280,12 +397,19 @@ fn fit(
     Ok(())
 }
 
-/// The free parameters whose value in `arm` lies below their lower bound, with the bound.
-fn below_bound(params: &ParamVector, arm: &Rig) -> Vec<(ParamKey, f64)> {
+/// The free parameters whose value in `arm` lies outside their bounds, with
+/// the bound they crossed.
+fn outside_bounds(data: &FitData, params: &ParamVector, arm: &Rig) -> Vec<(ParamKey, f64)> {
     params
         .free()
-        .filter_map(|k| k.lower_bound().map(|b| (k, b)))
-        .filter(|(k, b)| k.value(arm) < *b)
+        .filter_map(|k| {
+            let v = k.value(arm);
+            match data.bounds(k) {
+                (Some(lo), _) if v < lo => Some((k, lo)),
+                (_, Some(hi)) if v > hi => Some((k, hi)),
+                _ => None,
+            }
+        })
         .collect()
 }
 
@@ -301,10 +425,11 @@ fn fix_at_bound(
     Ok(())
 }
 
-/// Step *release*: of the parameters fixed at their bound, the one whose
-/// cost gradient at `arm` is most negative, i.e. whose KKT multiplier has the
-/// wrong sign (moving it off the bound would lower the cost); none when every
-/// fixed parameter belongs there.
+/// Step *release*: of the parameters fixed at a bound, the one whose cost
+/// gradient at `arm` points most steeply back inside (down at a lower bound,
+/// up at an upper one), i.e. whose KKT multiplier has the wrong sign (moving
+/// it off the bound would lower the cost); none when every fixed parameter
+/// belongs there.
 fn release_candidate(
     data: &FitData,
     params: &ParamVector,
@@ -324,15 +449,22 @@ fn release_candidate(
         .map(|c| c.norm())
         .fold(0.0, f64::max)
         .max(1e-300);
-    g.iter()
-        .zip(&fixed)
-        .filter(|(v, _)| **v < -1e-9 * scale)
-        .min_by(|a, b| a.0.total_cmp(b.0))
-        .map(|(_, k)| *k)
+    // +1 at a lower bound (inside is up), −1 at an upper one.
+    let inward = |k: ParamKey| match data.bounds(k) {
+        (Some(lo), _) if k.value(arm) <= lo => 1.0,
+        _ => -1.0,
+    };
+    fixed
+        .iter()
+        .zip(g.iter())
+        .map(|(k, v)| (*k, inward(*k) * v))
+        .filter(|(_, v)| *v < -1e-9 * scale)
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(k, _)| k)
 }
 
-/// Step *active set*: fit the free parameters, fix those that end below their
-/// bound at the bound and fit again, release a fixed one whose multiplier has
+/// Step *active set*: fit the free parameters, fix those that end outside their
+/// bounds at the bound and fit again, release a fixed one whose multiplier has
 /// the wrong sign; until neither happens or the round budget of
 /// `max_rounds` (counted over the whole identification) is spent, in which
 /// case what is still below its bound is fixed there, so the result is always
@@ -348,12 +480,12 @@ fn active_set(
         tally.active_set_rounds += 1;
         fit(data, params, sqrt_w, tally)?;
         let arm = params.apply(data.nominal);
-        let below = below_bound(params, &arm);
+        let outside = outside_bounds(data, params, &arm);
         if tally.active_set_rounds >= max_rounds {
-            return fix_at_bound(params, data.nominal, &below);
+            return fix_at_bound(params, data.nominal, &outside);
         }
-        if !below.is_empty() {
-            fix_at_bound(params, data.nominal, &below)?;
+        if !outside.is_empty() {
+            fix_at_bound(params, data.nominal, &outside)?;
             continue;
         }
         match release_candidate(data, params, &arm, sqrt_w) {
@@ -366,6 +498,10 @@ fn active_set(
 /// Step *reweight*: Huber weights of the measurements from their residual norms.
 fn huber_weights(norms: &[f64]) -> Vec<f64> {
     let c = HUBER_K * robust_scale(norms);
+    if c == 0.0 {
+        // Most residuals vanish (exact data): nothing to measure a gross one against.
+        return vec![1.0; norms.len()];
+    }
     norms
         .iter()
         .map(|&e| if e <= c || e == 0.0 { 1.0 } else { c / e })
@@ -423,18 +559,37 @@ fn covariance(
     })
 }
 
+/// Whether a free parameter with value `value` and deviation `std` is weak
+/// on an arm of reach `reach_m` (module docs); a deviation that is not a
+/// number (a direction the data do not see at all) is weak too.
+fn is_weak(key: ParamKey, value: f64, std: f64, reach_m: f64) -> bool {
+    let (moves, limit) = match key.kind() {
+        ParamKind::Compliance => (std, value.abs()),
+        ParamKind::Length => (std, WEAK_REACH_FRACTION * reach_m),
+        ParamKind::Angle => (std * reach_m, WEAK_REACH_FRACTION * reach_m),
+    };
+    moves.is_nan() || moves > limit
+}
+
+/// The indices of the error norms beyond [`OUTLIER_K`] robust scales of
+/// them: the one rule for naming outliers, in a fit and in a validation.
+pub fn outlier_indices(norms: &[f64]) -> Vec<usize> {
+    let s = robust_scale(norms);
+    (0..norms.len())
+        .filter(|&k| s > 0.0 && norms[k] > OUTLIER_K * s)
+        .collect()
+}
+
 /// Step *outliers*: the measurements whose residual norm exceeds
 /// [`OUTLIER_K`] robust scales, largest first.
 fn name_outliers(samples: &[Sample], norms: &[f64], weights: &[f64]) -> Vec<Outlier> {
-    let s = robust_scale(norms);
-    let mut outliers: Vec<Outlier> = norms
-        .iter()
-        .enumerate()
-        .filter(|(_, e)| **e > OUTLIER_K * s && s > 0.0)
+    let mut outliers: Vec<Outlier> = outlier_indices(norms)
+        .into_iter()
+        .map(|k| (k, norms[k]))
         .map(|(k, e)| Outlier {
             pose: samples[k].id,
             load_kg: samples[k].load_kg,
-            residual_m: *e,
+            residual_m: e,
             weight: weights[k],
         })
         .collect();
@@ -453,12 +608,7 @@ pub fn identify(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
-    let data = FitData {
-        nominal,
-        option,
-        samples: nominal.samples(measurements)?,
-        measured: measurements.iter().map(|m| m.position).collect(),
-    };
+    let data = FitData::new(nominal, option, measurements)?;
     let n = data.samples.len();
     if 3 * n < keys.len() || n == 0 {
         return Err(CalibError::TooFewPoses {
@@ -504,22 +654,29 @@ pub fn identify(
     }
 
     let rig = params.apply(nominal);
+    // Every point LM accepted could be evaluated, and the ceiling keeps the
+    // deflection converging: failing here is not a question of more poses.
     let norms = data.residual_norms(&rig).map_err(|e| {
         data.solver_error(format!(
-            "the fit ended where the model cannot be evaluated ({e}); {n} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
-            keys.len()
+            "the fitted arm's deflection cannot be evaluated ({e})"
         ))
     })?;
     let free: Vec<ParamKey> = params.free().collect();
     let cov = covariance(&data, &rig, &free, &weights, &norms)?;
     let mut std = cov.std.into_iter();
+    let reach = crate::ik::reach_m(&nominal.arm);
     let estimates = params
         .iter()
-        .map(|p| Estimate {
-            id: p.key,
-            error: p.error,
-            value: p.key.value(&rig),
-            std: if p.fixed { None } else { std.next() },
+        .map(|p| {
+            let value = p.key.value(&rig);
+            let std = if p.fixed { None } else { std.next() };
+            Estimate {
+                id: p.key,
+                error: p.error,
+                value,
+                std,
+                weak: std.is_some_and(|s| is_weak(p.key, value, s, reach)),
+            }
         })
         .collect();
     Ok(Identified {
@@ -531,6 +688,7 @@ pub fn identify(
             converged: tally.converged,
             evaluations: tally.evaluations,
             active_set_rounds: tally.active_set_rounds,
+            failed_steps: tally.failed_steps,
             irls_rounds: tally.irls_rounds,
             at_bound: params.fixed().collect(),
             rms_before_m,
@@ -574,12 +732,7 @@ mod tests {
     }
 
     fn fit_data<'a>(nominal: &'a Rig, meas: &[Measurement]) -> FitData<'a> {
-        FitData {
-            nominal,
-            option: ModelOption::Elastic,
-            samples: meas.iter().map(Sample::from).collect(),
-            measured: meas.iter().map(|m| m.position).collect(),
-        }
+        FitData::new(nominal, ModelOption::Elastic, meas).unwrap()
     }
 
     /// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
@@ -657,6 +810,7 @@ mod tests {
     fn a_spent_round_budget_still_ends_inside_the_bounds() {
         let nominal = Rig::from(rigid_nominal());
         let one_round = IdentifyOptions {
+            robust: false,
             max_active_set_rounds: 1,
             ..Default::default()
         };
@@ -743,6 +897,61 @@ mod tests {
         }
     }
 
+    /// The ceiling of each compliance is MAX_SAG_RAD over the largest torque
+    /// its joint carries in the samples; a value above it is outside.
+    #[test]
+    fn compliance_ceilings_scale_with_the_torques() {
+        let nominal = Rig::from(rigid_nominal());
+        let meas = measure(&nominal.arm, &small_samples(12));
+        let data = fit_data(&nominal, &meas);
+        let chain = nominal.arm.chain();
+        let k3 = key("k3");
+        let torque = data
+            .samples
+            .iter()
+            .map(|s| chain.gravity_torques(&s.q, 0.0, s.load_kg).joints[2].abs())
+            .fold(0.0, f64::max);
+        let (lo, hi) = data.bounds(k3);
+        assert_eq!(lo, Some(0.0));
+        assert!((hi.unwrap() - MAX_SAG_RAD / torque).abs() < 1e-12 * hi.unwrap());
+        // k1 carries no torque on the level base: no ceiling.
+        assert_eq!(data.bounds(key("k1")).1, None);
+        let mut params = ParamVector::new(elastic_keys()).unwrap();
+        params.set(k3, 2.0 * hi.unwrap()).unwrap();
+        let arm = params.apply(&nominal);
+        assert_eq!(outside_bounds(&data, &params, &arm), [(k3, hi.unwrap())]);
+    }
+
+    /// A trial point whose deflection diverges is a failed step with a huge
+    /// residual, counted, not the end of the fit.
+    #[test]
+    fn an_unsolvable_trial_point_is_a_failed_step() {
+        let nominal = Rig::from(rigid_nominal());
+        let keys = elastic_keys();
+        let meas = measure(
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+            &small_samples(8),
+        );
+        let data = fit_data(&nominal, &meas);
+        let params = ParamVector::new(keys.iter().copied()).unwrap();
+        let sqrt_w = vec![1.0; meas.len()];
+        let mut problem = Problem {
+            data: &data,
+            params: &params,
+            free: keys.clone(),
+            sqrt_w: &sqrt_w,
+            x: DVector::zeros(keys.len()),
+            failed_entry: 7.0,
+            failed: std::cell::Cell::new(0),
+        };
+        assert!(problem.residuals().unwrap().iter().all(|r| *r != 7.0));
+        problem.set_params(&DVector::from_element(keys.len(), 500.0));
+        assert!(data.residual_norms(&problem.arm()).is_err());
+        let r = problem.residuals().unwrap();
+        assert!(r.len() == 3 * meas.len() && r.iter().all(|v| *v == 7.0));
+        assert_eq!(problem.failed.get(), 1);
+    }
+
     #[test]
     fn huber_weights_down_weight_only_beyond_the_threshold() {
         // Median 1.5382 makes the robust scale 1, so the threshold is HUBER_K.
@@ -778,14 +987,8 @@ mod tests {
             m.position.x += 1e-4 * ((k * 7 % 5) as f64 - 2.0);
         }
         meas[5].position.z += 0.02;
-        let robust = IdentifyOptions {
-            robust: true,
-            ..Default::default()
-        };
-        let fit = identify(&nominal, ModelOption::Elastic, &keys, &meas, &robust).unwrap();
-        assert_eq!(fit.outliers.first().map(|o| o.pose), Some(meas[5].pose.id));
-        assert!(fit.outliers[0].weight < 0.1);
-        let plain = identify(
+        // Robust is the default.
+        let fit = identify(
             &nominal,
             ModelOption::Elastic,
             &keys,
@@ -793,6 +996,14 @@ mod tests {
             &IdentifyOptions::default(),
         )
         .unwrap();
+        assert_eq!(fit.outliers.first().map(|o| o.pose), Some(meas[5].pose.id));
+        assert!(fit.outliers[0].weight < 0.1);
+        let squared = IdentifyOptions {
+            robust: false,
+            ..Default::default()
+        };
+        let plain = identify(&nominal, ModelOption::Elastic, &keys, &meas, &squared).unwrap();
+        assert_eq!(plain.outliers[0].weight, 1.0);
         let err = |f: &Identified| {
             f.estimates
                 .iter()

@@ -140,10 +140,14 @@ pub struct FitReport {
     pub evaluations: usize,
     /// Active-set rounds.
     pub active_set_rounds: usize,
+    /// Trial steps rejected because the deflection could not be solved there.
+    pub failed_steps: usize,
     /// Reweighting rounds.
     pub irls_rounds: usize,
-    /// Compliances held at zero.
+    /// Compliances held at a bound (zero or their physical ceiling).
     pub at_bound: Vec<String>,
+    /// Free parameters the data barely determine (see `calib::identify`).
+    pub weak: Vec<String>,
     /// RMS 3D residual of the fit data before, mm.
     pub rms_before_mm: f64,
     /// RMS 3D residual of the fit data after, mm.
@@ -166,8 +170,15 @@ impl From<&Identified> for FitReport {
             converged: d.converged,
             evaluations: d.evaluations,
             active_set_rounds: d.active_set_rounds,
+            failed_steps: d.failed_steps,
             irls_rounds: d.irls_rounds,
             at_bound: d.at_bound.iter().map(|p| p.to_string()).collect(),
+            weak: f
+                .estimates
+                .iter()
+                .filter(|e| e.weak)
+                .map(|e| e.id.to_string())
+                .collect(),
             rms_before_mm: d.rms_before_m * 1e3,
             rms_after_mm: d.rms_after_m * 1e3,
             sigma_mm: d.sigma_m * 1e3,
@@ -189,6 +200,19 @@ pub struct ValidationReport {
     pub after: ErrorStats,
     /// Mean error reduction, %.
     pub reduction_pct: f64,
+    /// Measurements whose calibrated error is far beyond the others', largest first.
+    pub outliers: Vec<ValidationOutlier>,
+}
+
+/// A validation measurement named as an outlier, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ValidationOutlier {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// 3D error of the calibrated model there, mm.
+    pub error_mm: f64,
 }
 
 impl ValidationReport {
@@ -199,6 +223,15 @@ impl ValidationReport {
             before: v.before,
             after: v.after,
             reduction_pct: v.reduction_pct,
+            outliers: v
+                .outliers
+                .iter()
+                .map(|o| ValidationOutlier {
+                    pose: o.pose,
+                    load_kg: o.load_kg,
+                    error_mm: o.after_m * 1e3,
+                })
+                .collect(),
         }
     }
 }

@@ -3,7 +3,7 @@
 //! `report.json` always tell the same story.
 
 use super::experiments::RandomBaseline;
-use super::report::{OptionReport, OutlierReport};
+use super::report::{OptionReport, OutlierReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
 
 /// The paper-style table: option, parameters, mean error before → after,
@@ -71,11 +71,42 @@ pub fn option_details(o: &OptionReport) -> String {
         let std = p
             .std
             .map(|s| format!("± {s:.3e}"))
-            .unwrap_or("(held at 0)".into());
+            .unwrap_or("(held at its bound)".into());
         format!("  {:<11} {:+.6e} {std}", p.name, p.error)
     }));
+    if let Some(line) = weak(o) {
+        lines.push(format!("  {line}"));
+    }
     lines.extend(f.outliers.iter().map(|x| format!("  {}", outlier(x))));
+    lines.extend(
+        o.validation
+            .iter()
+            .chain(&o.cross_load)
+            .flat_map(|v| &v.outliers)
+            .map(|x| format!("  {}", validation_outlier(x))),
+    );
     lines.join("\n")
+}
+
+/// The parameters the fit's data barely determine, with value and standard
+/// deviation (SI units), if any.
+pub fn weak(o: &OptionReport) -> Option<String> {
+    let named: Vec<String> = o
+        .fit
+        .parameters
+        .iter()
+        .filter(|p| o.fit.weak.contains(&p.name))
+        .map(|p| {
+            let std = p.std.map(|s| format!("{s:.2e}")).unwrap_or("-".into());
+            format!("{} = {:.3e} (std {std})", p.name, p.value)
+        })
+        .collect();
+    (!named.is_empty()).then(|| {
+        format!(
+            "weakly determined by these poses (kept; they barely move the measured points): {}",
+            named.join(", ")
+        )
+    })
 }
 
 /// A measurement named as an outlier.
@@ -83,6 +114,14 @@ pub fn outlier(o: &OutlierReport) -> String {
     format!(
         "outlier: pose {} ({} kg), residual {:.2} mm, weight {:.2}",
         o.pose, o.load_kg, o.residual_mm, o.weight
+    )
+}
+
+/// A validation measurement named as an outlier.
+pub fn validation_outlier(o: &ValidationOutlier) -> String {
+    format!(
+        "validation outlier: pose {} ({} kg), error {:.2} mm after calibration",
+        o.pose, o.load_kg, o.error_mm
     )
 }
 

@@ -1,7 +1,9 @@
 //! How far the model's measured points are from the measurements, before and
 //! after calibration: mean, median, RMS, 95th percentile and max of the 3D
-//! error norm.
+//! error norm, and the measurements whose error is far beyond the others'
+//! (named by the fit's outlier rule, [`super::identify::outlier_indices`]).
 
+use super::identify::outlier_indices;
 use super::jacobian::tool_points;
 use super::{CalibError, Rig};
 use crate::dataset::Measurement;
@@ -35,6 +37,10 @@ pub struct Validation {
     pub reduction_pct: f64,
     /// Each measurement's error, in the order given.
     pub per_measurement: Vec<PoseError>,
+    /// The measurements whose calibrated error is far beyond the others'
+    /// (a measurement gone wrong, or a pose the model does not describe),
+    /// largest first.
+    pub outliers: Vec<PoseError>,
 }
 
 /// A validation on the measurements under one load.
@@ -93,6 +99,22 @@ pub fn validate(
     let before = error_norms(nominal, measurements)?;
     let after = error_norms(calibrated, measurements)?;
     let (b, a) = (ErrorStats::of(&before), ErrorStats::of(&after));
+    let per_measurement: Vec<PoseError> = measurements
+        .iter()
+        .zip(before.iter().zip(&after))
+        .map(|(m, (b, a))| PoseError {
+            pose: m.pose.id,
+            load_kg: m.load_kg,
+            target: calibrated.targets.index(m.target).unwrap_or(0),
+            before_m: *b,
+            after_m: *a,
+        })
+        .collect();
+    let mut outliers: Vec<PoseError> = outlier_indices(&after)
+        .into_iter()
+        .map(|k| per_measurement[k])
+        .collect();
+    outliers.sort_by(|x, y| y.after_m.total_cmp(&x.after_m));
     Ok(Validation {
         before: b,
         after: a,
@@ -101,17 +123,8 @@ pub fn validate(
         } else {
             0.0
         },
-        per_measurement: measurements
-            .iter()
-            .zip(before.iter().zip(&after))
-            .map(|(m, (b, a))| PoseError {
-                pose: m.pose.id,
-                load_kg: m.load_kg,
-                target: calibrated.targets.index(m.target).unwrap_or(0),
-                before_m: *b,
-                after_m: *a,
-            })
-            .collect(),
+        per_measurement,
+        outliers,
     })
 }
 

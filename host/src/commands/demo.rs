@@ -56,9 +56,10 @@ pub struct Args {
     /// Switch off every effect the model lacks and the tracker noise.
     #[arg(long)]
     pub model_only: bool,
-    /// Down-weight outliers (Huber) in the fits.
+    /// Plain least squares in the fits, without down-weighting measurements
+    /// far off the others.
     #[arg(long)]
-    pub robust: bool,
+    pub no_robust: bool,
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-demo")]
     pub out: PathBuf,
@@ -112,7 +113,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ..Default::default()
         }),
         identify: IdentifyOptions {
-            robust: args.robust,
+            robust: !args.no_robust,
             ..Default::default()
         },
     };

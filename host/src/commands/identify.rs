@@ -32,12 +32,13 @@ use crate::io::{measurements, pose_list};
 #[command(after_help = "Examples:\n  \
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
-lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n  \
+lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --no-robust\n  \
 lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic.json --tool-only\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
-not used for the fit validate it, under every load in the file. Writes \
+not used for the fit validate it, under every load in the file. Measurements far off the \
+others are down-weighted (Huber) and named, in the fit and in the validation. Writes \
 calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.\n\n\
 Several targets per pose: a `target` column in the measurements names the target of each row; \
 the fit shares the arm and gives each target its own tool point (every target needs at least \
@@ -65,9 +66,10 @@ pub struct Args {
     /// Load whose measurements the fit uses, kg.
     #[arg(long, value_name = "KG")]
     pub load_kg: Option<f64>,
-    /// Down-weight outliers (Huber) and name them.
+    /// Plain least squares: measurements far off keep their full weight
+    /// (they are still named, with a warning).
     #[arg(long)]
-    pub robust: bool,
+    pub no_robust: bool,
     /// Fit measured poses outside the arm's joint limits too (with a warning)
     /// instead of refusing the file.
     #[arg(long)]
@@ -145,7 +147,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         other_load_kg: loads.iter().copied().find(|l| *l != load),
         choice,
         identify: IdentifyOptions {
-            robust: args.robust,
+            robust: !args.no_robust,
             ..Default::default()
         },
     };
@@ -199,6 +201,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
         if !cal.targets.is_empty() {
             print!("{}", summary::targets_table(&cal.targets));
         }
+        if args.no_robust && !details.fit.outliers.is_empty() {
+            let poses: Vec<String> = details
+                .fit
+                .outliers
+                .iter()
+                .map(|o| format!("{} ({:.1} mm)", o.pose, o.residual_mm))
+                .collect();
+            eprintln!(
+                "warning: {}: {} measurements of {file} are far off the others (poses {}) and keep their full weight because of --no-robust; without it they are down-weighted",
+                r.option(),
+                poses.len(),
+                poses.join(", ")
+            );
+        }
         println!("  wrote {}", path.display());
     }
     write_text(&args.out.join("report.json"), &report.to_json())?;
@@ -228,7 +244,7 @@ fn tool_only(
     }
     let keys = tool_keys(0..rig.targets.len());
     let options = IdentifyOptions {
-        robust: args.robust,
+        robust: !args.no_robust,
         ..Default::default()
     };
     let fit = identify(&rig, old.option, &keys, measurements, &options)?;

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 
 use crate::calib::checks::check_plausible;
 use crate::calib::export::rigs_of;
+use crate::calib::report::ValidationOutlier;
+use crate::calib::summary;
 use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
@@ -17,7 +19,8 @@ use crate::io::measurements;
 lrmcal validate --calibration cal/calibration-elasto-kinematic.json --measurements other.csv\n  \
 lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
-before (nominal arm) and after (calibrated). With --arm, the calibration must have been \
+before (nominal arm) and after (calibrated), and names the measurements whose error \
+after calibration is far beyond the others'. With --arm, the calibration must have been \
 identified from that arm.")]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
@@ -70,7 +73,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             s.max_m * 1e3
         )
     };
-    for lv in validate_per_load(&nominal, &calibrated, &rows)? {
+    let per_load = validate_per_load(&nominal, &calibrated, &rows)?;
+    for lv in &per_load {
         let v = &lv.validation;
         println!(
             "{:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",
@@ -82,5 +86,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
     }
     println!("(errors in mm; 3D distance between measured and predicted tool point)");
+    for o in per_load.iter().flat_map(|lv| &lv.validation.outliers) {
+        println!(
+            "{}",
+            summary::validation_outlier(&ValidationOutlier {
+                pose: o.pose,
+                load_kg: o.load_kg,
+                error_mm: o.after_m * 1e3,
+            })
+        );
+    }
     Ok(())
 }
