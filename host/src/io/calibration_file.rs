@@ -515,6 +515,16 @@ mod tests {
             e.contains("arm.joints[3].servo") && e.contains("plus100"),
             "{e}"
         );
+        // A key missing from the whole document is placed on its last line,
+        // as in a file of the current version.
+        let mut no_option = v1.clone();
+        no_option.as_object_mut().unwrap().remove("option");
+        no_option["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let text = serde_json::to_string_pretty(&no_option).unwrap();
+        let e = CalibrationFile::parse(&text).unwrap_err();
+        assert_eq!(e.location.line, Some(text.lines().count() as u64), "{e}");
+        assert!(e.to_string().contains("option"), "{e}");
         // A schema-2 file must hold knots: the three points alone are refused.
         v1["schema_version"] = 2.into();
         v1["arm"]["joints"][2]["servo"] =

@@ -84,7 +84,15 @@ pub fn parse_upgrading<T: DeserializeOwned>(
     value["schema_version"] = (*versions.end()).into();
     serde_path_to_error::deserialize(value).map_err(|e| {
         let key = super::key_path(e.path());
-        json_error(e.inner(), Some(key))
+        // A value carries no lines: an error about the whole document (a
+        // missing top-level key) is placed on its last line, where a read of
+        // the text places it.
+        let whole_document = key.is_empty();
+        let mut error = json_error(e.inner(), Some(key));
+        if whole_document {
+            error.location.line = Some(text.lines().count().max(1) as u64);
+        }
+        error
     })
 }
 
