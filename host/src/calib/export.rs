@@ -51,6 +51,7 @@ pub fn calibration_file(
         loads_kg,
         fit_residual,
         validation,
+        registration: None,
     }
 }
 

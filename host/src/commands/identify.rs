@@ -1,7 +1,9 @@
 //! `lrmcal identify`: fit the error parameters to a measurement file, from a
 //! DETMAX selection of N poses or an explicit pose list, for one model option
 //! or all three; validate on the measured poses not used; write the
-//! calibration file(s) and a report.
+//! calibration file(s) and a report. Before the fit the arm is registered
+//! in the measurement frame (`crate::calib::registration`) unless
+//! `--no-register` keeps the arm file's base.
 
 use std::path::PathBuf;
 
@@ -13,6 +15,7 @@ use crate::calib::export::calibration_file;
 use crate::calib::identifiability::check_structure;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
+use crate::calib::registration::{GENERIC_HINT, Gravity, Registration, diagnose, register};
 use crate::calib::report::Report;
 use crate::calib::{CalibError, summary};
 use crate::commands::helpers::write_text;
@@ -20,8 +23,10 @@ use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::ValidationSummary;
+use crate::io::calibration_file::{RegistrationRecord, ValidationSummary};
 use crate::io::{measurements, pose_list};
+use crate::tracker::axes::Up;
+use model::Arm;
 
 /// Identify the arm's error parameters from measured tool positions.
 #[derive(Debug, clap::Args)]
@@ -33,7 +38,11 @@ The fit uses the measurements under one load (--load-kg; the file's only load by
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
 not used for the fit validate it, under every load in the file. Writes \
-calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.")]
+calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.\n\n\
+The positions may be in any right-handed frame (the tracker's): the arm's base is found \
+in it from the measurements first (printed, and recorded in the calibration file), so the \
+arm file's [base] need not be known. Gravity is the arm file's `gravity` in that frame, \
+or -g along the axis --up names, or along the base's -z with --level-base.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
@@ -63,6 +72,22 @@ pub struct Args {
     /// instead of refusing the file.
     #[arg(long)]
     pub allow_outside_limits: bool,
+    /// The measurement frame's axis that points up: gravity along its minus
+    /// direction [default: the arm file's `gravity`, read in the measurement frame].
+    #[arg(
+        long,
+        value_name = "AXIS",
+        allow_hyphen_values = true,
+        conflicts_with = "level_base"
+    )]
+    pub up: Option<Up>,
+    /// The arm's base stands level: gravity along its frame 0's -z, wherever
+    /// registration puts it.
+    #[arg(long)]
+    pub level_base: bool,
+    /// Keep the arm file's base: the measurements are in its world frame.
+    #[arg(long, conflicts_with = "level_base")]
+    pub no_register: bool,
     /// DETMAX random starts.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
@@ -90,7 +115,27 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         .into());
     }
-    check_plausible(&nominal, &all, &file)?;
+    let registration = registration(args, &nominal, &all)?;
+    let nominal = registration.arm_for_fit(&nominal);
+    let all = registration.to_arm_frame(&all);
+    // Still 150 mm off after the best rigid motion: say what to check.
+    check_plausible(&nominal, &all, &file).map_err(|e| match e {
+        CalibError::BadMeasurement {
+            pose,
+            load_kg,
+            file,
+            problem,
+        } => {
+            let hint = diagnose(&nominal, &all).unwrap_or_else(|| GENERIC_HINT.into());
+            CalibError::BadMeasurement {
+                pose,
+                load_kg,
+                file,
+                problem: format!("{problem}; {hint}"),
+            }
+        }
+        other => other,
+    })?;
     let loads = loads_of(&all);
     let load = identification_load(&loads, args.load_kg, &file)?;
     if let Some(path) = &args.candidates {
@@ -155,7 +200,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 before: v.before,
                 after: v.after,
             }),
-        );
+        )
+        .with_registration(record(args, &registration, &r.identified.arm));
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
@@ -166,4 +212,82 @@ pub fn run(args: &Args) -> Result<(), Error> {
     print!("{}", summary::table(&report.options));
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// Gravity in the measurement frame as the arguments give it.
+fn gravity(args: &Args, nominal: &Arm<f64>) -> Gravity {
+    let g = nominal.gravity_vector().norm();
+    match (args.up, args.level_base) {
+        (Some(up), _) => {
+            Gravity::Measured(up.rotation().inverse() * nalgebra::Vector3::new(0.0, 0.0, -g))
+        }
+        (None, true) => Gravity::LevelBase(g),
+        (None, false) => Gravity::Measured(nominal.gravity_vector()),
+    }
+}
+
+/// Registers the arm on `all` (or keeps the file's base with
+/// `--no-register`) and prints where it stands.
+fn registration(
+    args: &Args,
+    nominal: &Arm<f64>,
+    all: &[crate::dataset::Measurement],
+) -> Result<Registration, Error> {
+    let gravity = gravity(args, nominal);
+    if args.no_register {
+        let g = match gravity {
+            Gravity::Measured(g) => g,
+            Gravity::LevelBase(_) => nominal.gravity_vector(),
+        };
+        return Ok(Registration::identity(nominal, g));
+    }
+    let reg = register(nominal, all, gravity)?;
+    let base = crate::calib::registration::frame_of(&reg.base);
+    println!(
+        "Registered the arm in the measurement frame: base at ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg",
+        base.xyz[0] * 1e3,
+        base.xyz[1] * 1e3,
+        base.xyz[2] * 1e3,
+        base.rpy[0].to_degrees(),
+        base.rpy[1].to_degrees(),
+        base.rpy[2].to_degrees()
+    );
+    println!(
+        "  nominal arm to the measurements: {:.1} mm RMS as the arm file places it, {:.1} mm after registration (largest {:.1} mm)",
+        reg.before_rms_m * 1e3,
+        reg.after_rms_m * 1e3,
+        reg.after_max_m * 1e3
+    );
+    if !reg.trimmed.is_empty() {
+        let named: Vec<String> = reg
+            .trimmed
+            .iter()
+            .map(|(pose, load)| format!("pose {pose} ({load} kg)"))
+            .collect();
+        println!(
+            "  left out of the registration as far off: {}",
+            named.join(", ")
+        );
+    }
+    if reg.base_tilt_rad > crate::calib::registration::TILT_WARNING_RAD {
+        eprintln!(
+            "warning: the registered base is tilted {:.0} deg from up (-gravity {:?} m/s² in the measurement frame); if the arm stands level, give the frame's up axis with --up or pass --level-base",
+            reg.base_tilt_rad.to_degrees(),
+            reg.gravity.map(|v| (v * 1e3).round() / 1e3).as_slice()
+        );
+    }
+    Ok(reg)
+}
+
+/// What the calibration file records of the registration, for the calibrated `arm`.
+fn record(args: &Args, reg: &Registration, arm: &Arm<f64>) -> RegistrationRecord {
+    RegistrationRecord {
+        registered: !args.no_register,
+        frame: crate::calib::registration::frame_of(&reg.frame),
+        base: reg.base_in_measurement_frame(arm),
+        gravity: reg.gravity.into(),
+        before_rms_m: reg.before_rms_m,
+        after_rms_m: reg.after_rms_m,
+        trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
+    }
 }

@@ -17,7 +17,8 @@ lrmcal validate --calibration cal/calibration-elasto-kinematic.json --measuremen
 lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated). With --arm, the calibration must have been \
-identified from that arm.")]
+identified from that arm. A calibration registered in the tracker's frame (by `identify`) \
+takes measurements in that frame.")]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
     #[arg(long, value_name = "FILE")]
@@ -36,7 +37,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(source) = &args.arm {
         cal.check_nominal(&source.load()?.arm, &args.calibration)?;
     }
-    let rows = measurements::read(&args.measurements)?;
+    let mut rows = measurements::read(&args.measurements)?;
+    // Measurements in the frame the calibration was registered in come into the arm's frame.
+    if let Some(reg) = &cal.registration {
+        for m in &mut rows {
+            m.position = reg.to_arm_frame(&m.position);
+        }
+    }
     let file = args.measurements.display().to_string();
     check_plausible(&cal.nominal, &rows, &file)?;
     println!(

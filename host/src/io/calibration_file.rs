@@ -8,10 +8,13 @@
 //! standard deviation, the poses used and the statistics. The engine fills it
 //! from its results (`crate::calib::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
+//! Version 2 added [`CalibrationFile::registration`]; version 1 files are
+//! still read (without one).
 
 use std::path::Path;
 
-use model::{Arm, ParamId};
+use model::{Arm, Frame, ParamId};
+use nalgebra::{Point3, Vector3};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
@@ -21,7 +24,9 @@ use crate::error::{Error, InputError, Location, Problem};
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
 /// Version of the schema this build writes and reads.
-pub const SCHEMA_VERSION: u32 = 1;
+pub const SCHEMA_VERSION: u32 = 2;
+/// The oldest version this build still reads.
+pub const OLDEST_READ_VERSION: u32 = 1;
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -119,6 +124,43 @@ pub struct CalibrationFile {
     pub fit_residual: ErrorStats,
     /// Validation on held-out measurements, when there were any.
     pub validation: Option<ValidationSummary>,
+    /// Where the arm stood in the measurement frame; `None` in files of
+    /// version 1 and in the demo's (which measures in the arm's own frame).
+    #[serde(default)]
+    pub registration: Option<RegistrationRecord>,
+}
+
+/// The arm's place in the measurement frame, as `lrmcal identify` found it.
+///
+/// `nominal` and `arm` stay in the arm file's world frame (the board and
+/// `predict` work there); `frame` carries them into the measurement frame.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegistrationRecord {
+    /// Whether the base was registered (false: `--no-register`, the arm file's base kept).
+    pub registered: bool,
+    /// The arm file's world frame in the measurement frame (m, rad).
+    pub frame: Frame<f64>,
+    /// The calibrated arm's frame 0 in the measurement frame (m, rad): the registered base, refined by the fit.
+    pub base: Frame<f64>,
+    /// Gravity in the measurement frame, m/s².
+    pub gravity: [f64; 3],
+    /// RMS distance of the nominal arm from the measurements as the arm file placed it, m.
+    pub before_rms_m: f64,
+    /// The same after registration, over the points it kept, m.
+    pub after_rms_m: f64,
+    /// Poses left out of the registration as far off.
+    pub trimmed: Vec<u32>,
+}
+
+impl RegistrationRecord {
+    /// A point of the measurement frame in the arm file's world frame, m.
+    pub fn to_arm_frame(&self, position: &Vector3<f64>) -> Vector3<f64> {
+        self.frame
+            .isometry()
+            .inverse_transform_point(&Point3::from(*position))
+            .coords
+    }
 }
 
 /// Before/after statistics on held-out measurements.
@@ -141,7 +183,7 @@ impl CalibrationFile {
 
     /// Parses and checks a calibration file's text.
     pub fn parse(text: &str) -> Result<Self, InputError> {
-        let file: Self = json::parse(text, SCHEMA, SCHEMA_VERSION)?;
+        let file: Self = json::parse_versions(text, SCHEMA, OLDEST_READ_VERSION..=SCHEMA_VERSION)?;
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
             let compliances = arm.joints.iter().map(|j| j.compliance);
             let negative = compliances
@@ -172,6 +214,14 @@ impl CalibrationFile {
             }
         }
         Ok(file)
+    }
+
+    /// The same file recording `registration`.
+    pub fn with_registration(self, registration: RegistrationRecord) -> Self {
+        Self {
+            registration: Some(registration),
+            ..self
+        }
     }
 
     /// Reads and checks a calibration file.
@@ -226,6 +276,7 @@ pub(super) mod test_support {
             loads_kg: vec![0.0663],
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
+            registration: None,
         }
     }
 }
@@ -259,7 +310,7 @@ mod tests {
         let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
         let e = refused("{\"a\": 1}");
         assert!(e.contains("key `schema`") && e.contains(SCHEMA), "{e}");
-        let e = refused(&json.replace("\"schema_version\": 1", "\"schema_version\": 9"));
+        let e = refused(&json.replace("\"schema_version\": 2", "\"schema_version\": 9"));
         assert!(e.contains("key `schema_version`") && e.contains('9'), "{e}");
         let e = refused(&json.replacen("\"k2\"", "\"k9\"", 1));
         assert!(
@@ -280,6 +331,43 @@ mod tests {
         // JSON has no NaN or infinity; a number too large for f64 is refused.
         let e = refused(&json.replacen("0.1", "1e999", 1));
         assert!(e.contains("not JSON") && e.contains("number"), "{e}");
+    }
+
+    /// A version 1 file (no registration) still reads; a registration
+    /// carries measured points back into the arm's frame.
+    #[test]
+    fn reads_version_1_and_records_the_registration() {
+        let file = sample_file();
+        let v1 = file
+            .to_json()
+            .replace("\"schema_version\": 2", "\"schema_version\": 1")
+            .replace(",\n  \"registration\": null", "");
+        assert!(!v1.contains("registration"), "{v1}");
+        let read = CalibrationFile::parse(&v1).unwrap();
+        assert_eq!(
+            read,
+            CalibrationFile {
+                schema_version: 1,
+                ..file.clone()
+            }
+        );
+        let record = RegistrationRecord {
+            registered: true,
+            frame: Frame {
+                xyz: [1.0, 2.0, 3.0],
+                rpy: [std::f64::consts::FRAC_PI_2, 0.0, 0.0],
+            },
+            base: Frame::identity(),
+            gravity: [0.0, -9.8, 0.0],
+            before_rms_m: 2.0,
+            after_rms_m: 0.03,
+            trimmed: vec![7],
+        };
+        let with = file.with_registration(record.clone());
+        assert_eq!(CalibrationFile::parse(&with.to_json()).unwrap(), with);
+        // Roll 90 deg takes the arm's z to the measurement frame's -y... and back.
+        let p = record.to_arm_frame(&Vector3::new(1.0, 1.0, 3.0));
+        assert!((p - Vector3::new(0.0, 0.0, 1.0)).norm() < 1e-12, "{p}");
     }
 
     #[test]

@@ -30,6 +30,17 @@ pub fn parse<T: DeserializeOwned>(
     schema: &'static str,
     version: u32,
 ) -> Result<T, InputError> {
+    parse_versions(text, schema, version..=version)
+}
+
+/// [`parse`] of a format whose reader also takes older versions: any of
+/// `versions` (the newest last) is read; the struct's defaults fill what an
+/// older version lacks.
+pub fn parse_versions<T: DeserializeOwned>(
+    text: &str,
+    schema: &'static str,
+    versions: std::ops::RangeInclusive<u32>,
+) -> Result<T, InputError> {
     let value: serde_json::Value = serde_json::from_str(text).map_err(|e| json_error(&e, None))?;
     let found = value.get("schema");
     if found.and_then(|s| s.as_str()) != Some(schema) {
@@ -42,11 +53,15 @@ pub fn parse<T: DeserializeOwned>(
         ));
     }
     let found = value.get("schema_version");
-    if found.and_then(|v| v.as_u64()) != Some(u64::from(version)) {
+    let known = found
+        .and_then(|v| v.as_u64())
+        .and_then(|v| u32::try_from(v).ok())
+        .is_some_and(|v| versions.contains(&v));
+    if !known {
         return Err(InputError::new(
             Location::key(None, "schema_version"),
             Problem::WrongVersion {
-                expected: version,
+                expected: *versions.end(),
                 found: shown(found),
             },
         ));
