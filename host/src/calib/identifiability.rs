@@ -48,7 +48,7 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 pub const ZERO_EFFECT_M: f64 = 1e-9;
 
 /// A typical size of an error of `key`'s kind: 1 mm, 1 mrad, 0.01 rad/Nm.
-fn typical_error(key: ParamKey) -> f64 {
+pub fn typical_error(key: ParamKey) -> f64 {
     match key.kind() {
         ParamKind::Length | ParamKind::Angle => 1e-3,
         ParamKind::Compliance => 1e-2,
