@@ -9,7 +9,7 @@
 //! level (the base's tilt and compliance make it neither), `k1` while
 //! gravity has no torque about joint 1. On the true arm these parameters
 //! move the measured point in directions the kept ones cannot reproduce, so
-//! holding them leaves a structural error (0.05 mm on the bundled arm
+//! holding them leaves a structural error (0.19 mm on the bundled arm
 //! simulated without noise or unmodelled effects). After the fit, the
 //! analysis is repeated at the estimate over the fitted poses, with the
 //! kept parameters first; every other candidate whose column is independent

@@ -52,6 +52,9 @@ const MAX_ROUNDS: usize = 8;
 /// Above this angle between frame 0's `z` and "up" the base is reported as tilted, rad.
 pub const TILT_WARNING_RAD: f64 = 20.0 * std::f64::consts::PI / 180.0;
 
+/// A rigid motion `p ↦ r · p + t` as `(r, t)`.
+type Motion = (Matrix3<f64>, Vector3<f64>);
+
 /// Where gravity comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Gravity {
@@ -167,7 +170,7 @@ fn align(
     measured: &[Vector3<f64>],
     keep: &[bool],
     proper: bool,
-) -> Option<(Matrix3<f64>, Vector3<f64>)> {
+) -> Option<Motion> {
     let pairs: Vec<(&Vector3<f64>, &Vector3<f64>)> = predicted
         .iter()
         .zip(measured)
@@ -207,11 +210,7 @@ fn align(
 }
 
 /// Distances of `predicted` under `(r, t)` from `measured`, m.
-fn distances(
-    (r, t): &(Matrix3<f64>, Vector3<f64>),
-    predicted: &[Vector3<f64>],
-    measured: &[Vector3<f64>],
-) -> Vec<f64> {
+fn distances((r, t): &Motion, predicted: &[Vector3<f64>], measured: &[Vector3<f64>]) -> Vec<f64> {
     predicted
         .iter()
         .zip(measured)
@@ -236,7 +235,7 @@ fn trimmed_align(
     predicted: &[Vector3<f64>],
     measured: &[Vector3<f64>],
     proper: bool,
-) -> Option<((Matrix3<f64>, Vector3<f64>), Vec<bool>, Vec<f64>)> {
+) -> Option<(Motion, Vec<bool>, Vec<f64>)> {
     let mut keep = vec![true; predicted.len()];
     let mut motion = align(predicted, measured, &keep, proper)?;
     for _ in 0..MAX_ROUNDS {
@@ -357,7 +356,7 @@ pub fn register(
 /// What to check when nothing specific explains a misfit.
 pub const GENERIC_HINT: &str = "check that the positions are in millimetres, that the joint columns q1_deg..q6_deg are in the arm's order with its signs and zeros, and that --arm is the arm that was measured";
 
-fn isometry((r, t): &(Matrix3<f64>, Vector3<f64>)) -> IsometryMatrix3<f64> {
+fn isometry((r, t): &Motion) -> IsometryMatrix3<f64> {
     IsometryMatrix3::from_parts(Translation3::from(*t), Rotation3::from_matrix_unchecked(*r))
 }
 
