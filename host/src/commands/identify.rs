@@ -241,7 +241,13 @@ fn registration(
         };
         return Ok(Registration::identity(nominal, g));
     }
-    let reg = register(nominal, all, gravity)?;
+    let file = args.measurements.display();
+    let reg = register(nominal, all, gravity).map_err(|e| match e {
+        CalibError::Registration { problem } => CalibError::Registration {
+            problem: format!("{file}: {problem}"),
+        },
+        other => other,
+    })?;
     let base = crate::calib::registration::frame_of(&reg.base);
     println!(
         "Registered the arm in the measurement frame: base at ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg",
