@@ -15,7 +15,7 @@ use protocol::{
 
 use crate::compensator::Compensator;
 use crate::motion::{MotionLimits, Profile};
-use crate::servo::{self, pulse_for};
+use crate::servo::{self, PreparedCurve, pulse_for};
 use crate::storage::Storage;
 use crate::{CHANNELS, Config, FlashStorage, ServoBus};
 
@@ -38,6 +38,8 @@ pub(crate) struct Active {
     pub calibration: Calibration,
     pub info: CalibrationInfo,
     pub compensator: Compensator,
+    /// The calibrated servo curves, ready for the servo frame.
+    pub curves: [PreparedCurve; CHANNELS],
 }
 
 /// What one servo channel does, with the pulse it puts out.
@@ -104,6 +106,8 @@ pub struct Device<B, F> {
     pub(crate) applied_correction: [f32; CHANNELS],
     /// Time of the last servo frame, µs.
     pub(crate) last_frame_us: u64,
+    /// The servo curve without a calibration, ready for the servo frame.
+    pub(crate) uncalibrated: PreparedCurve,
 }
 
 impl<B: ServoBus, F: FlashStorage> Device<B, F> {
@@ -132,6 +136,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             pending: None,
             applied_correction: [0.0; CHANNELS],
             last_frame_us: now_us,
+            uncalibrated: PreparedCurve::new(config.uncalibrated_curve),
         };
         device.faults.set(Faults::STORAGE_DAMAGED, report.damaged);
         if let Some(loaded) = report.loaded {
@@ -187,6 +192,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 sequence,
             },
             compensator: Compensator::new(&calibration, c.compensation, c.max_correction_rad),
+            curves: calibration
+                .calibrated
+                .joints
+                .map(|j| PreparedCurve::new(j.servo)),
             calibration,
         });
     }
@@ -199,13 +208,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             Some((calibration, sequence)) => self.apply(calibration, sequence),
             None => self.active = None,
         }
-        let (curves, limits) = (self.curves(), self.limits());
-        for i in 0..CHANNELS {
+        for (i, [lo, hi]) in self.limits().into_iter().enumerate() {
             let Channel::Held(Some(pulse)) = self.channels[i] else {
                 continue;
             };
-            let [lo, hi] = limits[i];
-            let angle = curves[i].angle(f32::from(pulse)).clamp(lo, hi);
+            let angle = self.curve(i).curve.angle(f32::from(pulse)).clamp(lo, hi);
             let keep = angle - self.position[i];
             if keep.is_finite() {
                 self.applied_correction[i] = keep;
@@ -230,9 +237,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         )
     }
 
-    /// Servo curves in force.
-    pub(crate) fn curves(&self) -> [model::ServoCurve<f32>; CHANNELS] {
-        servo::curves(self.active.as_ref().map(|a| &a.calibration.calibrated))
+    /// The servo curve in force on `channel`: the calibration's, or the data-sheet curve.
+    pub(crate) fn curve(&self, channel: usize) -> &PreparedCurve {
+        self.active
+            .as_ref()
+            .map_or(&self.uncalibrated, |a| &a.curves[channel])
     }
 
     pub(crate) fn motion_limits(&self) -> MotionLimits {
@@ -297,14 +306,16 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 .as_ref()
                 .is_some_and(|a| a.compensator.fell_back());
         self.faults.set(Faults::COMPENSATION_FALLBACK, fell_back);
-        let (limits, curves) = (self.limits(), self.curves());
+        let limits = self.limits();
+        // Fields, not `self.curve()`: the channels change in the same loop.
+        let curves = self.active.as_ref().map(|a| &a.curves);
         for (i, channel) in self.channels.iter_mut().enumerate() {
             let pulse = match *channel {
                 Channel::Limp => None,
                 Channel::Raw(us) => Some(us),
                 Channel::Held(last) => {
                     let pulse = match pulse_for(
-                        &curves[i],
+                        curves.map_or(&self.uncalibrated, |c| &c[i]),
                         command[i],
                         limits[i],
                         self.config.pulse_range_us,

@@ -1,6 +1,6 @@
 //! Limits and tuning of the firmware, with the defaults the board runs on.
 
-use model::CompensationOptions;
+use model::{CompensationOptions, ServoCurve};
 use protocol::FirmwareVersion;
 
 /// Everything the firmware logic needs to be told once at start-up.
@@ -10,6 +10,8 @@ pub struct Config {
     pub firmware: FirmwareVersion,
     /// No pulse outside `[min, max]` µs ever reaches a servo, whatever the calibration says.
     pub pulse_range_us: [u16; 2],
+    /// The servo curve without a calibration.
+    pub uncalibrated_curve: ServoCurve<f32>,
     /// Absolute joint range, rad: a calibration's limits are cut to it.
     pub hard_limits_rad: [f32; 2],
     /// Joint range without a calibration, rad (the servo's ±100° data-sheet span).
@@ -35,7 +37,7 @@ pub struct Config {
 }
 
 impl Default for Config {
-    /// 500–2500 µs, ±150° hard and ±100° default limits, 1.5 rad/s, 4 rad/s²,
+    /// 500–2500 µs, the data-sheet servo curve, ±150° hard and ±100° default limits, 1.5 rad/s, 4 rad/s²,
     /// 0.5 kg, 0.35 rad largest correction changing at most 0.5 rad/s,
     /// 5 µm tolerance.
     fn default() -> Self {
@@ -45,7 +47,8 @@ impl Default for Config {
                 minor: 1,
                 patch: 0,
             },
-            pulse_range_us: [500, 2500],
+            pulse_range_us: model::servo::PULSE_RANGE_US,
+            uncalibrated_curve: ServoCurve::nominal(),
             hard_limits_rad: [-150f32.to_radians(), 150f32.to_radians()],
             default_limits_rad: [-100f32.to_radians(), 100f32.to_radians()],
             max_speed_rad_s: 1.5,

@@ -47,7 +47,7 @@ pub(crate) fn status<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>) -> Repl
 
 /// The joint angle a channel under `servo/raw` is at, from its pulse.
 fn angle_of_raw<B: ServoBus, F: FlashStorage>(d: &Device<B, F>, channel: usize, pulse: u16) -> f32 {
-    let curve = d.curves()[channel];
+    let curve = &d.curve(channel).curve;
     let [lo, hi] = d.limits()[channel];
     let a = curve.angle(f32::from(pulse));
     if a.is_finite() {

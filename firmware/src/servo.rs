@@ -1,7 +1,14 @@
 //! The servo outputs: the bus trait, and the pure maths from a joint angle to
 //! a pulse that can never leave the joint's limits or the safe pulse range.
+//!
+//! The angle -> pulse map is the calibration's [`ServoCurve`] of 2 to 9
+//! knots, evaluated by `model` itself, so the board's pulses are the host's
+//! to rounding. Its cost per channel and servo frame is a binary search over
+//! at most seven inner knots, a subtraction, a multiplication and an
+//! addition: the segments' slopes are worked out once ([`PreparedCurve`]).
 
 use model::ServoCurve;
+use model::servo::Slopes;
 
 use crate::CHANNELS;
 
@@ -10,6 +17,29 @@ pub trait ServoBus {
     /// Puts `pulse_us` on `channel` from the next PWM period on, or stops its
     /// pulses (`None`: the servo goes limp). Must not block.
     fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>);
+}
+
+/// A servo curve with its segments' slopes worked out, as the servo frame uses it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparedCurve {
+    /// The curve.
+    pub curve: ServoCurve<f32>,
+    slopes: Slopes<f32>,
+}
+
+impl PreparedCurve {
+    /// Works out `curve`'s slopes (once per calibration, not per frame).
+    pub fn new(curve: ServoCurve<f32>) -> Self {
+        Self {
+            slopes: curve.slopes(),
+            curve,
+        }
+    }
+
+    /// Pulse (µs) for a joint angle (rad): [`ServoCurve::pulse_us`] bit for bit.
+    pub fn pulse_us(&self, angle: f32) -> f32 {
+        self.curve.pulse_us_with(&self.slopes, angle)
+    }
 }
 
 /// What [`pulse_for`] did to a joint angle.
@@ -25,7 +55,7 @@ pub struct Pulse {
 /// `limits_rad`, the pulse to `pulse_range_us`. `None` for a non-finite angle
 /// (the caller keeps the previous pulse).
 pub fn pulse_for(
-    curve: &ServoCurve<f32>,
+    curve: &PreparedCurve,
     angle_rad: f32,
     limits_rad: [f32; 2],
     pulse_range_us: [u16; 2],
@@ -67,11 +97,6 @@ pub fn joint_limits(
     })
 }
 
-/// The servo curves in force: the calibration's, or the data-sheet curve.
-pub fn curves(calibrated: Option<&model::Arm<f32>>) -> [ServoCurve<f32>; CHANNELS] {
-    core::array::from_fn(|i| calibrated.map_or_else(ServoCurve::nominal, |arm| arm.joints[i].servo))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,11 +106,7 @@ mod tests {
 
     #[test]
     fn three_point_curve_gives_its_pulses() {
-        let c = ServoCurve {
-            minus100: 1000.0,
-            zero: 1500.0,
-            plus100: 2100.0,
-        };
+        let c = PreparedCurve::new(ServoCurve::from_three_points(1000.0, 1500.0, 2100.0));
         let r = 100f32.to_radians();
         assert_eq!(pulse_for(&c, -r, LIMITS, RANGE).unwrap().us, 1000);
         assert_eq!(pulse_for(&c, 0.0, LIMITS, RANGE).unwrap().us, 1500);
@@ -95,8 +116,36 @@ mod tests {
     }
 
     #[test]
+    fn a_many_knot_curve_gives_the_pulse_of_its_segment() {
+        let d = |x: f32| x.to_radians();
+        let c = PreparedCurve::new(
+            ServoCurve::new(
+                &[d(-100.0), d(-75.0), d(-25.0), d(0.0), d(40.0), d(100.0)],
+                &[950.0, 1100.0, 1420.0, 1600.0, 1840.0, 2200.0],
+            )
+            .unwrap(),
+        );
+        for (deg, us) in [
+            (-100.0, 950),
+            (-87.5, 1025),
+            (-50.0, 1260),
+            (-10.0, 1528),
+            (0.0, 1600),
+            (20.0, 1720),
+            (70.0, 2020),
+            (100.0, 2200),
+            // Beyond the outer knots the end segments go on.
+            (-110.0, 890),
+            (110.0, 2260),
+        ] {
+            let p = pulse_for(&c, d(deg), [-2.0, 2.0], RANGE).unwrap();
+            assert_eq!((deg, p.us), (deg, us));
+        }
+    }
+
+    #[test]
     fn angles_and_pulses_are_clamped() {
-        let c = ServoCurve::nominal();
+        let c = PreparedCurve::new(ServoCurve::nominal());
         let p = pulse_for(&c, 3.0, [-1.0, 1.0], RANGE).unwrap();
         assert_eq!(
             p,
@@ -105,11 +154,7 @@ mod tests {
                 .unwrap()
         );
         // A wild calibration curve cannot push the pulse out of the safe range.
-        let wild = ServoCurve {
-            minus100: -4000.0,
-            zero: 1500.0,
-            plus100: 9000.0,
-        };
+        let wild = PreparedCurve::new(ServoCurve::from_three_points(-4000.0, 1500.0, 9000.0));
         assert_eq!(
             pulse_for(&wild, 1.7, LIMITS, RANGE).unwrap(),
             Pulse {

@@ -145,7 +145,8 @@ impl FlashStorage for SimFlash {
 
 /// A calibration of the shared LRM-like test arm
 /// ([`model::testing::lrm_like_arm`]): millimetre and degree-level geometric
-/// errors, changed compliances and individual servo curves.
+/// errors, changed compliances and individual servo curves of 3 to 9 knots,
+/// each with its own bow between the ends.
 pub fn test_calibration(id: u32) -> Calibration {
     let nominal = model::testing::lrm_like_arm::<f32>();
     let mut calibrated = nominal;
@@ -155,11 +156,7 @@ pub fn test_calibration(id: u32) -> Calibration {
         j.d += 0.001 * s;
         j.a += 0.0015 * s;
         j.compliance *= 1.3;
-        j.servo = ServoCurve {
-            minus100: 880.0 + 10.0 * i as f32,
-            zero: 1640.0 + 5.0 * i as f32,
-            plus100: 2420.0 - 7.0 * i as f32,
-        };
+        j.servo = test_curve(i);
         j.limits = [-1.7, 1.7];
     }
     calibrated.base.rpy[1] += 0.005;
@@ -171,4 +168,26 @@ pub fn test_calibration(id: u32) -> Calibration {
         calibrated,
         home_rad: [0.0, 0.3, -0.3, 0.0, 0.5, 0.0],
     }
+}
+
+/// Joint `i`'s servo curve in [`test_calibration`]: knots evenly spaced over
+/// ±100° (5, 3, 7, 9, 5 and 4 of them), the ends where a three-point tuning
+/// would put them, a bow of 12 - 4i µs in between.
+pub fn test_curve(i: usize) -> ServoCurve<f32> {
+    let n = [5, 3, 7, 9, 5, 4][i % CHANNELS];
+    let span = 100f32.to_radians();
+    let ends = ServoCurve::from_three_points(
+        880.0 + 10.0 * i as f32,
+        1640.0 + 5.0 * i as f32,
+        2420.0 - 7.0 * i as f32,
+    );
+    let mut angles = [0.0f32; model::servo::MAX_KNOTS];
+    let mut pulses = [0.0f32; model::servo::MAX_KNOTS];
+    for k in 0..n {
+        let t = k as f32 / (n - 1) as f32;
+        angles[k] = span * (2.0 * t - 1.0);
+        let bow = (12.0 - 4.0 * i as f32) * libm::sinf(core::f32::consts::PI * t);
+        pulses[k] = ends.pulse_us(angles[k]) + bow;
+    }
+    ServoCurve::new(&angles[..n], &pulses[..n]).expect("3 to 9 knots")
 }

@@ -48,8 +48,12 @@ impl<F: FlashStorage> FlashStorage for &mut F {
 }
 
 const MAGIC: [u8; 4] = *b"LRMC";
-/// Record layout version; a new layout makes old records read as damaged.
-const FORMAT: u32 = 1;
+/// Record layout version. An intact record of another layout reads as an
+/// empty slot: its payload is another protocol's, which this firmware cannot
+/// decode, so a board reflashed across a layout change boots without a
+/// calibration (not with a damaged one) until one is pushed again.
+/// 2: the payload of protocol 2 (servo curves of 2 to 9 knots).
+const FORMAT: u32 = 2;
 const HEADER_LEN: usize = 24;
 /// Where the payload starts: one flash page after the header.
 pub const PAYLOAD_OFFSET: usize = 256;
@@ -80,8 +84,11 @@ impl Header {
             return SlotRead::Empty;
         }
         let word = |i: usize| u32::from_le_bytes([b[i], b[i + 1], b[i + 2], b[i + 3]]);
-        if b[0..4] != MAGIC || word(4) != FORMAT || crc32(&b[..20]) != word(20) {
+        if b[0..4] != MAGIC || crc32(&b[..20]) != word(20) {
             return SlotRead::Damaged;
+        }
+        if word(4) != FORMAT {
+            return SlotRead::Empty;
         }
         let header = Header {
             sequence: word(8),
@@ -384,6 +391,35 @@ mod tests {
         let report = Storage::new(&mut flash).load();
         assert!(report.damaged);
         assert_eq!(report.loaded.map(|l| l.calibration.id), Some(1));
+    }
+
+    #[test]
+    fn a_record_of_an_earlier_layout_reads_as_no_calibration_not_damage() {
+        let mut flash = SimFlash::new();
+        let mut s = Storage::new(&mut flash);
+        s.load();
+        s.store(&encoded(1)).unwrap();
+        // The same record as firmware of layout 1 would have written it.
+        let mut header = [0u8; HEADER_LEN];
+        flash.read(0, 0, &mut header).unwrap();
+        header[4..8].copy_from_slice(&1u32.to_le_bytes());
+        let crc = crc32(&header[..20]);
+        header[20..24].copy_from_slice(&crc.to_le_bytes());
+        flash.erase(0).unwrap();
+        flash.write(0, 0, &header).unwrap();
+        let report = Storage::new(&mut flash).load();
+        assert_eq!(
+            report,
+            LoadReport {
+                loaded: None,
+                damaged: false
+            }
+        );
+        // A new calibration then takes its place.
+        let mut s = Storage::new(&mut flash);
+        s.load();
+        assert_eq!(s.store(&encoded(2)), Ok(1));
+        assert_eq!(loaded_id(&mut flash), Some(2));
     }
 
     #[test]

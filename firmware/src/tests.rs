@@ -272,7 +272,7 @@ fn calibration_upload_is_applied_only_when_complete_and_intact() {
 
     // A calibration that decodes but has a NaN is refused by the board's own check.
     let mut bad = cal;
-    bad.calibrated.joints[2].servo.zero = f32::NAN;
+    bad.calibrated.joints[2].servo.pulses_us_mut()[1] = f32::NAN;
     let mut bad_buf = [0u8; MAX_CALIBRATION_LEN];
     let bad_bytes = bad.encode(&mut bad_buf).unwrap().to_vec();
     h.request(&Request::CalibrationBegin {
@@ -322,6 +322,83 @@ fn calibrated_curves_and_limits_drive_the_servos() {
         let expected = joint.servo.pulse_us(home).round() as u16;
         assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i}");
     }
+}
+
+/// The most a held servo's pulse may change from one frame to the next while
+/// a correction fades in or out, µs: the steepest segment of `cal`'s curves
+/// (µs per rad) times the largest correction change per 20 ms frame, plus
+/// one for rounding.
+fn largest_fading_step_us(cal: &Calibration) -> f32 {
+    let steepest = |curve: &model::ServoCurve<f32>| {
+        let (a, p) = (curve.angles_rad(), curve.pulses_us());
+        (1..a.len())
+            .map(|k| ((p[k] - p[k - 1]) / (a[k] - a[k - 1])).abs())
+            .fold(0.0, f32::max)
+    };
+    let slope = cal
+        .calibrated
+        .joints
+        .iter()
+        .map(|j| steepest(&j.servo))
+        .fold(0.0, f32::max);
+    slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0
+}
+
+#[test]
+fn a_sweep_follows_every_knot_of_the_curves_in_use() {
+    let mut h = Harness::boot(SimFlash::new());
+    let cal = test_calibration(1);
+    h.push(&cal);
+    h.request(&Request::SetCompensation {
+        mode: CompensationMode::Off,
+    });
+    h.request(&Request::Home {
+        timing: Timing::DurationMs(0),
+    });
+    h.frames(50);
+    for target in [-1.65, 1.65] {
+        h.move_to([target; 6]);
+        let mut frames = 0;
+        while h.status().moving {
+            h.frames(1);
+            frames += 1;
+            let q = h.status().nominal_rad;
+            for (i, joint) in cal.calibrated.joints.iter().enumerate() {
+                let expected = joint.servo.pulse_us(q[i]).round() as u16;
+                assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i} at {}", q[i]);
+            }
+        }
+        assert!(frames > 50, "the sweep took {frames} frames");
+    }
+}
+
+#[test]
+fn a_curve_that_turns_back_is_refused_whole_and_the_old_calibration_stays() {
+    let mut h = Harness::boot(SimFlash::new());
+    let Response::CalibrationStored(first) = h.push(&test_calibration(1)) else {
+        panic!("the test calibration is valid")
+    };
+    h.request(&Request::Home {
+        timing: Timing::DurationMs(0),
+    });
+    h.frames(100);
+    let held = h.dev.bus().now;
+    // Joint 4's nine-knot curve: the pulse at its sixth knot drops below the fifth's.
+    let mut turned = test_calibration(2);
+    let pulses = turned.calibrated.joints[3].servo.pulses_us_mut();
+    assert_eq!(pulses.len(), 9);
+    pulses[5] = pulses[4] - 5.0;
+    assert_eq!(
+        h.push(&turned),
+        Response::Error(WireError::CalibrationInvalid)
+    );
+    assert_eq!(h.status().calibration, Some(first));
+    h.frames(100);
+    assert_eq!(h.dev.bus().now, held, "the servos stay on the old curves");
+    let (_, mut flash) = h.dev.release();
+    flash.power_on();
+    let mut h = Harness::boot(flash);
+    assert_eq!(h.status().calibration, Some(first), "and after a reboot");
 }
 
 #[test]
@@ -374,7 +451,7 @@ fn a_reboot_keeps_the_calibration_and_a_cut_write_keeps_the_old_one() {
 fn a_power_cut_at_every_write_step_of_a_commit_boots_the_old_or_the_new_calibration() {
     let mut new = test_calibration(2);
     for j in &mut new.calibrated.joints {
-        j.servo.zero += 30.0;
+        j.servo.pulses_us_mut()[1] += 30.0;
     }
     let encoded = |c: &Calibration| {
         let mut buf = [0u8; MAX_CALIBRATION_LEN];
@@ -526,15 +603,7 @@ fn switching_compensation_fades_the_correction_in_and_out() {
     });
     h.frames(100);
     let off = h.dev.bus().now;
-    // µs per rad of the steepest curve, times the largest correction change per 20 ms frame.
-    let cal = test_calibration(4);
-    let slope = cal
-        .calibrated
-        .joints
-        .iter()
-        .map(|j| (j.servo.plus100 - j.servo.minus100) / 200f32.to_radians())
-        .fold(0.0, f32::max);
-    let per_frame = slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    let per_frame = largest_fading_step_us(&test_calibration(4));
     for mode in [CompensationMode::Full, CompensationMode::Off] {
         assert_eq!(
             h.request(&Request::SetCompensation { mode }),
@@ -584,11 +653,11 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
     // Calibration 2: every servo curve shifted by 40 µs (≈ 0.09 rad).
     let mut next = test_calibration(2);
     for j in &mut next.calibrated.joints {
-        j.servo.minus100 += 40.0;
-        j.servo.zero += 40.0;
-        j.servo.plus100 += 40.0;
+        for p in j.servo.pulses_us_mut() {
+            *p += 40.0;
+        }
     }
-    let per_frame = 440.0 * Config::default().max_correction_rate_rad_s * 0.02 + 1.0;
+    let per_frame = largest_fading_step_us(&next);
     for step in [Request::CalibrationErase, Request::Status] {
         let before = h.dev.bus().now;
         if step == Request::CalibrationErase {

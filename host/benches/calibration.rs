@@ -57,9 +57,11 @@ fn benches(c: &mut Criterion) {
     let mut g = c.benchmark_group("candidates");
     g.sample_size(10);
     g.bench_function("jacobian_405_candidates_ek", |b| {
-        b.iter(|| CandidateBlocks::build(&nominal, ek, black_box(&poses), &[LOAD]).expect("blocks"))
+        b.iter(|| {
+            CandidateBlocks::build(&nominal.into(), ek, black_box(&poses), &[LOAD]).expect("blocks")
+        })
     });
-    let blocks = CandidateBlocks::build(&nominal, ek, &poses, &[LOAD]).expect("blocks");
+    let blocks = CandidateBlocks::build(&nominal.into(), ek, &poses, &[LOAD]).expect("blocks");
     g.bench_function("detmax_405_candidates_n50_one_start", |b| {
         b.iter(|| detmax(black_box(&blocks.blocks), &one_start(50), &Silent).expect("detmax"))
     });
@@ -76,7 +78,8 @@ fn benches(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     for levels in [3, 4, 5] {
         let grid: Vec<Pose> = Levels::even(levels).expect("levels").grid().collect();
-        let grid_blocks = CandidateBlocks::build(&nominal, ek, &grid, &[LOAD]).expect("blocks");
+        let grid_blocks =
+            CandidateBlocks::build(&nominal.into(), ek, &grid, &[LOAD]).expect("blocks");
         g.bench_with_input(
             BenchmarkId::new("detmax_grid_candidates_n50_one_start", grid.len()),
             &grid_blocks,
@@ -94,7 +97,7 @@ fn benches(c: &mut Criterion) {
     g.bench_function("identify_ek_50_poses", |b| {
         b.iter(|| {
             identify(
-                &nominal,
+                &nominal.into(),
                 ek,
                 &kept,
                 black_box(&fit),

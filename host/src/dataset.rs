@@ -15,15 +15,28 @@ pub struct Pose {
     pub q: [f64; model::JOINTS],
 }
 
-/// One row of a measurement file: a pose, its load and the measured tool point.
+/// Longest target name, in bytes.
+pub const TARGET_NAME_MAX: usize = 32;
+
+/// Most targets one measurement file may name (a target's index is a byte).
+pub const MAX_TARGETS: usize = 255;
+
+/// The name of a measured target (a marker, a retro-reflector) on the end
+/// effector; fixed capacity, so measurements stay `Copy`.
+pub type TargetName = arrayvec::ArrayString<TARGET_NAME_MAX>;
+
+/// One row of a measurement file: a pose, its load and the measured point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Measurement {
     /// The commanded pose.
     pub pose: Pose,
     /// Payload mass at the tool, kg.
     pub load_kg: f64,
-    /// Measured tool point in the world frame, m.
+    /// Measured point in the world frame, m.
     pub position: Vector3<f64>,
+    /// Which target was measured; `None` in a file without a `target`
+    /// column, whose rows are all of the one target (the arm's tool point).
+    pub target: Option<TargetName>,
 }
 
 /// A predicted tool point for a pose.

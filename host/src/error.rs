@@ -458,14 +458,35 @@ pub enum Problem {
         found: String,
     },
     /// A JSON file is of another version of its schema than this build reads.
-    #[error("expected {expected}, the version this lrmcal reads, found {found}")]
+    #[error("expected {}, the versions this lrmcal reads, found {found}", version_range(*oldest, *newest))]
     WrongVersion {
-        /// The version this build reads.
-        expected: u32,
+        /// The oldest version this build reads.
+        oldest: u32,
+        /// The version this build writes.
+        newest: u32,
         /// What the file says, as written.
         found: String,
+    },
+    /// A file that is not UTF-8 text.
+    #[error(
+        "expected UTF-8 text, found the byte 0x{byte:02x} at column {column} (save the file as UTF-8)"
+    )]
+    NotUtf8 {
+        /// The first byte that is not UTF-8.
+        byte: u8,
+        /// Its 1-based byte position in its line.
+        column: usize,
     },
     /// A file with a header but no data.
     #[error("expected at least one data row, found none")]
     NoRows,
+}
+
+/// `2`, or `1 to 2`, for [`Problem::WrongVersion`].
+fn version_range(oldest: u32, newest: u32) -> String {
+    if oldest == newest {
+        newest.to_string()
+    } else {
+        format!("{oldest} to {newest}")
+    }
 }

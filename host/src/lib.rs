@@ -9,6 +9,7 @@ pub mod commands;
 pub mod dataset;
 pub mod device;
 pub mod error;
+pub mod fuzz;
 pub mod ik;
 pub mod io;
 pub mod plan;

@@ -48,7 +48,7 @@ fn fixture_parses_into_the_model() {
     assert_eq!(d.arm.base_compliance, 0.02);
     assert_eq!(d.arm.tool.xyz, [0.0, 0.0, 0.04]);
     assert_eq!(d.arm.gravity, [0.0, 0.0, -9.80665]);
-    assert_eq!(d.arm.joints[5].servo.plus100, 2400.0);
+    assert_eq!(d.arm.joints[5].servo.pulses_us(), [900.0, 1650.0, 2400.0]);
 }
 
 #[test]
@@ -210,6 +210,136 @@ fn servo_curve_must_be_monotonic() {
 }
 
 #[test]
+fn the_three_points_read_as_before_and_as_the_knots_through_them() {
+    let old = arm_toml::parse(FIXTURE).unwrap();
+    let curve = old.arm.joints[2].servo;
+    assert_eq!(
+        curve,
+        model::ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
+    );
+    // Bit for bit the pulses of the two lines the three points used to mean.
+    let (m, z, p) = (900.0, 1650.0, 2400.0);
+    let span = 100f64.to_radians();
+    for a in [-2.0, -1.2, -0.3, 0.0, 0.4, 1.7, 2.0] {
+        let slope = if a < 0.0 {
+            (z - m) / span
+        } else {
+            (p - z) / span
+        };
+        let lines: f64 = z + slope * a;
+        assert_eq!(curve.pulse_us(a).to_bits(), lines.to_bits(), "at {a}");
+    }
+    let knots = "servo = { angles_deg = [-100, 0, 100], pulses_us = [900, 1650, 2400] }";
+    let new = arm_toml::parse(&with_line(J3_MASS_LINE + 2, knots)).unwrap();
+    assert_eq!(new, old);
+}
+
+#[test]
+fn a_servo_curve_of_many_knots_reads_and_round_trips() {
+    let line = "servo = { angles_deg = [-100.0, -50.0, 0.0, 33.3, 100.0], \
+                pulses_us = [2400.0, 2010.0, 1650.0, 1400.0, 900.0] }";
+    let d = arm_toml::parse(&with_line(J3_MASS_LINE + 2, line)).unwrap();
+    let curve = d.arm.joints[2].servo;
+    assert_eq!(curve.knot_count(), 5);
+    assert_eq!(curve.angles_rad()[3], 33.3f64.to_radians());
+    assert_eq!(curve.pulse_us(0.0), 1650.0);
+    let text = arm_toml::to_toml(&d);
+    assert!(
+        text.contains("angles_deg = [-100.0, -50.0, 0.0, 33.3, 100.0]"),
+        "{text}"
+    );
+    assert_eq!(arm_toml::parse(&text).unwrap(), d);
+}
+
+#[test]
+fn bad_servo_knots_name_the_key() {
+    let servo = |body: &str| {
+        parse_err(&with_line(
+            J3_MASS_LINE + 2,
+            &format!("servo = {{ {body} }}"),
+        ))
+    };
+    let line = J3_MASS_LINE + 2;
+    let e = servo("angles_deg = [-100, 0, 100], pulses_us = [900, 1650]");
+    assert_names(
+        &e,
+        "joint[3].servo.pulses_us",
+        line,
+        &["one pulse", "2 pulses for 3 angles"],
+    );
+    let e = servo("angles_deg = [0], pulses_us = [1650]");
+    assert_names(
+        &e,
+        "joint[3].servo.angles_deg",
+        line,
+        &["2 to 9 knots", "1 angles"],
+    );
+    let ten = "angles_deg = [0,1,2,3,4,5,6,7,8,9], pulses_us = [1,2,3,4,5,6,7,8,9,10]";
+    assert_names(
+        &servo(ten),
+        "joint[3].servo.angles_deg",
+        line,
+        &["2 to 9 knots", "10 angles"],
+    );
+    let e = servo("angles_deg = [-100, 0, 0, 100], pulses_us = [900, 1600, 1700, 2400]");
+    assert_names(
+        &e,
+        "joint[3].servo.angles_deg[3]",
+        line,
+        &["strictly increasing", "0 after 0"],
+    );
+    let e = servo("angles_deg = [-100, 50, 0, 100], pulses_us = [900, 1600, 1700, 2400]");
+    assert_names(
+        &e,
+        "joint[3].servo.angles_deg[3]",
+        line,
+        &["strictly increasing", "0 after 50"],
+    );
+    let e =
+        servo("angles_deg = [-100, -50, 0, 50, 100], pulses_us = [900, 1300, 1650, 1640, 2400]");
+    assert_names(
+        &e,
+        "joint[3].servo.pulses_us[4]",
+        line,
+        &["monotonic", "1650 then 1640 where the curve rises"],
+    );
+    let e = servo("angles_deg = [-100, 0, 100], pulses_us = [900, nan, 2400]");
+    assert_names(&e, "joint[3].servo.pulses_us[2]", line, &["finite", "NaN"]);
+    let e = servo("angles_deg = [-100, inf, 100], pulses_us = [900, 1650, 2400]");
+    assert_names(&e, "joint[3].servo.angles_deg[2]", line, &["finite", "inf"]);
+    let e = servo("angles_deg = [-100, 0, 100], pulses_us = [400, 1650, 2400]");
+    assert_names(
+        &e,
+        "joint[3].servo.pulses_us[1]",
+        line,
+        &["500..=2500 µs", "400 µs"],
+    );
+    let e = servo("minus100 = 900.0, zero = 1650.0, plus100 = 2600.0");
+    assert_names(&e, "joint[3].servo", line, &["500..=2500 µs", "2600 µs"]);
+    let e = servo("minus100 = 900.0, angles_deg = [-100, 100], pulses_us = [900, 2400]");
+    assert_names(
+        &e,
+        "joint[3].servo",
+        line,
+        &["either", "the keys { minus100, angles_deg, pulses_us }"],
+    );
+    let e = servo("angles_deg = [-100, 100]");
+    assert_names(
+        &e,
+        "joint[3].servo",
+        line,
+        &["either", "the keys { angles_deg }"],
+    );
+    let e = servo("angles_deg = [-100, 100], pulses_us = [900, 2400], knots = 2");
+    assert_names(
+        &e,
+        "joint[3].servo.knots",
+        line,
+        &["unknown field", "angles_deg"],
+    );
+}
+
+#[test]
 fn wrong_type_names_key_and_line() {
     let err = parse_err(&with_line(J3_MASS_LINE, "mass = \"heavy\""));
     assert_names(&err, "joint[3].mass", J3_MASS_LINE, &["expected"]);
@@ -232,7 +362,7 @@ fn an_arm_without_servo_tables_parses_and_is_written_without_them() {
         .map(|l| format!("{l}\n"))
         .collect();
     let d = arm_toml::parse(&text).unwrap();
-    assert_eq!(d.arm.joints[2].servo, arm_toml::NO_SERVO);
+    assert_eq!(d.arm.joints[2].servo, arm_toml::no_servo());
     assert_eq!(arm_toml::joint_without_servo(&d.arm), Some(1));
     let written = arm_toml::to_toml(&d);
     assert!(!written.contains("servo"), "{written}");

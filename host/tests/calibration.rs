@@ -51,10 +51,11 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
                 id: p.id,
                 q: p.q,
                 load_kg,
+                target: 0,
             })
         })
         .collect();
-    tool_points(arm, &samples)
+    tool_points(&(*arm).into(), &samples)
         .expect("model")
         .into_iter()
         .zip(&samples)
@@ -62,6 +63,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
             pose: Pose { id: s.id, q: s.q },
             load_kg: s.load_kg,
             position,
+            target: None,
         })
         .collect()
 }
@@ -91,12 +93,12 @@ fn exact_data_gives_exact_parameters() {
                 truth.set(id.into(), error).expect("held key");
             }
         }
-        let true_arm = truth.apply(&nominal);
+        let true_arm = truth.apply(&nominal.into()).arm;
         let all = exact_measurements(&true_arm, &poses, &[0.0, LOAD]);
         let inputs = Inputs::new(&nominal, &poses, &all);
         let chosen: Vec<u32> = first.pose_ids();
         let fit = identify(
-            &nominal,
+            &nominal.into(),
             option,
             &kept,
             &inputs.measurements.of(chosen.iter().copied(), LOAD),
@@ -115,8 +117,8 @@ fn exact_data_gives_exact_parameters() {
         let rest = inputs.held_out(&chosen);
         for load in [0.0, LOAD] {
             let v = validate(
-                &nominal,
-                &fit.arm,
+                &nominal.into(),
+                &fit.rig,
                 &inputs.measurements.of(rest.iter().copied(), load),
             )
             .expect("validate");
@@ -277,6 +279,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 id: p.id,
                 q: p.q,
                 load_kg: LOAD,
+                target: 0,
             })
             .collect::<Vec<_>>(),
     )
@@ -320,6 +323,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 id: p.id,
                 q: p.q,
                 load_kg: LOAD,
+                target: 0,
             })
             .collect::<Vec<_>>(),
     )

@@ -12,6 +12,7 @@ use std::collections::HashSet;
 use std::path::Path;
 use std::process::Output;
 
+use host::io::calibration_file::SCHEMA_VERSION;
 use host::io::{arm_source, predictions};
 use model::testing::{ErrorSizes, random_errors};
 use model::{Arm, JOINTS, ParamId};
@@ -262,8 +263,16 @@ fn calibrated_arm_urdf_puts_the_tool_where_predict_does_without_sag() {
         joint.compliance = 0.0;
     }
     let (cal, rigid_cal) = (dir.path().join("cal.json"), dir.path().join("rigid.json"));
-    std::fs::write(&cal, calibration_json(&nominal, &calibrated, 1)).unwrap();
-    std::fs::write(&rigid_cal, calibration_json(&nominal, &rigid, 1)).unwrap();
+    std::fs::write(
+        &cal,
+        calibration_json(&nominal, &calibrated, SCHEMA_VERSION),
+    )
+    .unwrap();
+    std::fs::write(
+        &rigid_cal,
+        calibration_json(&nominal, &rigid, SCHEMA_VERSION),
+    )
+    .unwrap();
 
     let out = dir.path().join("cal.urdf");
     let text = export(&[
@@ -370,7 +379,7 @@ fn bad_input_is_named_and_nothing_is_written() {
     let mut inverted = calibrated;
     inverted.joints[2].limits = [0.5, -0.5];
     let bad = dir.path().join("limits.json");
-    std::fs::write(&bad, calibration_json(&nominal, &inverted, 1)).unwrap();
+    std::fs::write(&bad, calibration_json(&nominal, &inverted, SCHEMA_VERSION)).unwrap();
     let msg = fails(&["export", "--urdf", "--arm", s(&bad), "--out", s(&out)], 3);
     assert!(
         msg.contains("limits.json") && msg.contains("joint 3"),

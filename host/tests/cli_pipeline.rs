@@ -161,7 +161,7 @@ fn plan_simulate_identify_validate_predict() {
     let measured = measurements::read(&meas).unwrap();
     assert_eq!(measured.len(), 2 * small.len());
     let truth_json = json(&truth);
-    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/1");
+    assert_eq!(truth_json["schema"], "lrmcal-sim-truth/2");
     assert_eq!(truth_json["seed"], 3);
     assert_documented(
         &truth_json,
@@ -192,7 +192,10 @@ fn plan_simulate_identify_validate_predict() {
     let report = cal_dir.join("report.json");
     let cal_json = json(&cal);
     assert_eq!(cal_json["schema"], "lrmcal-calibration");
-    assert_eq!(cal_json["schema_version"], 2);
+    assert_eq!(
+        cal_json["schema_version"],
+        host::io::calibration_file::SCHEMA_VERSION
+    );
     assert_eq!(cal_json["option"], "elasto-kinematic");
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);
@@ -296,6 +299,7 @@ fn calibration_json() -> String {
         fit_residual: ErrorStats::of(&[1e-4]),
         validation: None,
         registration: None,
+        targets: vec![],
     }
     .to_json()
 }

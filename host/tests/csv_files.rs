@@ -256,6 +256,7 @@ fn sample_measurements() -> Vec<Measurement> {
                 },
                 load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
                 position: Vector3::new(0.2 + 0.001 * f, -0.035021, 0.1887654321),
+                target: None,
             }
         })
         .collect()
@@ -401,4 +402,36 @@ fn written_files_get_the_mode_of_an_ordinary_file() {
     let path = dir.path().join("out.csv");
     atomic::write(&path, |w| w.write_all(b"pose,x_mm,y_mm,z_mm\n")).unwrap();
     assert_eq!(mode(&path), mode(&ordinary), "mode {:o}", mode(&path));
+}
+
+/// The optional `target` column: rows of one pose per target, the names kept
+/// through a round trip; a file without it has one unnamed target and keeps
+/// its plain header; a bad name and a repeated (pose, load, target) are
+/// refused with the line.
+#[test]
+fn measurements_name_their_targets_in_an_optional_column() {
+    let mut rows = sample_measurements();
+    let mut text = Vec::new();
+    measurements::write_to(&mut text, &rows).unwrap();
+    let text = String::from_utf8(text).unwrap();
+    assert!(!text.contains("target"), "{text}");
+    for (k, m) in rows.iter_mut().enumerate() {
+        m.target = host::dataset::TargetName::from(["m0", "m30"][k % 2]).ok();
+    }
+    let mut named = Vec::new();
+    measurements::write_to(&mut named, &rows).unwrap();
+    let named = String::from_utf8(named).unwrap();
+    assert!(
+        named.lines().next().unwrap().ends_with(",target"),
+        "{named}"
+    );
+    let back = measurements::parse(&named).unwrap();
+    assert_eq!(back.len(), rows.len());
+    assert_eq!(back[1].target.map(|t| t.to_string()), Some("m30".into()));
+    let bad = named.replacen(",m30", ",m 30", 1);
+    let e = measurements::parse(&bad).unwrap_err().to_string();
+    assert!(e.contains("line 3") && e.contains("target name"), "{e}");
+    let repeated = format!("{named}{}\n", named.lines().nth(2).unwrap());
+    let e = measurements::parse(&repeated).unwrap_err().to_string();
+    assert!(e.contains("pose"), "{e}");
 }

@@ -40,6 +40,7 @@ fn every_checked_example_parses_as_its_kind() {
             "arm",
             "arm bodies",
             "measurements",
+            "measurements",
             "pose list",
             "predictions",
             "motive take"

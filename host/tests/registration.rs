@@ -9,7 +9,8 @@ use host::calib::identify::IdentifyOptions;
 use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
 use host::calib::progress::Silent;
 use host::calib::registration::{Gravity, Registration, register};
-use host::calib::{ModelOption, ParamKey};
+use host::calib::validate::validate;
+use host::calib::{ModelOption, ParamKey, Rig};
 use host::dataset::{Measurement, Pose};
 use host::plan::{PlanConfig, candidates};
 use host::sim::{SimConfig, TrueArm};
@@ -106,7 +107,8 @@ fn any_tracker_frame_calibrates_as_well_as_the_arms_own() {
         // the fit refines it to the millimetre.
         let true_base = (frame * truth.arm.base.isometry()).translation.vector;
         let closed_form = reg.base.translation.vector;
-        let refined = Vector3::from(reg.base_in_measurement_frame(&result.identified.arm).xyz);
+        let arm_m = reg.arm_in_measurement_frame(&result.identified.rig.arm);
+        let refined = Vector3::from(arm_m.base.xyz);
         assert!((closed_form - true_base).norm() < 0.05, "{reg:?}");
         assert!(
             (refined - true_base).norm() < 0.005,
@@ -119,6 +121,37 @@ fn any_tracker_frame_calibrates_as_well_as_the_arms_own() {
                 .filter(|e| e.id.name().starts_with("base") || e.id.name().starts_with("j1"))
                 .collect::<Vec<_>>()
         );
+        // Both arms carried into the measurement frame predict the measured
+        // points as they are, as well as the fit did in the arm's frame.
+        let fit_arm = reg.arm_for_fit(&unknown_base);
+        let in_arm_frame = validate(
+            &Rig::from(fit_arm),
+            &result.identified.rig,
+            &reg.to_arm_frame(&seen),
+        )
+        .expect("validate");
+        let in_tracker_frame = validate(
+            &Rig::from(reg.arm_in_measurement_frame(&fit_arm)),
+            &Rig::from(arm_m),
+            &seen,
+        )
+        .expect("validate");
+        for (a, b) in [
+            (in_arm_frame.before.mean_m, in_tracker_frame.before.mean_m),
+            (in_arm_frame.after.mean_m, in_tracker_frame.after.mean_m),
+        ] {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
+        let carried = reg.identified_in_measurement_frame(&fit_arm, &result.identified);
+        assert_eq!(carried.rig.arm, arm_m);
+        for e in carried.estimates.iter() {
+            let nominal_m = Rig::from(reg.arm_in_measurement_frame(&fit_arm));
+            assert!((e.value - e.id.value(&carried.rig)).abs() < 1e-12, "{e:?}");
+            assert!(
+                (e.id.value(&nominal_m) + e.error - e.value).abs() < 1e-9,
+                "{e:?}"
+            );
+        }
         let mean = held_out_mean_m(&result);
         assert!(
             (mean - own).abs() <= 0.02 * own,
@@ -183,7 +216,7 @@ fn tool_points_near_the_last_axis_are_recovered() {
                 "{name}: {kept:?}"
             );
         }
-        let fitted = off_axis_m(&result.identified.arm);
+        let fitted = off_axis_m(&result.identified.rig.arm);
         assert!(
             (fitted - off_axis_m(&truth)).abs() < 1e-5,
             "r {r}: fitted {fitted}, true {}",

@@ -40,6 +40,10 @@ impl<T: Real> Frame<T> {
 
 /// One revolute joint and the link it carries, standard DH.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound(
+    serialize = "T: Real + Serialize",
+    deserialize = "T: Real + Deserialize<'de>"
+))]
 pub struct Joint<T> {
     /// DH joint-angle offset, rad.
     pub theta: T,
@@ -63,6 +67,10 @@ pub struct Joint<T> {
 
 /// The whole arm: geometry, masses, elasticity and servo curves.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound(
+    serialize = "T: Real + Serialize",
+    deserialize = "T: Real + Deserialize<'de>"
+))]
 pub struct Arm<T> {
     /// Gravity in the world frame, m/s².
     pub gravity: [T; 3],
@@ -80,7 +88,7 @@ pub struct Arm<T> {
 
 impl<T: Real> Arm<T> {
     /// The same arm with every number passed through `f` (e.g. `f64 -> f32`).
-    pub fn map<U>(&self, f: impl Fn(T) -> U + Copy) -> Arm<U> {
+    pub fn map<U: Real>(&self, f: impl Fn(T) -> U + Copy) -> Arm<U> {
         let v3 = |v: [T; 3]| v.map(f);
         let frame = |fr: &Frame<T>| Frame {
             xyz: v3(fr.xyz),
@@ -101,11 +109,7 @@ impl<T: Real> Arm<T> {
                 limits: j.limits.map(f),
                 mass: f(j.mass),
                 com: v3(j.com),
-                servo: ServoCurve {
-                    minus100: f(j.servo.minus100),
-                    zero: f(j.servo.zero),
-                    plus100: f(j.servo.plus100),
-                },
+                servo: j.servo.map(f),
             }),
         }
     }
@@ -134,7 +138,10 @@ impl<T: Real> Arm<T> {
     /// Whether every number in the arm is finite (no NaN, no infinity).
     pub fn is_finite(&self) -> bool {
         let ok = core::cell::Cell::new(true);
-        self.map(|x| ok.set(ok.get() && x.is_finite()));
+        self.map(|x| {
+            ok.set(ok.get() && x.is_finite());
+            x
+        });
         ok.get()
     }
 }

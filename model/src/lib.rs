@@ -12,7 +12,7 @@
 //! | [`statics`] | tool point and gravity torques in one sweep through the links' frames |
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
-//! | [`servo`] | the three-point piecewise-linear servo curve (angle -> pulse) |
+//! | [`servo`] | the piecewise-linear servo curve through up to 9 knots (angle -> pulse) |
 //! | [`trig`] | the f32 sine and cosine of the joint angles, fast without an FPU |
 //! | `testing` | test fixtures for every crate: the LRM-like test arm, random errors (feature `testing`) |
 //!

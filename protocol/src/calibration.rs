@@ -1,7 +1,8 @@
 //! The calibration payload: what `lrmcal push` sends and the board keeps in flash.
 //!
 //! It is one postcard-encoded [`Calibration`]: the calibrated arm (whose
-//! joints carry the level-1 servo curves and the joint limits, and which
+//! joints carry the servo curves, 2 to [`model::servo::MAX_KNOTS`] knots
+//! each, and the joint limits, and which
 //! carries the payload centre of mass), the nominal arm it was identified
 //! against (the firmware needs it to know where the user means the tool to
 //! be), the model option, the home pose and an id. On the wire it travels in
@@ -9,11 +10,13 @@
 //! front; the board applies it only after the commit finds every byte, the
 //! CRC and [`Calibration::check`] in order.
 
+use model::servo::CurveFault;
 use model::{Arm, JOINTS};
 use serde::{Deserialize, Serialize};
 
-/// Largest encoded calibration, bytes (two `Arm<f32>` are about 830).
-pub const MAX_CALIBRATION_LEN: usize = 1024;
+/// Largest encoded calibration, bytes: two `Arm<f32>` are about 830 with
+/// three-knot servo curves and about 1,570 with nine-knot ones.
+pub const MAX_CALIBRATION_LEN: usize = 2048;
 
 /// Which parameters the calibration identified (the three model options of `docs/METHOD.md`).
 ///
@@ -73,7 +76,6 @@ pub struct Calibration {
 
 /// What makes a calibration unusable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CalibrationFault {
     /// A number is NaN or infinite.
     NotFinite,
@@ -82,10 +84,12 @@ pub enum CalibrationFault {
         /// Joint index.
         joint: u8,
     },
-    /// Joint `joint`'s servo curve is not monotonic.
+    /// Joint `joint`'s servo curve does not map angle to pulse one-to-one.
     ServoCurve {
         /// Joint index.
         joint: u8,
+        /// What is wrong with it, and at which knot.
+        fault: CurveFault,
     },
     /// A compliance or mass is negative.
     Negative,
@@ -100,9 +104,11 @@ impl core::fmt::Display for CalibrationFault {
             Self::Limits { joint } => {
                 write!(f, "joint {}: lower limit not below upper limit", joint + 1)
             }
-            Self::ServoCurve { joint } => {
-                write!(f, "joint {}: servo curve is not monotonic", joint + 1)
-            }
+            Self::ServoCurve { joint, fault } => write!(
+                f,
+                "joint {}: the servo curve does not map angle to pulse one-to-one (monotonic): {fault}",
+                joint + 1
+            ),
             Self::Negative => f.write_str("a compliance or mass is negative"),
             Self::Home => f.write_str("the home pose is outside the joint limits"),
         }
@@ -134,9 +140,9 @@ impl Calibration {
             if j.limits[0] >= j.limits[1] {
                 return Err(CalibrationFault::Limits { joint });
             }
-            if !j.servo.is_monotonic() {
-                return Err(CalibrationFault::ServoCurve { joint });
-            }
+            j.servo
+                .check()
+                .map_err(|fault| CalibrationFault::ServoCurve { joint, fault })?;
         }
         if !self.calibrated.within_limits(&self.home_rad) {
             return Err(CalibrationFault::Home);

@@ -30,11 +30,16 @@
 //! past the header and tells the user which side to update. So the two never
 //! misread each other. The golden-byte tests in `tests/golden.rs` fail on any
 //! drift of the encoding, which is the reminder to bump the version.
+//!
+//! | version | change |
+//! |---|---|
+//! | 1 | first release: servo curves of three points (-100°, 0°, +100°) |
+//! | 2 | servo curves of 2 to 9 knots (angles and pulses) in the calibration payload, which may now take up to [`crate::calibration::MAX_CALIBRATION_LEN`] = 2048 bytes |
 
 use serde::{Serialize, de::DeserializeOwned};
 
 /// The protocol version this crate speaks.
-pub const PROTOCOL_VERSION: u8 = 1;
+pub const PROTOCOL_VERSION: u8 = 2;
 /// Bytes before the body: version and sequence number.
 pub const HEADER_LEN: usize = 3;
 /// Bytes of the CRC trailer.

@@ -33,14 +33,14 @@ fn a_flipped_bit_anywhere_is_caught() {
 #[test]
 fn another_version_is_reported_not_misread() {
     let mut out = [0u8; MAX_FRAME];
-    let n = frame::encode_with_version(2, 5, &Request::Status, &mut out).unwrap();
+    let n = frame::encode_with_version(1, 5, &Request::Status, &mut out).unwrap();
     assert_eq!(
         frame::decode::<Request>(&out[..n]),
-        Err(FrameError::Version { theirs: 2, seq: 5 })
+        Err(FrameError::Version { theirs: 1, seq: 5 })
     );
-    let msg = FrameError::Version { theirs: 2, seq: 5 }.to_string();
+    let msg = FrameError::Version { theirs: 1, seq: 5 }.to_string();
     assert!(
-        msg.contains("version 2") && msg.contains("speaks 1"),
+        msg.contains("version 1") && msg.contains("speaks 2"),
         "{msg}"
     );
 }
@@ -137,11 +137,51 @@ fn calibration_rejects_what_the_board_cannot_run() {
         limits.check(),
         Err(protocol::CalibrationFault::Limits { joint: 2 })
     );
+    // Five knots whose pulse turns back between the third and fourth.
+    let d = |x: f32| x.to_radians();
     let mut curve = good;
-    curve.calibrated.joints[5].servo.zero = 2500.0;
+    curve.calibrated.joints[5].servo = model::ServoCurve::new(
+        &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
+        &[900.0, 1280.0, 1650.0, 1640.0, 2400.0],
+    )
+    .unwrap();
+    let fault = curve.check().unwrap_err();
     assert_eq!(
-        curve.check(),
-        Err(protocol::CalibrationFault::ServoCurve { joint: 5 })
+        fault,
+        protocol::CalibrationFault::ServoCurve {
+            joint: 5,
+            fault: model::servo::CurveFault::PulsesNotMonotonic { knot: 3 }
+        }
+    );
+    let msg = fault.to_string();
+    assert!(
+        msg.contains("joint 6") && msg.contains("knot 3 to knot 4"),
+        "{msg}"
+    );
+    let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+    let bytes = curve.encode(&mut buf).unwrap().to_vec();
+    assert_eq!(
+        Calibration::decode(&bytes),
+        None,
+        "the board refuses it whole"
+    );
+    let mut nine = good;
+    let angles: Vec<f32> = (0..9).map(|k| d(-100.0 + 25.0 * k as f32)).collect();
+    for j in nine
+        .nominal
+        .joints
+        .iter_mut()
+        .chain(&mut nine.calibrated.joints)
+    {
+        j.servo = j.servo.resampled(&angles).unwrap();
+    }
+    let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+    let bytes = nine.encode(&mut buf).unwrap().to_vec();
+    assert_eq!(Calibration::decode(&bytes), Some(nine));
+    assert!(
+        bytes.len() > 1024,
+        "nine knots per joint: {} bytes",
+        bytes.len()
     );
     let mut home = good;
     home.home_rad[0] = 1.5;

@@ -38,10 +38,15 @@ pub fn fixed_arm() -> Arm<f32> {
         limits: [-1.5, 1.5],
         mass: 0.1,
         com: [0.0, 0.0, 0.01],
-        servo: ServoCurve {
-            minus100: 900.0,
-            zero: 1650.0,
-            plus100: 2400.0,
+        servo: if i == 0 {
+            let d = |x: f32| x.to_radians();
+            ServoCurve::new(
+                &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
+                &[900.0, 1280.0, 1650.0, 2020.0, 2400.0],
+            )
+            .unwrap()
+        } else {
+            ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
         },
     };
     Arm {
@@ -60,7 +65,7 @@ pub fn fixed_arm() -> Arm<f32> {
 fn samples() -> Vec<(&'static str, Vec<u8>)> {
     let status = Status {
         device: DeviceInfo {
-            protocol: 1,
+            protocol: 2,
             firmware: FirmwareVersion {
                 major: 0,
                 minor: 1,

@@ -108,7 +108,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let mut arm = nominal;
     arm.joints[1].theta += 0.01;
     arm.joints[2].compliance += 0.05;
-    arm.joints[0].servo.zero = 1630.0;
+    arm.joints[0].servo.pulses_us_mut()[1] = 1630.0;
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
@@ -122,6 +122,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         loads_kg: vec![],
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
+        targets: vec![],
     };
     let path = dir.join("calibration.json");
     std::fs::write(&path, file.to_json()).unwrap();
@@ -149,6 +150,7 @@ fn device_commands_drive_a_board_on_a_socket() {
     push::run(&push::Args {
         calibration: cal.clone(),
         home_deg: None,
+        target: None,
         device: board.args(),
     })
     .unwrap();
@@ -197,7 +199,10 @@ fn device_commands_drive_a_board_on_a_socket() {
     let pulled: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(pulled["option"], "elasto-kinematic");
-    assert_eq!(pulled["calibrated"]["joints"][0]["servo"]["zero"], 1630.0);
+    assert_eq!(
+        pulled["calibrated"]["joints"][0]["servo"]["pulses_us"][1],
+        1630.0
+    );
     let id = s.calibration.unwrap().id;
     assert_eq!(pulled["id"], format!("{id:08x}"));
 
@@ -403,7 +408,12 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     let dir = tempfile::tempdir().unwrap();
     let path = calibration_json(dir.path());
     let mut file = CalibrationFile::read(&path).unwrap();
-    file.arm.joints[1].servo.zero = 2500.0;
+    let d = |x: f64| x.to_radians();
+    file.arm.joints[1].servo = model::ServoCurve::new(
+        &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
+        &[900.0, 1280.0, 1650.0, 1600.0, 2400.0],
+    )
+    .unwrap();
     std::fs::write(&path, file.to_json()).unwrap();
     // Nobody listens on this port: the check must come first.
     let device = DeviceArgs {
@@ -414,15 +424,18 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     let err = push::run(&push::Args {
         calibration: path,
         home_deg: None,
+        target: None,
         device,
     })
     .unwrap_err();
     assert_eq!(err.exit_code(), 3);
+    let report = err.report();
     assert!(
-        err.report()
-            .ends_with("joint 2: servo curve is not monotonic"),
-        "{}",
-        err.report()
+        report.contains("joint 2: the servo curve does not map angle to pulse one-to-one")
+            && report.contains("from knot 3 to knot 4")
+            && report.contains("50.00° 1600 µs")
+            && report.contains("not sent"),
+        "{report}"
     );
 }
 

@@ -10,7 +10,7 @@ use std::time::Duration;
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
 use host::device::{Client, ClientError, CommsError, Link, calibration};
-use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool};
 use model::{Arm, ParamId};
 use protocol::frame::{Feed, MAX_FRAME};
 use protocol::{CompensationMode, Faults, FrameReader, ModelOption, Timing, WireError};
@@ -117,7 +117,8 @@ fn client(board: Board) -> Client<Board> {
 }
 
 /// A calibration file as `lrmcal identify` writes it, for the bundled arm
-/// with millimetre/degree-level corrections and measured servo curves.
+/// with millimetre/degree-level corrections and measured servo curves of 3
+/// to 9 knots.
 fn calibration_file() -> CalibrationFile {
     let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
     let ids: Vec<ParamId> = ParamId::all().collect();
@@ -135,11 +136,21 @@ fn calibration_file() -> CalibrationFile {
         .collect();
     let mut arm: Arm<f64> = nominal.with_errors(&ids, &errors);
     for (i, j) in arm.joints.iter_mut().enumerate() {
-        j.servo = model::ServoCurve {
-            minus100: 880.0 + 9.0 * i as f64,
-            zero: 1640.0,
-            plus100: 2410.0 - 5.0 * i as f64,
-        };
+        let n = 3 + i;
+        let angles: Vec<f64> = (0..n)
+            .map(|k| (-100.0 + 200.0 * k as f64 / (n - 1) as f64).to_radians())
+            .collect();
+        let ends = model::ServoCurve::from_three_points(
+            880.0 + 9.0 * i as f64,
+            1640.0,
+            2410.0 - 5.0 * i as f64,
+        );
+        // A bow of a few µs between the ends, as a real servo's potentiometer has.
+        let pulses: Vec<f64> = angles
+            .iter()
+            .map(|&a| ends.pulse_us(a) + 8.0 * (a * 1.5).sin())
+            .collect();
+        j.servo = model::ServoCurve::new(&angles, &pulses).unwrap();
     }
     CalibrationFile {
         schema: SCHEMA.into(),
@@ -154,7 +165,46 @@ fn calibration_file() -> CalibrationFile {
         loads_kg: vec![0.0663],
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
+        targets: vec![],
     }
+}
+
+/// A calibration of two targets pushed for the second: the board stores and
+/// hands back arms whose tool point is that target's, nothing else changed;
+/// an unknown name is refused before anything is sent, listing the names.
+#[test]
+fn push_for_a_named_target_sends_its_tool_point() {
+    let mut file = calibration_file();
+    let marker = [0.01, 0.03, 0.05];
+    for (name, tool_m) in [("m0", file.arm.tool.xyz), ("m1", marker)] {
+        file.targets.push(TargetTool {
+            name: name.into(),
+            tool_m,
+            fit_residual: ErrorStats::of(&[0.001]),
+            validation_after: None,
+        });
+    }
+    let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
+    let chosen = CalibrationFile {
+        nominal,
+        arm,
+        ..file.clone()
+    };
+    let payload = calibration::payload(&chosen, [0.0; 6]).unwrap();
+    let first = calibration::payload(&file, [0.0; 6]).unwrap();
+    assert_ne!(payload.id, first.id);
+    let mut c = client(Board::new(SimFlash::new()));
+    c.hello().unwrap();
+    assert_eq!(
+        c.push_calibration(&payload, |_, _| ()).unwrap().id,
+        payload.id
+    );
+    let stored = c.pull_calibration().unwrap();
+    assert_eq!(stored.calibrated.tool.xyz, marker.map(|x| x as f32));
+    assert_eq!(stored.nominal.tool.xyz, marker.map(|x| x as f32));
+    assert_eq!(stored.calibrated.joints, file.arm.map(|x| x as f32).joints);
+    let e = file.arms_for_target(Some("m7")).unwrap_err();
+    assert!(e.contains("`m7`") && e.contains("m0, m1"), "{e}");
 }
 
 #[test]
@@ -315,27 +365,59 @@ fn garbage_on_the_line_is_survived_and_the_next_request_works() {
     assert!(s.frames_dropped > 0);
 }
 
+/// What `hello` says to a board that answers every frame with `reply` under protocol `version`.
+fn hello_to_a_board_of(version: u8, reply: &protocol::Response) -> ClientError {
+    let mut out = [0u8; MAX_FRAME];
+    let n = protocol::frame::encode_with_version(version, 1, reply, &mut out).unwrap();
+    let mut c = client(Board::new(SimFlash::new()));
+    c.link_mut().replies.extend(&out[..n]);
+    c.hello().unwrap_err()
+}
+
 #[test]
 fn a_board_of_another_protocol_version_is_named_clearly() {
-    let mut board = Board::new(SimFlash::new());
-    // The board answers anything with a frame of version 9.
-    let mut out = [0u8; MAX_FRAME];
-    let n =
-        protocol::frame::encode_with_version(9, 1, &protocol::Response::Done, &mut out).unwrap();
-    board.device = Some(Device::new(
-        MockBus::default(),
-        SimFlash::new(),
-        Config::default(),
-        0,
-    ));
-    let mut c = client(board);
-    c.link_mut().replies.extend(&out[..n]);
-    let err = c.hello().unwrap_err();
+    let err = hello_to_a_board_of(9, &protocol::Response::Done);
     assert!(
         matches!(err, ClientError::Comms(CommsError::Version { board: 9 })),
         "{err:?}"
     );
     assert!(err.to_string().contains("update lrmcal"), "{err}");
+}
+
+#[test]
+fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
+    // A board of protocol 1 refuses every frame of ours under its own version.
+    let err = hello_to_a_board_of(1, &protocol::Response::Error(WireError::VersionMismatch));
+    assert!(
+        matches!(err, ClientError::Comms(CommsError::Version { board: 1 })),
+        "{err:?}"
+    );
+    let msg = err.to_string();
+    assert!(
+        msg.contains("the board speaks protocol 1, this lrmcal speaks 2: reflash the firmware"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_non_monotonic_curve_never_leaves_the_host() {
+    let file = calibration_file();
+    let mut bad = calibration::payload(&file, [0.0; 6]).unwrap();
+    let pulses = bad.calibrated.joints[4].servo.pulses_us_mut();
+    pulses[3] = pulses[2] - 1.0;
+    let mut c = client(Board::new(SimFlash::new()));
+    let err = c.push_calibration(&bad, |_, _| {}).unwrap_err();
+    assert!(
+        matches!(
+            err,
+            ClientError::Invalid(protocol::CalibrationFault::ServoCurve { joint: 4, .. })
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("not sent"), "{err}");
+    let status = c.status().unwrap();
+    assert_eq!(status.calibration, None, "nothing reached the board");
+    assert_eq!(status.frames_dropped, 0);
 }
 
 #[test]

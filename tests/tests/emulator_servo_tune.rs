@@ -69,11 +69,11 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     let arm = dir.path().join("arm.toml");
     std::fs::copy(repo_root().join("host/arms/lrm.toml"), &arm).expect("copy the bundled arm");
     let original = host::io::arm_toml::read(&arm).expect("the bundled arm file");
-    let start_us = original.arm.joints[JOINT - 1].servo.zero as u16;
+    let start_us = original.arm.joints[JOINT - 1].servo.pulse_us(0.0) as u16;
 
     let mut command = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"));
     command
-        .args(["servo-tune", &JOINT.to_string(), "--arm"])
+        .args(["servo-tune", &JOINT.to_string(), "--points", "3", "--arm"])
         .arg(&arm)
         .args(["--port", &board.port_name(), "--timeout-ms", "5000"]);
     let mut session = spawn_command(command, Some(EXPECT_TIMEOUT_MS)).expect("a pseudo-terminal");
@@ -106,7 +106,8 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
         pulse = now;
     }
 
-    // Record -100°, 0° and +100° at three pulses, then write the curve.
+    // With three tuning points (keys 1, 2, 3 = -100°, 0°, +100°), record each at a pulse,
+    // then write the curve.
     let mut recorded = [0u16; 3];
     let plans: [Vec<(&str, i16)>; 3] = [
         vec![(PAGE_DOWN, -100); 7],
@@ -130,11 +131,11 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
             .expect("servo-tune records the pulse");
         recorded[point] = shown;
     }
-    let curve = ServoCurve {
-        minus100: f64::from(recorded[0]),
-        zero: f64::from(recorded[1]),
-        plus100: f64::from(recorded[2]),
-    };
+    let curve = ServoCurve::from_three_points(
+        f64::from(recorded[0]),
+        f64::from(recorded[1]),
+        f64::from(recorded[2]),
+    );
     assert!(
         curve.is_monotonic(),
         "the test records a usable curve: {curve:?}"
@@ -169,11 +170,7 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     let stored =
         protocol::Calibration::decode(&link.pull()).expect("the board's calibration decodes");
     let mut want = before;
-    want.calibrated.joints[JOINT - 1].servo = ServoCurve {
-        minus100: curve.minus100 as f32,
-        zero: curve.zero as f32,
-        plus100: curve.plus100 as f32,
-    };
+    want.calibrated.joints[JOINT - 1].servo = curve.map(|v| v as f32);
     want.id = stored.id;
     assert_eq!(stored, want, "the board's calibration after servo-tune");
     assert_ne!(stored.id, before.id, "a changed calibration gets a new id");

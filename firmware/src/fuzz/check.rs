@@ -208,7 +208,7 @@ impl Model {
         let arm = self.active.as_ref().map(|(k, _)| &k.calibration.calibrated);
         let c = &self.config;
         let [lo, hi] = servo::joint_limits(arm, c.hard_limits_rad, c.default_limits_rad)[channel];
-        let curve = servo::curves(arm)[channel];
+        let curve = arm.map_or(c.uncalibrated_curve, |a| a.joints[channel].servo);
         let [a, b] = [curve.pulse_us(lo), curve.pulse_us(hi)];
         let [safe_lo, safe_hi] = c.pulse_range_us.map(f32::from);
         [

@@ -122,16 +122,27 @@ impl Fixtures {
         tight.calibrated.joints[0].limits = [-0.6, 0.5];
         tight.calibrated.joints[2].limits = [-1.2, 0.9];
         for j in &mut tight.calibrated.joints {
-            j.servo.zero += 25.0;
+            for p in j.servo.pulses_us_mut() {
+                *p += 25.0;
+            }
         }
         let mut wild = test_calibration(23);
         wild.option = ModelOption::Kinematic;
         for j in &mut wild.calibrated.joints {
-            j.servo.minus100 = 150.0;
-            j.servo.plus100 = 3300.0;
+            let pulses = j.servo.pulses_us_mut();
+            pulses[0] = 150.0;
+            if let Some(last) = pulses.last_mut() {
+                *last = 3300.0;
+            }
         }
         let mut invalid = test_calibration(24);
-        invalid.calibrated.joints[4].servo.plus100 = f32::NAN;
+        if let Some(last) = invalid.calibrated.joints[4]
+            .servo
+            .pulses_us_mut()
+            .last_mut()
+        {
+            *last = f32::NAN;
+        }
         let uploads: Vec<Upload> = [plain, tight, wild, invalid]
             .iter()
             .map(|c| {

@@ -20,7 +20,7 @@ pub fn check_plausible(
     file: &str,
 ) -> Result<(), CalibError> {
     let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
-    let predicted = tool_points(nominal, &samples)?;
+    let predicted = tool_points(&(*nominal).into(), &samples)?;
     for (m, p) in measurements.iter().zip(&predicted) {
         let bad = |problem: String| CalibError::BadMeasurement {
             pose: m.pose.id,

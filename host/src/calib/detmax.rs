@@ -15,6 +15,12 @@
 //! excursion, which bounds rounding drift. A tiny ridge (`1e-9 I`) keeps the
 //! random start invertible; the reported determinant is recomputed without it.
 //! Several seeded random starts run and the best design is kept.
+//!
+//! The result is a function of the blocks *in their order*: the starts are
+//! drawn over candidate indices and a tie goes to the lowest index, the
+//! same on every run. `pipeline` passes the candidates in a canonical order
+//! (by joint angles, then pose id), so that the poses chosen do not depend on
+//! the order of the rows of the file they came from.
 
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
@@ -165,11 +171,11 @@ impl<'a> State<'a> {
         if adding {
             return self.best_addition();
         }
-        (0..self.blocks.len())
-            .filter(|&c| self.member[c])
-            .map(|c| (c, self.gain(c, -1.0)))
-            .max_by(|a, b| a.1.total_cmp(&b.1))
-            .map(|(c, _)| c)
+        first_max(
+            (0..self.blocks.len())
+                .filter(|&c| self.member[c])
+                .map(|c| (c, self.gain(c, -1.0))),
+        )
     }
 
     /// The best addition, scanning every candidate with one product `M⁻¹ Aᵀ`
@@ -179,23 +185,23 @@ impl<'a> State<'a> {
     fn best_addition(&self) -> Option<usize> {
         let r = self.blocks.first()?.nrows();
         let pt = &self.minv * self.stacked_t;
-        let mut best: Option<(usize, f64)> = None;
-        for c in (0..self.blocks.len()).filter(|&c| !self.member[c]) {
-            let s = DMatrix::from_fn(r, r, |i, j| {
-                let dot = pt.column(r * c + i).dot(&self.stacked_t.column(r * c + j));
-                if i == j { 1.0 + dot } else { dot }
-            });
-            let det = s.determinant();
-            let gain = if det > 0.0 {
-                det.ln()
-            } else {
-                f64::NEG_INFINITY
-            };
-            if best.is_none_or(|(_, g)| gain > g) {
-                best = Some((c, gain));
-            }
-        }
-        best.map(|(c, _)| c)
+        first_max(
+            (0..self.blocks.len())
+                .filter(|&c| !self.member[c])
+                .map(|c| {
+                    let s = DMatrix::from_fn(r, r, |i, j| {
+                        let dot = pt.column(r * c + i).dot(&self.stacked_t.column(r * c + j));
+                        if i == j { 1.0 + dot } else { dot }
+                    });
+                    let det = s.determinant();
+                    let gain = if det > 0.0 {
+                        det.ln()
+                    } else {
+                        f64::NEG_INFINITY
+                    };
+                    (c, gain)
+                }),
+        )
     }
 
     /// One excursion of length `k`, up first (`up`) or down first.
@@ -215,6 +221,16 @@ impl<'a> State<'a> {
     fn chosen(&self) -> Vec<usize> {
         (0..self.member.len()).filter(|&c| self.member[c]).collect()
     }
+}
+
+/// The candidate of the largest gain, the first (lowest index) among equal ones.
+fn first_max(gains: impl Iterator<Item = (usize, f64)>) -> Option<usize> {
+    gains
+        .fold(None, |best: Option<(usize, f64)>, (c, gain)| match best {
+            Some((_, g)) if g >= gain => best,
+            _ => Some((c, gain)),
+        })
+        .map(|(c, _)| c)
 }
 
 /// Selects `options.n` of the candidate `blocks` (each `r × m`, column-scaled)

@@ -60,6 +60,28 @@ pub enum CalibError {
     /// Parameters given to the fit twice, or unknown to it.
     #[error("set up the parameters to fit")]
     Params(#[from] super::params::ParamError),
+    /// A measured target has too few poses to fix its tool point.
+    #[error(
+        "fit the tool point of target `{target}` of {file}: it is measured at {poses} poses, at least {needed} are needed to fix its three coordinates together with the arm; measure it at more poses or drop its rows"
+    )]
+    TargetTooFewPoses {
+        /// File the measurements came from.
+        file: String,
+        /// The target's name.
+        target: String,
+        /// Distinct poses it is measured at.
+        poses: usize,
+        /// Poses needed.
+        needed: usize,
+    },
+    /// Measurements of a target the calibration does not have.
+    #[error("find target `{target}` in the calibration: it has the targets {known}")]
+    UnknownTarget {
+        /// The target asked for.
+        target: String,
+        /// The calibration's targets, in order.
+        known: String,
+    },
     /// A measured pose is not one of the candidate poses.
     #[error(
         "match measurements to candidates: pose {pose} of {file} is not in the candidate pose list ({detail})"

@@ -80,8 +80,8 @@ pub fn random_baseline(
         let fit = inputs.measurements.of(chosen_ids.iter().copied(), load);
         let rest = inputs.measurements.of(inputs.held_out(&chosen_ids), load);
         // A random set may be rank deficient: that is a loss for random selection.
-        let mean = match identify_refreshed(inputs.nominal, result.option(), keys, &fit, options) {
-            Ok(f) => validate(inputs.nominal, &f.arm, &rest)?.after.mean_m,
+        let mean = match identify_refreshed(&inputs.nominal, result.option(), keys, &fit, options) {
+            Ok(f) => validate(&inputs.nominal, &f.rig, &rest)?.after.mean_m,
             Err(_) => f64::INFINITY,
         };
         means.push(mean);

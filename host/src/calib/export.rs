@@ -3,11 +3,14 @@
 //! conversions from the engine's types live here.
 
 use model::Arm;
+use nalgebra::Vector3;
 
 use super::ParamKey;
 use super::identify::{Estimate, Identified};
+use super::targets::{Rig, Targets};
+use crate::dataset::TargetName;
 use crate::io::calibration_file::{
-    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, ValidationSummary,
+    CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
 };
 
 impl From<&Estimate> for FittedParam {
@@ -23,7 +26,9 @@ impl From<&Estimate> for FittedParam {
 
 /// The calibration file of an identification from `nominal`: `removed` are
 /// the candidates left out as unidentifiable, `poses_used` and `loads_kg`
-/// the measurements fitted, `fit_residual` the error on them.
+/// the measurements fitted, `fit_residual` the error on them. Targets are
+/// listed when the measurements named them, without their held-out error
+/// (the caller adds it where there was a validation).
 pub fn calibration_file(
     nominal: &Arm<f64>,
     identified: &Identified,
@@ -38,7 +43,7 @@ pub fn calibration_file(
         schema_version: SCHEMA_VERSION,
         option: identified.option,
         nominal: *nominal,
-        arm: identified.arm,
+        arm: identified.rig.arm,
         parameters: identified.estimates.iter().map(FittedParam::from).collect(),
         at_bound: identified
             .diagnostics
@@ -52,7 +57,61 @@ pub fn calibration_file(
         fit_residual,
         validation,
         registration: None,
+        targets: if identified.rig.targets.named() {
+            target_tools(identified, &[])
+        } else {
+            Vec::new()
+        },
     }
+}
+
+/// The nominal and the corrected rig of `file`: its arms with its targets'
+/// tool points (the nominal arm with the fitted ones: it has no idea where
+/// they are). A file without targets is its arms alone.
+pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
+    let names: Vec<TargetName> = file
+        .targets
+        .iter()
+        .filter_map(|t| TargetName::from(&t.name).ok())
+        .collect();
+    if file.targets.is_empty() || names.len() < file.targets.len() {
+        return (file.nominal.into(), file.arm.into());
+    }
+    let tools: Vec<Vector3<f64>> = file.targets[1..]
+        .iter()
+        .map(|t| Vector3::from(t.tool_m))
+        .collect();
+    let targets = Targets::named_as(&names);
+    let rig = |arm: Arm<f64>| Rig {
+        arm,
+        tools: tools.clone(),
+        targets: targets.clone(),
+    };
+    (rig(file.nominal), rig(file.arm))
+}
+
+/// Every target of `identified` with its tool point, fit residual and
+/// held-out error (`validation_per_target`, in target order, when there was one).
+pub fn target_tools(
+    identified: &Identified,
+    validation_per_target: &[ErrorStats],
+) -> Vec<TargetTool> {
+    let rig = &identified.rig;
+    rig.targets
+        .names()
+        .into_iter()
+        .enumerate()
+        .map(|(t, name)| TargetTool {
+            name,
+            tool_m: rig.tool_point(t).map_or(rig.arm.tool.xyz, Into::into),
+            fit_residual: identified
+                .fit_residual_per_target
+                .get(t)
+                .copied()
+                .unwrap_or_else(|| ErrorStats::of(&[])),
+            validation_after: validation_per_target.get(t).copied(),
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -71,7 +130,7 @@ mod tests {
         let k6 = ParamId::from_name("k6").unwrap();
         let identified = Identified {
             option: ModelOption::Elastic,
-            arm: nominal.with_errors(&[k2], &[0.1]),
+            rig: nominal.with_errors(&[k2], &[0.1]).into(),
             estimates: vec![
                 Estimate {
                     id: k2.into(),
@@ -99,6 +158,7 @@ mod tests {
                 condition: 1.0,
             },
             fit_residual: ErrorStats::of(&[0.001]),
+            fit_residual_per_target: vec![ErrorStats::of(&[0.001])],
             outliers: vec![],
         };
         let k1 = ParamId::from_name("k1").unwrap();
@@ -112,7 +172,7 @@ mod tests {
             None,
         );
         assert_eq!(file.option, protocol::ModelOption::Elastic);
-        assert_eq!(file.arm, identified.arm);
+        assert_eq!(file.arm, identified.rig.arm);
         assert_eq!(file.at_bound, ["k6"]);
         assert_eq!(file.removed, ["k1"]);
         assert_eq!(

@@ -38,7 +38,7 @@ use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::ColumnScale;
 use super::option::candidates;
 use super::params::ParamKey;
-use super::{CalibError, ModelOption, Sample};
+use super::{CalibError, ModelOption, Rig, Sample};
 
 /// Sine of the smallest angle between a kept column and the span of the others.
 pub const RANK_TOLERANCE: f64 = 1e-6;
@@ -106,7 +106,7 @@ pub fn analyse(
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
     let ids = candidates(option);
-    let j = jacobian(arm, &ids, samples, &JacobianOptions::default())?;
+    let j = jacobian(&Rig::from(*arm), &ids, samples, &JacobianOptions::default())?;
     Ok(analyse_jacobian(option, &ids, &j))
 }
 
@@ -201,16 +201,16 @@ pub fn analyse_jacobian(
     }
 }
 
-/// Checks that `keys` are identifiable from `samples` at `arm`: the
+/// Checks that `keys` are identifiable from `samples` at `rig`: the
 /// column-scaled Jacobian has full rank. When it has not, the error names the
 /// parameters that dominate the weakest direction.
 pub fn check_full_rank(
-    arm: &Arm<f64>,
+    rig: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
     samples: &[Sample],
 ) -> Result<(), CalibError> {
-    let j = jacobian(arm, keys, samples, &JacobianOptions::default())?;
+    let j = jacobian(rig, keys, samples, &JacobianOptions::default())?;
     let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
     let svd = scaled.svd(false, true);
     let rank = numerical_rank(&svd.singular_values);
@@ -259,10 +259,18 @@ pub fn check_structure(
             id: p.id,
             q: p.q,
             load_kg,
+            target: 0,
         })
         .collect();
     let structural = analyse(nominal, measured.option, &grid)?.kept;
-    if measured.kept.len() >= structural.len() {
+    // Compared over the arm's parameters: further targets' tool points are
+    // the measurements' own, the grid has none.
+    let arm_kept = measured
+        .kept
+        .iter()
+        .filter(|p| matches!(p, ParamKey::Arm(_)))
+        .count();
+    if arm_kept >= structural.len() {
         return Ok(());
     }
     let missing: Vec<String> = structural
@@ -272,7 +280,7 @@ pub fn check_structure(
         .collect();
     Err(CalibError::Unidentifiable {
         option: measured.option.name().into(),
-        identified: measured.kept.len(),
+        identified: arm_kept,
         structural: structural.len(),
         missing: missing.join(", "),
     })
@@ -336,6 +344,7 @@ mod tests {
                 id: p.id,
                 q: p.q,
                 load_kg: 0.0663,
+                target: 0,
             })
             .collect();
         let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();

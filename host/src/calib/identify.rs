@@ -29,7 +29,6 @@
 //! Gaussian residual exceeds 4.5 σ with probability 5e-4).
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
-use model::Arm;
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
@@ -38,7 +37,7 @@ use super::jacobian::{JacobianOptions, jacobian, tool_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::validate::ErrorStats;
-use super::{CalibError, ModelOption, Sample};
+use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
 
 /// Huber threshold on the residual norm, in units of the robust per-axis scale.
@@ -129,21 +128,23 @@ pub struct Diagnostics {
 pub struct Identified {
     /// The option fitted.
     pub option: ModelOption,
-    /// The nominal arm with the identified errors applied.
-    pub arm: Arm<f64>,
+    /// The nominal arm and targets with the identified errors applied.
+    pub rig: Rig,
     /// Every fitted parameter.
     pub estimates: Vec<Estimate>,
     /// Convergence diagnostics.
     pub diagnostics: Diagnostics,
     /// 3D error of the calibrated arm on the measurements it was fitted to (unweighted).
     pub fit_residual: ErrorStats,
+    /// [`Identified::fit_residual`] per target, in the rig's target order.
+    pub fit_residual_per_target: Vec<ErrorStats>,
     /// Measurements named as outliers, largest residual first.
     pub outliers: Vec<Outlier>,
 }
 
 /// The measurements of one fit, as the solver sees them.
 struct FitData<'a> {
-    nominal: &'a Arm<f64>,
+    nominal: &'a Rig,
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
@@ -151,7 +152,7 @@ struct FitData<'a> {
 
 impl FitData<'_> {
     /// Norms of the 3D residuals of `arm` against the measurements, m.
-    fn residual_norms(&self, arm: &Arm<f64>) -> Result<Vec<f64>, CalibError> {
+    fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
         Ok(tool_points(arm, &self.samples)?
             .iter()
             .zip(&self.measured)
@@ -160,7 +161,7 @@ impl FitData<'_> {
     }
 
     /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
-    fn weighted_residuals(&self, arm: &Arm<f64>, sqrt_w: &[f64]) -> Option<DVector<f64>> {
+    fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
         let points = tool_points(arm, &self.samples).ok()?;
         let mut r = DVector::zeros(3 * points.len());
         for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
@@ -173,7 +174,7 @@ impl FitData<'_> {
     /// The Jacobian of the weighted residuals with respect to `keys` at `arm`.
     fn weighted_jacobian(
         &self,
-        arm: &Arm<f64>,
+        arm: &Rig,
         keys: &[ParamKey],
         sqrt_w: &[f64],
     ) -> Result<DMatrix<f64>, CalibError> {
@@ -202,7 +203,7 @@ struct Problem<'a> {
 }
 
 impl Problem<'_> {
-    fn arm(&self) -> Arm<f64> {
+    fn arm(&self) -> Rig {
         self.params
             .apply_with_free(self.data.nominal, self.x.as_slice())
     }
@@ -284,7 +285,7 @@ fn fit(
 }
 
 /// The free parameters whose value in `arm` lies below their lower bound, with the bound.
-fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
+fn below_bound(params: &ParamVector, arm: &Rig) -> Vec<(ParamKey, f64)> {
     params
         .free()
         .filter_map(|k| k.lower_bound().map(|b| (k, b)))
@@ -295,7 +296,7 @@ fn below_bound(params: &ParamVector, arm: &Arm<f64>) -> Vec<(ParamKey, f64)> {
 /// Fixes each key at its bound: the correction that takes its nominal value there.
 fn fix_at_bound(
     params: &mut ParamVector,
-    nominal: &Arm<f64>,
+    nominal: &Rig,
     bounds: &[(ParamKey, f64)],
 ) -> Result<(), CalibError> {
     for &(key, bound) in bounds {
@@ -311,7 +312,7 @@ fn fix_at_bound(
 fn release_candidate(
     data: &FitData,
     params: &ParamVector,
-    arm: &Arm<f64>,
+    arm: &Rig,
     sqrt_w: &[f64],
 ) -> Option<ParamKey> {
     let fixed: Vec<ParamKey> = params.fixed().collect();
@@ -390,7 +391,7 @@ struct Covariance {
 /// with `s² = RSS / (3n − m)` of the weighted residual norms.
 fn covariance(
     data: &FitData,
-    arm: &Arm<f64>,
+    arm: &Rig,
     free: &[ParamKey],
     weights: &[f64],
     norms: &[f64],
@@ -445,11 +446,12 @@ fn name_outliers(samples: &[Sample], norms: &[f64], weights: &[f64]) -> Vec<Outl
     outliers
 }
 
-/// Fits the errors `keys` of `nominal` to `measurements`: the active-set fit,
+/// Fits the errors `keys` of `nominal` to `measurements` (each of one of
+/// `nominal`'s targets): the active-set fit,
 /// inside Huber reweighting when `options.robust`, then the covariance and
 /// the outliers at the solution.
 pub fn identify(
-    nominal: &Arm<f64>,
+    nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
@@ -458,7 +460,7 @@ pub fn identify(
     let data = FitData {
         nominal,
         option,
-        samples: measurements.iter().map(Sample::from).collect(),
+        samples: nominal.samples(measurements)?,
         measured: measurements.iter().map(|m| m.position).collect(),
     };
     let n = data.samples.len();
@@ -505,28 +507,28 @@ pub fn identify(
         }
     }
 
-    let arm = params.apply(nominal);
-    let norms = data.residual_norms(&arm).map_err(|e| {
+    let rig = params.apply(nominal);
+    let norms = data.residual_norms(&rig).map_err(|e| {
         data.solver_error(format!(
             "the fit ended where the model cannot be evaluated ({e}); {n} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",
             keys.len()
         ))
     })?;
     let free: Vec<ParamKey> = params.free().collect();
-    let cov = covariance(&data, &arm, &free, &weights, &norms)?;
+    let cov = covariance(&data, &rig, &free, &weights, &norms)?;
     let mut std = cov.std.into_iter();
     let estimates = params
         .iter()
         .map(|p| Estimate {
             id: p.key,
             error: p.error,
-            value: p.key.value(&arm),
+            value: p.key.value(&rig),
             std: if p.fixed { None } else { std.next() },
         })
         .collect();
     Ok(Identified {
         option,
-        arm,
+        rig,
         estimates,
         diagnostics: Diagnostics {
             termination: tally.termination,
@@ -541,6 +543,17 @@ pub fn identify(
             condition: cov.condition,
         },
         fit_residual: ErrorStats::of(&norms),
+        fit_residual_per_target: (0..data.nominal.targets.len())
+            .map(|t| {
+                let of_t: Vec<f64> = norms
+                    .iter()
+                    .zip(&data.samples)
+                    .filter(|(_, s)| s.target == t)
+                    .map(|(e, _)| *e)
+                    .collect();
+                ErrorStats::of(&of_t)
+            })
+            .collect(),
         outliers: name_outliers(&data.samples, &norms, &weights),
     })
 }
@@ -556,7 +569,7 @@ mod tests {
     }
 
     /// `nominal` with `errors` added to `keys`.
-    fn with_errors(nominal: &Arm<f64>, keys: &[ParamKey], errors: &[f64]) -> Arm<f64> {
+    fn with_errors(nominal: &Rig, keys: &[ParamKey], errors: &[f64]) -> Rig {
         let mut v = ParamVector::new(keys.iter().copied()).unwrap();
         for (k, e) in keys.iter().zip(errors) {
             v.set(*k, *e).unwrap();
@@ -564,7 +577,7 @@ mod tests {
         v.apply(nominal)
     }
 
-    fn fit_data<'a>(nominal: &'a Arm<f64>, meas: &[Measurement]) -> FitData<'a> {
+    fn fit_data<'a>(nominal: &'a Rig, meas: &[Measurement]) -> FitData<'a> {
         FitData {
             nominal,
             option: ModelOption::Elastic,
@@ -574,8 +587,8 @@ mod tests {
     }
 
     /// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
-    fn upward_sag(nominal: &Arm<f64>) -> Vec<Measurement> {
-        let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]);
+    fn upward_sag(nominal: &Rig) -> Vec<Measurement> {
+        let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]).arm;
         true_arm.joints[2].compliance = -0.05;
         measure(&true_arm, &small_samples(16))
     }
@@ -584,10 +597,13 @@ mod tests {
     /// recovers them exactly and the residual vanishes.
     #[test]
     fn recovers_compliances_exactly() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
-        let meas = measure(&with_errors(&nominal, &keys, &truth), &small_samples(16));
+        let meas = measure(
+            &with_errors(&nominal, &keys, &truth).arm,
+            &small_samples(16),
+        );
         let fit = identify(
             &nominal,
             ModelOption::Elastic,
@@ -609,7 +625,7 @@ mod tests {
     /// bound, and the bound is reported.
     #[test]
     fn compliances_never_go_negative() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let meas = upward_sag(&nominal);
         let fit = identify(
             &nominal,
@@ -620,7 +636,8 @@ mod tests {
         )
         .unwrap();
         assert!(
-            fit.arm.joints.iter().all(|j| j.compliance >= 0.0) && fit.arm.base_compliance >= 0.0
+            fit.rig.arm.joints.iter().all(|j| j.compliance >= 0.0)
+                && fit.rig.arm.base_compliance >= 0.0
         );
         assert!(
             fit.diagnostics.at_bound.contains(&key("k3")),
@@ -629,10 +646,10 @@ mod tests {
         );
         // KKT: raising any compliance held at zero makes the fit worse.
         let data = fit_data(&nominal, &meas);
-        let cost = |arm: &Arm<f64>| rms(&data.residual_norms(arm).unwrap());
+        let cost = |arm: &Rig| rms(&data.residual_norms(arm).unwrap());
         for &p in &fit.diagnostics.at_bound {
-            let raised = with_errors(&fit.arm, &[p], &[1e-4]);
-            assert!(cost(&raised) > cost(&fit.arm), "{p} should stay at zero");
+            let raised = with_errors(&fit.rig, &[p], &[1e-4]);
+            assert!(cost(&raised) > cost(&fit.rig), "{p} should stay at zero");
         }
         assert!(fit.estimates[1].std.is_none());
     }
@@ -642,7 +659,7 @@ mod tests {
     /// is physical.
     #[test]
     fn a_spent_round_budget_still_ends_inside_the_bounds() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let one_round = IdentifyOptions {
             max_active_set_rounds: 1,
             ..Default::default()
@@ -659,7 +676,7 @@ mod tests {
         assert_eq!(fit.diagnostics.at_bound, [key("k3")]);
         let k3 = fit.estimates[1];
         assert_eq!((k3.id, k3.value, k3.std), (key("k3"), 0.0, None));
-        assert_eq!(fit.arm.joints[2].compliance, 0.0);
+        assert_eq!(fit.rig.arm.joints[2].compliance, 0.0);
         for e in &fit.estimates {
             assert_eq!(e.value, e.id.value(&nominal) + e.error, "{}", e.id);
         }
@@ -669,10 +686,10 @@ mod tests {
     /// the active set releases; one that belongs at zero is not.
     #[test]
     fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let meas = measure(
-            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
             &small_samples(16),
         );
         let data = fit_data(&nominal, &meas);
@@ -700,17 +717,17 @@ mod tests {
     /// The covariance from the scaled SVD equals `s² (JᵀJ)⁻¹` computed directly.
     #[test]
     fn covariance_matches_the_normal_equations() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let mut meas = measure(
-            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]),
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
             &small_samples(16),
         );
         for (k, m) in meas.iter_mut().enumerate() {
             m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
         }
         let data = fit_data(&nominal, &meas);
-        let arm = nominal;
+        let arm = nominal.clone();
         let norms = data.residual_norms(&arm).unwrap();
         let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
         let cov = covariance(&data, &arm, &keys, &weights, &norms).unwrap();
@@ -755,11 +772,11 @@ mod tests {
     /// One corrupted measurement is named, and the robust fit is not pulled by it.
     #[test]
     fn robust_fit_names_and_ignores_an_outlier() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let keys = elastic_keys();
         let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
         let samples = small_samples(24);
-        let mut meas = measure(&with_errors(&nominal, &keys, &truth), &samples);
+        let mut meas = measure(&with_errors(&nominal, &keys, &truth).arm, &samples);
         // Small noise so the robust scale is not zero, then one gross error.
         for (k, m) in meas.iter_mut().enumerate() {
             m.position.x += 1e-4 * ((k * 7 % 5) as f64 - 2.0);
@@ -797,10 +814,10 @@ mod tests {
 
     #[test]
     fn too_few_and_rank_deficient_sets_are_refused() {
-        let nominal = rigid_nominal();
+        let nominal = Rig::from(rigid_nominal());
         let all: Vec<ParamKey> = ParamId::all().map(ParamKey::Arm).collect();
         let meas = measure(
-            &with_errors(&nominal, &all, &true_errors(1)),
+            &with_errors(&nominal, &all, &true_errors(1)).arm,
             &small_samples(20),
         );
         let opts = IdentifyOptions::default();

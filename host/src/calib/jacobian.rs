@@ -15,12 +15,12 @@
 //! step is differenced one-sidedly upwards (second order), so no evaluated arm
 //! ever has a negative compliance: the selection sees the physical model only.
 
+use model::SolverOptions;
 use model::params::ParamKind;
-use model::{Arm, SolverOptions};
 use nalgebra::{DMatrix, Vector3};
 
 use super::params::ParamKey;
-use super::{CalibError, Sample};
+use super::{CalibError, Rig, Sample};
 
 /// How the finite-difference steps are chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -45,13 +45,31 @@ pub fn step(id: ParamKey, value: f64, options: &JacobianOptions) -> f64 {
     f64::EPSILON.cbrt() * value.abs().max(typical) * options.step_factor
 }
 
-/// Measured (deflected) tool points of `arm` for every sample, world frame, m.
-pub fn tool_points(arm: &Arm<f64>, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
-    let chain = arm.chain();
+/// Measured (deflected) points of `rig` for every sample, each of its
+/// sample's target, world frame, m.
+pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+    // One chain per target: they differ in the tool point only, which the
+    // deflection does not depend on.
+    let chains: Vec<model::Chain<f64>> = (0..rig.targets.len())
+        .map(|t| {
+            let mut chain = rig.arm.chain();
+            chain.tool_point = rig.tool_point(t).unwrap_or(chain.tool_point);
+            chain
+        })
+        .collect();
     let opts = SolverOptions::default();
     samples
         .iter()
         .map(|s| {
+            let chain = chains.get(s.target).ok_or_else(|| CalibError::Deflection {
+                pose: s.id,
+                load_kg: s.load_kg,
+                message: format!(
+                    "the calibration has {} targets, not a target {}",
+                    chains.len(),
+                    s.target
+                ),
+            })?;
             chain
                 .tool_point(&s.q, s.load_kg, &opts)
                 .map_err(|e| CalibError::Deflection {
@@ -73,20 +91,20 @@ fn accumulate(j: &mut DMatrix<f64>, col: usize, points: &[Vector3<f64>], factor:
     }
 }
 
-/// The arm with `delta` added to parameter `id`, without clamping (a
+/// The rig with `delta` added to parameter `id`, without clamping (a
 /// difference step may pass through negative compliance only when the caller
 /// allows it).
-fn perturbed(arm: &Arm<f64>, id: ParamKey, delta: f64) -> Arm<f64> {
-    let mut a = *arm;
-    *id.slot(&mut a) += delta;
-    a
+fn perturbed(rig: &Rig, id: ParamKey, delta: f64) -> Rig {
+    let mut r = rig.clone();
+    *id.slot(&mut r) += delta;
+    r
 }
 
 /// The `3 n × m` Jacobian of the measured points of `samples` (rows `3k..3k+3`
 /// for sample `k`, x y z) with respect to the error parameters `ids` (columns),
-/// evaluated at `arm`, in m per unit of each parameter.
+/// evaluated at `rig`, in m per unit of each parameter.
 pub fn jacobian(
-    arm: &Arm<f64>,
+    rig: &Rig,
     ids: &[ParamKey],
     samples: &[Sample],
     options: &JacobianOptions,
@@ -94,38 +112,38 @@ pub fn jacobian(
     let mut j = DMatrix::zeros(3 * samples.len(), ids.len());
     let mut base: Option<Vec<Vector3<f64>>> = None;
     for (col, &id) in ids.iter().enumerate() {
-        let value = id.value(arm);
+        let value = id.value(rig);
         let h = step(id, value, options);
         if id.kind() == ParamKind::Compliance && value < h {
             // One-sided, second order: (-3 f(x) + 4 f(x+h) - f(x+2h)) / 2h.
             if base.is_none() {
-                base = Some(tool_points(arm, samples)?);
+                base = Some(tool_points(rig, samples)?);
             }
             let f0 = base.as_deref().unwrap_or_default();
             accumulate(&mut j, col, f0, -1.5 / h);
             accumulate(
                 &mut j,
                 col,
-                &tool_points(&perturbed(arm, id, h), samples)?,
+                &tool_points(&perturbed(rig, id, h), samples)?,
                 2.0 / h,
             );
             accumulate(
                 &mut j,
                 col,
-                &tool_points(&perturbed(arm, id, 2.0 * h), samples)?,
+                &tool_points(&perturbed(rig, id, 2.0 * h), samples)?,
                 -0.5 / h,
             );
         } else {
             accumulate(
                 &mut j,
                 col,
-                &tool_points(&perturbed(arm, id, h), samples)?,
+                &tool_points(&perturbed(rig, id, h), samples)?,
                 0.5 / h,
             );
             accumulate(
                 &mut j,
                 col,
-                &tool_points(&perturbed(arm, id, -h), samples)?,
+                &tool_points(&perturbed(rig, id, -h), samples)?,
                 -0.5 / h,
             );
         }
@@ -145,8 +163,14 @@ mod tests {
         let arm = test_arm();
         let ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
         let samples = small_samples(6);
-        let j1 = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
-        let j2 = jacobian(&arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
+        let j1 = jacobian(&Rig::from(arm), &ids, &samples, &JacobianOptions::default()).unwrap();
+        let j2 = jacobian(
+            &Rig::from(arm),
+            &ids,
+            &samples,
+            &JacobianOptions { step_factor: 10.0 },
+        )
+        .unwrap();
         for (c, id) in ids.iter().enumerate() {
             let scale = j1.column(c).norm().max(1e-3);
             let diff = (j1.column(c) - j2.column(c)).norm();
@@ -167,7 +191,7 @@ mod tests {
             .map(|n| ParamKey::from_name(n).unwrap())
             .collect();
         let samples = small_samples(5);
-        let j = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
+        let j = jacobian(&Rig::from(arm), &ids, &samples, &JacobianOptions::default()).unwrap();
         for k in 0..samples.len() {
             let row = |r: usize, c: usize| j[(3 * k + r, c)];
             assert!(
@@ -187,7 +211,13 @@ mod tests {
         let k2 = ParamKey::from_name("k2").unwrap();
         let theta2 = ParamKey::from_name("j2.theta").unwrap();
         let samples = small_samples(4);
-        let j = jacobian(&arm, &[k2, theta2], &samples, &JacobianOptions::default()).unwrap();
+        let j = jacobian(
+            &Rig::from(arm),
+            &[k2, theta2],
+            &samples,
+            &JacobianOptions::default(),
+        )
+        .unwrap();
         let chain = arm.chain();
         for (k, s) in samples.iter().enumerate() {
             let d = chain

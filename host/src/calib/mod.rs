@@ -15,6 +15,7 @@
 //! | [`validate`] | error statistics before/after on held-out poses |
 //! | [`registration`] | the arm's base in the tracker's frame, from the measurements (closed form, trimmed) |
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
+//! | [`targets`] | several measured targets per pose: one arm, a tool point each |
 //! | [`pipeline`] | select → identify → validate for one option |
 //! | [`experiments`] | DETMAX against random selections, O1 against the number of poses |
 //! | [`export`] | the results as the file formats of `crate::io` hold them (calibration file) |
@@ -45,6 +46,7 @@ pub mod refresh;
 pub mod registration;
 pub mod report;
 pub mod summary;
+pub mod targets;
 #[cfg(test)]
 mod testing;
 pub mod validate;
@@ -52,6 +54,7 @@ pub mod validate;
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
 pub use protocol::ModelOption;
+pub use targets::Rig;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,14 +65,19 @@ pub struct Sample {
     pub q: [f64; model::JOINTS],
     /// Payload at the tool, kg.
     pub load_kg: f64,
+    /// Index of the measured target in its [`Rig`] (0: the arm's tool point).
+    pub target: usize,
 }
 
+/// A measurement as a sample of target 0; `targets::Targets::samples` gives
+/// each its own target.
 impl From<&crate::dataset::Measurement> for Sample {
     fn from(m: &crate::dataset::Measurement) -> Self {
         Sample {
             id: m.pose.id,
             q: m.pose.q,
             load_kg: m.load_kg,
+            target: 0,
         }
     }
 }

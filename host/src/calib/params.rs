@@ -4,10 +4,12 @@
 //! The model fixes the paper's 43 error parameters ([`model::ParamId`], fields
 //! of the arm). A calibration may correct more than that: a tool point per
 //! measured target, the base pose in the tracker's frame, servo curve knots,
-//! backlash widths. [`ParamKey`] is the host's name for any of them; today it
-//! has the arm's own parameters ([`ParamKey::Arm`]). A new kind is one variant
-//! here with its stable name, its kind and the quantity it corrects; the
-//! registry, the solver and the files take it as it is.
+//! backlash widths. [`ParamKey`] is the host's name for any of them: the
+//! arm's own parameters ([`ParamKey::Arm`]) and the tool points of further
+//! measured targets ([`ParamKey::TargetTool`], see `calib::targets`). A new
+//! kind is one variant here with its stable name, its kind and the quantity
+//! it corrects in a [`Rig`]; the registry, the solver and the files take it
+//! as it is.
 //!
 //! [`ParamVector`] keeps its keys in the order given (the solver's column
 //! order), finds a key through a sorted index (never by position), knows which
@@ -20,8 +22,10 @@ use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::fmt;
 
+use model::ParamId;
 use model::params::ParamKind;
-use model::{Arm, ParamId};
+
+use super::targets::Rig;
 
 /// What [`ParamVector`] needs of a key: an order for its index, a stable
 /// name, and the quantity it corrects in the model it applies to.
@@ -42,25 +46,64 @@ pub trait Key: Copy + Ord + fmt::Debug {
 pub enum ParamKey {
     /// One of the model's 43 error parameters: a field of the arm.
     Arm(ParamId),
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of the tool point of measured
+    /// target `target` (1 or more; target 0's is the arm's `tool.x/y/z`),
+    /// frame 6, m.
+    TargetTool {
+        /// Index of the target in its measurement set, 1 or more.
+        target: u8,
+        /// 0 x, 1 y, 2 z.
+        axis: u8,
+    },
 }
 
+/// Axis letters of [`ParamKey::TargetTool`] names.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
 impl ParamKey {
-    /// Stable name: the arm's parameters keep the model's names (`j3.d`, `base.pitch`, `k0`).
+    /// Stable name: the arm's parameters keep the model's names (`j3.d`,
+    /// `base.pitch`, `k0`); a further target's tool point is `tool[2].x`.
     pub fn name(self) -> Cow<'static, str> {
         match self {
             Self::Arm(id) => Cow::Borrowed(id.name()),
+            Self::TargetTool { target, axis } => {
+                let axis = AXES.get(usize::from(axis)).copied().unwrap_or("?");
+                Cow::Owned(format!("tool[{target}].{axis}"))
+            }
         }
     }
 
     /// The key called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        ParamId::from_name(name).map(Self::Arm)
+        if let Some(id) = ParamId::from_name(name) {
+            return Some(Self::Arm(id));
+        }
+        let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+        let target: u8 = target.parse().ok().filter(|t| *t > 0)?;
+        let axis = AXES.iter().position(|a| *a == axis)?;
+        Some(Self::TargetTool {
+            target,
+            axis: axis as u8,
+        })
+    }
+
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of target `target`'s tool point:
+    /// the arm's `tool.x/y/z` for target 0. `None` past the last axis or key.
+    pub fn tool(target: usize, axis: usize) -> Option<Self> {
+        match target {
+            0 => ParamId::from_name(["tool.x", "tool.y", "tool.z"].get(axis)?).map(Self::Arm),
+            _ => Some(Self::TargetTool {
+                target: u8::try_from(target).ok()?,
+                axis: u8::try_from(axis).ok().filter(|a| *a < 3)?,
+            }),
+        }
     }
 
     /// Physical kind, which sets the unit and the scale of steps and typical errors.
     pub fn kind(self) -> ParamKind {
         match self {
             Self::Arm(id) => id.kind(),
+            Self::TargetTool { .. } => ParamKind::Length,
         }
     }
 
@@ -73,16 +116,27 @@ impl ParamKey {
         }
     }
 
-    /// The current value of the quantity in `arm`.
-    pub fn value(self, arm: &Arm<f64>) -> f64 {
-        let mut copy = *arm;
-        *self.slot(&mut copy)
+    /// The current value of the quantity in `rig`.
+    pub fn value(self, rig: &Rig) -> f64 {
+        match self {
+            Self::Arm(id) => id.value(&rig.arm),
+            Self::TargetTool { target, axis } => rig
+                .tool_point(usize::from(target))
+                .map_or(f64::NAN, |p| p[usize::from(axis)]),
+        }
     }
 
-    /// The quantity in `arm` this key corrects.
-    pub fn slot(self, arm: &mut Arm<f64>) -> &mut f64 {
+    /// The quantity in `rig` this key corrects.
+    ///
+    /// # Panics
+    /// For a target the rig does not have: keys are made for their rig
+    /// (`Rig::tool_keys`), so that is a bug of the caller.
+    pub fn slot(self, rig: &mut Rig) -> &mut f64 {
         match self {
-            Self::Arm(id) => id.value_mut(arm),
+            Self::Arm(id) => id.value_mut(&mut rig.arm),
+            Self::TargetTool { target, axis } => {
+                &mut rig.tools[usize::from(target) - 1][usize::from(axis)]
+            }
         }
     }
 }
@@ -100,7 +154,7 @@ impl fmt::Display for ParamKey {
 }
 
 impl Key for ParamKey {
-    type Model = Arm<f64>;
+    type Model = Rig;
 
     fn name(self) -> Cow<'static, str> {
         ParamKey::name(self)
@@ -110,8 +164,8 @@ impl Key for ParamKey {
         ParamKey::from_name(name)
     }
 
-    fn slot(self, arm: &mut Arm<f64>) -> &mut f64 {
-        ParamKey::slot(self, arm)
+    fn slot(self, rig: &mut Rig) -> &mut f64 {
+        ParamKey::slot(self, rig)
     }
 }
 
@@ -295,6 +349,7 @@ impl<K: Key> ParamVector<K> {
 mod tests {
     use super::*;
     use crate::calib::testing::{key, rigid_nominal};
+    use model::Arm;
 
     #[test]
     fn keys_carry_the_model_names_and_kinds() {
@@ -324,18 +379,19 @@ mod tests {
         assert_eq!(v.free().collect::<Vec<_>>(), [key("j2.a"), key("tool.z")]);
         assert_eq!(v.fixed().collect::<Vec<_>>(), [key("k3")]);
 
-        let nominal = rigid_nominal();
-        let arm = v.apply(&nominal);
+        let rig = Rig::from(rigid_nominal());
+        let nominal = rig.arm;
+        let arm = v.apply(&rig).arm;
         assert_eq!(arm.joints[1].a, nominal.joints[1].a + 0.002);
         // One meaning: a correction is added as it is, even to an unphysical value.
         assert_eq!(arm.joints[2].compliance, nominal.joints[2].compliance - 0.5);
         assert_eq!(arm.joints[0], nominal.joints[0]);
-        let trial = v.apply_with_free(&nominal, &[0.001, 0.003]);
+        let trial = v.apply_with_free(&rig, &[0.001, 0.003]).arm;
         assert_eq!(trial.joints[1].a, nominal.joints[1].a + 0.001);
         assert_eq!(trial.tool.xyz[2], nominal.tool.xyz[2] + 0.003);
         assert_eq!(trial.joints[2].compliance, arm.joints[2].compliance);
         v.set_free(&[0.001, 0.003]);
-        assert_eq!(v.apply(&nominal), trial);
+        assert_eq!(v.apply(&rig).arm, trial);
         v.release(key("k3")).unwrap();
         assert_eq!(v.free_errors(), [-0.5, 0.001, 0.003]);
     }
@@ -365,7 +421,7 @@ mod tests {
     /// A model with more to correct than the arm: the arm and a backlash width
     /// per joint, as a coming calibration will have.
     #[derive(Clone, Debug, PartialEq)]
-    struct Rig {
+    struct BacklashRig {
         arm: Arm<f64>,
         backlash_rad: [f64; 6],
     }
@@ -377,7 +433,7 @@ mod tests {
     }
 
     impl Key for RigKey {
-        type Model = Rig;
+        type Model = BacklashRig;
         fn name(self) -> Cow<'static, str> {
             match self {
                 Self::Arm(id) => Cow::Borrowed(id.name()),
@@ -395,7 +451,7 @@ mod tests {
                 None => ParamId::from_name(name).map(Self::Arm),
             }
         }
-        fn slot(self, rig: &mut Rig) -> &mut f64 {
+        fn slot(self, rig: &mut BacklashRig) -> &mut f64 {
             match self {
                 Self::Arm(id) => id.value_mut(&mut rig.arm),
                 Self::Backlash(j) => &mut rig.backlash_rad[j],
@@ -415,7 +471,7 @@ mod tests {
         v.set(RigKey::Backlash(2), 0.01).unwrap();
         v.set(RigKey::Arm(ParamId::from_name("k3").unwrap()), 0.05)
             .unwrap();
-        let nominal = Rig {
+        let nominal = BacklashRig {
             arm: rigid_nominal(),
             backlash_rad: [0.002; 6],
         };

@@ -21,8 +21,9 @@ use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::progress::Progress;
 use super::refresh::identify_refreshed;
+use super::targets::Targets;
 use super::validate::{LoadValidation, Validation, validate};
-use super::{CalibError, ModelOption, Sample};
+use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the
@@ -38,9 +39,12 @@ pub struct CandidateBlocks {
 }
 
 impl CandidateBlocks {
-    /// Analyses `candidates` measured under each of `loads_kg` for `option` at `nominal`.
+    /// Analyses `candidates` measured under each of `loads_kg` for `option`
+    /// at `nominal`, every target of the rig at every pose: the columns are
+    /// the further targets' tool points and the option's candidates, a
+    /// pose's block has the rows of all its targets.
     pub fn build(
-        nominal: &Arm<f64>,
+        nominal: &Rig,
         option: ModelOption,
         candidates: &[Pose],
         loads_kg: &[f64],
@@ -50,17 +54,32 @@ impl CandidateBlocks {
                 what: "analyse the candidate poses".into(),
             });
         }
-        let samples: Vec<Sample> = candidates
+        // Analysed in the canonical order, so that the rank analysis, the
+        // column scale and every block come out bit for bit the same however
+        // the file orders its rows; the blocks are then put back in the
+        // caller's order.
+        let order = canonical_order(candidates);
+        let targets = nominal.targets.len();
+        let samples: Vec<Sample> = order
             .iter()
+            .map(|&i| &candidates[i])
             .flat_map(|p| {
-                loads_kg.iter().map(|&load_kg| Sample {
-                    id: p.id,
-                    q: p.q,
-                    load_kg,
+                loads_kg.iter().flat_map(move |&load_kg| {
+                    (0..targets).map(move |target| Sample {
+                        id: p.id,
+                        q: p.q,
+                        load_kg,
+                        target,
+                    })
                 })
             })
             .collect();
-        let ids = option_candidates(option);
+        // The further targets' tool points come first: each is unknown
+        // (the nominal arm has no idea where the target sits), so what they
+        // are confounded with (the arm's own tool point, frame 6's
+        // translation) is what the rank analysis removes.
+        let mut ids = nominal.tool_keys();
+        ids.extend(option_candidates(option));
         let j = jacobian(nominal, &ids, &samples, &JacobianOptions::default())?;
         let identifiability = analyse_jacobian(option, &ids, &j);
         // The kept parameters are a subsequence of the candidates, in order.
@@ -72,7 +91,13 @@ impl CandidateBlocks {
             .collect();
         let kept = j.select_columns(&cols);
         let scale = ColumnScale::from_jacobian(&kept, candidates.len());
-        let blocks = split_blocks(&scale.apply(&kept), 3 * loads_kg.len());
+        let mut blocks = vec![DMatrix::zeros(0, 0); candidates.len()];
+        for (block, &i) in split_blocks(&scale.apply(&kept), 3 * loads_kg.len() * targets)
+            .into_iter()
+            .zip(&order)
+        {
+            blocks[i] = block;
+        }
         Ok(Self {
             identifiability,
             scale,
@@ -130,9 +155,18 @@ impl Selection {
                     &format!("{}: DETMAX starts", blocks.option()),
                     options.starts.max(1) as u64,
                 );
-                let design = detmax(&blocks.blocks, options, progress);
+                // DETMAX sees the candidates in the canonical order: its
+                // random starts and its ties then pick the same poses
+                // whatever the order of the rows they were read from.
+                let order = canonical_order(candidates);
+                let canonical: Vec<DMatrix<f64>> =
+                    order.iter().map(|&i| blocks.blocks[i].clone()).collect();
+                let design = detmax(&canonical, options, progress);
                 progress.end();
-                design?
+                let mut design = design?;
+                design.chosen = design.chosen.iter().map(|&c| order[c]).collect();
+                design.chosen.sort_unstable();
+                design
             }
             Choice::Given(ids) => {
                 let chosen = ids
@@ -168,6 +202,23 @@ impl Selection {
     }
 }
 
+/// The candidates' indices sorted by joint angles (joint 1 first), then by
+/// pose id: an order that depends on the set of poses only, not on the order
+/// of the rows they were read from.
+pub fn canonical_order(candidates: &[Pose]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..candidates.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (a, b) = (&candidates[a], &candidates[b]);
+        a.q.iter()
+            .zip(&b.q)
+            .map(|(x, y)| x.total_cmp(y))
+            .find(|o| o.is_ne())
+            .unwrap_or(std::cmp::Ordering::Equal)
+            .then(a.id.cmp(&b.id))
+    });
+    order
+}
+
 /// Chooses poses among `candidates` for `option`, measured under `loads_kg`.
 pub fn select(
     nominal: &Arm<f64>,
@@ -177,40 +228,47 @@ pub fn select(
     choice: &Choice,
     progress: &dyn Progress,
 ) -> Result<Selection, CalibError> {
-    let blocks = CandidateBlocks::build(nominal, option, candidates, loads_kg)?;
+    let blocks = CandidateBlocks::build(&(*nominal).into(), option, candidates, loads_kg)?;
     Selection::choose(blocks, candidates, choice, progress)
 }
 
-/// Measurements indexed by (pose id, load).
+/// Measurements indexed by (pose id, load), each key with the measurements
+/// of all its targets.
 pub struct MeasurementIndex<'a> {
-    map: HashMap<(u32, u64), &'a Measurement>,
+    map: HashMap<(u32, u64), Vec<&'a Measurement>>,
 }
 
 impl<'a> MeasurementIndex<'a> {
     /// Indexes `measurements`.
     pub fn new(measurements: &'a [Measurement]) -> Self {
-        Self {
-            map: measurements
-                .iter()
-                .map(|m| ((m.pose.id, m.load_kg.to_bits()), m))
-                .collect(),
+        let mut map: HashMap<(u32, u64), Vec<&'a Measurement>> = HashMap::new();
+        for m in measurements {
+            map.entry((m.pose.id, m.load_kg.to_bits()))
+                .or_default()
+                .push(m);
         }
+        Self { map }
     }
 
-    /// The measurements of `poses` under `load_kg` (poses without one are skipped).
+    /// The measurements of `poses` under `load_kg`, every target's, in pose
+    /// order (poses without one are skipped).
     pub fn of(&self, poses: impl IntoIterator<Item = u32>, load_kg: f64) -> Vec<Measurement> {
         poses
             .into_iter()
-            .filter_map(|p| self.map.get(&(p, load_kg.to_bits())).map(|m| **m))
+            .filter_map(|p| self.map.get(&(p, load_kg.to_bits())))
+            .flatten()
+            .map(|m| **m)
             .collect()
     }
 }
 
-/// What the runs of one calibration work from: the nominal arm, the candidate
-/// poses selection chooses among, and every measurement, indexed once.
+/// What the runs of one calibration work from: the nominal arm with the
+/// measured targets, the candidate poses selection chooses among, and every
+/// measurement, indexed once.
 pub struct Inputs<'a> {
-    /// The nominal arm.
-    pub nominal: &'a Arm<f64>,
+    /// The nominal arm and the measurements' targets (further targets'
+    /// tool points start at the arm's).
+    pub nominal: Rig,
     /// The candidate poses, in order (a selection's indices point here).
     pub candidates: &'a [Pose],
     /// The measurements by (pose, load).
@@ -220,12 +278,12 @@ pub struct Inputs<'a> {
 impl<'a> Inputs<'a> {
     /// Indexes `measurements` of `candidates` for `nominal`.
     pub fn new(
-        nominal: &'a Arm<f64>,
+        nominal: &Arm<f64>,
         candidates: &'a [Pose],
         measurements: &'a [Measurement],
     ) -> Self {
         Self {
-            nominal,
+            nominal: Rig::new(*nominal, Targets::of(measurements)),
             candidates,
             measurements: MeasurementIndex::new(measurements),
         }
@@ -293,6 +351,16 @@ impl OptionResult {
     }
 }
 
+/// The "before" of a validation: the nominal arm, with the further targets'
+/// tool points as `fitted` found them (a nominal arm has no idea where they
+/// are, and the comparison is about what calibrating the arm bought).
+pub fn nominal_with_fitted_targets(nominal: &Rig, fitted: &Rig) -> Rig {
+    Rig {
+        tools: fitted.tools.clone(),
+        ..nominal.clone()
+    }
+}
+
 /// Selects, identifies and validates `option` over `inputs` as `settings` say.
 pub fn calibrate_option(
     inputs: &Inputs,
@@ -301,7 +369,7 @@ pub fn calibrate_option(
     progress: &dyn Progress,
 ) -> Result<OptionResult, CalibError> {
     let blocks = CandidateBlocks::build(
-        inputs.nominal,
+        &inputs.nominal,
         option,
         inputs.candidates,
         &[settings.identify_load_kg],
@@ -321,17 +389,25 @@ pub fn calibrate_blocks(
     let selection = Selection::choose(blocks, inputs.candidates, &settings.choice, progress)?;
     let chosen: Vec<u32> = selection.poses.iter().map(|p| p.id).collect();
     let fit_set = inputs.measurements.of(chosen.iter().copied(), load);
-    if fit_set.len() < chosen.len() {
+    let measured = fit_set
+        .iter()
+        .map(|m| m.pose.id)
+        .collect::<HashSet<u32>>()
+        .len();
+    if measured < chosen.len() {
         return Err(CalibError::Empty {
             what: format!(
-                "identify from the selected poses: only {} of {} have a measurement under {load} kg",
-                fit_set.len(),
+                "identify from the selected poses: only {measured} of {} have a measurement under {load} kg",
                 chosen.len()
             ),
         });
     }
+    inputs
+        .nominal
+        .targets
+        .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
     let identified = identify_refreshed(
-        inputs.nominal,
+        &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,
         &fit_set,
@@ -339,10 +415,11 @@ pub fn calibrate_blocks(
     )?;
     let rest = inputs.held_out(&chosen);
     let held_out = inputs.measurements.of(rest.iter().copied(), load);
+    let before = nominal_with_fitted_targets(&inputs.nominal, &identified.rig);
     let validation = if held_out.is_empty() {
         None
     } else {
-        Some(validate(inputs.nominal, &identified.arm, &held_out)?)
+        Some(validate(&before, &identified.rig, &held_out)?)
     };
     let cross_load = match settings
         .other_load_kg
@@ -350,7 +427,7 @@ pub fn calibrate_blocks(
     {
         Some((load_kg, set)) if !set.is_empty() => Some(LoadValidation {
             load_kg,
-            validation: validate(inputs.nominal, &identified.arm, &set)?,
+            validation: validate(&before, &identified.rig, &set)?,
         }),
         _ => None,
     };

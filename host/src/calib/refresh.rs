@@ -25,14 +25,12 @@
 //! are determined to) is left out again and the larger fit repeated without
 //! it. Noise-free data determine every joining parameter exactly.
 
-use model::Arm;
-
 use super::identifiability::{analyse_jacobian, typical_error};
 use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::{JacobianOptions, jacobian};
 use super::option::candidates;
 use super::params::ParamKey;
-use super::{CalibError, ModelOption, Sample};
+use super::{CalibError, ModelOption, Rig};
 use crate::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
@@ -43,7 +41,7 @@ pub const REFRESH_TOLERANCE: f64 = 1e-6;
 /// module docs. The result's estimates are corrections of `nominal`, the
 /// added parameters among them.
 pub fn identify_refreshed(
-    nominal: &Arm<f64>,
+    nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
@@ -53,7 +51,7 @@ pub fn identify_refreshed(
     if !options.refresh {
         return Ok(first);
     }
-    let added = independent_at(&first.arm, option, keys, measurements)?;
+    let added = independent_at(&first.rig, option, keys, measurements)?;
     if added.is_empty() {
         return Ok(first);
     }
@@ -87,7 +85,7 @@ pub fn identify_refreshed(
     )
 }
 
-/// The fit of `keys` and `added` from `first`'s estimate (its arm is the
+/// The fit of `keys` and `added` from `first`'s estimate (its rig is the
 /// nominal of this fit); `None` when the poses do not determine them all
 /// together, and the first fit stands.
 fn fit_from(
@@ -99,7 +97,7 @@ fn fit_from(
     options: &IdentifyOptions,
 ) -> Result<Option<Identified>, CalibError> {
     let all: Vec<ParamKey> = keys.iter().chain(added).copied().collect();
-    match identify(&first.arm, option, &all, measurements, options) {
+    match identify(&first.rig, option, &all, measurements, options) {
         Ok(second) => Ok(Some(second)),
         Err(CalibError::RankDeficient { .. } | CalibError::TooFewPoses { .. }) => Ok(None),
         Err(e) => Err(e),
@@ -109,18 +107,18 @@ fn fit_from(
 /// The candidates of `option` outside `keys` whose columns at `arm` over
 /// `measurements` are independent of the columns of `keys`, in preference order.
 fn independent_at(
-    arm: &Arm<f64>,
+    rig: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
 ) -> Result<Vec<ParamKey>, CalibError> {
-    let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
+    let samples = rig.samples(measurements)?;
     let ordered: Vec<ParamKey> = keys
         .iter()
         .copied()
         .chain(candidates(option).into_iter().filter(|k| !keys.contains(k)))
         .collect();
-    let j = jacobian(arm, &ordered, &samples, &JacobianOptions::default())?;
+    let j = jacobian(rig, &ordered, &samples, &JacobianOptions::default())?;
     let analysis = analyse_jacobian(option, &ordered, &j);
     Ok(analysis
         .kept
@@ -131,7 +129,7 @@ fn independent_at(
 
 /// The second fit's result as corrections of `nominal`: each estimate adds
 /// the first fit's correction of its key; the diagnostics count both fits.
-fn combine(nominal: &Arm<f64>, first: &Identified, second: Identified) -> Identified {
+fn combine(nominal: &Rig, first: &Identified, second: Identified) -> Identified {
     let before = |key: ParamKey| {
         first
             .estimates
@@ -144,7 +142,7 @@ fn combine(nominal: &Arm<f64>, first: &Identified, second: Identified) -> Identi
         .iter()
         .map(|e| Estimate {
             error: before(e.id) + e.error,
-            value: e.id.value(&second.arm),
+            value: e.id.value(&second.rig),
             ..*e
         })
         .collect();
@@ -157,8 +155,8 @@ fn combine(nominal: &Arm<f64>, first: &Identified, second: Identified) -> Identi
             .estimates
             .iter()
             .all(
-                |e| (e.id.value(nominal) + before(e.id) + e.error - e.id.value(&second.arm)).abs()
-                    < 1e-9 * (1.0 + e.id.value(&second.arm).abs())
+                |e| (e.id.value(nominal) + before(e.id) + e.error - e.id.value(&second.rig)).abs()
+                    < 1e-9 * (1.0 + e.id.value(&second.rig).abs())
             ),
         "the combined corrections apply to the nominal arm"
     );
@@ -181,17 +179,17 @@ mod tests {
     /// nominal arm.
     #[test]
     fn a_parameter_confounded_only_at_the_nominal_point_joins_the_fit() {
-        let nominal = rigid_nominal();
-        let mut truth = nominal;
+        let arm = rigid_nominal();
+        let nominal = Rig::from(arm);
+        let mut truth = arm;
         truth.joints[1].alpha += 0.05;
         truth.joints[2].d += 0.004;
         truth.joints[1].d -= 0.002;
         let meas = measure(&truth, &small_samples(30));
         let samples = small_samples(30);
-        let keys =
-            crate::calib::identifiability::analyse(&nominal, ModelOption::Kinematic, &samples)
-                .unwrap()
-                .kept;
+        let keys = crate::calib::identifiability::analyse(&arm, ModelOption::Kinematic, &samples)
+            .unwrap()
+            .kept;
         assert!(!keys.contains(&key("j3.d")), "{keys:?}");
         let plain = IdentifyOptions {
             refresh: false,

@@ -37,8 +37,10 @@ use model::{Arm, Frame};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
 use super::checks::IMPLAUSIBLE_M;
+use super::identify::{Estimate, Identified};
 use super::jacobian::tool_points;
-use super::{CalibError, Sample};
+use super::params::ParamKey;
+use super::{CalibError, Rig, Sample};
 use crate::dataset::Measurement;
 
 /// A point farther than this many times the median distance after the
@@ -136,9 +138,84 @@ impl Registration {
             .collect()
     }
 
-    /// The base of `arm` (in the arm file's world frame) seen from the measurement frame.
-    pub fn base_in_measurement_frame(&self, arm: &Arm<f64>) -> Frame<f64> {
-        frame_of(&(self.frame * arm.base.isometry()))
+    /// `arm` (in the arm file's world frame, as the fit used it) in the
+    /// measurement frame: its base moved by the registered motion, its
+    /// gravity turned with it. Predicted points move with the motion
+    /// exactly, deflections included (they depend on gravity relative to
+    /// the links only).
+    pub fn arm_in_measurement_frame(&self, arm: &Arm<f64>) -> Arm<f64> {
+        let mut moved = *arm;
+        moved.base = frame_of(&(self.frame * arm.base.isometry()));
+        moved.gravity = (self.frame.rotation * arm.gravity_vector()).into();
+        moved
+    }
+
+    /// `identified` (fitted from `nominal` in the arm file's world frame)
+    /// in the measurement frame: the rig's arm as
+    /// [`Registration::arm_in_measurement_frame`], and the base's estimates
+    /// re-expressed there: values of the moved base, corrections relative
+    /// to the moved nominal base (angles wrapped), the position's standard
+    /// deviations turned with the frame (correlations between its axes
+    /// ignored; the angles' keep theirs, a rotation mixing them little for
+    /// the small corrections the fit makes).
+    pub fn identified_in_measurement_frame(
+        &self,
+        nominal: &Arm<f64>,
+        identified: &Identified,
+    ) -> Identified {
+        let nominal_m = Rig::from(self.arm_in_measurement_frame(nominal));
+        let mut rig = identified.rig.clone();
+        rig.arm = self.arm_in_measurement_frame(&rig.arm);
+        let std_of = |name: &str| {
+            identified
+                .estimates
+                .iter()
+                .find(|e| e.id.name() == name)
+                .and_then(|e| e.std)
+        };
+        let r = self.frame.rotation.matrix();
+        let estimates = identified
+            .estimates
+            .iter()
+            .map(|e| {
+                let ParamKey::Arm(id) = e.id else {
+                    return *e;
+                };
+                let name = id.name();
+                let Some(axis) = name.strip_prefix("base.") else {
+                    return *e;
+                };
+                let value = e.id.value(&rig);
+                let mut error = value - e.id.value(&nominal_m);
+                let std = match ["x", "y", "z"].iter().position(|a| *a == axis) {
+                    // An axis not fitted has no uncertainty of its own.
+                    Some(i) => Some(
+                        ["base.x", "base.y", "base.z"]
+                            .iter()
+                            .enumerate()
+                            .map(|(j, n)| (r[(i, j)] * std_of(n).unwrap_or(0.0)).powi(2))
+                            .sum::<f64>()
+                            .sqrt(),
+                    ),
+                    None => {
+                        error = (error + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                            - std::f64::consts::PI;
+                        e.std
+                    }
+                };
+                Estimate {
+                    value,
+                    error,
+                    std,
+                    ..*e
+                }
+            })
+            .collect();
+        Identified {
+            rig,
+            estimates,
+            ..identified.clone()
+        }
     }
 }
 
@@ -261,7 +338,7 @@ fn predicted(
 ) -> Result<Vec<Vector3<f64>>, CalibError> {
     let mut arm = *nominal;
     arm.gravity = gravity_arm.into();
-    tool_points(&arm, samples)
+    tool_points(&Rig::from(arm), samples)
 }
 
 /// Registers `nominal` on `measurements` (positions in the measurement

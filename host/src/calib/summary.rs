@@ -4,6 +4,7 @@
 
 use super::experiments::RandomBaseline;
 use super::report::{OptionReport, OutlierReport};
+use crate::io::calibration_file::TargetTool;
 
 /// The paper-style table: option, parameters, mean error before → after,
 /// reduction, and the cross-load reduction when there is one.
@@ -136,6 +137,30 @@ pub fn random_baseline(b: &RandomBaseline) -> String {
         b.detmax_mean_m * 1e3,
         b.random_mean_median_m * 1e3
     )
+}
+
+/// The error per measured target: tool point, fit residual and held-out
+/// error (mean and max, mm), one line each.
+pub fn targets_table(targets: &[TargetTool]) -> String {
+    let mut out = format!(
+        "  {:<12} {:>26} | {:>15} | {:>15}\n",
+        "target", "tool point x y z (mm)", "fit: mean max", "held-out: mean max"
+    );
+    for t in targets {
+        let held_out = t.validation_after.map_or("-".to_string(), |v| {
+            format!("{:6.3} {:7.3}", v.mean_m * 1e3, v.max_m * 1e3)
+        });
+        out += &format!(
+            "  {:<12} {:8.2} {:8.2} {:8.2} | {:6.3} {:8.3} | {held_out:>15}\n",
+            t.name,
+            t.tool_m[0] * 1e3,
+            t.tool_m[1] * 1e3,
+            t.tool_m[2] * 1e3,
+            t.fit_residual.mean_m * 1e3,
+            t.fit_residual.max_m * 1e3,
+        );
+    }
+    out
 }
 
 #[cfg(test)]

@@ -6,12 +6,12 @@ use model::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q};
 use model::{Arm, PARAM_COUNT};
 use rand::{SeedableRng, rngs::StdRng};
 
-use super::Sample;
 use super::detmax::DetmaxOptions;
 use super::identify::IdentifyOptions;
 use super::jacobian::tool_points;
 use super::params::{ParamKey, ParamVector};
 use super::pipeline::{Choice, RunSettings};
+use super::{Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 
 /// The shared LRM-like test arm ([`lrm_like_arm`]) on a slightly tilted base,
@@ -54,13 +54,19 @@ pub fn small_samples(n: usize) -> Vec<Sample> {
             id: i as u32,
             q: random_q(&mut rng),
             load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
+            target: 0,
         })
         .collect()
 }
 
 /// Exact measurements of `arm` at `samples` (no noise).
 pub fn measure(arm: &Arm<f64>, samples: &[Sample]) -> Vec<Measurement> {
-    tool_points(arm, samples)
+    measure_rig(&Rig::from(*arm), samples)
+}
+
+/// Exact measurements of `rig` at `samples`, each row naming its sample's target.
+pub fn measure_rig(rig: &Rig, samples: &[Sample]) -> Vec<Measurement> {
+    tool_points(rig, samples)
         .expect("the test arm deflects")
         .into_iter()
         .zip(samples)
@@ -68,6 +74,7 @@ pub fn measure(arm: &Arm<f64>, samples: &[Sample]) -> Vec<Measurement> {
             pose: Pose { id: s.id, q: s.q },
             load_kg: s.load_kg,
             position,
+            target: rig.targets.name_at(s.target),
         })
         .collect()
 }
@@ -92,7 +99,11 @@ pub fn elastic_run() -> (Arm<f64>, Vec<Pose>, Vec<Measurement>) {
         })
         .collect();
     let poses = samples.iter().map(|s| Pose { id: s.id, q: s.q }).collect();
-    (nominal, poses, measure(&truth.apply(&nominal), &samples))
+    (
+        nominal,
+        poses,
+        measure(&truth.apply(&nominal.into()).arm, &samples),
+    )
 }
 
 /// A DETMAX selection of 10 poses (two starts) under [`LOAD_KG`], no cross-load.

@@ -2,10 +2,8 @@
 //! after calibration: mean, median, RMS, 95th percentile and max of the 3D
 //! error norm.
 
-use model::Arm;
-
 use super::jacobian::tool_points;
-use super::{CalibError, Sample};
+use super::{CalibError, Rig};
 use crate::dataset::Measurement;
 
 /// The statistics of a set of 3D error norms, as the file formats hold them.
@@ -18,6 +16,8 @@ pub struct PoseError {
     pub pose: u32,
     /// Payload, kg.
     pub load_kg: f64,
+    /// Index of the measured target in the calibration's targets.
+    pub target: usize,
     /// 3D error of the nominal model, m.
     pub before_m: f64,
     /// 3D error of the calibrated model, m.
@@ -48,8 +48,8 @@ pub struct LoadValidation {
 
 /// Compares `nominal` and `calibrated` on `measurements`, load by load (ascending).
 pub fn validate_per_load(
-    nominal: &Arm<f64>,
-    calibrated: &Arm<f64>,
+    nominal: &Rig,
+    calibrated: &Rig,
     measurements: &[Measurement],
 ) -> Result<Vec<LoadValidation>, CalibError> {
     crate::dataset::loads_of(measurements)
@@ -68,20 +68,21 @@ pub fn validate_per_load(
         .collect()
 }
 
-/// 3D error norms of `arm`'s predictions against `measurements`, m.
-pub fn error_norms(arm: &Arm<f64>, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
-    let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
-    Ok(tool_points(arm, &samples)?
+/// 3D error norms of `rig`'s predictions against `measurements` (each of
+/// one of its targets), m.
+pub fn error_norms(rig: &Rig, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
+    let samples = rig.samples(measurements)?;
+    Ok(tool_points(rig, &samples)?
         .iter()
         .zip(measurements)
         .map(|(p, m)| (p - m.position).norm())
         .collect())
 }
 
-/// Compares `nominal` and `calibrated` on `measurements`.
+/// Compares `nominal` and `calibrated` (the same targets) on `measurements`.
 pub fn validate(
-    nominal: &Arm<f64>,
-    calibrated: &Arm<f64>,
+    nominal: &Rig,
+    calibrated: &Rig,
     measurements: &[Measurement],
 ) -> Result<Validation, CalibError> {
     if measurements.is_empty() {
@@ -106,9 +107,28 @@ pub fn validate(
             .map(|(m, (b, a))| PoseError {
                 pose: m.pose.id,
                 load_kg: m.load_kg,
+                target: calibrated.targets.index(m.target).unwrap_or(0),
                 before_m: *b,
                 after_m: *a,
             })
             .collect(),
     })
+}
+
+impl Validation {
+    /// The calibrated model's error statistics per target, in target order
+    /// (`targets` of them; a target with no measurement here has count 0).
+    pub fn after_per_target(&self, targets: usize) -> Vec<ErrorStats> {
+        (0..targets)
+            .map(|t| {
+                let norms: Vec<f64> = self
+                    .per_measurement
+                    .iter()
+                    .filter(|e| e.target == t)
+                    .map(|e| e.after_m)
+                    .collect();
+                ErrorStats::of(&norms)
+            })
+            .collect()
+    }
 }

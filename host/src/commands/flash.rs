@@ -15,7 +15,8 @@ lrmcal flash firmware.uf2 --mount /media/me/RPI-RP2   # board already in bootloa
 Make the UF2 from the ELF with `cargo firmware && elf2uf2-rs \
 target/thumbv6m-none-eabi/release/firmware firmware.uf2`. With a debug probe, \
 `cargo firmware-run` flashes through probe-rs instead. The calibration lives in its own \
-flash sectors and survives a firmware update.")]
+flash sectors and survives a firmware update of the same protocol version; after an update to \
+a new version (`lrmcal status` shows it) the board starts without one: push it again.")]
 pub struct Args {
     /// Firmware image, `.uf2`.
     pub image: PathBuf,

@@ -1,8 +1,12 @@
 //! `lrmcal identify`: fit the error parameters to a measurement file, from a
 //! DETMAX selection of N poses or an explicit pose list, for one model option
 //! or all three; validate on the measured poses not used; write the
-//! calibration file(s) and a report. Before the fit the arm is registered
-//! in the measurement frame (`crate::calib::registration`) unless
+//! calibration file(s) and a report. Measurements of several targets per
+//! pose (a `target` column) fit one arm and a tool point per target; with
+//! `--tool-only`, only the tool points are fitted, the arm of an earlier
+//! calibration held fixed (after a tool change).
+//! Before the fit the arm is registered in the measurement frame
+//! (`crate::calib::registration`, on the first target's rows) unless
 //! `--no-register` keeps the arm file's base.
 
 use std::path::PathBuf;
@@ -11,19 +15,20 @@ use crate::calib::checks::{
     check_in_candidates, check_measured, check_plausible, identification_load,
 };
 use crate::calib::detmax::DetmaxOptions;
-use crate::calib::export::calibration_file;
+use crate::calib::export::{calibration_file, target_tools};
 use crate::calib::identifiability::check_structure;
-use crate::calib::identify::IdentifyOptions;
+use crate::calib::identify::{IdentifyOptions, identify};
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
 use crate::calib::registration::{GENERIC_HINT, Gravity, Registration, diagnose, register};
 use crate::calib::report::Report;
+use crate::calib::targets::{Rig, Targets, tool_keys};
 use crate::calib::{CalibError, summary};
 use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::{RegistrationRecord, ValidationSummary};
+use crate::io::calibration_file::{CalibrationFile, RegistrationRecord, ValidationSummary};
 use crate::io::{measurements, pose_list};
 use crate::tracker::axes::Up;
 use model::Arm;
@@ -33,7 +38,8 @@ use model::Arm;
 #[command(after_help = "Examples:\n  \
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
-lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n\n\
+lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --robust\n  \
+lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic.json --tool-only\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
@@ -42,12 +48,16 @@ calibration-<option>.json (the file `lrmcal push` sends to the board) and report
 The positions may be in any right-handed frame (the tracker's): the arm's base is found \
 in it from the measurements first (printed, and recorded in the calibration file), so the \
 arm file's [base] need not be known. Gravity is the arm file's `gravity` in that frame, \
-or -g along the axis --up names, or along the base's -z with --level-base.")]
+or -g along the axis --up names, or along the base's -z with --level-base.\n\n\
+Several targets per pose: a `target` column in the measurements names the target of each row; \
+the fit shares the arm and gives each target its own tool point (every target needs at least \
+3 poses). After a tool change, re-teach only the tool points from a few poses with \
+--calibration OLD.json --tool-only: the arm of OLD.json stays as it is.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
-    /// Measurement CSV (`pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm`).
+    /// Measurement CSV (`pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm[,target]`).
     #[arg(long, value_name = "FILE")]
     pub measurements: PathBuf,
     /// Candidate pose list: every measured pose must be one of them.
@@ -88,6 +98,13 @@ pub struct Args {
     /// Keep the arm file's base: the measurements are in its world frame.
     #[arg(long, conflicts_with = "level_base")]
     pub no_register: bool,
+    /// Re-teach only the tool points (one per target of the measurements)
+    /// with the arm of --calibration held fixed: after a tool change.
+    #[arg(long, requires = "calibration", conflicts_with_all = ["select", "poses", "candidates"])]
+    pub tool_only: bool,
+    /// The earlier calibration whose arm --tool-only keeps.
+    #[arg(long, value_name = "FILE", requires = "tool_only")]
+    pub calibration: Option<PathBuf>,
     /// DETMAX random starts.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
@@ -115,18 +132,36 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         .into());
     }
-    let registration = registration(args, &nominal, &all)?;
+    let loads = loads_of(&all);
+    let load = identification_load(&loads, args.load_kg, &file)?;
+    let targets = Targets::of(&all);
+    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
+    targets.check_poses(&under_load, &file)?;
+    if let Some(path) = &args.calibration {
+        return tool_only(args, path, targets, &under_load, load);
+    }
+    // The nominal arm knows the first target's tool point only: the others
+    // may sit anywhere on the flange.
+    let first: Vec<_> = all
+        .iter()
+        .filter(|m| targets.index(m.target) == Some(0))
+        .copied()
+        .collect();
+    let registration = registration(args, &nominal, &first)?;
+    // The fit runs in the arm file's world frame, where the base's angles
+    // are small corrections; the file gets the result in the measurement frame.
     let nominal = registration.arm_for_fit(&nominal);
     let all = registration.to_arm_frame(&all);
+    let first = registration.to_arm_frame(&first);
     // Still 150 mm off after the best rigid motion: say what to check.
-    check_plausible(&nominal, &all, &file).map_err(|e| match e {
+    check_plausible(&nominal, &first, &file).map_err(|e| match e {
         CalibError::BadMeasurement {
             pose,
             load_kg,
             file,
             problem,
         } => {
-            let hint = diagnose(&nominal, &all).unwrap_or_else(|| GENERIC_HINT.into());
+            let hint = diagnose(&nominal, &first).unwrap_or_else(|| GENERIC_HINT.into());
             CalibError::BadMeasurement {
                 pose,
                 load_kg,
@@ -136,8 +171,6 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         other => other,
     })?;
-    let loads = loads_of(&all);
-    let load = identification_load(&loads, args.load_kg, &file)?;
     if let Some(path) = &args.candidates {
         let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
         check_in_candidates(&all, &candidates, &file)?;
@@ -174,7 +207,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let bar = Bar::new();
     let mut results = Vec::new();
     for option in args.option.options() {
-        let blocks = CandidateBlocks::build(&nominal, option, &measured, &[load])?;
+        let blocks = CandidateBlocks::build(&inputs.nominal, option, &measured, &[load])?;
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
         results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
@@ -188,9 +221,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &results,
     );
     for (r, details) in results.iter().zip(&report.options) {
-        let cal = calibration_file(
-            &nominal,
-            &r.identified,
+        let per_target = r
+            .validation
+            .as_ref()
+            .map(|v| v.after_per_target(targets.len()))
+            .unwrap_or_default();
+        let mut cal = calibration_file(
+            &registration.arm_in_measurement_frame(&nominal),
+            &registration.identified_in_measurement_frame(&nominal, &r.identified),
             &r.selection.candidates.identifiability.removed_ids(),
             r.pose_ids(),
             vec![load],
@@ -200,11 +238,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 before: v.before,
                 after: v.after,
             }),
-        )
-        .with_registration(record(args, &registration, &r.identified.arm));
+        );
+        for (target, after) in cal.targets.iter_mut().zip(per_target) {
+            target.validation_after = Some(after);
+        }
+        let cal = cal.with_registration(record(args, &registration));
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
+        if !cal.targets.is_empty() {
+            print!("{}", summary::targets_table(&cal.targets));
+        }
         println!("  wrote {}", path.display());
     }
     write_text(&args.out.join("report.json"), &report.to_json())?;
@@ -226,7 +270,7 @@ fn gravity(args: &Args, nominal: &Arm<f64>) -> Gravity {
     }
 }
 
-/// Registers the arm on `all` (or keeps the file's base with
+/// Registers the arm on `all` (the first target's rows; or keeps the file's base with
 /// `--no-register`) and prints where it stands.
 fn registration(
     args: &Args,
@@ -285,15 +329,75 @@ fn registration(
     Ok(reg)
 }
 
-/// What the calibration file records of the registration, for the calibrated `arm`.
-fn record(args: &Args, reg: &Registration, arm: &Arm<f64>) -> RegistrationRecord {
+/// What the calibration file records of the registration.
+fn record(args: &Args, reg: &Registration) -> RegistrationRecord {
     RegistrationRecord {
         registered: !args.no_register,
         frame: crate::calib::registration::frame_of(&reg.frame),
-        base: reg.base_in_measurement_frame(arm),
+        base: crate::calib::registration::frame_of(&reg.base),
         gravity: reg.gravity.into(),
         before_rms_m: reg.before_rms_m,
         after_rms_m: reg.after_rms_m,
         trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
     }
+}
+
+/// `--tool-only`: fits the tool point of every target of `measurements`
+/// (under `load`) with the arm of the calibration at `path` held fixed, and
+/// writes that calibration with the new tool points.
+fn tool_only(
+    args: &Args,
+    path: &std::path::Path,
+    targets: Targets,
+    measurements: &[crate::dataset::Measurement],
+    load: f64,
+) -> Result<(), Error> {
+    let old = CalibrationFile::read(path)?;
+    let mut rig = Rig::new(old.arm, targets);
+    // A target the old calibration knows starts from where it was.
+    for (t, name) in rig.targets.names().iter().enumerate().skip(1) {
+        if let Some(known) = old.targets.iter().find(|k| &k.name == name) {
+            rig.tools[t - 1] = known.tool_m.into();
+        }
+    }
+    let keys = tool_keys(0..rig.targets.len());
+    let options = IdentifyOptions {
+        robust: args.robust,
+        ..Default::default()
+    };
+    let fit = identify(&rig, old.option, &keys, measurements, &options)?;
+    let mut poses: Vec<u32> = measurements.iter().map(|m| m.pose.id).collect();
+    poses.dedup();
+    let mut parameters: Vec<_> = old
+        .parameters
+        .iter()
+        .filter(|p| !p.name.starts_with("tool.") && !p.name.starts_with("tool["))
+        .cloned()
+        .collect();
+    parameters.extend(fit.estimates.iter().map(Into::into));
+    let cal = CalibrationFile {
+        arm: fit.rig.arm,
+        parameters,
+        poses_used: poses,
+        loads_kg: vec![load],
+        fit_residual: fit.fit_residual,
+        // Every measurement fitted the tool points: none is left to validate on.
+        validation: None,
+        targets: target_tools(&fit, &[]),
+        ..old
+    };
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
+        path: args.out.clone(),
+        source,
+    })?;
+    let out = args.out.join(format!("calibration-{}.json", cal.option));
+    write_text(&out, &cal.to_json())?;
+    println!(
+        "tool points re-taught from {} measurements with the arm of {} held fixed:",
+        measurements.len(),
+        path.display()
+    );
+    print!("{}", summary::targets_table(&cal.targets));
+    println!("  wrote {}", out.display());
+    Ok(())
 }

@@ -111,6 +111,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             pose: row.pose,
             load_kg: args.load_kg.or(row.load_kg).unwrap_or(0.0),
             position: turn * period.position,
+            target: None,
         })
         .collect();
     measurements::write(&args.out, &rows)?;

@@ -335,6 +335,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             pose,
             load_kg,
             position,
+            target: None,
         });
         measurements::write(out, &done)?;
         bar.inc(1);
@@ -437,6 +438,7 @@ mod tests {
             pose: pose(1),
             load_kg: 0.0,
             position: Vector3::zeros(),
+            target: None,
         }];
         let left: Vec<(u32, f64)> = remaining(&poses, &done)
             .iter()

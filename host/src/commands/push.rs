@@ -13,10 +13,12 @@ use crate::io::calibration_file::CalibrationFile;
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]
 #[command(
-    after_help = "Example:\n  lrmcal push calibration.json --port /dev/ttyACM0\n\n\
+    after_help = "Examples:\n  lrmcal push calibration.json --port /dev/ttyACM0\n  \
+lrmcal push calibration.json --target marker2 --port /dev/ttyACM0\n\n\
 The board checks the whole calibration (length, CRC, finite values, limits, monotonic servo \
 curves) before it stores it in the flash slot not in use; if the transfer breaks off or the \
-check fails, it keeps the calibration it had."
+check fails, it keeps the calibration it had. A calibration of several measured targets \
+compensates one of them: the first unless --target names another."
 )]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
@@ -24,6 +26,10 @@ pub struct Args {
     /// Home pose for `lrmcal home` and start-up, six angles in degrees [default: all 0].
     #[arg(long, num_args = 6, value_name = "DEG", allow_negative_numbers = true)]
     pub home_deg: Option<Vec<f64>>,
+    /// The measured target the board compensates (its tool point goes where
+    /// the nominal arm's would be) [default: the calibration's first].
+    #[arg(long, value_name = "NAME")]
+    pub target: Option<String>,
     /// The board.
     #[command(flatten)]
     pub device: DeviceArgs,
@@ -45,9 +51,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; 6]);
     let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
+    let (nominal, arm) = file
+        .arms_for_target(args.target.as_deref())
+        .map_err(|reason| Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason,
+        })?;
+    let file = CalibrationFile {
+        nominal,
+        arm,
+        ..file
+    };
     let payload = calibration::payload(&file, home_rad).map_err(|fault| Error::DeviceInput {
         what: format!("prepare `{}` for the board", args.calibration.display()),
-        reason: fault.to_string(),
+        reason: calibration::explain(fault, &file.arm),
     })?;
     let mut client = args.device.connect()?;
     let bar = ProgressBar::new(0).with_style(

@@ -1,29 +1,37 @@
-//! `lrmcal servo-tune`: level-1 calibration at the terminal. Jog one servo's
-//! pulse until the protractor reads -100°, 0° and +100°, record each, and
-//! write the three-point curve into the arm file and onto the board.
+//! `lrmcal servo-tune`: level-1 calibration at the terminal, the quick start
+//! before any identification. Jog one servo's pulse until the protractor
+//! reads each of the tuning angles (by default -100°, -50°, 0°, +50°, +100°),
+//! record each, and write the curve through them into the arm file and onto
+//! the board.
 
 use std::path::PathBuf;
 
 use crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind};
 use crossterm::terminal;
 use model::ServoCurve;
+use model::servo::{KnotCount, PULSE_RANGE_US};
 
 use crate::device::{Client, ClientError, DeviceArgs, Link, calibration};
 use crate::error::Error;
-use crate::io::arm_toml::{self, NO_SERVO};
+use crate::io::arm_toml::{self, no_servo};
 
 /// Tune one servo's pulse curve interactively.
 #[derive(Debug, clap::Args)]
 #[command(
     after_help = "Example:\n  lrmcal servo-tune 3 --arm my_arm.toml --port /dev/ttyACM0\n\n\
-Keys: ←/→ 1 µs, ↓/↑ 10 µs, PgDn/PgUp 100 µs; 1, 2, 3 record the pulse as -100°, 0°, +100°; \
-w writes the curve to the arm file (and to the board's calibration, if it has one); q quits \
-and leaves the servo limp. The board clamps every pulse to its safe range."
+Keys: ←/→ 1 µs, ↓/↑ 10 µs, PgDn/PgUp 100 µs; 1 … N record the pulse as the N tuning angles \
+from -100° to +100° (with the default 5 points: 1 = -100°, 2 = -50°, 3 = 0°, 4 = +50°, \
+5 = +100°); w writes the curve to the arm file (and to the board's calibration, if it has \
+one); q quits and leaves the servo limp. The board clamps every pulse to its safe range. \
+Points not recorded keep the pulse the arm file's curve gives at their angle."
 )]
 pub struct Args {
     /// Joint 1..6.
     #[arg(value_parser = clap::value_parser!(u8).range(1..=6))]
     pub joint: u8,
+    /// Tuning angles, evenly spaced from -100° to +100° (3 to 9; odd counts include 0°).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(3..=9))]
+    pub points: u8,
     /// Arm description (TOML) whose `servo` curve of this joint is rewritten.
     #[arg(long, value_name = "FILE")]
     pub arm: PathBuf,
@@ -45,28 +53,71 @@ pub enum Action {
     Quit,
 }
 
-/// The tuning session's state: the pulse now and the three points.
+/// The tuning session's state: the pulse now and the curve through the tuning angles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Tuning {
     /// Pulse on the servo, µs.
     pub pulse_us: u16,
-    /// The curve being built (starts as the arm file's).
+    /// The curve being built: a knot at each tuning angle, starting with the
+    /// pulses the arm file's curve gives there.
     pub curve: ServoCurve<f64>,
-    /// Which of -100°, 0°, +100° were recorded in this session.
-    pub recorded: [bool; 3],
+    /// Which knots were recorded in this session.
+    pub recorded: Vec<bool>,
     /// Last message for the user.
     pub note: String,
 }
 
+/// `points` angles evenly spaced from -100° to +100°, degrees.
+pub fn tuning_angles_deg(points: usize) -> Vec<f64> {
+    let last = points.saturating_sub(1).max(1) as f64;
+    (0..points)
+        .map(|k| -100.0 + 200.0 * k as f64 / last)
+        .collect()
+}
+
+/// An angle as the prompt shows it: `-100°`, `0°`, `+50°`, `-33.3°`.
+fn label(deg: f64) -> String {
+    if deg == 0.0 {
+        "0°".into()
+    } else if deg.fract() == 0.0 {
+        format!("{deg:+}°")
+    } else {
+        format!("{deg:+.1}°")
+    }
+}
+
 impl Tuning {
-    /// Starts at the curve's 0° pulse.
-    pub fn new(curve: ServoCurve<f64>) -> Self {
-        Self {
-            pulse_us: curve.zero.round().clamp(0.0, 65535.0) as u16,
+    /// Starts from `curve` (the arm file's) resampled at `points` tuning
+    /// angles, at its 0° pulse.
+    pub fn new(curve: ServoCurve<f64>, points: usize) -> Result<Self, KnotCount> {
+        let angles: Vec<f64> = tuning_angles_deg(points)
+            .iter()
+            .map(|d| d.to_radians())
+            .collect();
+        let curve = curve.resampled(&angles)?;
+        Ok(Self {
+            pulse_us: curve.pulse_us(0.0).round().clamp(0.0, 65535.0) as u16,
             curve,
-            recorded: [false; 3],
+            recorded: vec![false; points],
             note: String::new(),
+        })
+    }
+
+    /// Why the curve cannot be written yet, if it cannot.
+    fn unwritable(&self) -> Option<String> {
+        if !self.curve.is_monotonic() {
+            return Some("not written: the pulses must run one way".into());
         }
+        let [lo, hi] = PULSE_RANGE_US.map(f64::from);
+        let outside = self
+            .curve
+            .pulses_us()
+            .iter()
+            .position(|p| !(lo..=hi).contains(p))?;
+        Some(format!(
+            "not written: point {} lies outside {lo}..{hi} µs; record it",
+            outside + 1
+        ))
     }
 
     /// Applies one key.
@@ -82,39 +133,40 @@ impl Tuning {
             KeyCode::Up => step(self, 10),
             KeyCode::PageDown => step(self, -100),
             KeyCode::PageUp => step(self, 100),
-            KeyCode::Char(c @ '1'..='3') => {
+            KeyCode::Char(c @ '1'..='9') if usize::from(c as u8 - b'1') < self.recorded.len() => {
+                let k = usize::from(c as u8 - b'1');
                 let p = f64::from(self.pulse_us);
-                let (slot, name) = match c {
-                    '1' => (&mut self.curve.minus100, "-100°"),
-                    '2' => (&mut self.curve.zero, "0°"),
-                    _ => (&mut self.curve.plus100, "+100°"),
-                };
-                *slot = p;
-                self.recorded[(c as u8 - b'1') as usize] = true;
-                self.note = format!("recorded {p} µs as {name}");
+                self.curve.pulses_us_mut()[k] = p;
+                self.recorded[k] = true;
+                let deg = tuning_angles_deg(self.recorded.len())[k];
+                self.note = format!("recorded {p} µs as {}", label(deg));
                 Action::Nothing
             }
-            KeyCode::Char('w') if self.curve.is_monotonic() => Action::Write(self.curve),
-            KeyCode::Char('w') => {
-                self.note = "not written: the three pulses must run one way".into();
-                Action::Nothing
-            }
+            KeyCode::Char('w') => match self.unwritable() {
+                None => Action::Write(self.curve),
+                Some(why) => {
+                    self.note = why;
+                    Action::Nothing
+                }
+            },
             KeyCode::Char('q') | KeyCode::Esc => Action::Quit,
             _ => Action::Nothing,
         }
     }
 
     fn line(&self, joint: u8) -> String {
-        let mark = |i: usize| if self.recorded[i] { "*" } else { " " };
+        let points: Vec<String> = tuning_angles_deg(self.recorded.len())
+            .iter()
+            .zip(self.curve.pulses_us())
+            .zip(&self.recorded)
+            .map(|((&deg, p), &rec)| {
+                format!("{}: {p:.0}{}", label(deg), if rec { "*" } else { " " })
+            })
+            .collect();
         format!(
-            "\rjoint {joint}: {:>5} µs | -100°: {:.0}{} 0°: {:.0}{} +100°: {:.0}{} | {}\x1b[K",
+            "\rjoint {joint}: {:>5} µs | {} | {}\x1b[K",
             self.pulse_us,
-            self.curve.minus100,
-            mark(0),
-            self.curve.zero,
-            mark(1),
-            self.curve.plus100,
-            mark(2),
+            points.join(" "),
             self.note
         )
     }
@@ -136,7 +188,7 @@ fn write_to_board<L: Link>(
         }
         Err(e) => return Err(e.into()),
     };
-    c.calibrated.joints[joint].servo = curve.map_f32();
+    c.calibrated.joints[joint].servo = curve.map(|x| x as f32);
     let c = calibration::identified(c).map_err(|f| Error::DeviceInput {
         what: "put the new curve into the board's calibration".into(),
         reason: f.to_string(),
@@ -145,26 +197,11 @@ fn write_to_board<L: Link>(
     Ok(format!("board calibration updated ({:08x})", c.id))
 }
 
-/// Single precision for the board.
-trait MapF32 {
-    fn map_f32(self) -> ServoCurve<f32>;
-}
-
-impl MapF32 for ServoCurve<f64> {
-    fn map_f32(self) -> ServoCurve<f32> {
-        ServoCurve {
-            minus100: self.minus100 as f32,
-            zero: self.zero as f32,
-            plus100: self.plus100 as f32,
-        }
-    }
-}
-
 /// Runs `lrmcal servo-tune`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let mut description = arm_toml::read(&args.arm)?;
     let j = (args.joint - 1) as usize;
-    if description.arm.joints[j].servo == NO_SERVO {
+    if description.arm.joints[j].servo == no_servo() {
         return Err(Error::DeviceInput {
             what: format!("tune joint {} of `{}`", args.joint, args.arm.display()),
             reason: format!(
@@ -177,7 +214,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         });
     }
     let mut client = args.device.connect()?;
-    let mut tuning = Tuning::new(description.arm.joints[j].servo);
+    let mut tuning = Tuning::new(description.arm.joints[j].servo, usize::from(args.points))
+        .map_err(|e| Error::DeviceInput {
+            what: format!("tune joint {} at {} points", args.joint, args.points),
+            reason: e.to_string(),
+        })?;
     let tty = |e: std::io::Error| Error::DeviceInput {
         what: "use the terminal".into(),
         reason: e.to_string(),
@@ -223,30 +264,76 @@ mod tests {
 
     #[test]
     fn keys_jog_record_and_refuse_a_bad_curve() {
-        let mut t = Tuning::new(ServoCurve::nominal());
+        let mut t = Tuning::new(ServoCurve::nominal(), 5).unwrap();
+        assert_eq!(t.curve.pulses_us(), [900.0, 1275.0, 1650.0, 2025.0, 2400.0]);
         assert_eq!(t.pulse_us, 1650);
         assert_eq!(t.key(KeyCode::Up), Action::Pulse(1660));
         assert_eq!(t.key(KeyCode::Left), Action::Pulse(1659));
-        t.key(KeyCode::Char('2'));
-        assert_eq!(t.curve.zero, 1659.0);
+        t.key(KeyCode::Char('3'));
+        assert_eq!(t.curve.pulses_us()[2], 1659.0);
+        assert_eq!(t.note, "recorded 1659 µs as 0°");
         for _ in 0..8 {
             t.key(KeyCode::PageDown);
         }
         t.key(KeyCode::Char('1'));
-        assert_eq!(t.curve.minus100, 859.0);
-        assert_eq!(t.recorded, [true, true, false]);
+        assert_eq!(t.note, "recorded 859 µs as -100°");
+        assert_eq!(t.recorded, [true, false, true, false, false]);
+        // Only five points: keys past 5 record nothing.
+        assert_eq!(t.key(KeyCode::Char('6')), Action::Nothing);
+        assert_eq!(t.recorded, [true, false, true, false, false]);
+        let d = |x: f64| x.to_radians();
         assert_eq!(
             t.key(KeyCode::Char('w')),
-            Action::Write(ServoCurve {
-                minus100: 859.0,
-                zero: 1659.0,
-                plus100: 2400.0
-            })
+            Action::Write(
+                ServoCurve::new(
+                    &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
+                    &[859.0, 1275.0, 1659.0, 2025.0, 2400.0]
+                )
+                .unwrap()
+            )
         );
-        // Recording +100° below 0° makes a non-monotonic curve, which is not written.
-        t.key(KeyCode::Char('3'));
+        let line = t.line(2);
+        assert!(
+            line.contains("-100°: 859* -50°: 1275  0°: 1659* +50°: 2025  +100°: 2400 "),
+            "{line}"
+        );
+        // Recording +50° below 0° makes a non-monotonic curve, which is not written.
+        t.key(KeyCode::Char('4'));
         assert_eq!(t.key(KeyCode::Char('w')), Action::Nothing);
-        assert!(t.note.contains("not written"));
+        assert!(t.note.contains("not written"), "{}", t.note);
         assert_eq!(t.key(KeyCode::Char('q')), Action::Quit);
+    }
+
+    #[test]
+    fn three_points_are_the_old_tuning_and_odd_counts_include_zero() {
+        let mut t = Tuning::new(ServoCurve::nominal(), 3).unwrap();
+        assert_eq!(t.curve, ServoCurve::nominal());
+        t.key(KeyCode::Char('2'));
+        assert_eq!(t.note, "recorded 1650 µs as 0°");
+        assert_eq!(t.key(KeyCode::Char('4')), Action::Nothing);
+        assert_eq!(tuning_angles_deg(9)[1], -75.0);
+        assert_eq!(tuning_angles_deg(7)[3], 0.0);
+        let four = Tuning::new(ServoCurve::nominal(), 4).unwrap();
+        assert!(four.line(1).contains("-33.3°: 1400"), "{}", four.line(1));
+        assert!(Tuning::new(ServoCurve::nominal(), 10).is_err());
+    }
+
+    #[test]
+    fn a_point_outside_the_pulse_range_is_not_written() {
+        // A curve whose outer knots lie inside ±100°: resampled at ±100° it
+        // runs past 2500 µs until that point is recorded.
+        let d = |x: f64| x.to_radians();
+        let steep = ServoCurve::new(&[d(-50.0), d(50.0)], &[1300.0, 2200.0]).unwrap();
+        let mut t = Tuning::new(steep, 3).unwrap();
+        assert!((t.curve.pulses_us()[2] - 2650.0).abs() < 1e-9);
+        assert_eq!(t.key(KeyCode::Char('w')), Action::Nothing);
+        assert!(
+            t.note.contains("point 3") && t.note.contains("2500"),
+            "{}",
+            t.note
+        );
+        t.pulse_us = 2450;
+        t.key(KeyCode::Char('3'));
+        assert!(matches!(t.key(KeyCode::Char('w')), Action::Write(_)));
     }
 }

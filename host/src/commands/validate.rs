@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use crate::calib::checks::check_plausible;
+use crate::calib::export::rigs_of;
 use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
@@ -17,8 +18,9 @@ lrmcal validate --calibration cal/calibration-elasto-kinematic.json --measuremen
 lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated). With --arm, the calibration must have been \
-identified from that arm. A calibration registered in the tracker's frame (by `identify`) \
-takes measurements in that frame.")]
+identified from that arm (its base aside when `identify` registered it). A calibration \
+registered by `identify` holds both arms in the tracker's frame, so the measurements are \
+taken in that frame as they are.")]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
     #[arg(long, value_name = "FILE")]
@@ -37,15 +39,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(source) = &args.arm {
         cal.check_nominal(&source.load()?.arm, &args.calibration)?;
     }
-    let mut rows = measurements::read(&args.measurements)?;
-    // Measurements in the frame the calibration was registered in come into the arm's frame.
-    if let Some(reg) = &cal.registration {
-        for m in &mut rows {
-            m.position = reg.to_arm_frame(&m.position);
-        }
-    }
+    let rows = measurements::read(&args.measurements)?;
     let file = args.measurements.display().to_string();
-    check_plausible(&cal.nominal, &rows, &file)?;
+    let (nominal, calibrated) = rigs_of(&cal);
+    // The nominal arm knows where the first target is; the others are the fit's.
+    let first: Vec<_> = rows
+        .iter()
+        .filter(|m| calibrated.targets.index(m.target) == Some(0))
+        .copied()
+        .collect();
+    check_plausible(&cal.nominal, &first, &file)?;
     println!(
         "{} calibration {} on {file}:",
         cal.option.name(),
@@ -69,7 +72,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             s.max_m * 1e3
         )
     };
-    for lv in validate_per_load(&cal.nominal, &cal.arm, &rows)? {
+    for lv in validate_per_load(&nominal, &calibrated, &rows)? {
         let v = &lv.validation;
         println!(
             "{:>8} {:>6} | {:>31} | {:>31} | {:>7.1} %",

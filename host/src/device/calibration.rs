@@ -1,6 +1,7 @@
 //! From a calibration file (JSON, [`crate::io::calibration_file`]) to the
 //! payload the board stores.
 
+use model::Arm;
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::{Calibration, CalibrationFault};
 
@@ -18,6 +19,27 @@ pub fn payload(
         calibrated: file.arm.map(|x| x as f32),
         home_rad,
     })
+}
+
+/// `fault` in words; for a servo curve, with the knots of `arm` (the
+/// calibrated arm it was found in) so the user sees where the curve turns.
+pub fn explain(fault: CalibrationFault, arm: &Arm<f64>) -> String {
+    let CalibrationFault::ServoCurve { joint, .. } = fault else {
+        return fault.to_string();
+    };
+    let Some(curve) = arm.joints.get(usize::from(joint)).map(|j| j.servo) else {
+        return fault.to_string();
+    };
+    let knots: Vec<String> = curve
+        .angles_rad()
+        .iter()
+        .zip(curve.pulses_us())
+        .map(|(a, p)| format!("{:.2}° {p} µs", a.to_degrees()))
+        .collect();
+    format!(
+        "{fault} (knots: {}); not sent: the board must never map angle to pulse non-monotonically",
+        knots.join(", ")
+    )
 }
 
 /// Checks `calibration` and gives it its id: the CRC-32 of the payload

@@ -3,7 +3,8 @@
 //!
 //! Errors split in two: [`CommsError`] when the exchange itself failed (no
 //! port, no answer, another protocol version) and [`ClientError::Endpoint`]
-//! when the board answered and refused.
+//! when the board answered and refused; a calibration the board would refuse
+//! is not sent at all ([`ClientError::Invalid`]).
 
 use std::io::ErrorKind;
 use std::time::{Duration, Instant};
@@ -11,8 +12,8 @@ use std::time::{Duration, Instant};
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::{self, Feed, FrameError, MAX_FRAME, PROTOCOL_VERSION};
 use protocol::{
-    CHUNK_LEN, Calibration, CalibrationInfo, CompensationMode, DeviceInfo, FrameReader, Request,
-    Response, Status, Timing, WireError,
+    CHUNK_LEN, Calibration, CalibrationFault, CalibrationInfo, CompensationMode, DeviceInfo,
+    FrameReader, Request, Response, Status, Timing, WireError,
 };
 
 use super::Link;
@@ -49,10 +50,16 @@ pub enum CommsError {
         /// Timeout of each, ms.
         timeout_ms: u128,
     },
-    /// The board speaks another protocol version.
+    /// The board speaks another protocol version. Both sides' frames keep
+    /// their version in the first byte forever, so whichever side is older,
+    /// this is what the newer lrmcal says (and what earlier ones said too).
     #[error(
-        "agree on the protocol: the board speaks version {board}, this lrmcal speaks {PROTOCOL_VERSION}; {}",
-        if *board < PROTOCOL_VERSION { "update the firmware (`lrmcal flash`)" } else { "update lrmcal" }
+        "agree on the protocol: the board speaks protocol {board}, this lrmcal speaks {PROTOCOL_VERSION}: {}",
+        if *board < PROTOCOL_VERSION {
+            "reflash the firmware (hold BOOTSEL while plugging the board in, then `lrmcal flash firmware.uf2`)"
+        } else {
+            "update lrmcal"
+        }
     )]
     Version {
         /// The board's protocol version.
@@ -85,6 +92,9 @@ pub enum ClientError {
         /// Its reason.
         error: WireError,
     },
+    /// A calibration the board would refuse was not sent.
+    #[error("send the calibration: {0}; not sent")]
+    Invalid(CalibrationFault),
 }
 
 /// A connection to one board.
@@ -310,6 +320,9 @@ impl<L: Link> Client<L> {
         calibration: &Calibration,
         mut progress: impl FnMut(usize, usize),
     ) -> Result<CalibrationInfo, ClientError> {
+        // The board checks too, but nothing it would refuse (a non-monotonic
+        // servo curve above all) ever leaves the host.
+        calibration.check().map_err(ClientError::Invalid)?;
         let mut buf = [0u8; MAX_CALIBRATION_LEN];
         let bytes = calibration
             .encode(&mut buf)

@@ -4,17 +4,23 @@
 //! Every key of the model is required; there are no defaults, because a
 //! forgotten line in a calibration input should be an error, not a silent
 //! zero. Two parts are optional: a joint's `servo` table (an arm our board
-//! does not drive has none, see [`NO_SERVO`]), and the collision description
+//! does not drive has none, see [`no_servo`]), and the collision description
 //! (`[collision]`, `[[body]]`), whose defaults are the planner's. Unknown keys
 //! are rejected (a misspelt key would otherwise be ignored). Numbers must be
 //! finite; masses, compliances and sizes must not be negative; joint limits
-//! must satisfy `lo < hi`; servo curves must be strictly monotonic. Errors name
-//! the key path (`joint[3].mass`, `body[2].capsule.from`, array positions
-//! counted from 1 like the joints `j1..j6`), the line, and what was expected.
+//! must satisfy `lo < hi`; servo curves must be strictly monotonic with their
+//! pulses in [`PULSE_RANGE_US`]. Errors name the key path (`joint[3].mass`,
+//! `body[2].capsule.from`, array positions counted from 1 like the joints
+//! `j1..j6`), the line, and what was expected.
+//!
+//! A servo curve is written as its knots, `{ angles_deg = [...], pulses_us =
+//! [...] }`; the three points of earlier files, `{ minus100, zero, plus100 }`,
+//! still read as the same curve, bit for bit.
 
 use std::ops::Range;
 use std::path::Path;
 
+use model::servo::{CurveFault, MAX_KNOTS, PULSE_RANGE_US};
 use model::{Arm, Frame, JOINTS, Joint, ServoCurve};
 use serde::{Deserialize, Serialize};
 use toml::{Spanned, Value};
@@ -32,7 +38,7 @@ pub struct ArmDescription {
     pub name: String,
     /// The joints' names, base to tip (`joint[i].name`).
     pub joint_names: [String; JOINTS],
-    /// The arm's parameters; a joint without a `servo` table has [`NO_SERVO`].
+    /// The arm's parameters; a joint without a `servo` table has [`no_servo`].
     pub arm: Arm<f64>,
     /// The bodies, floor and clearance the planner tests (`[collision]`, `[[body]]`).
     pub collision: CollisionSpec,
@@ -43,17 +49,15 @@ pub struct ArmDescription {
 /// pulses 0. The model never reads the curve; the board commands refuse it
 /// (see [`joint_without_servo`]), and so would the board, since it is not
 /// monotonic, which a curve from a file always is.
-pub const NO_SERVO: ServoCurve<f64> = ServoCurve {
-    minus100: 0.0,
-    zero: 0.0,
-    plus100: 0.0,
-};
+pub fn no_servo() -> ServoCurve<f64> {
+    ServoCurve::from_three_points(0.0, 0.0, 0.0)
+}
 
-/// The first joint (1-based) of `arm` that has no servo curve ([`NO_SERVO`]), if any.
+/// The first joint (1-based) of `arm` that has no servo curve ([`no_servo`]), if any.
 pub fn joint_without_servo(arm: &Arm<f64>) -> Option<usize> {
     arm.joints
         .iter()
-        .position(|j| j.servo == NO_SERVO)
+        .position(|j| j.servo == no_servo())
         .map(|i| i + 1)
 }
 
@@ -180,13 +184,54 @@ struct RawJoint {
     servo: Option<Spanned<RawServo>>,
 }
 
+/// A servo curve in either form: the three points of earlier files, or the knots.
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 struct RawServo {
-    minus100: f64,
-    zero: f64,
-    plus100: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    minus100: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    zero: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    plus100: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    angles_deg: Option<Vec<f64>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pulses_us: Option<Vec<f64>>,
 }
+
+impl RawServo {
+    /// The knots form of `curve`, with angles that read back as the very same radians.
+    fn knots(curve: &ServoCurve<f64>) -> Self {
+        Self {
+            minus100: None,
+            zero: None,
+            plus100: None,
+            angles_deg: Some(curve.angles_rad().iter().map(|&a| degrees_of(a)).collect()),
+            pulses_us: Some(curve.pulses_us().to_vec()),
+        }
+    }
+}
+
+/// The shortest decimal number of degrees that reads back as exactly `rad`
+/// (`100f64.to_radians().to_degrees()` is not 100, and a written file must
+/// read back as the arm it was written from).
+fn degrees_of(rad: f64) -> f64 {
+    let deg = rad.to_degrees();
+    (0..=15)
+        .map(|places| {
+            let scale = 10f64.powi(places);
+            (deg * scale).round() / scale
+        })
+        .find(|d| d.to_radians() == rad)
+        .unwrap_or(deg)
+}
+
+// The messages below spell these two out.
+const _: () = assert!(MAX_KNOTS == 9 && PULSE_RANGE_US[0] == 500 && PULSE_RANGE_US[1] == 2500);
+
+/// What either form of a servo curve looks like, for the error when neither is given.
+const SERVO_FORMS: &str = "either `{ angles_deg = [...], pulses_us = [...] }` (2 to 9 knots: angles in degrees, strictly increasing, and their pulses in µs) or `{ minus100, zero, plus100 }` (the pulses at -100°, 0° and +100°)";
 
 #[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -311,32 +356,6 @@ impl Checker<'_> {
         })
     }
 
-    fn servo(&self, key: &str, raw: &Spanned<RawServo>) -> Result<ServoCurve<f64>, InputError> {
-        let s = raw.get_ref();
-        let servo = ServoCurve {
-            minus100: s.minus100,
-            zero: s.zero,
-            plus100: s.plus100,
-        };
-        let pulses = [servo.minus100, servo.zero, servo.plus100];
-        if let Some(bad) = pulses.iter().find(|p| !p.is_finite()) {
-            return Err(self.fail(
-                key,
-                raw.span(),
-                Problem::NotFinite {
-                    found: bad.to_string(),
-                },
-            ));
-        }
-        if !servo.is_monotonic() {
-            return Err(self.fail(key, raw.span(), Problem::OutOfRange {
-                expected: "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
-                found: format!("{} / {} / {}", servo.minus100, servo.zero, servo.plus100),
-            }));
-        }
-        Ok(servo)
-    }
-
     fn joint(&self, key: &str, raw: &RawJoint) -> Result<Joint<f64>, InputError> {
         let k = |field: &str| format!("{key}.{field}");
         let limits = self.finite_array(&k("limits"), &raw.limits)?;
@@ -352,7 +371,7 @@ impl Checker<'_> {
         }
         let servo = match &raw.servo {
             Some(servo) => self.servo(&k("servo"), servo)?,
-            None => NO_SERVO,
+            None => no_servo(),
         };
         Ok(Joint {
             theta: self.finite(&k("theta"), &raw.theta)?,
@@ -545,6 +564,153 @@ impl Checker<'_> {
     }
 }
 
+impl Checker<'_> {
+    /// A joint's servo curve in either form, checked: finite, angles strictly
+    /// increasing, pulses within [`PULSE_RANGE_US`] and strictly monotonic.
+    fn servo(&self, key: &str, raw: &Spanned<RawServo>) -> Result<ServoCurve<f64>, InputError> {
+        let s = raw.get_ref();
+        let fail = |key: &str, problem| self.fail(key, raw.span(), problem);
+        let curve = match ([s.minus100, s.zero, s.plus100], &s.angles_deg, &s.pulses_us) {
+            ([Some(m), Some(z), Some(p)], None, None) => self.three_points(key, raw, [m, z, p])?,
+            ([None, None, None], Some(angles), Some(pulses)) => {
+                self.knots(key, raw, angles, pulses)?
+            }
+            _ => {
+                let given = [
+                    ("minus100", s.minus100.is_some()),
+                    ("zero", s.zero.is_some()),
+                    ("plus100", s.plus100.is_some()),
+                    ("angles_deg", s.angles_deg.is_some()),
+                    ("pulses_us", s.pulses_us.is_some()),
+                ];
+                let given: Vec<&str> = given.iter().filter(|g| g.1).map(|g| g.0).collect();
+                return Err(fail(
+                    key,
+                    Problem::OutOfRange {
+                        expected: SERVO_FORMS,
+                        found: format!("the keys {{ {} }}", given.join(", ")),
+                    },
+                ));
+            }
+        };
+        let [lo, hi] = PULSE_RANGE_US.map(f64::from);
+        if let Some(k) = curve
+            .pulses_us()
+            .iter()
+            .position(|p| !(lo..=hi).contains(p))
+        {
+            let key = match s.pulses_us {
+                Some(_) => format!("{key}.pulses_us[{}]", k + 1),
+                None => key.to_owned(),
+            };
+            return Err(fail(
+                &key,
+                Problem::OutOfRange {
+                    expected: "servo pulses within 500..=2500 µs, what a hobby servo accepts and the board sends",
+                    found: format!("{} µs", curve.pulses_us()[k]),
+                },
+            ));
+        }
+        Ok(curve)
+    }
+
+    /// The three points of earlier files, checked as they always were.
+    fn three_points(
+        &self,
+        key: &str,
+        raw: &Spanned<RawServo>,
+        pulses: [f64; 3],
+    ) -> Result<ServoCurve<f64>, InputError> {
+        if let Some(bad) = pulses.iter().find(|p| !p.is_finite()) {
+            return Err(self.fail(
+                key,
+                raw.span(),
+                Problem::NotFinite {
+                    found: bad.to_string(),
+                },
+            ));
+        }
+        let [m, z, p] = pulses;
+        let curve = ServoCurve::from_three_points(m, z, p);
+        if !curve.is_monotonic() {
+            return Err(self.fail(key, raw.span(), Problem::OutOfRange {
+                expected: "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing from minus100 through zero to plus100",
+                found: format!("{m} / {z} / {p}"),
+            }));
+        }
+        Ok(curve)
+    }
+
+    /// The knots form: as many pulses as angles, 2 to 9 of them, and a curve
+    /// that maps angle to pulse one-to-one.
+    fn knots(
+        &self,
+        key: &str,
+        raw: &Spanned<RawServo>,
+        angles_deg: &[f64],
+        pulses_us: &[f64],
+    ) -> Result<ServoCurve<f64>, InputError> {
+        let fail = |field: String, expected, found| {
+            self.fail(&field, raw.span(), Problem::OutOfRange { expected, found })
+        };
+        if !(2..=MAX_KNOTS).contains(&angles_deg.len()) {
+            return Err(fail(
+                format!("{key}.angles_deg"),
+                "2 to 9 knots",
+                format!("{} angles", angles_deg.len()),
+            ));
+        }
+        if pulses_us.len() != angles_deg.len() {
+            return Err(fail(
+                format!("{key}.pulses_us"),
+                "one pulse (µs) per angle of angles_deg",
+                format!("{} pulses for {} angles", pulses_us.len(), angles_deg.len()),
+            ));
+        }
+        let angles: Vec<f64> = angles_deg.iter().map(|a| a.to_radians()).collect();
+        let curve = ServoCurve::new(&angles, pulses_us)
+            .map_err(|e| fail(format!("{key}.angles_deg"), "2 to 9 knots", e.to_string()))?;
+        match curve.check() {
+            Ok(()) => Ok(curve),
+            Err(CurveFault::NotFinite { knot }) => {
+                let (field, value) = if angles_deg[knot].is_finite() {
+                    ("pulses_us", pulses_us[knot])
+                } else {
+                    ("angles_deg", angles_deg[knot])
+                };
+                Err(self.fail(
+                    &format!("{key}.{field}[{}]", knot + 1),
+                    raw.span(),
+                    Problem::NotFinite {
+                        found: value.to_string(),
+                    },
+                ))
+            }
+            Err(CurveFault::AnglesNotIncreasing { knot }) => Err(fail(
+                format!("{key}.angles_deg[{}]", knot + 1),
+                "knot angles (°) strictly increasing, each above the one before",
+                format!("{} after {}", angles_deg[knot], angles_deg[knot - 1]),
+            )),
+            Err(CurveFault::PulsesNotMonotonic { knot }) => Err(fail(
+                format!("{key}.pulses_us[{}]", knot + 1),
+                "a monotonic servo curve, pulses (µs) strictly increasing or strictly decreasing with the angle",
+                format!(
+                    "{} then {} where the curve {} from {} to {}",
+                    pulses_us[knot - 1],
+                    pulses_us[knot],
+                    if pulses_us[1] > pulses_us[0] {
+                        "rises"
+                    } else {
+                        "falls"
+                    },
+                    pulses_us[0],
+                    pulses_us[1]
+                ),
+            )),
+        }
+    }
+}
+
 impl RawArm {
     fn check(self, lines: &LineIndex) -> Result<ArmDescription, InputError> {
         let c = Checker { lines };
@@ -618,13 +784,8 @@ impl RawArm {
                         limits: unspanned(j.limits),
                         mass: unspanned(j.mass),
                         com: unspanned(j.com),
-                        servo: (j.servo != NO_SERVO).then(|| {
-                            unspanned(RawServo {
-                                minus100: j.servo.minus100,
-                                zero: j.servo.zero,
-                                plus100: j.servo.plus100,
-                            })
-                        }),
+                        servo: (j.servo != no_servo())
+                            .then(|| unspanned(RawServo::knots(&j.servo))),
                     })
                     .collect(),
             ),

@@ -5,16 +5,22 @@
 //! It carries the *full* corrected arm (nominal + identified errors, the servo
 //! curves inside each joint), the nominal arm it was identified from (so a
 //! mismatched arm is caught), the option, every fitted parameter with its
-//! standard deviation, the poses used and the statistics. The engine fills it
-//! from its results (`crate::calib::export`); this module owns the format.
+//! standard deviation, the poses used and the statistics, and, when the
+//! measurements named several targets (or the tool was re-taught), every
+//! target's tool point: the board compensates one of them
+//! ([`CalibrationFile::arms_for_target`]). The engine fills it from its
+//! results (`crate::calib::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
-//! Version 2 added [`CalibrationFile::registration`]; version 1 files are
-//! still read (without one).
+//!
+//! Version 2 writes each servo curve as its knots (`angles_rad`,
+//! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
+//! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
+//! Version 3 adds [`CalibrationFile::registration`]; files of versions 1
+//! and 2 read without one.
 
 use std::path::Path;
 
-use model::{Arm, Frame, ParamId};
-use nalgebra::{Point3, Vector3};
+use model::{Arm, Frame, ParamId, ServoCurve};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
@@ -23,10 +29,49 @@ use crate::error::{Error, InputError, Location, Problem};
 
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
-/// Version of the schema this build writes and reads.
-pub const SCHEMA_VERSION: u32 = 2;
-/// The oldest version this build still reads.
-pub const OLDEST_READ_VERSION: u32 = 1;
+/// Version of the schema this build writes (and the newest it reads).
+pub const SCHEMA_VERSION: u32 = 3;
+/// The oldest version this build reads.
+pub const OLDEST_SCHEMA_VERSION: u32 = 1;
+
+/// A servo curve as schema 1 wrote it: the pulses at -100°, 0° and +100°.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ThreePoints {
+    minus100: f64,
+    zero: f64,
+    plus100: f64,
+}
+
+/// Rewrites the servo curves of a schema-1 file's two arms as knots, so the
+/// rest of it reads like a schema-2 file.
+fn upgrade_servo_curves(value: &mut serde_json::Value) -> Result<(), InputError> {
+    for arm in ["nominal", "arm"] {
+        let joints = value
+            .get_mut(arm)
+            .and_then(|a| a.get_mut("joints"))
+            .and_then(|j| j.as_array_mut());
+        // Missing pieces are reported by the typed read that follows.
+        for (i, joint) in joints.into_iter().flatten().enumerate() {
+            let Some(servo) = joint.get_mut("servo") else {
+                continue;
+            };
+            let three: ThreePoints = serde_json::from_value(servo.take()).map_err(|e| {
+                InputError::new(
+                    Location::key(None, format!("{arm}.joints[{}].servo", i + 1)),
+                    Problem::Syntax {
+                        message: format!(
+                            "expected the pulses minus100, zero and plus100 of a schema-1 file: {e}"
+                        ),
+                    },
+                )
+            })?;
+            let curve = ServoCurve::from_three_points(three.minus100, three.zero, three.plus100);
+            *servo = serde_json::to_value(curve).expect("a servo curve always serialises");
+        }
+    }
+    Ok(())
+}
 
 /// One fitted parameter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -124,24 +169,35 @@ pub struct CalibrationFile {
     pub fit_residual: ErrorStats,
     /// Validation on held-out measurements, when there were any.
     pub validation: Option<ValidationSummary>,
-    /// Where the arm stood in the measurement frame; `None` in files of
-    /// version 1 and in the demo's (which measures in the arm's own frame).
-    #[serde(default)]
+    /// The measured targets, in the order the measurements named them; absent
+    /// for one unnamed target (the arm's tool point). The first is the
+    /// arm's tool point and what the board compensates unless
+    /// `lrmcal push --target` names another.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<TargetTool>,
+    /// Where `identify` found the arm's base in the measurement frame, and
+    /// from what; `None` in files of versions 1 and 2 and in the demo's
+    /// (which measures in the arm file's own frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration: Option<RegistrationRecord>,
 }
 
 /// The arm's place in the measurement frame, as `lrmcal identify` found it.
 ///
-/// `nominal` and `arm` stay in the arm file's world frame (the board and
-/// `predict` work there); `frame` carries them into the measurement frame.
+/// A registered file's `nominal` and `arm` are both in the measurement
+/// frame already (the nominal's base is the registered base, gravity is the
+/// measurement frame's), so `predict`, `validate` and the board work there
+/// with no conversion; this record only documents where the base was found.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RegistrationRecord {
     /// Whether the base was registered (false: `--no-register`, the arm file's base kept).
     pub registered: bool,
-    /// The arm file's world frame in the measurement frame (m, rad).
+    /// The arm file's world frame in the measurement frame (m, rad): the
+    /// rigid motion registration found.
     pub frame: Frame<f64>,
-    /// The calibrated arm's frame 0 in the measurement frame (m, rad): the registered base, refined by the fit.
+    /// The nominal arm's frame 0 in the measurement frame (m, rad), as
+    /// registration placed it (the calibrated `arm` refines it).
     pub base: Frame<f64>,
     /// Gravity in the measurement frame, m/s².
     pub gravity: [f64; 3],
@@ -153,14 +209,18 @@ pub struct RegistrationRecord {
     pub trimmed: Vec<u32>,
 }
 
-impl RegistrationRecord {
-    /// A point of the measurement frame in the arm file's world frame, m.
-    pub fn to_arm_frame(&self, position: &Vector3<f64>) -> Vector3<f64> {
-        self.frame
-            .isometry()
-            .inverse_transform_point(&Point3::from(*position))
-            .coords
-    }
+/// One measured target of a calibration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetTool {
+    /// The name the measurement file gave it.
+    pub name: String,
+    /// Its tool point in frame 6 (the tool frame's parent) of the corrected arm, m.
+    pub tool_m: [f64; 3],
+    /// Residual of the fit on its own measurements (3D error norm), m.
+    pub fit_residual: ErrorStats,
+    /// The corrected arm's error on its held-out measurements, when there were any, m.
+    pub validation_after: Option<ErrorStats>,
 }
 
 /// Before/after statistics on held-out measurements.
@@ -183,7 +243,16 @@ impl CalibrationFile {
 
     /// Parses and checks a calibration file's text.
     pub fn parse(text: &str) -> Result<Self, InputError> {
-        let file: Self = json::parse_versions(text, SCHEMA, OLDEST_READ_VERSION..=SCHEMA_VERSION)?;
+        let file: Self = json::parse_upgrading(
+            text,
+            SCHEMA,
+            OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
+            |version, value| match version {
+                1 => upgrade_servo_curves(value),
+                // Version 2 lacks only the registration, which reads as none.
+                _ => Ok(()),
+            },
+        )?;
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
             let compliances = arm.joints.iter().map(|j| j.compliance);
             let negative = compliances
@@ -203,17 +272,79 @@ impl CalibrationFile {
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
-            if ParamId::from_name(&p.name).is_none() || repeated {
+            let known = ParamId::from_name(&p.name).is_some()
+                || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
+            if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
                     Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6), each once",
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, tool[N].x … tool[N].z of a listed target), each once",
                         found: format!("`{}`", p.name),
                     },
                 ));
             }
         }
+        for (i, t) in file.targets.iter().enumerate() {
+            let problem = if t.name.is_empty() {
+                Some("a name".to_string())
+            } else if file.targets[..i].iter().any(|u| u.name == t.name) {
+                Some(format!("a name not used before, found `{}` again", t.name))
+            } else if !t.tool_m.iter().all(|v| v.is_finite()) {
+                Some("finite coordinates in m".to_string())
+            } else {
+                None
+            };
+            if let Some(message) = problem {
+                return Err(InputError::new(
+                    Location::key(None, format!("targets[{}]", i + 1)),
+                    Problem::Invalid {
+                        message: format!("expected {message}"),
+                    },
+                ));
+            }
+        }
+        if let Some(first) = file.targets.first()
+            && first.tool_m != file.arm.tool.xyz
+        {
+            return Err(InputError::new(
+                Location::key(None, "targets[1].tool_m"),
+                Problem::Invalid {
+                    message: "the first target is the arm's tool point: expected arm.tool.xyz"
+                        .into(),
+                },
+            ));
+        }
         Ok(file)
+    }
+
+    /// The nominal and corrected arms the board gets for the target called
+    /// `name` (the first without one): both with that target's tool point,
+    /// so the board puts that target where the nominal arm's tool point
+    /// would be. A file without targets is its arms as they are.
+    pub fn arms_for_target(&self, name: Option<&str>) -> Result<(Arm<f64>, Arm<f64>), String> {
+        let chosen = match name {
+            None => self.targets.first(),
+            Some(name) => Some(self.targets.iter().find(|t| t.name == name).ok_or_else(|| {
+                if self.targets.is_empty() {
+                    format!(
+                        "it has no target `{name}`: it was identified from measurements without a \
+                         `target` column, so it has the one tool point; leave out --target"
+                    )
+                } else {
+                    let names: Vec<&str> = self.targets.iter().map(|t| t.name.as_str()).collect();
+                    format!(
+                        "it has no target `{name}`; its targets are {}",
+                        names.join(", ")
+                    )
+                }
+            })?),
+        };
+        let (mut nominal, mut arm) = (self.nominal, self.arm);
+        if let Some(target) = chosen {
+            nominal.tool.xyz = target.tool_m;
+            arm.tool.xyz = target.tool_m;
+        }
+        Ok((nominal, arm))
     }
 
     /// The same file recording `registration`.
@@ -229,11 +360,17 @@ impl CalibrationFile {
         Self::parse(&read_text(path)?).map_err(|e| e.in_file(path))
     }
 
-    /// Checks that this calibration (read from `path`) was identified from `nominal`.
+    /// Checks that this calibration (read from `path`) was identified from
+    /// `nominal`. A registered file's nominal base is where registration
+    /// found it, not the arm file's, so the base is not compared then.
     pub fn check_nominal(&self, nominal: &Arm<f64>, path: &Path) -> Result<(), Error> {
         let ours = self.nominal.param_values();
         let theirs = nominal.param_values();
+        let registered = self.registration.as_ref().is_some_and(|r| r.registered);
         for (id, (a, b)) in ParamId::all().zip(ours.iter().zip(&theirs)) {
+            if registered && id.name().starts_with("base.") {
+                continue;
+            }
             if (a - b).abs() > 1e-9 * (1.0 + a.abs()) {
                 return Err(Error::ArmMismatch {
                     path: path.to_owned(),
@@ -245,6 +382,13 @@ impl CalibrationFile {
         }
         Ok(())
     }
+}
+
+/// The target index `N` of a further target's tool-point parameter `tool[N].x|y|z`.
+fn target_of_tool_name(name: &str) -> Option<usize> {
+    let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+    let target: usize = target.parse().ok().filter(|t| *t > 0)?;
+    ["x", "y", "z"].contains(&axis).then_some(target)
 }
 
 /// A calibration file for the unit tests of `io`.
@@ -277,6 +421,7 @@ pub(super) mod test_support {
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
             registration: None,
+            targets: vec![],
         }
     }
 }
@@ -333,41 +478,105 @@ mod tests {
         assert!(e.contains("not JSON") && e.contains("number"), "{e}");
     }
 
-    /// A version 1 file (no registration) still reads; a registration
-    /// carries measured points back into the arm's frame.
+    /// The first target by default, another by name, both arms carrying its
+    /// tool point; an unknown name lists the names; a file without targets
+    /// sends its arms as they are and refuses any name.
     #[test]
-    fn reads_version_1_and_records_the_registration() {
+    fn target_selection_moves_both_tool_points() {
+        let mut file = sample_file();
+        assert_eq!(file.arms_for_target(None), Ok((file.nominal, file.arm)));
+        let e = file.arms_for_target(Some("m1")).unwrap_err();
+        assert!(e.contains("`m1`") && e.contains("target` column"), "{e}");
+        let stats = ErrorStats::of(&[0.001]);
+        for (name, tool_m) in [("m0", file.arm.tool.xyz), ("m1", [0.0, 0.03, 0.05])] {
+            file.targets.push(TargetTool {
+                name: name.into(),
+                tool_m,
+                fit_residual: stats,
+                validation_after: None,
+            });
+        }
+        file.parameters.push(FittedParam {
+            name: "tool[1].y".into(),
+            error: 0.03,
+            value: 0.03,
+            std: None,
+        });
+        let file = CalibrationFile::parse(&file.to_json()).unwrap();
+        let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
+        assert_eq!(nominal.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.joints, file.arm.joints);
+        assert_eq!(nominal.joints, file.nominal.joints);
+        let (nominal, arm) = file.arms_for_target(None).unwrap();
+        assert_eq!(
+            (nominal.tool.xyz, arm.tool.xyz),
+            (file.arm.tool.xyz, file.arm.tool.xyz)
+        );
+        let e = file.arms_for_target(Some("m9")).unwrap_err();
+        assert!(e.contains("`m9`") && e.contains("m0, m1"), "{e}");
+        // A parameter of a target the file does not list, a repeated name, a
+        // first target away from the arm's tool point: refused with the key.
+        let json = file.to_json();
+        let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
+        let e = refused(&json.replacen("tool[1].y", "tool[2].y", 1));
+        assert!(e.contains("parameters[2].name"), "{e}");
+        let e = refused(&json.replacen("\"m1\"", "\"m0\"", 1));
+        assert!(e.contains("targets[2]") && e.contains("`m0` again"), "{e}");
+        let mut moved = file.clone();
+        moved.targets[0].tool_m[0] += 0.01;
+        let e = refused(&moved.to_json());
+        assert!(e.contains("targets[1].tool_m"), "{e}");
+    }
+
+    /// A version 2 file (no registration) still reads; a registration
+    /// round trips, and lets the nominal arm's base differ from the arm
+    /// file's (it is the registered base) but nothing else.
+    #[test]
+    fn reads_version_2_and_records_the_registration() {
         let file = sample_file();
-        let v1 = file
-            .to_json()
-            .replace("\"schema_version\": 2", "\"schema_version\": 1")
-            .replace(",\n  \"registration\": null", "");
-        assert!(!v1.contains("registration"), "{v1}");
-        let read = CalibrationFile::parse(&v1).unwrap();
+        let v2 = file.to_json().replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 2",
+        );
+        assert!(!v2.contains("registration"), "{v2}");
+        let read = CalibrationFile::parse(&v2).unwrap();
         assert_eq!(
             read,
             CalibrationFile {
-                schema_version: 1,
+                schema_version: 2,
                 ..file.clone()
             }
         );
+        let arm_file = file.nominal;
+        let mut registered = file.clone();
+        registered.nominal.base.xyz[0] += 0.5;
+        registered.nominal.base.rpy[2] += 1.0;
+        let path = Path::new("cal.json");
+        let e = registered.check_nominal(&arm_file, path).unwrap_err();
+        assert!(e.to_string().contains("base.x"), "{e}");
         let record = RegistrationRecord {
             registered: true,
             frame: Frame {
-                xyz: [1.0, 2.0, 3.0],
-                rpy: [std::f64::consts::FRAC_PI_2, 0.0, 0.0],
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
             },
-            base: Frame::identity(),
+            base: Frame {
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
+            },
             gravity: [0.0, -9.8, 0.0],
             before_rms_m: 2.0,
             after_rms_m: 0.03,
             trimmed: vec![7],
         };
-        let with = file.with_registration(record.clone());
+        let with = registered.with_registration(record);
         assert_eq!(CalibrationFile::parse(&with.to_json()).unwrap(), with);
-        // Roll 90 deg takes the arm's z to the measurement frame's -y... and back.
-        let p = record.to_arm_frame(&Vector3::new(1.0, 1.0, 3.0));
-        assert!((p - Vector3::new(0.0, 0.0, 1.0)).norm() < 1e-12, "{p}");
+        with.check_nominal(&arm_file, path).unwrap();
+        let mut other = arm_file;
+        other.joints[2].a += 0.01;
+        let e = with.check_nominal(&other, path).unwrap_err();
+        assert!(e.to_string().contains("j3.a"), "{e}");
     }
 
     #[test]
@@ -380,5 +589,42 @@ mod tests {
         assert!((s.p95_m - 4.8).abs() < 1e-12);
         assert_eq!(s.max_m, 5.0);
         assert_eq!(ErrorStats::of(&[]).count, 0);
+    }
+
+    #[test]
+    fn schema_1_files_read_as_the_same_curves() {
+        let mut file = sample_file();
+        file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
+        let json = file.to_json();
+        assert!(json.contains("\"schema_version\": 2") && json.contains("\"angles_rad\""));
+        // The same file as schema 1 wrote it: each curve as its three pulses.
+        let mut v1: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v1["schema_version"] = 1.into();
+        for arm in ["nominal", "arm"] {
+            for joint in v1[arm]["joints"].as_array_mut().unwrap() {
+                let p = joint["servo"]["pulses_us"].clone();
+                joint["servo"] =
+                    serde_json::json!({ "minus100": p[0], "zero": p[1], "plus100": p[2] });
+            }
+        }
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        assert!(text.contains("\"minus100\": 880.5"), "{text}");
+        assert_eq!(CalibrationFile::parse(&text).unwrap(), file);
+
+        v1["arm"]["joints"][2]["servo"] = serde_json::json!({ "minus100": 900.0, "zero": 1650.0 });
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        let e = CalibrationFile::parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("arm.joints[3].servo") && e.contains("plus100"),
+            "{e}"
+        );
+        // A schema-2 file must hold knots: the three points alone are refused.
+        v1["schema_version"] = 2.into();
+        v1["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let e = CalibrationFile::parse(&serde_json::to_string(&v1).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("minus100"), "{e}");
     }
 }

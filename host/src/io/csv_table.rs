@@ -15,6 +15,7 @@ use std::collections::HashMap;
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
+use crate::dataset::TargetName;
 use crate::error::{InputError, Location, Problem};
 
 /// Columns starting with this are ignored by every reader.
@@ -77,6 +78,11 @@ impl Row<'_> {
     /// Whether the file has this column.
     pub fn has(&self, column: &str) -> bool {
         self.header.index.contains_key(column)
+    }
+
+    /// The text of `column`, if the file has it.
+    pub fn text(&self, column: &'static str) -> Option<&str> {
+        self.has(column).then(|| self.cell(column))
     }
 
     fn cell(&self, column: &'static str) -> &str {
@@ -283,23 +289,26 @@ fn csv_error(error: csv::Error) -> InputError {
     )
 }
 
-/// Tracks pose ids across rows: each (pose, load) once, and one configuration per id.
+/// Tracks pose ids across rows: each (pose, load, target) once, and one configuration per id.
 #[derive(Default)]
 pub struct PoseBook {
-    seen_load: HashMap<(u32, Option<u64>), u64>,
+    seen_load: HashMap<(u32, Option<u64>, Option<TargetName>), u64>,
     seen_q: HashMap<u32, ([f64; model::JOINTS], u64)>,
 }
 
 impl PoseBook {
-    /// Records a row (`load_kg` None: the file has no loads); errors if its (pose, load) was seen, or its pose id had other angles.
+    /// Records a row (`load_kg` None: the file has no loads) measuring
+    /// `target`; errors if its (pose, load, target) was seen, or its pose id
+    /// had other angles.
     pub fn record(
         &mut self,
         row: &Row<'_>,
         pose: u32,
         q: &[f64; model::JOINTS],
         load_kg: Option<f64>,
+        target: Option<TargetName>,
     ) -> Result<(), InputError> {
-        let key = (pose, load_kg.map(f64::to_bits));
+        let key = (pose, load_kg.map(f64::to_bits), target);
         if let Some(&first_line) = self.seen_load.get(&key) {
             let problem = match load_kg {
                 Some(load_kg) => Problem::DuplicatePose {

@@ -8,6 +8,8 @@
 //! `SCHEMA` and `SCHEMA_VERSION`, and `parse`/`read` built on [`parse`]; the
 //! engine converts its results into those structs (see `crate::calib::export`).
 
+use std::ops::RangeInclusive;
+
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
@@ -30,18 +32,21 @@ pub fn parse<T: DeserializeOwned>(
     schema: &'static str,
     version: u32,
 ) -> Result<T, InputError> {
-    parse_versions(text, schema, version..=version)
+    parse_upgrading(text, schema, version..=version, |_, _| Ok(()))
 }
 
-/// [`parse`] of a format whose reader also takes older versions: any of
-/// `versions` (the newest last) is read; the struct's defaults fill what an
-/// older version lacks.
-pub fn parse_versions<T: DeserializeOwned>(
+/// [`parse`] for a format that still reads its older versions: a file of a
+/// version in `versions` below the newest is handed to `upgrade` (with its
+/// version) as a JSON value, rewritten into the newest layout, then read.
+/// Errors in an upgraded file name the key but no line.
+pub fn parse_upgrading<T: DeserializeOwned>(
     text: &str,
     schema: &'static str,
-    versions: std::ops::RangeInclusive<u32>,
+    versions: RangeInclusive<u32>,
+    upgrade: impl FnOnce(u32, &mut serde_json::Value) -> Result<(), InputError>,
 ) -> Result<T, InputError> {
-    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| json_error(&e, None))?;
+    let mut value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| json_error(&e, None))?;
     let found = value.get("schema");
     if found.and_then(|s| s.as_str()) != Some(schema) {
         return Err(InputError::new(
@@ -53,22 +58,31 @@ pub fn parse_versions<T: DeserializeOwned>(
         ));
     }
     let found = value.get("schema_version");
-    let known = found
+    let version = found
         .and_then(|v| v.as_u64())
         .and_then(|v| u32::try_from(v).ok())
-        .is_some_and(|v| versions.contains(&v));
-    if !known {
+        .filter(|v| versions.contains(v));
+    let Some(version) = version else {
         return Err(InputError::new(
             Location::key(None, "schema_version"),
             Problem::WrongVersion {
-                expected: *versions.end(),
+                oldest: *versions.start(),
+                newest: *versions.end(),
                 found: shown(found),
             },
         ));
+    };
+    if version == *versions.end() {
+        // From the text again, not the value: serde_json's errors then carry lines.
+        let mut deserializer = serde_json::Deserializer::from_str(text);
+        return serde_path_to_error::deserialize(&mut deserializer).map_err(|e| {
+            let key = super::key_path(e.path());
+            json_error(e.inner(), Some(key))
+        });
     }
-    // From the text again, not the value: serde_json's errors then carry lines.
-    let mut deserializer = serde_json::Deserializer::from_str(text);
-    serde_path_to_error::deserialize(&mut deserializer).map_err(|e| {
+    upgrade(version, &mut value)?;
+    value["schema_version"] = (*versions.end()).into();
+    serde_path_to_error::deserialize(value).map_err(|e| {
         let key = super::key_path(e.path());
         json_error(e.inner(), Some(key))
     })

@@ -1,20 +1,26 @@
 //! Measurement files (`docs/FORMATS.md`, "Measurements"):
-//! `pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm`, one row per measured pose.
+//! `pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm`, one row per measured pose,
+//! and an optional `target` column naming the measured target when several
+//! are measured at each pose (a file without it measures one).
 
 use std::io::Write;
 use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::dataset::{Measurement, Pose};
-use crate::error::{Error, InputError};
+use crate::dataset::{MAX_TARGETS, Measurement, Pose, TARGET_NAME_MAX, TargetName};
+use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
     Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg, format_mm,
 };
 use crate::io::{atomic, read_text};
 
-/// The columns of a measurement file, in the order they are written.
-pub const COLUMNS: [&str; 11] = [
+/// The optional column naming the measured target.
+pub const TARGET_COLUMN: &str = "target";
+
+/// The columns of a measurement file, in the order they are written
+/// ([`TARGET_COLUMN`] last, when the rows name targets).
+pub const COLUMNS: [&str; 12] = [
     "pose",
     "load_kg",
     Q_COLUMNS[0],
@@ -26,11 +32,12 @@ pub const COLUMNS: [&str; 11] = [
     XYZ_COLUMNS[0],
     XYZ_COLUMNS[1],
     XYZ_COLUMNS[2],
+    TARGET_COLUMN,
 ];
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
-    optional: &[],
+    optional: &[TARGET_COLUMN],
     extra: Extra::Refuse,
 };
 
@@ -43,7 +50,29 @@ pub fn read(path: &Path) -> Result<Vec<Measurement>, Error> {
 pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
     let mut out = Vec::new();
     let mut book = PoseBook::default();
+    let mut targets: Vec<TargetName> = Vec::new();
     for_each_row(text, &SCHEMA, |row| {
+        let target = match row.text(TARGET_COLUMN) {
+            None => None,
+            Some(name) => {
+                let name =
+                    target_name(name).map_err(|problem| row.error(TARGET_COLUMN, problem))?;
+                if !targets.contains(&name) {
+                    if targets.len() == MAX_TARGETS {
+                        return Err(row.error(
+                            TARGET_COLUMN,
+                            Problem::Invalid {
+                                message: format!(
+                                    "`{name}` is a target too many: a file names at most {MAX_TARGETS}"
+                                ),
+                            },
+                        ));
+                    }
+                    targets.push(name);
+                }
+                Some(name)
+            }
+        };
         let id = row.pose_id()?;
         let load_kg = row.non_negative("load_kg", "a load >= 0 kg")?;
         let q = row.joint_angles_rad()?;
@@ -51,11 +80,12 @@ pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
         for (v, column) in mm.iter_mut().zip(XYZ_COLUMNS) {
             *v = row.number(column, "a position in mm")?;
         }
-        book.record(row, id, &q, Some(load_kg))?;
+        book.record(row, id, &q, Some(load_kg), target)?;
         out.push(Measurement {
             pose: Pose { id, q },
             load_kg,
             position: Vector3::from(mm) / 1000.0,
+            target,
         });
         Ok(())
     })?;
@@ -67,15 +97,43 @@ pub fn write(path: &Path, rows: &[Measurement]) -> Result<(), Error> {
     atomic::write(path, |w| write_to(w, rows))
 }
 
-/// Writes measurement CSV to any writer.
+/// Writes measurement CSV to any writer; the `target` column only when a
+/// row names its target, so a one-target file keeps the plain header.
 pub fn write_to(w: &mut dyn Write, rows: &[Measurement]) -> std::io::Result<()> {
+    let named = rows.iter().any(|m| m.target.is_some());
+    let columns = if named {
+        &COLUMNS[..]
+    } else {
+        &COLUMNS[..COLUMNS.len() - 1]
+    };
     let mut csv = csv::Writer::from_writer(w);
-    csv.write_record(COLUMNS)?;
+    csv.write_record(columns)?;
     for m in rows {
         let mut record = vec![m.pose.id.to_string(), m.load_kg.to_string()];
         record.extend(m.pose.q.iter().map(|q| format_deg(*q)));
         record.extend(m.position.iter().map(|p| format_mm(*p)));
+        if named {
+            record.push(m.target.map(|t| t.to_string()).unwrap_or_default());
+        }
         csv.write_record(&record)?;
     }
     csv.flush()
+}
+
+/// A target name from a cell: not empty, at most [`TARGET_NAME_MAX`] bytes,
+/// letters, digits, `_`, `-` and `.` only (it becomes part of messages and
+/// of the calibration file's target list).
+fn target_name(cell: &str) -> Result<TargetName, Problem> {
+    let fits = !cell.is_empty()
+        && cell
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.".contains(c));
+    match TargetName::from(cell) {
+        Ok(name) if fits => Ok(name),
+        _ => Err(Problem::Invalid {
+            message: format!(
+                "expected a target name (1 to {TARGET_NAME_MAX} letters, digits, `_`, `-` or `.`), found `{cell}`"
+            ),
+        }),
+    }
 }

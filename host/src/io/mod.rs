@@ -23,7 +23,7 @@ pub mod urdf;
 
 use std::path::Path;
 
-use crate::error::Error;
+use crate::error::{Error, InputError, Location, Problem};
 
 /// A serde key path as messages show it: `joint[3].servo.zero`, array
 /// positions counted from 1 (like the joints `j1..j6`).
@@ -48,9 +48,40 @@ fn key_path(path: &serde_path_to_error::Path) -> String {
 }
 
 /// Reads a whole text file, naming it in the error.
+///
+/// A leading UTF-8 byte order mark (spreadsheets save CSV with one) is
+/// dropped, so it does not become part of the first column's or key's name.
+/// Bytes that are not UTF-8 are an error of the content, at their line.
 pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
-    std::fs::read_to_string(path).map_err(|source| Error::Read {
+    let bytes = std::fs::read(path).map_err(|source| Error::Read {
         path: path.to_owned(),
         source,
+    })?;
+    text_of(bytes).map_err(|e| e.in_file(path))
+}
+
+/// The UTF-8 byte order mark.
+const BOM: &[u8] = "\u{feff}".as_bytes();
+
+/// A file's bytes as text, without a leading byte order mark.
+fn text_of(mut bytes: Vec<u8>) -> Result<String, InputError> {
+    if bytes.starts_with(BOM) {
+        bytes.drain(..BOM.len());
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let before = &e.as_bytes()[..at];
+        let line_start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
+        let line = before.iter().filter(|&&b| b == b'\n').count() as u64 + 1;
+        InputError::new(
+            Location::line(line),
+            Problem::NotUtf8 {
+                byte: e.as_bytes()[at],
+                column: at - line_start + 1,
+            },
+        )
     })
 }

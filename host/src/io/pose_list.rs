@@ -11,7 +11,7 @@ use std::path::Path;
 
 use model::Arm;
 
-use crate::dataset::{Pose, PoseRow};
+use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg};
 use crate::io::{atomic, read_text};
@@ -65,6 +65,7 @@ pub fn parse(text: &str) -> Result<Vec<PoseRow>, InputError> {
 pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
     let mut out = Vec::new();
     let mut book = PoseBook::default();
+    let mut listed = std::collections::HashSet::new();
     for_each_row(text, &SCHEMA, |row| {
         let id = row.pose_id()?;
         let load_kg = if row.has("load_kg") {
@@ -73,7 +74,13 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
             None
         };
         let q = row.joint_angles_rad()?;
-        book.record(row, id, &q, load_kg)?;
+        // A measurement file of several targets lists each pose once per
+        // target: as a pose list it is its poses, each once.
+        let target = row.text("target").and_then(|t| TargetName::from(t).ok());
+        book.record(row, id, &q, load_kg, target)?;
+        if target.is_some() && !listed.insert((id, load_kg.map(f64::to_bits))) {
+            return Ok(());
+        }
         out.push(ListedPose {
             line: row.line,
             row: PoseRow {

@@ -91,6 +91,7 @@ impl TrueArm {
                     pose: *pose,
                     load_kg,
                     position: point,
+                    target: None,
                 };
                 noise_free.push(exact);
                 measurements.push(Measurement {

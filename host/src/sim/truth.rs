@@ -8,7 +8,8 @@ use super::{ServoError, SimConfig, TrueArm};
 use model::{Arm, JOINTS, ParamId};
 
 /// Version of the truth file's layout; bumped on any change a reader would notice.
-pub const TRUTH_SCHEMA: &str = "lrmcal-sim-truth/1";
+/// 2: servo curves as knots (`angles_rad`, `pulses_us`) inside the arms.
+pub const TRUTH_SCHEMA: &str = "lrmcal-sim-truth/2";
 
 /// The truth file's content, in the order it is written.
 #[derive(Serialize)]

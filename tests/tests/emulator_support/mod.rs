@@ -327,7 +327,8 @@ impl RawLink {
 }
 
 /// A calibration for the bundled arm with known errors and compliances, so that compensation
-/// has work to do; `id` tells two of them apart in `status`.
+/// has work to do, and servo curves of 5 to 9 knots with a bow between them, so that the board
+/// maps angle to pulse through every segment; `id` tells two of them apart in `status`.
 pub fn test_calibration(id: u32) -> protocol::Calibration {
     use model::ParamId;
     let nominal = host::io::arm_source::bundled("lrm")
@@ -342,7 +343,18 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         .iter()
         .map(|n| ParamId::from_name(n).expect("known parameter"))
         .collect();
-    let calibrated = nominal.with_errors(&ids, &errors);
+    let mut calibrated = nominal.with_errors(&ids, &errors);
+    for (i, joint) in calibrated.joints.iter_mut().enumerate() {
+        let n = [5, 9, 7, 6, 9, 5][i];
+        let angles: Vec<f64> = (0..n)
+            .map(|k| (-100.0 + 200.0 * k as f64 / (n - 1) as f64).to_radians())
+            .collect();
+        let pulses: Vec<f64> = angles
+            .iter()
+            .map(|&a| joint.servo.pulse_us(a) + (6.0 + i as f64) * (2.0 * a).sin())
+            .collect();
+        joint.servo = model::ServoCurve::new(&angles, &pulses).expect("5 to 9 knots");
+    }
     let calibration = protocol::Calibration {
         id,
         option: protocol::ModelOption::ElastoKinematic,
