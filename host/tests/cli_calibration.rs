@@ -3,26 +3,13 @@
 
 mod common;
 
-use common::lrmcal;
+use common::{lrmcal, p, text};
 
 use std::path::Path;
-use std::process::Output;
 
 use host::dataset::Measurement;
 use host::io::calibration_file::CalibrationFile;
 use host::io::measurements;
-
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().expect("utf-8 path")
-}
 
 /// Plans candidates and simulates both loads on them into `dir`.
 fn simulated(dir: &Path) -> (String, String) {

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::lrmcal;
+use common::{lrmcal, p, text};
 
 use std::path::Path;
 use std::process::Output;
@@ -13,18 +13,6 @@ use host::dataset::Measurement;
 use host::io::calibration_file::CalibrationFile;
 use host::io::measurements;
 use nalgebra::{Rotation3, Vector3};
-
-fn text(out: &Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    )
-}
-
-fn p(path: &Path) -> &str {
-    path.to_str().expect("utf-8 path")
-}
 
 /// Simulated measurements of the bundled arm (one load) rewritten by `edit`
 /// into `dir/NAME`.
@@ -101,10 +89,28 @@ fn a_y_up_tracker_frame_is_registered() {
         .expect("calibration file");
     let reg = cal.registration.expect("registration recorded");
     assert!(reg.registered);
-    let base = Vector3::from(reg.base.xyz);
-    assert!((base - shift).norm() < 0.01, "{reg:?}");
-    assert!((reg.base.rpy[0].to_degrees() + 90.0).abs() < 2.0, "{reg:?}");
-    assert!((reg.base.rpy[1].to_degrees() - 30.0).abs() < 2.0, "{reg:?}");
+    // Both arms are in the tracker's frame: the nominal on the closed-form
+    // base, the calibrated one on the base the fit refined, where the
+    // frame put the arm.
+    assert_eq!(cal.nominal.base, reg.base);
+    assert!(
+        (Vector3::from(reg.base.xyz) - shift).norm() < 0.05,
+        "{reg:?}"
+    );
+    let refined = cal.arm.base;
+    assert!(
+        (Vector3::from(refined.xyz) - shift).norm() < 0.01,
+        "{refined:?}"
+    );
+    assert!(
+        (refined.rpy[0].to_degrees() + 90.0).abs() < 2.0,
+        "{refined:?}"
+    );
+    assert!(
+        (refined.rpy[1].to_degrees() - 30.0).abs() < 2.0,
+        "{refined:?}"
+    );
+    assert!((Vector3::from(cal.arm.gravity) - Vector3::new(0.0, -9.80665, 0.0)).norm() < 1e-9);
     assert!((Vector3::from(reg.gravity) - Vector3::new(0.0, -9.80665, 0.0)).norm() < 1e-9);
     assert!(reg.before_rms_m > 1.0 && reg.after_rms_m < 0.05, "{reg:?}");
 

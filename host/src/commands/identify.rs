@@ -210,6 +210,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let blocks = CandidateBlocks::build(&inputs.nominal, option, &measured, &[load])?;
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
+        if !args.no_register {
+            check_registered_count(&settings.choice, blocks.identifiability.kept.len(), option)?;
+        }
         results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
     }
 
@@ -255,6 +258,34 @@ pub fn run(args: &Args) -> Result<(), Error> {
     println!("\nValidation on the measured poses not used for the fit, {load} kg (mean 3D error):");
     print!("{}", summary::table(&report.options));
     println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// Coordinates of a rigid motion: what registration takes from the
+/// measurements before the fit sees them.
+const REGISTRATION_DOF: usize = 6;
+
+/// Refuses a fit of `params` parameters from the poses `choice` takes when
+/// their coordinates (one point a pose) do not also cover the base's place
+/// that registration took from them: three poses register exactly and would
+/// leave the fit nothing to check itself against.
+fn check_registered_count(
+    choice: &Choice,
+    params: usize,
+    option: crate::calib::ModelOption,
+) -> Result<(), CalibError> {
+    let poses = match choice {
+        Choice::Detmax(d) => d.n,
+        Choice::Given(ids) => ids.len(),
+    };
+    if 3 * poses < params + REGISTRATION_DOF {
+        return Err(CalibError::Registration {
+            problem: format!(
+                "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
+                3 * poses
+            ),
+        });
+    }
     Ok(())
 }
 
