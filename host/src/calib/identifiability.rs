@@ -116,6 +116,17 @@ pub fn analyse_jacobian(
     ids: &[ParamKey],
     j: &DMatrix<f64>,
 ) -> Identifiability {
+    analyse_jacobian_within(option, ids, j, RANK_TOLERANCE)
+}
+
+/// [`analyse_jacobian`] keeping a column when its part outside the span of
+/// the kept ones exceeds `tolerance` (of its unit length).
+pub fn analyse_jacobian_within(
+    option: ModelOption,
+    ids: &[ParamKey],
+    j: &DMatrix<f64>,
+    tolerance: f64,
+) -> Identifiability {
     let unit: Vec<DVector<f64>> = j
         .column_iter()
         .zip(ids)
@@ -142,7 +153,7 @@ pub fn analyse_jacobian(
             }
         }
         let residual = r.norm();
-        if residual > RANK_TOLERANCE {
+        if residual > tolerance {
             basis.push(r / residual);
             kept.push(id);
             kept_cols.push(c);
