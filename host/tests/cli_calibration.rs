@@ -236,10 +236,22 @@ fn bad_inputs_are_named() {
         })
         .collect();
     measurements::write(&same, &copies).unwrap();
+    // One point cannot place the arm; in the arm file's frame it cannot
+    // determine the parameters either.
     let out = lrmcal(&[
         "identify",
         "--measurements",
         p(&same),
+        "--out",
+        p(&dir.path().join("f")),
+    ]);
+    assert_eq!(out.status.code(), Some(3));
+    assert!(text(&out).contains("spread in 3D"), "{}", text(&out));
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&same),
+        "--no-register",
         "--out",
         p(&dir.path().join("f")),
     ]);

@@ -379,7 +379,7 @@ pub fn register(
     };
     let unplaceable = || CalibError::Registration {
         problem: format!(
-            "the {} measured points lie on a line or are fewer than 3, so the arm's turn about them is free; measure poses that spread in 3D",
+            "the {} measured points lie on a line (or at one point) or are fewer than 3, so the arm's turn about them is free; measure poses that spread in 3D",
             measured.len()
         ),
     };

@@ -278,7 +278,9 @@ fn check_registered_count(
         Choice::Detmax(d) => d.n,
         Choice::Given(ids) => ids.len(),
     };
-    if 3 * poses < params + REGISTRATION_DOF {
+    // Fewer coordinates than parameters: the selection and the fit refuse
+    // those themselves, with their own counts.
+    if 3 * poses >= params && 3 * poses < params + REGISTRATION_DOF {
         return Err(CalibError::Registration {
             problem: format!(
                 "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
