@@ -297,15 +297,19 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     }
     // On the level nominal base, gravity has no torque about joint 1's vertical axis.
     assert!(removed("k1").is_some_and(|r| r.confounded_with.is_empty()));
-    // Base yaw and height repeat joint 1's theta and d.
+    // Joint 1's theta and d repeat the base's yaw and height, which are kept.
     assert_eq!(
-        removed("base.yaw").map(|r| r.confounded_with[0].0),
-        Some(name("j1.theta"))
+        removed("j1.theta").map(|r| r.confounded_with[0].0),
+        Some(name("base.yaw"))
     );
     assert_eq!(
-        removed("base.z").map(|r| r.confounded_with[0].0),
-        Some(name("j1.d"))
+        removed("j1.d").map(|r| r.confounded_with[0].0),
+        Some(name("base.z"))
     );
+    // Joint 6's parameters move the point within frame 6: the tool point is kept.
+    for n in ["j6.theta", "j6.d", "j6.a", "j6.alpha"] {
+        assert!(removed(n).is_some(), "{n}: {:?}", explained.removed);
+    }
     // Every other removal is confounded with kept parameters, not dropped for noise.
     for r in &a.removed {
         assert!(r.residual < 1e-6, "{}: residual {}", r.id, r.residual);

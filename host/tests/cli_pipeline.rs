@@ -192,7 +192,10 @@ fn plan_simulate_identify_validate_predict() {
     let report = cal_dir.join("report.json");
     let cal_json = json(&cal);
     assert_eq!(cal_json["schema"], "lrmcal-calibration");
-    assert_eq!(cal_json["schema_version"], 2);
+    assert_eq!(
+        cal_json["schema_version"],
+        host::io::calibration_file::SCHEMA_VERSION
+    );
     assert_eq!(cal_json["option"], "elasto-kinematic");
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);
@@ -295,6 +298,7 @@ fn calibration_json() -> String {
         loads_kg: vec![LOAD_KG],
         fit_residual: ErrorStats::of(&[1e-4]),
         validation: None,
+        registration: None,
         targets: vec![],
     }
     .to_json()
@@ -329,7 +333,13 @@ fn bad_inputs_give_the_documented_exit_codes() {
     let future = path("future.json");
     std::fs::write(
         &future,
-        calibration_json().replace("\"schema_version\": 2", "\"schema_version\": 3"),
+        calibration_json().replace(
+            &format!(
+                "\"schema_version\": {}",
+                host::io::calibration_file::SCHEMA_VERSION
+            ),
+            "\"schema_version\": 99",
+        ),
     )
     .unwrap();
     let e = fails(

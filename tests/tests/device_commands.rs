@@ -123,6 +123,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
         targets: vec![],
+        registration: None,
     };
     let path = dir.join("calibration.json");
     std::fs::write(&path, file.to_json()).unwrap();

@@ -166,6 +166,7 @@ fn calibration_file() -> CalibrationFile {
         fit_residual: ErrorStats::of(&[0.001]),
         validation: None,
         targets: vec![],
+        registration: None,
     }
 }
 

@@ -106,6 +106,12 @@ pub enum CalibError {
         /// What is wrong with it.
         problem: String,
     },
+    /// The nominal arm cannot be placed on the measurements by a rigid motion.
+    #[error("register the arm in the measurement frame: {problem}")]
+    Registration {
+        /// Why, and what to check.
+        problem: String,
+    },
     /// No measurement or pose to work with.
     #[error("{what}: the set is empty")]
     Empty {

@@ -7,11 +7,12 @@ use serde::Serialize;
 use nalgebra::Vector3;
 
 use super::detmax::{DetmaxOptions, detmax, random_design};
-use super::identify::{IdentifyOptions, identify};
+use super::identify::IdentifyOptions;
 use super::pipeline::{
     CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_option,
 };
 use super::progress::{Progress, Silent};
+use super::refresh::identify_refreshed;
 use super::validate::validate;
 use super::{CalibError, ModelOption};
 
@@ -84,7 +85,7 @@ pub fn random_baseline(
         let fit = inputs.measurements.of(chosen_ids.iter().copied(), load);
         let rest = inputs.measurements.of(inputs.held_out(&chosen_ids), load);
         // A random set may be rank deficient: that is a loss for random selection.
-        let mean = match identify(&inputs.nominal, result.option(), keys, &fit, options) {
+        let mean = match identify_refreshed(&inputs.nominal, result.option(), keys, &fit, options) {
             Ok(f) => validate(&inputs.nominal, &f.rig, &rest)?.after.mean_m,
             Err(_) => f64::INFINITY,
         };

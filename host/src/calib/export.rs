@@ -56,6 +56,7 @@ pub fn calibration_file(
         loads_kg,
         fit_residual,
         validation,
+        registration: None,
         targets: if identified.rig.targets.named() {
             target_tools(identified, &[])
         } else {

@@ -3,8 +3,8 @@
 //!
 //! Method: the Jacobian over all candidate samples, each column scaled to unit
 //! norm (units and magnitudes then play no part). Parameters are taken in the
-//! option's preference order (compliances first, then DH joint by joint, base,
-//! tool) and one is kept when its unit column has a component of at least
+//! option's preference order (compliances first, then the base and tool
+//! frames, then DH joint by joint; `super::option` says why) and one is kept when its unit column has a component of at least
 //! [`RANK_TOLERANCE`] orthogonal to the span of the columns already kept
 //! (Gram–Schmidt with re-orthogonalisation); otherwise it is removed, and the
 //! least-squares combination of kept columns that reproduces it names what it
@@ -18,13 +18,15 @@
 //! the 43 parameters remain (26 of 36 kinematic, 6 of 7 elastic), where the
 //! paper found 28 / 21 / 7 on the real LRM. Removed, each for a reason of the
 //! arm's structure: the three tool rotations (the measured point is the tool
-//! frame's origin, so turning the frame about it moves nothing); base z and
-//! base yaw (the same motions as joint 1's d and theta while the base is
+//! frame's origin, so turning the frame about it moves nothing); j1.d and
+//! j1.theta (the same motions as the base's z and yaw while the base is
 //! level); j3.d (joints 2 and 3 are parallel, so d2 and d3 shift the chain
-//! along the same axis); tool x, y, z and j6.alpha (the tool offset in frame 6
-//! is already spanned by j6.a, j6.theta and j6.d); and k1 (joint 1's axis is
-//! vertical on the level nominal base, so gravity exerts no torque about it and
-//! its compliance never shows). The paper does not list what it removed, and
+//! along the same axis); j6.theta, j6.d, j6.a and j6.alpha (they move the
+//! tool point within frame 6, which the tool offset already spans); and k1
+//! (joint 1's axis is vertical on the level nominal base, so gravity exerts no
+//! torque about it and its compliance never shows). Several of these are
+//! redundant only at the nominal arm; `super::refresh` runs the analysis again
+//! at the estimate. The paper does not list what it removed, and
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
 
@@ -46,7 +48,7 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 pub const ZERO_EFFECT_M: f64 = 1e-9;
 
 /// A typical size of an error of `key`'s kind: 1 mm, 1 mrad, 0.01 rad/Nm.
-fn typical_error(key: ParamKey) -> f64 {
+pub fn typical_error(key: ParamKey) -> f64 {
     match key.kind() {
         ParamKind::Length | ParamKind::Angle => 1e-3,
         ParamKind::Compliance => 1e-2,
@@ -114,6 +116,17 @@ pub fn analyse_jacobian(
     ids: &[ParamKey],
     j: &DMatrix<f64>,
 ) -> Identifiability {
+    analyse_jacobian_within(option, ids, j, RANK_TOLERANCE)
+}
+
+/// [`analyse_jacobian`] keeping a column when its part outside the span of
+/// the kept ones exceeds `tolerance` (of its unit length).
+pub fn analyse_jacobian_within(
+    option: ModelOption,
+    ids: &[ParamKey],
+    j: &DMatrix<f64>,
+    tolerance: f64,
+) -> Identifiability {
     let unit: Vec<DVector<f64>> = j
         .column_iter()
         .zip(ids)
@@ -140,7 +153,7 @@ pub fn analyse_jacobian(
             }
         }
         let residual = r.norm();
-        if residual > RANK_TOLERANCE {
+        if residual > tolerance {
             basis.push(r / residual);
             kept.push(id);
             kept_cols.push(c);
@@ -301,13 +314,17 @@ mod tests {
                 a.removed
             );
         }
-        // On a level base, base yaw and z duplicate joint 1's theta and d.
-        let yaw = a
+        // On a level base, joint 1's theta and d duplicate the base's yaw and z,
+        // which are kept: they hold every base pose.
+        let theta = a
             .removed
             .iter()
-            .find(|r| r.id == name("base.yaw"))
-            .expect("base.yaw removed");
-        assert_eq!(yaw.confounded_with[0].0, name("j1.theta"));
+            .find(|r| r.id == name("j1.theta"))
+            .expect("j1.theta removed");
+        assert_eq!(theta.confounded_with[0].0, name("base.yaw"));
+        for p in ["base.z", "base.yaw", "tool.x", "tool.y", "tool.z"] {
+            assert!(a.kept.contains(&name(p)), "{p} kept: {:?}", a.removed);
+        }
         // Gravity makes no torque about joint 1's vertical axis.
         assert!(a.removed_ids().contains(&name("k1")));
         assert_eq!(a.kept.len(), a.svd_rank, "greedy and SVD ranks agree");

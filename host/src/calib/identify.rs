@@ -93,6 +93,9 @@ pub struct IdentifyOptions {
     pub max_active_set_rounds: usize,
     /// Most reweighting rounds of the robust fit.
     pub max_irls_rounds: usize,
+    /// Run the rank analysis again at the estimate and fit what it adds
+    /// (`super::refresh`, which the pipeline calls); false is the paper's reduction.
+    pub refresh: bool,
 }
 
 impl Default for IdentifyOptions {
@@ -101,6 +104,7 @@ impl Default for IdentifyOptions {
             robust: true,
             max_active_set_rounds: 10,
             max_irls_rounds: 12,
+            refresh: true,
         }
     }
 }

@@ -11,7 +11,9 @@
 //! | [`observability`] | column scaling and the observability indices O1..O5 |
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
 //! | [`identify`] | Levenberg–Marquardt fit in named steps: active set for bounds, robust option |
+//! | [`refresh`] | the rank analysis again at the estimate, and the fit with what it adds |
 //! | [`validate`] | error statistics before/after on held-out poses |
+//! | [`registration`] | the arm's base in the tracker's frame, from the measurements (closed form, trimmed) |
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
 //! | [`targets`] | several measured targets per pose: one arm, a tool point each |
 //! | [`pipeline`] | select → identify → validate for one option |
@@ -40,6 +42,8 @@ pub mod params;
 pub mod pipeline;
 pub mod plots;
 pub mod progress;
+pub mod refresh;
+pub mod registration;
 pub mod report;
 pub mod summary;
 pub mod targets;

@@ -10,12 +10,27 @@ use super::params::ParamKey;
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
 /// compliances for elastic.
 ///
-/// Compliances come first: when a compliance and a geometric parameter are
-/// confounded, the rank analysis keeps the earlier one, and the elastic
-/// parameters are the ones this project exists to identify.
+/// The order is a preference: when parameters are confounded, the rank
+/// analysis keeps the earlier one. Compliances come first, as the elastic
+/// parameters are the ones this project exists to identify. Then the base
+/// frame and the tool frame, then the joints' DH parameters, base to tip.
+///
+/// Why the frames before the DH parameters: the base frame's six numbers
+/// and the tool frame's translation are coordinates of the base pose and of
+/// the tool point in frame 6, so every base pose and every tool point has
+/// values; the fit can reach any of them. The DH parameters confounded with
+/// them at the nominal arm (`j1.d`, `j1.theta` with the base's height and
+/// yaw, `j6.theta`, `j6.d`, `j6.a`, `j6.alpha` with the tool point) are so
+/// only to first order: `j6.theta`, `j6.a`, `j6.d` with the file's tool
+/// point held cannot bring the point nearer joint 6's axis than the file's
+/// offset across `x6` (its `y` when `alpha6` is zero), so a true point 4 mm
+/// off the axis stays out of reach when the file says 11 mm.
 pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
-    let geometric = ParamId::all().filter(|p| p.is_geometric());
+    let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
+    let frames = ParamId::all().filter(is_frame);
+    let dh = ParamId::all().filter(move |p| p.is_geometric() && !is_frame(p));
+    let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
         ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
         ModelOption::Kinematic => geometric.collect(),
@@ -42,5 +57,12 @@ mod tests {
             candidates(ModelOption::ElastoKinematic)[..7],
             candidates(ModelOption::Elastic)[..]
         );
+        // The frames before the DH parameters: they hold every base pose and tool point.
+        let kin = candidates(ModelOption::Kinematic);
+        assert_eq!(
+            (kin[0].name(), kin[11].name()),
+            ("base.x".into(), "tool.yaw".into())
+        );
+        assert_eq!(kin[12].name(), "j1.theta");
     }
 }

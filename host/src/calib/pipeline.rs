@@ -15,11 +15,12 @@ use nalgebra::DMatrix;
 
 use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use super::identifiability::{Identifiability, analyse_jacobian};
-use super::identify::{Identified, IdentifyOptions, identify};
+use super::identify::{Identified, IdentifyOptions};
 use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::progress::Progress;
+use super::refresh::identify_refreshed;
 use super::targets::Targets;
 use super::validate::{LoadValidation, Validation, validate};
 use super::{CalibError, ModelOption, Rig, Sample};
@@ -405,7 +406,7 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let identified = identify(
+    let identified = identify_refreshed(
         &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,

@@ -5,6 +5,9 @@
 //! pose (a `target` column) fit one arm and a tool point per target; with
 //! `--tool-only`, only the tool points are fitted, the arm of an earlier
 //! calibration held fixed (after a tool change).
+//! Before the fit the arm is registered in the measurement frame
+//! (`crate::calib::registration`, on the first target's rows) unless
+//! `--no-register` keeps the arm file's base.
 
 use std::path::PathBuf;
 
@@ -16,6 +19,7 @@ use crate::calib::export::{calibration_file, target_tools};
 use crate::calib::identifiability::check_structure;
 use crate::calib::identify::{IdentifyOptions, identify};
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
+use crate::calib::registration::{GENERIC_HINT, Gravity, Registration, diagnose, register};
 use crate::calib::report::Report;
 use crate::calib::targets::{Rig, Targets, tool_keys};
 use crate::calib::{CalibError, summary};
@@ -24,8 +28,10 @@ use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::{CalibrationFile, ValidationSummary};
+use crate::io::calibration_file::{CalibrationFile, RegistrationRecord, ValidationSummary};
 use crate::io::{measurements, pose_list};
+use crate::tracker::axes::Up;
+use model::Arm;
 
 /// Identify the arm's error parameters from measured tool positions.
 #[derive(Debug, clap::Args)]
@@ -40,6 +46,10 @@ With --select N, DETMAX picks N of the measured poses (D-optimal for the option)
 not used for the fit validate it, under every load in the file. Measurements far off the \
 others are down-weighted (Huber) and named, in the fit and in the validation. Writes \
 calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.\n\n\
+The positions may be in any right-handed frame (the tracker's): the arm's base is found \
+in it from the measurements first (printed, and recorded in the calibration file), so the \
+arm file's [base] need not be known. Gravity is the arm file's `gravity` in that frame, \
+or -g along the axis --up names, or along the base's -z with --level-base.\n\n\
 Several targets per pose: a `target` column in the measurements names the target of each row; \
 the fit shares the arm and gives each target its own tool point (every target needs at least \
 3 poses). After a tool change, re-teach only the tool points from a few poses with \
@@ -74,6 +84,22 @@ pub struct Args {
     /// instead of refusing the file.
     #[arg(long)]
     pub allow_outside_limits: bool,
+    /// The measurement frame's axis that points up: gravity along its minus
+    /// direction [default: the arm file's `gravity`, read in the measurement frame].
+    #[arg(
+        long,
+        value_name = "AXIS",
+        allow_hyphen_values = true,
+        conflicts_with = "level_base"
+    )]
+    pub up: Option<Up>,
+    /// The arm's base stands level: gravity along its frame 0's -z, wherever
+    /// registration puts it.
+    #[arg(long)]
+    pub level_base: bool,
+    /// Keep the arm file's base: the measurements are in its world frame.
+    #[arg(long, conflicts_with = "level_base")]
+    pub no_register: bool,
     /// Re-teach only the tool points (one per target of the measurements)
     /// with the arm of --calibration held fixed: after a tool change.
     #[arg(long, requires = "calibration", conflicts_with_all = ["select", "poses", "candidates"])]
@@ -123,7 +149,30 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .filter(|m| targets.index(m.target) == Some(0))
         .copied()
         .collect();
-    check_plausible(&nominal, &first, &file)?;
+    let registration = registration(args, &nominal, &first)?;
+    // The fit runs in the arm file's world frame, where the base's angles
+    // are small corrections; the file gets the result in the measurement frame.
+    let nominal = registration.arm_for_fit(&nominal);
+    let all = registration.to_arm_frame(&all);
+    let first = registration.to_arm_frame(&first);
+    // Still 150 mm off after the best rigid motion: say what to check.
+    check_plausible(&nominal, &first, &file).map_err(|e| match e {
+        CalibError::BadMeasurement {
+            pose,
+            load_kg,
+            file,
+            problem,
+        } => {
+            let hint = diagnose(&nominal, &first).unwrap_or_else(|| GENERIC_HINT.into());
+            CalibError::BadMeasurement {
+                pose,
+                load_kg,
+                file,
+                problem: format!("{problem}; {hint}"),
+            }
+        }
+        other => other,
+    })?;
     if let Some(path) = &args.candidates {
         let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
         check_in_candidates(&all, &candidates, &file)?;
@@ -163,6 +212,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let blocks = CandidateBlocks::build(&inputs.nominal, option, &measured, &[load])?;
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
+        if !args.no_register {
+            check_registered_count(&settings.choice, blocks.identifiability.kept.len(), option)?;
+        }
         results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
     }
 
@@ -180,8 +232,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             .map(|v| v.after_per_target(targets.len()))
             .unwrap_or_default();
         let mut cal = calibration_file(
-            &nominal,
-            &r.identified,
+            &registration.arm_in_measurement_frame(&nominal),
+            &registration.identified_in_measurement_frame(&nominal, &r.identified),
             &r.selection.candidates.identifiability.removed_ids(),
             r.pose_ids(),
             vec![load],
@@ -195,6 +247,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         for (target, after) in cal.targets.iter_mut().zip(per_target) {
             target.validation_after = Some(after);
         }
+        let cal = cal.with_registration(record(args, &registration));
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
@@ -222,6 +275,120 @@ pub fn run(args: &Args) -> Result<(), Error> {
     print!("{}", summary::table(&report.options));
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// Coordinates of a rigid motion: what registration takes from the
+/// measurements before the fit sees them.
+const REGISTRATION_DOF: usize = 6;
+
+/// Refuses a fit of `params` parameters from the poses `choice` takes when
+/// their coordinates (one point a pose) do not also cover the base's place
+/// that registration took from them: three poses register exactly and would
+/// leave the fit nothing to check itself against.
+fn check_registered_count(
+    choice: &Choice,
+    params: usize,
+    option: crate::calib::ModelOption,
+) -> Result<(), CalibError> {
+    let poses = match choice {
+        Choice::Detmax(d) => d.n,
+        Choice::Given(ids) => ids.len(),
+    };
+    // Fewer coordinates than parameters: the selection and the fit refuse
+    // those themselves, with their own counts.
+    if 3 * poses >= params && 3 * poses < params + REGISTRATION_DOF {
+        return Err(CalibError::Registration {
+            problem: format!(
+                "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
+                3 * poses
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Gravity in the measurement frame as the arguments give it.
+fn gravity(args: &Args, nominal: &Arm<f64>) -> Gravity {
+    let g = nominal.gravity_vector().norm();
+    match (args.up, args.level_base) {
+        (Some(up), _) => {
+            Gravity::Measured(up.rotation().inverse() * nalgebra::Vector3::new(0.0, 0.0, -g))
+        }
+        (None, true) => Gravity::LevelBase(g),
+        (None, false) => Gravity::Measured(nominal.gravity_vector()),
+    }
+}
+
+/// Registers the arm on `all` (the first target's rows; or keeps the file's base with
+/// `--no-register`) and prints where it stands.
+fn registration(
+    args: &Args,
+    nominal: &Arm<f64>,
+    all: &[crate::dataset::Measurement],
+) -> Result<Registration, Error> {
+    let gravity = gravity(args, nominal);
+    if args.no_register {
+        let g = match gravity {
+            Gravity::Measured(g) => g,
+            Gravity::LevelBase(_) => nominal.gravity_vector(),
+        };
+        return Ok(Registration::identity(nominal, g));
+    }
+    let file = args.measurements.display();
+    let reg = register(nominal, all, gravity).map_err(|e| match e {
+        CalibError::Registration { problem } => CalibError::Registration {
+            problem: format!("{file}: {problem}"),
+        },
+        other => other,
+    })?;
+    let base = crate::calib::registration::frame_of(&reg.base);
+    println!(
+        "Registered the arm in the measurement frame: base at ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg",
+        base.xyz[0] * 1e3,
+        base.xyz[1] * 1e3,
+        base.xyz[2] * 1e3,
+        base.rpy[0].to_degrees(),
+        base.rpy[1].to_degrees(),
+        base.rpy[2].to_degrees()
+    );
+    println!(
+        "  nominal arm to the measurements: {:.1} mm RMS as the arm file places it, {:.1} mm after registration (largest {:.1} mm)",
+        reg.before_rms_m * 1e3,
+        reg.after_rms_m * 1e3,
+        reg.after_max_m * 1e3
+    );
+    if !reg.trimmed.is_empty() {
+        let named: Vec<String> = reg
+            .trimmed
+            .iter()
+            .map(|(pose, load)| format!("pose {pose} ({load} kg)"))
+            .collect();
+        println!(
+            "  left out of the registration as far off: {}",
+            named.join(", ")
+        );
+    }
+    if reg.base_tilt_rad > crate::calib::registration::TILT_WARNING_RAD {
+        eprintln!(
+            "warning: the registered base is tilted {:.0} deg from up (-gravity {:?} m/s² in the measurement frame); if the arm stands level, give the frame's up axis with --up or pass --level-base",
+            reg.base_tilt_rad.to_degrees(),
+            reg.gravity.map(|v| (v * 1e3).round() / 1e3).as_slice()
+        );
+    }
+    Ok(reg)
+}
+
+/// What the calibration file records of the registration.
+fn record(args: &Args, reg: &Registration) -> RegistrationRecord {
+    RegistrationRecord {
+        registered: !args.no_register,
+        frame: crate::calib::registration::frame_of(&reg.frame),
+        base: crate::calib::registration::frame_of(&reg.base),
+        gravity: reg.gravity.into(),
+        before_rms_m: reg.before_rms_m,
+        after_rms_m: reg.after_rms_m,
+        trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
+    }
 }
 
 /// `--tool-only`: fits the tool point of every target of `measurements`

@@ -21,7 +21,9 @@ lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated), and names the measurements whose error \
 after calibration is far beyond the others'. With --arm, the calibration must have been \
-identified from that arm.")]
+identified from that arm (its base aside when `identify` registered it). A calibration \
+registered by `identify` holds both arms in the tracker's frame, so the measurements are \
+taken in that frame as they are.")]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
     #[arg(long, value_name = "FILE")]

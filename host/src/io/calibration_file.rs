@@ -15,10 +15,12 @@
 //! Version 2 writes each servo curve as its knots (`angles_rad`,
 //! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
 //! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
+//! Version 3 adds [`CalibrationFile::registration`]; files of versions 1
+//! and 2 read without one.
 
 use std::path::Path;
 
-use model::{Arm, ParamId, ServoCurve};
+use model::{Arm, Frame, ParamId, ServoCurve};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
@@ -28,7 +30,7 @@ use crate::error::{Error, InputError, Location, Problem};
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
 /// Version of the schema this build writes (and the newest it reads).
-pub const SCHEMA_VERSION: u32 = 2;
+pub const SCHEMA_VERSION: u32 = 3;
 /// The oldest version this build reads.
 pub const OLDEST_SCHEMA_VERSION: u32 = 1;
 
@@ -173,6 +175,38 @@ pub struct CalibrationFile {
     /// `lrmcal push --target` names another.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub targets: Vec<TargetTool>,
+    /// Where `identify` found the arm's base in the measurement frame, and
+    /// from what; `None` in files of versions 1 and 2 and in the demo's
+    /// (which measures in the arm file's own frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub registration: Option<RegistrationRecord>,
+}
+
+/// The arm's place in the measurement frame, as `lrmcal identify` found it.
+///
+/// A registered file's `nominal` and `arm` are both in the measurement
+/// frame already (the nominal's base is the registered base, gravity is the
+/// measurement frame's), so `predict`, `validate` and the board work there
+/// with no conversion; this record only documents where the base was found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegistrationRecord {
+    /// Whether the base was registered (false: `--no-register`, the arm file's base kept).
+    pub registered: bool,
+    /// The arm file's world frame in the measurement frame (m, rad): the
+    /// rigid motion registration found.
+    pub frame: Frame<f64>,
+    /// The nominal arm's frame 0 in the measurement frame (m, rad), as
+    /// registration placed it (the calibrated `arm` refines it).
+    pub base: Frame<f64>,
+    /// Gravity in the measurement frame, m/s².
+    pub gravity: [f64; 3],
+    /// RMS distance of the nominal arm from the measurements as the arm file placed it, m.
+    pub before_rms_m: f64,
+    /// The same after registration, over the points it kept, m.
+    pub after_rms_m: f64,
+    /// Poses left out of the registration as far off.
+    pub trimmed: Vec<u32>,
 }
 
 /// One measured target of a calibration.
@@ -213,7 +247,11 @@ impl CalibrationFile {
             text,
             SCHEMA,
             OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
-            |_, value| upgrade_servo_curves(value),
+            |version, value| match version {
+                1 => upgrade_servo_curves(value),
+                // Version 2 lacks only the registration, which reads as none.
+                _ => Ok(()),
+            },
         )?;
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
             let compliances = arm.joints.iter().map(|j| j.compliance);
@@ -309,16 +347,30 @@ impl CalibrationFile {
         Ok((nominal, arm))
     }
 
+    /// The same file recording `registration`.
+    pub fn with_registration(self, registration: RegistrationRecord) -> Self {
+        Self {
+            registration: Some(registration),
+            ..self
+        }
+    }
+
     /// Reads and checks a calibration file.
     pub fn read(path: &Path) -> Result<Self, Error> {
         Self::parse(&read_text(path)?).map_err(|e| e.in_file(path))
     }
 
-    /// Checks that this calibration (read from `path`) was identified from `nominal`.
+    /// Checks that this calibration (read from `path`) was identified from
+    /// `nominal`. A registered file's nominal base is where registration
+    /// found it, not the arm file's, so the base is not compared then.
     pub fn check_nominal(&self, nominal: &Arm<f64>, path: &Path) -> Result<(), Error> {
         let ours = self.nominal.param_values();
         let theirs = nominal.param_values();
+        let registered = self.registration.as_ref().is_some_and(|r| r.registered);
         for (id, (a, b)) in ParamId::all().zip(ours.iter().zip(&theirs)) {
+            if registered && id.name().starts_with("base.") {
+                continue;
+            }
             if (a - b).abs() > 1e-9 * (1.0 + a.abs()) {
                 return Err(Error::ArmMismatch {
                     path: path.to_owned(),
@@ -368,6 +420,7 @@ pub(super) mod test_support {
             loads_kg: vec![0.0663],
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
+            registration: None,
             targets: vec![],
         }
     }
@@ -402,7 +455,10 @@ mod tests {
         let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
         let e = refused("{\"a\": 1}");
         assert!(e.contains("key `schema`") && e.contains(SCHEMA), "{e}");
-        let e = refused(&json.replace("\"schema_version\": 2", "\"schema_version\": 9"));
+        let e = refused(&json.replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 9",
+        ));
         assert!(e.contains("key `schema_version`") && e.contains('9'), "{e}");
         let e = refused(&json.replacen("\"k2\"", "\"k9\"", 1));
         assert!(
@@ -476,6 +532,50 @@ mod tests {
         assert!(e.contains("targets[1].tool_m"), "{e}");
     }
 
+    /// A version 2 file (no registration) still reads; a registration
+    /// round trips, and lets the nominal arm's base differ from the arm
+    /// file's (it is the registered base) but nothing else.
+    #[test]
+    fn reads_version_2_and_records_the_registration() {
+        let file = sample_file();
+        let v2 = file.to_json().replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 2",
+        );
+        assert!(!v2.contains("registration"), "{v2}");
+        // Read as this version's file (the upgrade rewrites the version).
+        assert_eq!(CalibrationFile::parse(&v2).unwrap(), file);
+        let arm_file = file.nominal;
+        let mut registered = file.clone();
+        registered.nominal.base.xyz[0] += 0.5;
+        registered.nominal.base.rpy[2] += 1.0;
+        let path = Path::new("cal.json");
+        let e = registered.check_nominal(&arm_file, path).unwrap_err();
+        assert!(e.to_string().contains("base.x"), "{e}");
+        let record = RegistrationRecord {
+            registered: true,
+            frame: Frame {
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
+            },
+            base: Frame {
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
+            },
+            gravity: [0.0, -9.8, 0.0],
+            before_rms_m: 2.0,
+            after_rms_m: 0.03,
+            trimmed: vec![7],
+        };
+        let with = registered.with_registration(record);
+        assert_eq!(CalibrationFile::parse(&with.to_json()).unwrap(), with);
+        with.check_nominal(&arm_file, path).unwrap();
+        let mut other = arm_file;
+        other.joints[2].a += 0.01;
+        let e = with.check_nominal(&other, path).unwrap_err();
+        assert!(e.to_string().contains("j3.a"), "{e}");
+    }
+
     #[test]
     fn statistics_of_a_known_set() {
         let s = ErrorStats::of(&[4.0, 1.0, 3.0, 2.0, 5.0]);
@@ -493,7 +593,10 @@ mod tests {
         let mut file = sample_file();
         file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
         let json = file.to_json();
-        assert!(json.contains("\"schema_version\": 2") && json.contains("\"angles_rad\""));
+        assert!(
+            json.contains(&format!("\"schema_version\": {SCHEMA_VERSION}"))
+                && json.contains("\"angles_rad\"")
+        );
         // The same file as schema 1 wrote it: each curve as its three pulses.
         let mut v1: serde_json::Value = serde_json::from_str(&json).unwrap();
         v1["schema_version"] = 1.into();

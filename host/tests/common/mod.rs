@@ -1,5 +1,9 @@
-//! What the CLI tests share: running the `lrmcal` binary built for them.
+//! What the CLI tests share: running the `lrmcal` binary built for them,
+//! reading its output, naming paths on its command line. Each test crate
+//! compiles this module for itself and uses part of it, hence the
+//! `dead_code` allowances.
 
+use std::path::Path;
 use std::process::{Command, Output};
 
 /// Runs `lrmcal` with `args` and waits for it, its output captured.
@@ -8,4 +12,20 @@ pub fn lrmcal(args: &[&str]) -> Output {
         .args(args)
         .output()
         .expect("lrmcal runs")
+}
+
+/// What `out` printed, standard output then standard error.
+#[allow(dead_code)]
+pub fn text(out: &Output) -> String {
+    format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    )
+}
+
+/// `path` as a command-line argument (the tests' paths are UTF-8).
+#[allow(dead_code)]
+pub fn p(path: &Path) -> &str {
+    path.to_str().expect("utf-8 path")
 }

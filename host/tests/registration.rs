@@ -1,0 +1,257 @@
+//! Issue 14 items 1 and 2 on the bundled arm and the simulator: measurements
+//! seen from arbitrary tracker frames calibrate as well as in the arm's own
+//! frame; tool points anywhere near the last joint's axis are recovered; and
+//! the rank analysis refreshed at the estimate removes the structural error
+//! the paper's reduction leaves.
+
+use host::calib::detmax::DetmaxOptions;
+use host::calib::identify::IdentifyOptions;
+use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use host::calib::progress::Silent;
+use host::calib::registration::{Gravity, Registration, register};
+use host::calib::validate::validate;
+use host::calib::{ModelOption, ParamKey, Rig};
+use host::dataset::{Measurement, Pose};
+use host::plan::{PlanConfig, candidates};
+use host::sim::{SimConfig, TrueArm};
+use model::{Arm, Frame};
+use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
+use rand::{Rng, SeedableRng, rngs::StdRng};
+
+const LOAD: f64 = 0.0663;
+
+fn bundled() -> Arm<f64> {
+    host::io::arm_source::bundled("lrm")
+        .expect("bundled arm")
+        .arm
+}
+
+fn settings(refresh: bool) -> RunSettings {
+    RunSettings {
+        identify_load_kg: LOAD,
+        other_load_kg: None,
+        choice: Choice::Detmax(DetmaxOptions {
+            starts: 2,
+            ..Default::default()
+        }),
+        identify: IdentifyOptions {
+            refresh,
+            ..Default::default()
+        },
+    }
+}
+
+/// Registers `nominal` on `measured` (gravity `gravity` in their frame) and
+/// calibrates the elasto-kinematic model in the registered frame.
+fn registered_run(
+    nominal: &Arm<f64>,
+    poses: &[Pose],
+    measured: &[Measurement],
+    gravity: Vector3<f64>,
+) -> (OptionResult, Registration) {
+    let reg = register(nominal, measured, Gravity::Measured(gravity)).expect("register");
+    let arm = reg.arm_for_fit(nominal);
+    let moved = reg.to_arm_frame(measured);
+    let result = calibrate_option(
+        &Inputs::new(&arm, poses, &moved),
+        ModelOption::ElastoKinematic,
+        &settings(true),
+        &Silent,
+    )
+    .expect("calibrate");
+    (result, reg)
+}
+
+fn held_out_mean_m(r: &OptionResult) -> f64 {
+    r.validation.as_ref().expect("held-out poses").after.mean_m
+}
+
+/// The simulated measurements (unmodelled effects and noise on) seen from
+/// random frames, turned arbitrarily and up to 5 m away, with gravity given
+/// in that frame and the arm file's base unknown (zeros), calibrate to
+/// within 2 % of the run in the arm's own frame; the registered base is
+/// where the frame put the arm.
+#[test]
+fn any_tracker_frame_calibrates_as_well_as_the_arms_own() {
+    let nominal = bundled();
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let truth = TrueArm::draw(&nominal, 1, &SimConfig::default()).expect("draw");
+    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let own =
+        held_out_mean_m(&registered_run(&nominal, &poses, &measured, nominal.gravity_vector()).0);
+    let mut unknown_base = nominal;
+    unknown_base.base = Frame::identity();
+    let mut rng = StdRng::seed_from_u64(14);
+    for _ in 0..3 {
+        let axis = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize();
+        let turn = Rotation3::from_scaled_axis(axis * rng.random_range(-3.1..3.1));
+        let shift = Vector3::from_fn(|_, _| rng.random_range(-1.0..1.0)).normalize()
+            * rng.random_range(0.5..5.0);
+        let frame = IsometryMatrix3::from_parts(Translation3::from(shift), turn);
+        let seen: Vec<Measurement> = measured
+            .iter()
+            .map(|m| Measurement {
+                position: frame.transform_point(&Point3::from(m.position)).coords,
+                ..*m
+            })
+            .collect();
+        let (result, reg) = registered_run(
+            &unknown_base,
+            &poses,
+            &seen,
+            turn * nominal.gravity_vector(),
+        );
+        // The closed form is within the nominal arm's miss of the true base;
+        // the fit refines it to the millimetre.
+        let true_base = (frame * truth.arm.base.isometry()).translation.vector;
+        let closed_form = reg.base.translation.vector;
+        let arm_m = reg.arm_in_measurement_frame(&result.identified.rig.arm);
+        let refined = Vector3::from(arm_m.base.xyz);
+        assert!((closed_form - true_base).norm() < 0.05, "{reg:?}");
+        assert!(
+            (refined - true_base).norm() < 0.005,
+            "refined {refined}, true {true_base}, in arm frame {}; {:?}",
+            turn.inverse() * (refined - true_base),
+            result
+                .identified
+                .estimates
+                .iter()
+                .filter(|e| e.id.name().starts_with("base") || e.id.name().starts_with("j1"))
+                .collect::<Vec<_>>()
+        );
+        // Both arms carried into the measurement frame predict the measured
+        // points as they are, as well as the fit did in the arm's frame.
+        let fit_arm = reg.arm_for_fit(&unknown_base);
+        let in_arm_frame = validate(
+            &Rig::from(fit_arm),
+            &result.identified.rig,
+            &reg.to_arm_frame(&seen),
+        )
+        .expect("validate");
+        let in_tracker_frame = validate(
+            &Rig::from(reg.arm_in_measurement_frame(&fit_arm)),
+            &Rig::from(arm_m),
+            &seen,
+        )
+        .expect("validate");
+        for (a, b) in [
+            (in_arm_frame.before.mean_m, in_tracker_frame.before.mean_m),
+            (in_arm_frame.after.mean_m, in_tracker_frame.after.mean_m),
+        ] {
+            assert!((a - b).abs() < 1e-9, "{a} vs {b}");
+        }
+        let carried = reg.identified_in_measurement_frame(&fit_arm, &result.identified);
+        assert_eq!(carried.rig.arm, arm_m);
+        for e in carried.estimates.iter() {
+            let nominal_m = Rig::from(reg.arm_in_measurement_frame(&fit_arm));
+            assert!((e.value - e.id.value(&carried.rig)).abs() < 1e-12, "{e:?}");
+            assert!(
+                (e.id.value(&nominal_m) + e.error - e.value).abs() < 1e-9,
+                "{e:?}"
+            );
+        }
+        let mean = held_out_mean_m(&result);
+        assert!(
+            (mean - own).abs() <= 0.02 * own,
+            "frame {frame:?}: {:.3} mm vs {:.3} mm in the arm's frame",
+            mean * 1e3,
+            own * 1e3
+        );
+    }
+}
+
+/// The bundled arm with the tool point 20 mm across joint 6's axis in the
+/// file (as an industrial arm's flange-mounted target may be).
+fn nominal_with_offset_tool() -> Arm<f64> {
+    let mut arm = bundled();
+    arm.tool.xyz = [0.0, 0.02, 0.05];
+    arm
+}
+
+/// Distance of `arm`'s tool point from joint 6's axis, m.
+fn off_axis_m(arm: &Arm<f64>) -> f64 {
+    let j6 = &arm.joints[5];
+    let [x, y, z] = arm.tool.xyz;
+    // The point in the frame turning with joint 6 before its twist: Rx(alpha) t + (a, 0, d).
+    let across = y * j6.alpha.cos() - z * j6.alpha.sin();
+    (x + j6.a).hypot(across)
+}
+
+/// A run on the effects-off simulation of a true arm whose tool point is
+/// `r` off joint 6's axis.
+fn tool_point_run(r: f64, refresh: bool) -> (OptionResult, Arm<f64>) {
+    let nominal = nominal_with_offset_tool();
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let mut truth = TrueArm::draw(&nominal, 3, &SimConfig::model_only()).expect("draw");
+    let j6 = truth.arm.joints[5];
+    // Put the true point r off the axis, along x6 (alpha6 stays near zero).
+    truth.arm.tool.xyz = [r - j6.a, 0.0, 0.04];
+    let measured = truth.measure(&poses, &[LOAD]).expect("measure");
+    let result = calibrate_option(
+        &Inputs::new(&nominal, &poses, &measured),
+        ModelOption::ElastoKinematic,
+        &settings(refresh),
+        &Silent,
+    )
+    .expect("calibrate");
+    (result, truth.arm)
+}
+
+/// Tool points on joint 6's axis, 1 mm, 11 mm and 50 mm off it, with the
+/// file's point 20 mm off: each is recovered to 0.01 mm, and so is every
+/// held-out point, because the fit keeps the tool point, not joint 6's DH
+/// parameters (which could not bring the point nearer the axis than 20 mm).
+#[test]
+fn tool_points_near_the_last_axis_are_recovered() {
+    for r in [0.0, 0.001, 0.011, 0.05] {
+        let (result, truth) = tool_point_run(r, true);
+        let kept = &result.selection.candidates.identifiability.kept;
+        for name in ["tool.x", "tool.y", "tool.z"] {
+            assert!(
+                kept.contains(&ParamKey::from_name(name).unwrap()),
+                "{name}: {kept:?}"
+            );
+        }
+        let fitted = off_axis_m(&result.identified.rig.arm);
+        assert!(
+            (fitted - off_axis_m(&truth)).abs() < 1e-5,
+            "r {r}: fitted {fitted}, true {}",
+            off_axis_m(&truth)
+        );
+        let v = result.validation.expect("held-out poses");
+        assert!(v.after.max_m < 1e-5, "r {r}: {:?}", v.after);
+    }
+}
+
+/// Without noise or unmodelled effects, the paper's reduction (parameters
+/// removed at the nominal arm held there) leaves a structural error; the
+/// rank analysis refreshed at the estimate leaves under a micrometre (a
+/// parameter no fit could determine stays out, see `calib::refresh`).
+#[test]
+fn refreshing_the_rank_analysis_removes_the_structural_error() {
+    let nominal = bundled();
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let truth = TrueArm::draw(&nominal, 1, &SimConfig::model_only()).expect("draw");
+    let measured = truth.measure(&poses, &[LOAD]).expect("measure");
+    let inputs = Inputs::new(&nominal, &poses, &measured);
+    let run = |refresh| {
+        held_out_mean_m(
+            &calibrate_option(
+                &inputs,
+                ModelOption::ElastoKinematic,
+                &settings(refresh),
+                &Silent,
+            )
+            .expect("calibrate"),
+        )
+    };
+    let (paper, refreshed) = (run(false), run(true));
+    assert!(paper > 0.01e-3, "paper's reduction: {} mm", paper * 1e3);
+    assert!(refreshed < 0.001e-3, "refreshed: {} mm", refreshed * 1e3);
+}
