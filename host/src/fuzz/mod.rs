@@ -84,8 +84,12 @@ impl Format {
     }
 }
 
-/// A calibration file `lrmcal demo` wrote (seed 1, elasto-kinematic).
-const DEMO_CALIBRATION: &str = include_str!("demo-calibration.json");
+/// A calibration file as this lrmcal writes it (`lrmcal identify` of the
+/// simulated bundled arm, 50 poses, elasto-kinematic, registered).
+const CALIBRATION: &str = include_str!("calibration.json");
+/// A calibration file of schema 1, as an older lrmcal wrote it (read through
+/// the upgrade path).
+const CALIBRATION_SCHEMA_1: &str = include_str!("calibration-schema-1.json");
 
 /// Collision settings and bodies of every kind, appended to the bundled arm.
 const BODIES: &str = r#"
@@ -151,7 +155,10 @@ impl Corpus {
                 arms,
                 vec![measurement_file],
                 vec![listed(None)?, listed(Some(0.0663))?],
-                vec![DEMO_CALIBRATION.as_bytes().to_vec()],
+                vec![
+                    CALIBRATION.as_bytes().to_vec(),
+                    CALIBRATION_SCHEMA_1.as_bytes().to_vec(),
+                ],
             ],
         };
         let dir = scratch_dir().map_err(|e| format!("a temporary directory: {e}"))?;
