@@ -30,8 +30,9 @@
 //!
 //! When no rigid motion brings the nominal arm within [`IMPLAUSIBLE_M`] of
 //! the measurements, [`diagnose`] tries the usual mistakes (millimetre
-//! columns holding metres or micrometres, two joint columns swapped, a joint
-//! counted the other way, a mirrored frame) and names the one that fits.
+//! columns holding metres or micrometres, degree columns holding radians, two
+//! joint columns swapped, a joint counted the other way, a mirrored frame)
+//! and names the one that fits.
 
 use model::{Arm, Frame};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
@@ -439,8 +440,8 @@ fn isometry((r, t): &Motion) -> IsometryMatrix3<f64> {
 
 /// The usual mistake that explains why the nominal arm cannot be placed on
 /// `measurements`, if one does: each is undone in turn (positions scaled by
-/// 1000 either way, two joint columns swapped, one joint's sign flipped, the
-/// frame mirrored) and the one that brings the rigid arm within
+/// 1000 either way, radians in the degree columns, two joint columns swapped,
+/// one joint's sign flipped, the frame mirrored) and the one that brings the rigid arm within
 /// [`IMPLAUSIBLE_M`] (RMS, after the best rigid motion), and to less than
 /// half of the misfit as given, is named.
 pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<String> {
@@ -474,6 +475,13 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
     attempt(
         misfit(&same, 1e-3, true),
         "the positions look a thousand times too large (micrometres?): the columns x_mm, y_mm, z_mm take millimetres".into(),
+    );
+    // Radians in the degree columns were read as degrees: the angles used are
+    // the intended ones divided by 180/π.
+    let radians_read_as_degrees = |q: &[f64; 6]| q.map(f64::to_degrees);
+    attempt(
+        misfit(&radians_read_as_degrees, 1.0, true),
+        "the joint angles look like radians in degree columns (q1_deg..q6_deg): multiply them by 180/π (57.2958)".into(),
     );
     for a in 0..6 {
         for b in a + 1..6 {
@@ -637,7 +645,7 @@ mod tests {
     }
 
     #[test]
-    fn metres_swapped_columns_and_mirrors_are_named() {
+    fn metres_radians_swapped_columns_and_mirrors_are_named() {
         let meas = measure(&rigid_nominal(), &small_samples(30));
         let mut metres = meas.clone();
         metres.iter_mut().for_each(|m| m.position /= 1000.0);
@@ -647,6 +655,12 @@ mod tests {
         swapped.iter_mut().for_each(|m| m.pose.q.swap(1, 2));
         let e = refused(&swapped);
         assert!(e.contains("q2_deg and q3_deg look swapped"), "{e}");
+        let mut radians = meas.clone();
+        radians
+            .iter_mut()
+            .for_each(|m| m.pose.q = m.pose.q.map(f64::to_radians));
+        let e = refused(&radians);
+        assert!(e.contains("radians in degree columns"), "{e}");
         let mut mirrored = meas.clone();
         mirrored
             .iter_mut()
