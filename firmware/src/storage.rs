@@ -53,7 +53,8 @@ const MAGIC: [u8; 4] = *b"LRMC";
 /// decode, so a board reflashed across a layout change boots without a
 /// calibration (not with a damaged one) until one is pushed again.
 /// 2: the payload of protocol 2 (servo curves of 2 to 9 knots).
-const FORMAT: u32 = 2;
+/// 3: the payload of protocol 3 (each joint's backlash).
+const FORMAT: u32 = 3;
 const HEADER_LEN: usize = 24;
 /// Where the payload starts: one flash page after the header.
 pub const PAYLOAD_OFFSET: usize = 256;

@@ -63,6 +63,10 @@ pub struct Joint<T> {
     pub com: [T; 3],
     /// The servo's angle -> pulse curve.
     pub servo: ServoCurve<T>,
+    /// Full width of the play in the joint's drive, rad (never negative; see
+    /// [`crate::backlash`]). 0 in files written before it existed.
+    #[serde(default = "crate::zero")]
+    pub backlash: T,
 }
 
 /// The whole arm: geometry, masses, elasticity and servo curves.
@@ -110,6 +114,7 @@ impl<T: Real> Arm<T> {
                 mass: f(j.mass),
                 com: v3(j.com),
                 servo: j.servo.map(f),
+                backlash: f(j.backlash),
             }),
         }
     }

@@ -12,6 +12,7 @@
 //! | [`statics`] | tool point and gravity torques in one sweep through the links' frames |
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
+//! | [`backlash`] | play in a joint's drive: where a joint settles, given the way it arrived |
 //! | [`servo`] | the piecewise-linear servo curve through up to 9 knots (angle -> pulse) |
 //! | [`trig`] | the f32 sine and cosine of the joint angles, fast without an FPU |
 //! | `testing` | test fixtures for every crate: the LRM-like test arm, random errors (feature `testing`) |
@@ -25,6 +26,7 @@
 extern crate std;
 
 pub mod arm;
+pub mod backlash;
 pub mod compensation;
 pub mod elastic;
 pub mod kinematics;
@@ -61,6 +63,11 @@ impl Real for f32 {
     fn joint_sin_cos(self) -> (f32, f32) {
         trig::sin_cos_f32(self)
     }
+}
+
+/// Zero of the model's float type (a serde default for fields added later).
+pub fn zero<T: Real>() -> T {
+    T::zero()
 }
 
 /// Converts an `f64` constant into the model's float type.

@@ -32,6 +32,7 @@ fn joint<T: Real>(
         mass: real(mass),
         com: com.map(real),
         servo: ServoCurve::nominal(),
+        backlash: real(0.0),
     }
 }
 

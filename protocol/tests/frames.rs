@@ -40,7 +40,8 @@ fn another_version_is_reported_not_misread() {
     );
     let msg = FrameError::Version { theirs: 1, seq: 5 }.to_string();
     assert!(
-        msg.contains("version 1") && msg.contains("speaks 2"),
+        msg.contains("version 1")
+            && msg.contains(&format!("speaks {}", protocol::PROTOCOL_VERSION)),
         "{msg}"
     );
 }
@@ -113,6 +114,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
             mass: 0.1,
             com: [0.0; 3],
             servo: model::ServoCurve::nominal(),
+            backlash: 0.0,
         }; 6],
     };
     let good = Calibration {

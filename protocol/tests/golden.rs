@@ -48,6 +48,7 @@ pub fn fixed_arm() -> Arm<f32> {
         } else {
             ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
         },
+        backlash: 0.001 * i as f32,
     };
     Arm {
         gravity: [0.0, 0.0, -9.80665],
