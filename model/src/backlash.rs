@@ -76,8 +76,8 @@ impl<T: Real> ApproachTracker<T> {
 
     /// Moves to the commanded pose `q` and returns the way each joint arrives.
     pub fn visit(&mut self, q: &[T; JOINTS]) -> [Approach; JOINTS] {
-        for i in 0..JOINTS {
-            self.approach[i] = self.approach[i].towards(self.last[i], q[i]);
+        for ((approach, last), qi) in self.approach.iter_mut().zip(&self.last).zip(q) {
+            *approach = approach.towards(*last, *qi);
         }
         self.last = *q;
         self.approach

@@ -9,7 +9,7 @@
 //! (Gram–Schmidt with re-orthogonalisation); otherwise it is removed, and the
 //! least-squares combination of kept columns that reproduces it names what it
 //! is confounded with. The tolerance is the sine of the angle between a column
-//! and that span: 1e-6 sits far above the finite-difference noise (~1e-9) and
+//! and that span: 1e-6 sits far above the Jacobian's rounding noise (~1e-15) and
 //! far below any genuinely identifiable direction on a realistic arm (≳1e-3),
 //! and an SVD of all candidate columns with the same relative tolerance must
 //! give the same rank ([`Identifiability::svd_rank`] reports it as a check).
@@ -34,7 +34,7 @@ use model::Arm;
 use model::params::ParamKind;
 use nalgebra::{DMatrix, DVector};
 
-use super::jacobian::{JacobianOptions, jacobian};
+use super::jacobian::jacobian;
 use super::observability::ColumnScale;
 use super::option::candidates;
 use super::params::ParamKey;
@@ -44,7 +44,7 @@ use super::{CalibError, ModelOption, Rig, Sample};
 pub const RANK_TOLERANCE: f64 = 1e-6;
 
 /// A parameter whose typical error moves no measured point by more than this
-/// (m) has no effect: its column holds only finite-difference rounding noise.
+/// (m) has no effect: its column holds only rounding noise.
 pub const ZERO_EFFECT_M: f64 = 1e-9;
 
 /// A typical size of an error of `key`'s kind: 1 mm, 1 mrad, 0.01 rad/Nm.
@@ -106,7 +106,7 @@ pub fn analyse(
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
     let ids = candidates(option);
-    let j = jacobian(&Rig::from(*arm), &ids, samples, &JacobianOptions::default())?;
+    let j = jacobian(&Rig::from(*arm), &ids, samples)?;
     Ok(analyse_jacobian(option, &ids, &j))
 }
 
@@ -221,7 +221,7 @@ pub fn check_full_rank(
     keys: &[ParamKey],
     samples: &[Sample],
 ) -> Result<(), CalibError> {
-    let j = jacobian(rig, keys, samples, &JacobianOptions::default())?;
+    let j = jacobian(rig, keys, samples)?;
     let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
     let svd = scaled.svd(false, true);
     let rank = numerical_rank(&svd.singular_values);

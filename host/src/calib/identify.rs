@@ -57,7 +57,7 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 use model::params::ParamKind;
 
 use super::identifiability::check_full_rank;
-use super::jacobian::{JacobianOptions, jacobian, tool_points};
+use super::jacobian::{jacobian, tool_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::validate::ErrorStats;
@@ -248,7 +248,7 @@ impl<'a> FitData<'a> {
         keys: &[ParamKey],
         sqrt_w: &[f64],
     ) -> Result<DMatrix<f64>, CalibError> {
-        let mut j = jacobian(arm, keys, &self.samples, &JacobianOptions::default())?;
+        let mut j = jacobian(arm, keys, &self.samples)?;
         for (k, w) in sqrt_w.iter().enumerate() {
             j.rows_mut(3 * k, 3).scale_mut(*w);
         }

@@ -6,7 +6,7 @@
 //! |---|---|
 //! | [`params`] | the free parameters: typed keys and the registry of their values |
 //! | [`option`] | the candidate parameters of each model option |
-//! | [`jacobian`] | d(measured point)/d(error parameters), through the elastic model |
+//! | [`jacobian`] | d(measured point)/d(parameters, joint angles), exact through the elastic model |
 //! | [`identifiability`] | the largest identifiable parameter subset, by rank analysis |
 //! | [`observability`] | column scaling and the observability indices O1..O5 |
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |

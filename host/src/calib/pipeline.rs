@@ -3,8 +3,8 @@
 //! given), identification on the selected poses, validation on the rest, and
 //! the cross-load check.
 //!
-//! The candidates' analysis ([`CandidateBlocks`]: a finite-difference
-//! Jacobian over every candidate) is the costly part; it is built once per
+//! The candidates' analysis ([`CandidateBlocks`]: the Jacobian over every
+//! candidate) is the costly part; it is built once per
 //! option and carried in the result, so what follows (checks, experiments,
 //! reports) reuses it.
 
@@ -16,7 +16,7 @@ use nalgebra::DMatrix;
 use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use super::identifiability::{Identifiability, analyse_jacobian};
 use super::identify::{Identified, IdentifyOptions};
-use super::jacobian::{JacobianOptions, jacobian};
+use super::jacobian::jacobian;
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::progress::Progress;
@@ -80,7 +80,7 @@ impl CandidateBlocks {
         // translation) is what the rank analysis removes.
         let mut ids = nominal.tool_keys();
         ids.extend(option_candidates(option));
-        let j = jacobian(nominal, &ids, &samples, &JacobianOptions::default())?;
+        let j = jacobian(nominal, &ids, &samples)?;
         let identifiability = analyse_jacobian(option, &ids, &j);
         // The kept parameters are a subsequence of the candidates, in order.
         let cols: Vec<usize> = ids

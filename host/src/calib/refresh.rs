@@ -33,7 +33,7 @@
 
 use super::identifiability::{analyse_jacobian_within, typical_error};
 use super::identify::{Estimate, Identified, IdentifyOptions, identify};
-use super::jacobian::{JacobianOptions, jacobian};
+use super::jacobian::jacobian;
 use super::option::candidates;
 use super::params::ParamKey;
 use super::{CalibError, ModelOption, Rig};
@@ -41,9 +41,9 @@ use crate::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
 /// estimate and the span of the fitted ones above which it joins the fit:
-/// well above the finite-difference noise of the Jacobian (a column the
-/// kept ones reproduce exactly, like `j6.theta` with the tool's offsets,
-/// passed 1e-6), well below what a real dependence on the estimate
+/// well above the rounding noise of the Jacobian (a column the kept ones
+/// reproduce exactly, like `j6.theta` with the tool's offsets, is left
+/// with 1e-16), well below what a real dependence on the estimate
 /// gives (a twist or tilt of a few mrad gives ~1e-3).
 pub const REFRESH_TOLERANCE: f64 = 1e-4;
 
@@ -139,7 +139,7 @@ fn joining_at(
         .copied()
         .chain(candidates(option).into_iter().filter(|k| !keys.contains(k)))
         .collect();
-    let j = jacobian(&first.rig, &ordered, &samples, &JacobianOptions::default())?;
+    let j = jacobian(&first.rig, &ordered, &samples)?;
     let analysis = analyse_jacobian_within(option, &ordered, &j, REFRESH_TOLERANCE);
     let joining: Vec<ParamKey> = analysis
         .kept
