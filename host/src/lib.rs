@@ -13,6 +13,7 @@ pub mod fuzz;
 pub mod ik;
 pub mod io;
 pub mod plan;
+pub mod scale;
 pub mod sim;
 pub mod tracker;
 

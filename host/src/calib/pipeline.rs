@@ -14,7 +14,7 @@ use model::Arm;
 use nalgebra::DMatrix;
 
 use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
-use super::identifiability::{Identifiability, analyse_jacobian};
+use super::identifiability::{Identifiability, TypicalErrors, analyse_jacobian};
 use super::identify::{Identified, IdentifyOptions};
 use super::jacobian::jacobian;
 use super::observability::{ColumnScale, Observability};
@@ -81,7 +81,8 @@ impl CandidateBlocks {
         let mut ids = nominal.tool_keys();
         ids.extend(option_candidates(option));
         let j = jacobian(nominal, &ids, &samples)?;
-        let identifiability = analyse_jacobian(option, &ids, &j);
+        let identifiability =
+            analyse_jacobian(option, &ids, &j, &TypicalErrors::of_arm(&nominal.arm));
         // The kept parameters are a subsequence of the candidates, in order.
         let cols: Vec<usize> = ids
             .iter()

@@ -21,8 +21,8 @@
 //! elastic tilt (about 1 %), so with millimetres of noise and unmodelled
 //! error the two would wander off together by centimetres. A joining
 //! parameter whose standard deviation in the larger fit exceeds a typical
-//! error of its kind (1 mm, 1 mrad, 0.01 rad/Nm: what the kept parameters
-//! are determined to) is left out again and the larger fit repeated without
+//! error of its kind (1 mm, 1 mrad, 0.01 rad/Nm on the bundled arm: what the
+//! kept parameters are determined to; `TypicalErrors`) is left out again and the larger fit repeated without
 //! it; one whose deviation, predicted from the Jacobian at the estimate and
 //! the first fit's residual, is a hundred times that stays out of the larger fit
 //! from the start (such fits converge slowly: with them the demo and its
@@ -31,7 +31,7 @@
 //! arm, against the single reduction's 0.19 mm): the parameters the bar keeps
 //! out leave a trace of the structural error.
 
-use super::identifiability::{analyse_jacobian_within, typical_error};
+use super::identifiability::{TypicalErrors, analyse_jacobian_within};
 use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::jacobian;
 use super::option::candidates;
@@ -66,7 +66,8 @@ pub fn identify_refreshed(
     if !options.refresh {
         return Ok(first);
     }
-    let added = joining_at(&first, option, keys, measurements)?;
+    let typical = TypicalErrors::of_arm(&nominal.arm);
+    let added = joining_at(&first, option, keys, measurements, &typical)?;
     if added.is_empty() {
         return Ok(first);
     }
@@ -83,7 +84,7 @@ pub fn identify_refreshed(
                 .iter()
                 .find(|e| e.id == *k)
                 .and_then(|e| e.std)
-                .is_none_or(|s| s <= typical_error(*k))
+                .is_none_or(|s| s <= typical.of(*k))
         })
         .collect();
     if determined.len() == added.len() {
@@ -132,6 +133,7 @@ fn joining_at(
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
+    typical: &TypicalErrors,
 ) -> Result<Vec<ParamKey>, CalibError> {
     let samples = first.rig.samples(measurements)?;
     let ordered: Vec<ParamKey> = keys
@@ -140,7 +142,7 @@ fn joining_at(
         .chain(candidates(option).into_iter().filter(|k| !keys.contains(k)))
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
-    let analysis = analyse_jacobian_within(option, &ordered, &j, REFRESH_TOLERANCE);
+    let analysis = analyse_jacobian_within(option, &ordered, &j, typical, REFRESH_TOLERANCE);
     let joining: Vec<ParamKey> = analysis
         .kept
         .iter()
@@ -175,7 +177,7 @@ fn joining_at(
         .filter(|(i, k)| {
             let c = keys.len() + i;
             let std = sigma * inverse[(c, c)].max(0.0).sqrt() / norms[c];
-            std.is_finite() && std <= HOPELESS_FACTOR * typical_error(**k)
+            std.is_finite() && std <= HOPELESS_FACTOR * typical.of(**k)
         })
         .map(|(_, k)| *k)
         .collect())

@@ -82,7 +82,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         SimConfig::model_only()
     } else {
         SimConfig::default()
-    };
+    }
+    .scaled_to(&nominal);
     let truth =
         TrueArm::draw(&nominal, args.seed, &config).map_err(|source| Error::Simulate { source })?;
     let loads = [0.0, PAPER_LOAD_KG];

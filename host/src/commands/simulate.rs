@@ -24,6 +24,9 @@ play, stiffness that softens with load, tracker noise), each switchable.\n\n\
 Every pose is measured under every load. Per load the poses are visited in the order of the \
 list, starting from home (all joints at 0), and each joint's play depends on the direction it \
 last moved in. The same seed and settings give byte-identical files.\n\n\
+The compliance ranges and the softening default to a printed arm's (the bundled one's), \
+scaled by the ratio of its largest gravity torque to your arm's: an industrial arm then sags \
+by the same angles under its own weight, not a thousand times more.\n\n\
 Examples:\n  \
 lrmcal simulate --out measurements.csv --truth truth.json\n  \
 lrmcal simulate --poses selection.csv --loads 0.0663 --seed 7 --out m.csv\n  \
@@ -78,21 +81,24 @@ pub struct SimArgs {
     /// Sigma of the base and tool rotation errors, degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().frame_angle_sigma_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub frame_angle_sigma_deg: f64,
-    /// Range the six joint compliances are drawn from (log-uniform), rad/Nm.
-    #[arg(long, value_name = "LO,HI", default_value_t = Range(SimConfig::default().joint_compliance))]
-    pub joint_compliance: Range,
-    /// Range the base compliance is drawn from (log-uniform), rad/Nm.
-    #[arg(long, value_name = "LO,HI", default_value_t = Range(SimConfig::default().base_compliance))]
-    pub base_compliance: Range,
+    /// Range the six joint compliances are drawn from (log-uniform), rad/Nm
+    /// [default: 0.08,0.2 on the bundled arm, scaled to another arm's torques].
+    #[arg(long, value_name = "LO,HI")]
+    pub joint_compliance: Option<Range>,
+    /// Range the base compliance is drawn from (log-uniform), rad/Nm
+    /// [default: 0.01,0.03 on the bundled arm, scaled to another arm's torques].
+    #[arg(long, value_name = "LO,HI")]
+    pub base_compliance: Option<Range>,
     /// Servo angle error that is not piecewise-linear (sine + cubic per servo), degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().servo_error_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub servo_error_deg: f64,
     /// Full width of each joint's direction-dependent play, degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().backlash_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub backlash_deg: f64,
-    /// Stiffness softening: compliance k becomes k (1 + s |torque|), s in 1/Nm.
-    #[arg(long, value_name = "S", default_value_t = SimConfig::default().softening_per_nm, allow_negative_numbers = true, value_parser = non_negative)]
-    pub softening_per_nm: f64,
+    /// Stiffness softening: compliance k becomes k (1 + s |torque|), s in 1/Nm
+    /// [default: 0.3 on the bundled arm, scaled to another arm's torques].
+    #[arg(long, value_name = "S", allow_negative_numbers = true, value_parser = non_negative)]
+    pub softening_per_nm: Option<f64>,
     /// Sigma of the tracker noise on each axis, mm.
     #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().noise_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub noise_mm: f64,
@@ -103,18 +109,22 @@ pub struct SimArgs {
 }
 
 impl SimArgs {
-    /// The simulator configuration these flags describe (SI units).
-    pub fn config(&self) -> SimConfig {
+    /// The simulator configuration these flags describe for `nominal` (SI
+    /// units); what they leave out is [`SimConfig::scaled_to`] `nominal`.
+    pub fn config(&self, nominal: &model::Arm<f64>) -> SimConfig {
+        let scaled = SimConfig::default().scaled_to(nominal);
         let config = SimConfig {
             dh_length_sigma_m: self.dh_length_sigma_mm * 1e-3,
             dh_angle_sigma_rad: self.dh_angle_sigma_deg.to_radians(),
             frame_length_sigma_m: self.frame_length_sigma_mm * 1e-3,
             frame_angle_sigma_rad: self.frame_angle_sigma_deg.to_radians(),
-            joint_compliance: self.joint_compliance.0,
-            base_compliance: self.base_compliance.0,
+            joint_compliance: self
+                .joint_compliance
+                .map_or(scaled.joint_compliance, |r| r.0),
+            base_compliance: self.base_compliance.map_or(scaled.base_compliance, |r| r.0),
             servo_error_rad: self.servo_error_deg.to_radians(),
             backlash_rad: self.backlash_deg.to_radians(),
-            softening_per_nm: self.softening_per_nm,
+            softening_per_nm: self.softening_per_nm.unwrap_or(scaled.softening_per_nm),
             noise_sigma_m: self.noise_mm * 1e-3,
         };
         if self.model_only {
@@ -192,7 +202,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             poses,
         })
         .collect();
-    let truth = TrueArm::draw(&arm.arm, args.seed, &args.sim.config())?;
+    let truth = TrueArm::draw(&arm.arm, args.seed, &args.sim.config(&arm.arm))?;
     let simulation = truth.simulate_passes(&passes)?;
 
     if let Some(path) = &args.truth {

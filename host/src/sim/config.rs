@@ -1,6 +1,16 @@
 //! What the simulator draws and which effects outside the paper's model it
 //! switches on, with the defaults documented field by field.
+//!
+//! The compliance defaults are a printed arm's, in rad/Nm; an arm with a
+//! thousand times the torques would fold over under them. So the defaults
+//! are meant at the bundled arm's torques and [`SimConfig::scaled_to`] carries
+//! them to another arm: each compliance range (and the softening, also per
+//! Nm) is divided by the ratio of that arm's largest gravity torque to the
+//! bundled arm's, so the drawn arm sags by the same angles under its own
+//! weight. For the bundled arm the ratio is exactly 1 and the draws are
+//! unchanged.
 
+use model::Arm;
 use serde::{Deserialize, Serialize};
 
 use super::SimError;
@@ -31,10 +41,13 @@ pub struct SimConfig {
     /// rad/Nm. Default `[0.08, 0.2]`: with the bundled arm this gives the
     /// paper's uncalibrated error of about 30 mm (the paper identified
     /// 8e-3 .. 2.2e-1, the small values on joints that carry little torque).
+    /// For another arm, scaled by [`SimConfig::scaled_to`] (a UR10-like arm
+    /// of 7-100 Nm: about 2e-4 .. 6e-4).
     pub joint_compliance: [f64; 2],
     /// The true base compliance is drawn log-uniformly from `[lo, hi]`, rad/Nm.
     /// Default `[0.01, 0.03]`: the base carries the whole arm, so its torque is
-    /// the largest and its share of the range the smallest.
+    /// the largest and its share of the range the smallest. Scaled like the
+    /// joints', by the base's torque.
     pub base_compliance: [f64; 2],
     /// Servo angle error that is not piecewise-linear, rad: each servo gets
     /// `e(q) = A (u sin(w q + phi) + v (q / 100°)³)` with `u` in 0.5..1,
@@ -50,7 +63,8 @@ pub struct SimConfig {
     pub backlash_rad: f64,
     /// Softening of the stiffness with load, 1/Nm: the true compliance is
     /// `k (1 + s |tau|)` at torque `tau`. Default 0.3 (30 % more compliant at
-    /// 1 Nm). 0 switches it off (linear compliance, as in the model).
+    /// 1 Nm), scaled like the joints' compliances. 0 switches it off (linear
+    /// compliance, as in the model).
     pub softening_per_nm: f64,
     /// Standard deviation of the tracker's Gaussian noise on each axis, m.
     /// Default 0.2 mm. 0 switches it off.
@@ -85,6 +99,21 @@ impl SimConfig {
             softening_per_nm: 0.0,
             noise_sigma_m: 0.0,
             ..Self::default()
+        }
+    }
+
+    /// This configuration, taken as meant for the bundled arm, carried to
+    /// `nominal` (module docs): the joint compliance ranges and the softening
+    /// times the bundled arm's largest joint gravity torque over `nominal`'s,
+    /// the base compliance range likewise with the base's torque
+    /// ([`crate::scale`]). An arm that carries no torque keeps the values.
+    pub fn scaled_to(self, nominal: &Arm<f64>) -> Self {
+        let [joint, base] = crate::scale::torque_ratio_to_bundled(nominal);
+        Self {
+            joint_compliance: self.joint_compliance.map(|k| k * joint),
+            base_compliance: self.base_compliance.map(|k| k * base),
+            softening_per_nm: self.softening_per_nm * joint,
+            ..self
         }
     }
 
@@ -123,5 +152,34 @@ impl SimConfig {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn arm(text: &str) -> Arm<f64> {
+        crate::io::arm_toml::parse(text).unwrap().arm
+    }
+
+    /// The bundled arm keeps its defaults bit for bit; a UR10-like arm gets
+    /// compliances that sag it by the same angles under its largest torque.
+    #[test]
+    fn defaults_carried_to_an_arm_keep_the_sag_angles() {
+        let bundled = arm(crate::io::arm_source::BUNDLED[0].1);
+        let d = SimConfig::default();
+        assert_eq!(d.scaled_to(&bundled), d);
+        let ur10 = arm(include_str!("../../tests/data/ur10_like.toml"));
+        let s = d.scaled_to(&ur10);
+        let [big, _] = crate::scale::largest_gravity_torques(&ur10);
+        let [small, _] = crate::scale::largest_gravity_torques(&bundled);
+        for (k, k0) in s.joint_compliance.iter().zip(d.joint_compliance) {
+            assert!((k * big - k0 * small).abs() < 1e-12 * k0 * small, "{s:?}");
+        }
+        assert!(s.base_compliance[1] < d.base_compliance[1] / 100.0);
+        assert!((s.softening_per_nm * big - d.softening_per_nm * small).abs() < 1e-12);
+        assert_eq!(s.noise_sigma_m, d.noise_sigma_m);
+        s.validate().unwrap();
     }
 }
