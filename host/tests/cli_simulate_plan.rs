@@ -298,7 +298,7 @@ fn help_teaches() {
     // The defaults printed in the help are the library's.
     let text = String::from_utf8(lrmcal(&["help", "simulate"]).stdout).unwrap();
     assert!(
-        text.contains("[default: 0.2]") && text.contains("[default: 0.08,0.2]"),
+        text.contains("[default: 0.2]") && text.contains("[default: 0.08,0.2 on the bundled arm"),
         "{text}"
     );
 }
