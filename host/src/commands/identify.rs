@@ -357,6 +357,27 @@ fn registration(
         reg.after_rms_m * 1e3,
         reg.after_max_m * 1e3
     );
+    let mm = |v: [f64; 3]| {
+        format!(
+            "({:.1}, {:.1}, {:.1}) mm",
+            v[0] * 1e3,
+            v[1] * 1e3,
+            v[2] * 1e3
+        )
+    };
+    match reg.tool {
+        Some(tool) => println!(
+            "  tool point found with it: {} in frame 6 (the arm file: {}); the fit starts there",
+            mm(tool.into()),
+            mm(nominal.tool.xyz)
+        ),
+        None => println!(
+            "  tool point: the arm file's {} kept; the last link turns too little to find it (turn {:.2}, {:.1} needed: measure poses that turn the wrist)",
+            mm(nominal.tool.xyz),
+            reg.tool_turn,
+            crate::calib::registration::MIN_TOOL_TURN
+        ),
+    }
     if !reg.trimmed.is_empty() {
         let named: Vec<String> = reg
             .trimmed
