@@ -82,6 +82,8 @@ pub const TILT_WARNING_RAD: f64 = 20.0 * std::f64::consts::PI / 180.0;
 
 /// A rigid motion `p ↦ r · p + t` as `(r, t)`.
 type Motion = (Matrix3<f64>, Vector3<f64>);
+/// Frame 6 of one sample, origin and rotation: the tool point `t` is at `o + A t`.
+type Flange = (Vector3<f64>, Matrix3<f64>);
 
 /// Where gravity comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -386,7 +388,7 @@ fn flange_poses(
     arm: &Arm<f64>,
     gravity_arm: Vector3<f64>,
     samples: &[Sample],
-) -> Result<Vec<(Vector3<f64>, Matrix3<f64>)>, CalibError> {
+) -> Result<Vec<Flange>, CalibError> {
     let at = |t: Vector3<f64>| {
         let mut a = *arm;
         a.tool.xyz = t.into();
@@ -404,16 +406,23 @@ fn flange_poses(
         .collect())
 }
 
-/// The tool point `t` and translation `b` that put the flange poses nearest
-/// the kept measurements for the motion's rotation `r` (module docs), and
-/// the turn of the last link; `None` for the point when the turn is below
-/// [`MIN_TOOL_TURN`].
+/// What one linear solve for the tool point found.
+struct ToolSolve {
+    /// The tool point `t` (frame 6) and the motion's translation `b`; `None`
+    /// when the turn is below [`MIN_TOOL_TURN`].
+    found: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The turn of the last link over the kept points.
+    turn: f64,
+}
+
+/// The tool point and translation that put the flange poses nearest the
+/// kept measurements for the motion's rotation `r` (module docs).
 fn solve_tool(
-    flanges: &[(Vector3<f64>, Matrix3<f64>)],
+    flanges: &[Flange],
     measured: &[Vector3<f64>],
     keep: &[bool],
     r: &Matrix3<f64>,
-) -> (Option<(Vector3<f64>, Vector3<f64>)>, f64) {
+) -> ToolSolve {
     let kept: Vec<usize> = (0..flanges.len()).filter(|&i| keep[i]).collect();
     let mut m = nalgebra::DMatrix::zeros(3 * kept.len(), 6);
     let mut rhs = nalgebra::DVector::zeros(3 * kept.len());
@@ -427,15 +436,16 @@ fn solve_tool(
     }
     let svd = m.svd(true, true);
     let turn = svd.singular_values.min() / (kept.len().max(1) as f64).sqrt();
-    if turn.is_nan() || turn < MIN_TOOL_TURN {
-        return (None, turn);
-    }
-    let Ok(x) = svd.solve(&rhs, 0.0) else {
-        return (None, turn);
+    let found = if turn.is_nan() || turn < MIN_TOOL_TURN {
+        None
+    } else {
+        svd.solve(&rhs, 0.0).ok().map(|x| {
+            let t = Vector3::new(x[0], x[1], x[2]);
+            let c = Vector3::new(x[3], x[4], x[5]);
+            (t, r * c)
+        })
     };
-    let t = Vector3::new(x[0], x[1], x[2]);
-    let c = Vector3::new(x[3], x[4], x[5]);
-    (Some((t, r * c)), turn)
+    ToolSolve { found, turn }
 }
 
 /// Registers `nominal` on `measurements` (positions in the measurement
@@ -492,7 +502,7 @@ pub fn register(
     for round in 0..MAX_TOOL_ROUNDS {
         let gravity_arm = gravity.in_arm_frame(nominal, &isometry(&motion));
         let flanges = flange_poses(&arm, gravity_arm, &samples)?;
-        let (found, turn) = solve_tool(&flanges, &measured, &keep, &motion.0);
+        let ToolSolve { found, turn } = solve_tool(&flanges, &measured, &keep, &motion.0);
         tool_turn = turn;
         let mut moved = 0.0;
         if let Some((t, b)) = found {
