@@ -234,7 +234,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let mut cal = calibration_file(
             &registration.arm_in_measurement_frame(&nominal),
             &registration.identified_in_measurement_frame(&nominal, &r.identified),
-            &r.selection.candidates.identifiability.removed_ids(),
+            &r.held(),
             r.pose_ids(),
             vec![load],
             r.identified.fit_residual,
@@ -409,6 +409,7 @@ fn record(args: &Args, reg: &Registration) -> RegistrationRecord {
         before_rms_m: reg.before_rms_m,
         after_rms_m: reg.after_rms_m,
         trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
+        tool_m: reg.tool.map(Into::into),
     }
 }
 
