@@ -25,7 +25,7 @@ impl From<&Estimate> for FittedParam {
 }
 
 /// The calibration file of an identification from `nominal`: `removed` are
-/// the candidates left out as unidentifiable, `poses_used` and `loads_kg`
+/// the candidates held at nominal as unidentifiable, `poses_used` and `loads_kg`
 /// the measurements fitted, `fit_residual` the error on them. Targets are
 /// listed when the measurements named them, without their held-out error
 /// (the caller adds it where there was a validation).

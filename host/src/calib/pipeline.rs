@@ -19,6 +19,7 @@ use super::identify::{Identified, IdentifyOptions};
 use super::jacobian::jacobian;
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
+use super::params::ParamKey;
 use super::progress::Progress;
 use super::refresh::identify_refreshed;
 use super::targets::Targets;
@@ -334,6 +335,18 @@ impl OptionResult {
     /// The option.
     pub fn option(&self) -> ModelOption {
         self.selection.option
+    }
+
+    /// The parameters the rank analysis removed and the refresh did not
+    /// fit: held at their nominal values.
+    pub fn held(&self) -> Vec<ParamKey> {
+        self.selection
+            .candidates
+            .identifiability
+            .removed_ids()
+            .into_iter()
+            .filter(|k| !self.identified.estimates.iter().any(|e| e.id == *k))
+            .collect()
     }
 
     /// Ids of the poses the fit used.

@@ -28,6 +28,22 @@
 //! nominal arm the predicted points depend on gravity in the arm's frame,
 //! which depends on `R`: the solve is repeated with the deflected points.
 //!
+//! **The tool point too.** Where the target sits on the flange is often known
+//! to a ruler's accuracy at best. For a given rotation `R` of the motion the
+//! measured point is linear in the tool point `t` (frame 6) and the motion's
+//! translation `b`: `m ≈ R (o(q) + A(q) t) + b`, with `o` and `A` frame 6's
+//! origin and rotation in the arm's world frame (deflected, which does not
+//! depend on `t`). So registration alternates: the rigid alignment above for
+//! `R` and `b` with `t` held, then linear least squares for `t` and `Rᵀ b`
+//! with `R` held, over the points the alignment kept, until neither moves.
+//! This needs the last link to turn: if it kept one orientation, a shift of
+//! `t` would be a shift of `b`. The stacked `[A(q) I]` tells: its smallest
+//! singular value over the square root of the point count (the *turn* of
+//! the last link, 0 when it never turns, near 1 for orientations all round)
+//! must reach [`MIN_TOOL_TURN`]; below, the file's tool point is kept and
+//! the report says so. The fit refines the tool point from there like any
+//! parameter.
+//!
 //! When no rigid motion brings the nominal arm within [`IMPLAUSIBLE_M`] of
 //! the measurements, [`diagnose`] tries the usual mistakes (millimetre
 //! columns holding metres or micrometres, degree columns holding radians, two
@@ -52,11 +68,22 @@ pub const TRIM_FACTOR: f64 = 3.0;
 pub const TRIM_FLOOR_M: f64 = 0.02;
 /// Solves, at most, while the trimmed set changes or the gravity settles.
 const MAX_ROUNDS: usize = 8;
+/// Rounds of the alternation between the motion and the tool point, at most.
+const MAX_TOOL_ROUNDS: usize = 200;
+/// The alternation has settled when the motion and the tool point move by
+/// less than this in a round, m (rotations as their matrices' change).
+const SETTLED_M: f64 = 1e-10;
+/// The least turn of the last link (module docs) for registration to find
+/// the tool point: 0.3, so that the tool point it finds is off by no more
+/// than about three times what the nominal arm misses by anyway.
+pub const MIN_TOOL_TURN: f64 = 0.3;
 /// Above this angle between frame 0's `z` and "up" the base is reported as tilted, rad.
 pub const TILT_WARNING_RAD: f64 = 20.0 * std::f64::consts::PI / 180.0;
 
 /// A rigid motion `p ↦ r · p + t` as `(r, t)`.
 type Motion = (Matrix3<f64>, Vector3<f64>);
+/// Frame 6 of one sample, origin and rotation: the tool point `t` is at `o + A t`.
+type Flange = (Vector3<f64>, Matrix3<f64>);
 
 /// Where gravity comes from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -98,6 +125,12 @@ pub struct Registration {
     pub after_max_m: f64,
     /// The measurements left out of the final solve, `(pose, load kg)`.
     pub trimmed: Vec<(u32, f64)>,
+    /// The tool point found (frame 6, m), which the fit starts from; `None`
+    /// when the file's was kept.
+    pub tool: Option<Vector3<f64>>,
+    /// The turn of the last link over the points kept (module docs): what
+    /// decided whether the tool point could be found.
+    pub tool_turn: f64,
 }
 
 impl Registration {
@@ -114,14 +147,19 @@ impl Registration {
             after_rms_m: 0.0,
             after_max_m: 0.0,
             trimmed: Vec::new(),
+            tool: None,
+            tool_turn: 0.0,
         }
     }
 
     /// `nominal` as the fit uses it: in its own world frame, with gravity
-    /// carried there from the measurement frame.
+    /// carried there from the measurement frame, and the tool point found.
     pub fn arm_for_fit(&self, nominal: &Arm<f64>) -> Arm<f64> {
         let mut arm = *nominal;
         arm.gravity = (self.frame.rotation.inverse() * self.gravity).into();
+        if let Some(tool) = self.tool {
+            arm.tool.xyz = tool.into();
+        }
         arm
     }
 
@@ -342,6 +380,74 @@ fn predicted(
     tool_points(&Rig::from(arm), samples)
 }
 
+/// Frame 6's origin `o` and rotation `A` of each sample in `arm`'s world
+/// frame under `gravity_arm`: the tool point `t` is at `o + A t`. The
+/// deflection does not depend on `t`, so the map is affine and three
+/// evaluations at unit tool points give it exactly.
+fn flange_poses(
+    arm: &Arm<f64>,
+    gravity_arm: Vector3<f64>,
+    samples: &[Sample],
+) -> Result<Vec<Flange>, CalibError> {
+    let at = |t: Vector3<f64>| {
+        let mut a = *arm;
+        a.tool.xyz = t.into();
+        predicted(&a, gravity_arm, samples)
+    };
+    let origin = at(Vector3::zeros())?;
+    let axes = [at(Vector3::x())?, at(Vector3::y())?, at(Vector3::z())?];
+    Ok(origin
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let a = Matrix3::from_columns(&[axes[0][i] - o, axes[1][i] - o, axes[2][i] - o]);
+            (*o, a)
+        })
+        .collect())
+}
+
+/// What one linear solve for the tool point found.
+struct ToolSolve {
+    /// The tool point `t` (frame 6) and the motion's translation `b`; `None`
+    /// when the turn is below [`MIN_TOOL_TURN`].
+    found: Option<(Vector3<f64>, Vector3<f64>)>,
+    /// The turn of the last link over the kept points.
+    turn: f64,
+}
+
+/// The tool point and translation that put the flange poses nearest the
+/// kept measurements for the motion's rotation `r` (module docs).
+fn solve_tool(
+    flanges: &[Flange],
+    measured: &[Vector3<f64>],
+    keep: &[bool],
+    r: &Matrix3<f64>,
+) -> ToolSolve {
+    let kept: Vec<usize> = (0..flanges.len()).filter(|&i| keep[i]).collect();
+    let mut m = nalgebra::DMatrix::zeros(3 * kept.len(), 6);
+    let mut rhs = nalgebra::DVector::zeros(3 * kept.len());
+    for (row, &i) in kept.iter().enumerate() {
+        let (o, a) = &flanges[i];
+        m.fixed_view_mut::<3, 3>(3 * row, 0).copy_from(a);
+        m.fixed_view_mut::<3, 3>(3 * row, 3)
+            .copy_from(&Matrix3::identity());
+        rhs.fixed_rows_mut::<3>(3 * row)
+            .copy_from(&(r.transpose() * measured[i] - o));
+    }
+    let svd = m.svd(true, true);
+    let turn = svd.singular_values.min() / (kept.len().max(1) as f64).sqrt();
+    let found = if turn.is_nan() || turn < MIN_TOOL_TURN {
+        None
+    } else {
+        svd.solve(&rhs, 0.0).ok().map(|x| {
+            let t = Vector3::new(x[0], x[1], x[2]);
+            let c = Vector3::new(x[3], x[4], x[5]);
+            (t, r * c)
+        })
+    };
+    ToolSolve { found, turn }
+}
+
 /// Registers `nominal` on `measurements` (positions in the measurement
 /// frame); see the module docs. Refuses measurements no rigid motion
 /// explains, naming what to check.
@@ -388,16 +494,31 @@ pub fn register(
         trimmed_align(&rigid, &measured, true).ok_or_else(unplaceable)?;
     let elastic =
         nominal.joints.iter().any(|j| j.compliance > 0.0) || nominal.base_compliance > 0.0;
-    if elastic {
-        for _ in 0..3 {
-            let frame = isometry(&motion);
-            let points = predicted(nominal, gravity.in_arm_frame(nominal, &frame), &samples)?;
-            let next = trimmed_align(&points, &measured, true).ok_or_else(unplaceable)?;
-            let moved = (next.0.1 - motion.1).norm() + (next.0.0 - motion.0).norm();
-            (motion, keep, d) = next;
-            if moved < 1e-12 {
-                break;
-            }
+    // The motion and the tool point in turn (module docs); with a rigid arm
+    // whose tool point cannot be found, the first alignment is the answer.
+    let mut arm = *nominal;
+    let mut tool = None;
+    let mut tool_turn = 0.0;
+    for round in 0..MAX_TOOL_ROUNDS {
+        let gravity_arm = gravity.in_arm_frame(nominal, &isometry(&motion));
+        let flanges = flange_poses(&arm, gravity_arm, &samples)?;
+        let ToolSolve { found, turn } = solve_tool(&flanges, &measured, &keep, &motion.0);
+        tool_turn = turn;
+        let mut moved = 0.0;
+        if let Some((t, b)) = found {
+            moved += (t - Vector3::from(arm.tool.xyz)).norm() + (b - motion.1).norm();
+            arm.tool.xyz = t.into();
+            motion.1 = b;
+            tool = Some(t);
+        } else if !elastic || round >= 3 {
+            break;
+        }
+        let points = predicted(&arm, gravity_arm, &samples)?;
+        let next = trimmed_align(&points, &measured, true).ok_or_else(unplaceable)?;
+        moved += (next.0.1 - motion.1).norm() + (next.0.0 - motion.0).norm();
+        (motion, keep, d) = next;
+        if moved < SETTLED_M {
+            break;
         }
     }
     let after_rms_m = rms(d.iter().zip(&keep).filter(|(_, k)| **k).map(|(e, _)| *e));
@@ -428,6 +549,8 @@ pub fn register(
             .filter(|(_, k)| !**k)
             .map(|(m, _)| (m.pose.id, m.load_kg))
             .collect(),
+        tool,
+        tool_turn,
     })
 }
 
@@ -625,6 +748,42 @@ mod tests {
         );
         assert!(clean.trimmed.is_empty() && clean.after_rms_m < 1e-9);
         assert!(reg.after_max_m > 0.25);
+    }
+
+    /// A tool point 3 cm off in the file is found exactly from exact
+    /// measurements; with only joint 1 turning, a shift of the tool point
+    /// along its axis is one of the base, so the file's is kept.
+    #[test]
+    fn the_tool_point_is_found_when_the_last_link_turns() {
+        let nominal = rigid_nominal();
+        let mut truth = nominal;
+        truth.tool.xyz[0] += 0.03;
+        truth.tool.xyz[1] -= 0.01;
+        let reg = register(
+            &nominal,
+            &measure(&truth, &small_samples(20)),
+            Gravity::LevelBase(G),
+        )
+        .unwrap();
+        let found = reg.tool.expect("found");
+        assert!(
+            (found - Vector3::from(truth.tool.xyz)).norm() < 1e-9,
+            "{found}"
+        );
+        assert!(reg.after_rms_m < 1e-9 && reg.tool_turn > MIN_TOOL_TURN);
+        assert_eq!(Vector3::from(reg.arm_for_fit(&nominal).tool.xyz), found);
+
+        let pan: Vec<Sample> = (0..12)
+            .map(|i| Sample {
+                id: i,
+                q: [0.3 * i as f64 - 1.5, 0.3, -0.4, 0.2, 0.5, 0.1],
+                load_kg: 0.0,
+                target: 0,
+            })
+            .collect();
+        let reg = register(&nominal, &measure(&truth, &pan), Gravity::LevelBase(G)).unwrap();
+        assert!(reg.tool.is_none() && reg.tool_turn < 1e-6, "{reg:?}");
+        assert_eq!(reg.arm_for_fit(&nominal).tool, nominal.tool);
     }
 
     /// The level-base rule puts gravity along frame 0's -z, whatever frame the points are in.

@@ -3,7 +3,7 @@
 //! `report.json` always tell the same story.
 
 use super::experiments::RandomBaseline;
-use super::report::{OptionReport, OutlierReport, ValidationOutlier};
+use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
 
 /// The paper-style table: option, parameters, mean error before → after,
@@ -31,7 +31,7 @@ pub fn table(options: &[OptionReport]) -> String {
         s.push_str(&format!(
             "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
             o.option.name(),
-            o.identifiability.kept.len(),
+            o.fit.parameters.len(),
             before,
             after,
             reduction,
@@ -45,12 +45,12 @@ pub fn table(options: &[OptionReport]) -> String {
 /// convergence, removed parameters, every estimate and the outliers.
 pub fn option_details(o: &OptionReport) -> String {
     let f = &o.fit;
-    let ident = &o.identifiability;
+    let (held, joined) = held_and_joined(o);
     let mut lines = vec![format!(
-        "{}: {} parameters ({} removed as unidentifiable), {} poses, O1 {:.4}; {} after {} evaluations, residual RMS {:.3} mm",
+        "{}: {} parameters fitted ({} held at nominal as unidentifiable), {} poses, O1 {:.4}; {} after {} evaluations, residual RMS {:.3} mm",
         o.option,
-        ident.kept.len(),
-        ident.removed.len(),
+        f.parameters.len(),
+        held.len(),
         o.selected_poses.len(),
         o.observability.o1,
         if f.converged {
@@ -61,12 +61,13 @@ pub fn option_details(o: &OptionReport) -> String {
         f.evaluations,
         f.rms_after_mm
     )];
-    lines.extend(
-        ident
-            .removed
-            .iter()
-            .map(|r| format!("  removed {}", r.explain())),
-    );
+    lines.extend(held.iter().map(|r| format!("  held {}", r.explain())));
+    if !joined.is_empty() {
+        lines.push(format!(
+            "  fitted though confounded at the nominal arm (independent at the estimate): {}",
+            joined.join(", ")
+        ));
+    }
     lines.extend(f.parameters.iter().map(|p| {
         let std = p
             .std
@@ -86,6 +87,18 @@ pub fn option_details(o: &OptionReport) -> String {
             .map(|x| format!("  {}", validation_outlier(x))),
     );
     lines.join("\n")
+}
+
+/// The parameters the rank analysis removed that stayed at their nominal
+/// values, and the names of those the refresh fitted after all.
+fn held_and_joined(o: &OptionReport) -> (Vec<&RemovedReport>, Vec<&str>) {
+    let fitted = |name: &str| o.fit.parameters.iter().any(|p| p.name == name);
+    let (joined, held): (Vec<&RemovedReport>, Vec<&RemovedReport>) = o
+        .identifiability
+        .removed
+        .iter()
+        .partition(|r| fitted(&r.name));
+    (held, joined.iter().map(|r| r.name.as_str()).collect())
 }
 
 /// The parameters the fit's data barely determine, with value and standard
@@ -145,9 +158,19 @@ pub fn cross_load(o: &OptionReport) -> Option<String> {
 /// How many of an option's candidate parameters are identifiable and why the others are not.
 pub fn identifiable(o: &OptionReport) -> String {
     let ident = &o.identifiability;
-    let removed: Vec<String> = ident.removed.iter().map(|r| r.explain()).collect();
+    let (held, joined) = held_and_joined(o);
+    let removed: Vec<String> = held.iter().map(|r| r.explain()).collect();
+    let joined = if joined.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; {} more fitted, independent at the estimate: {}",
+            joined.len(),
+            joined.join(", ")
+        )
+    };
     format!(
-        "{}: {} of {} parameters identifiable; removed: {}",
+        "{}: {} of {} parameters identifiable{joined}; held at nominal: {}",
         o.option,
         ident.kept.len(),
         ident.candidates,
@@ -222,16 +245,26 @@ mod tests {
     fn lines_count_what_the_run_had() {
         let o = elastic_report();
         let kept = o.identifiability.kept.len();
-        assert!(
-            identifiable(&o).starts_with(&format!(
-                "elastic: {kept} of 7 parameters identifiable; removed: k1: no effect"
-            )),
-            "{}",
-            identifiable(&o)
+        // k1 is removed at the nominal arm (no torque on the level base) and
+        // fitted by the refresh (the tilted estimate loads it); k6 is held
+        // (the tool point on its axis): each said once, as it ended.
+        let fitted = |n: &str| o.fit.parameters.iter().any(|p| p.name == n);
+        assert!(fitted("k1") && !fitted("k6"), "{:?}", o.fit.parameters);
+        assert_eq!(
+            identifiable(&o),
+            format!(
+                "elastic: {kept} of 7 parameters identifiable; 1 more fitted, independent at the estimate: k1; held at nominal: k6: no effect on the measured point (zero column)"
+            )
         );
         assert!(selection(&o).starts_with("O1 of the 10 selected poses: "));
         let details = option_details(&o);
-        assert!(details.contains("  removed k1: no effect on the measured point"));
+        assert!(details.starts_with(&format!(
+            "elastic: {} parameters fitted (1 held at nominal as unidentifiable)",
+            kept + 1
+        )));
+        assert!(details.contains("\n  held k6: no effect on the measured point"));
+        assert!(details.contains("independent at the estimate): k1\n"));
+        assert!(!details.contains("held k1"), "{details}");
         // The refresh may fit a removed parameter too: every fitted one with its deviation.
         let with_std = o.fit.parameters.iter().filter(|p| p.std.is_some()).count();
         assert_eq!(

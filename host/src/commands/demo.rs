@@ -169,7 +169,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let file = calibration_file(
             &nominal,
             &r.identified,
-            &r.selection.candidates.identifiability.removed_ids(),
+            &r.held(),
             r.pose_ids(),
             vec![r.identify_load_kg],
             r.identified.fit_residual,

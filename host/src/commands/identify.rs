@@ -234,7 +234,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let mut cal = calibration_file(
             &registration.arm_in_measurement_frame(&nominal),
             &registration.identified_in_measurement_frame(&nominal, &r.identified),
-            &r.selection.candidates.identifiability.removed_ids(),
+            &r.held(),
             r.pose_ids(),
             vec![load],
             r.identified.fit_residual,
@@ -357,6 +357,27 @@ fn registration(
         reg.after_rms_m * 1e3,
         reg.after_max_m * 1e3
     );
+    let mm = |v: [f64; 3]| {
+        format!(
+            "({:.1}, {:.1}, {:.1}) mm",
+            v[0] * 1e3,
+            v[1] * 1e3,
+            v[2] * 1e3
+        )
+    };
+    match reg.tool {
+        Some(tool) => println!(
+            "  tool point found with it: {} in frame 6 (the arm file: {}); the fit starts there",
+            mm(tool.into()),
+            mm(nominal.tool.xyz)
+        ),
+        None => println!(
+            "  tool point: the arm file's {} kept; the last link turns too little to find it (turn {:.2}, {:.1} needed: measure poses that turn the wrist)",
+            mm(nominal.tool.xyz),
+            reg.tool_turn,
+            crate::calib::registration::MIN_TOOL_TURN
+        ),
+    }
     if !reg.trimmed.is_empty() {
         let named: Vec<String> = reg
             .trimmed
@@ -388,6 +409,7 @@ fn record(args: &Args, reg: &Registration) -> RegistrationRecord {
         before_rms_m: reg.before_rms_m,
         after_rms_m: reg.after_rms_m,
         trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
+        tool_m: reg.tool.map(Into::into),
     }
 }
 

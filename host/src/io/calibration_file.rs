@@ -159,7 +159,8 @@ pub struct CalibrationFile {
     pub parameters: Vec<FittedParam>,
     /// Compliances held at zero by the non-negativity constraint.
     pub at_bound: Vec<String>,
-    /// Candidate parameters left out as unidentifiable.
+    /// Candidate parameters held at their nominal values: removed by the
+    /// rank analysis and not fitted by its refresh at the estimate.
     pub removed: Vec<String>,
     /// Ids of the poses the fit used.
     pub poses_used: Vec<u32>,
@@ -207,6 +208,10 @@ pub struct RegistrationRecord {
     pub after_rms_m: f64,
     /// Poses left out of the registration as far off.
     pub trimmed: Vec<u32>,
+    /// The tool point registration found with the base (frame 6, m), which
+    /// replaced the arm file's in `nominal`; absent when the file's was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_m: Option<[f64; 3]>,
 }
 
 /// One measured target of a calibration.
@@ -362,13 +367,21 @@ impl CalibrationFile {
 
     /// Checks that this calibration (read from `path`) was identified from
     /// `nominal`. A registered file's nominal base is where registration
-    /// found it, not the arm file's, so the base is not compared then.
+    /// found it, not the arm file's, so the base is not compared then; nor
+    /// the tool point when registration found that too.
     pub fn check_nominal(&self, nominal: &Arm<f64>, path: &Path) -> Result<(), Error> {
         let ours = self.nominal.param_values();
         let theirs = nominal.param_values();
         let registered = self.registration.as_ref().is_some_and(|r| r.registered);
+        let tool_found = self
+            .registration
+            .as_ref()
+            .is_some_and(|r| r.tool_m.is_some());
         for (id, (a, b)) in ParamId::all().zip(ours.iter().zip(&theirs)) {
-            if registered && id.name().starts_with("base.") {
+            let name = id.name();
+            if (registered && name.starts_with("base."))
+                || (tool_found && ["tool.x", "tool.y", "tool.z"].contains(&name))
+            {
                 continue;
             }
             if (a - b).abs() > 1e-9 * (1.0 + a.abs()) {
@@ -566,14 +579,29 @@ mod tests {
             before_rms_m: 2.0,
             after_rms_m: 0.03,
             trimmed: vec![7],
+            tool_m: None,
         };
-        let with = registered.with_registration(record);
+        let with = registered.clone().with_registration(record.clone());
+        assert!(!with.to_json().contains("tool_m"));
         assert_eq!(CalibrationFile::parse(&with.to_json()).unwrap(), with);
         with.check_nominal(&arm_file, path).unwrap();
         let mut other = arm_file;
         other.joints[2].a += 0.01;
         let e = with.check_nominal(&other, path).unwrap_err();
         assert!(e.to_string().contains("j3.a"), "{e}");
+        // A tool point registration found replaces the file's: not compared.
+        let mut moved_tool = registered.clone();
+        moved_tool.nominal.tool.xyz[1] += 0.13;
+        let e = moved_tool
+            .clone()
+            .with_registration(record.clone())
+            .check_nominal(&arm_file, path)
+            .unwrap_err();
+        assert!(e.to_string().contains("tool.y"), "{e}");
+        let tool_m = Some(moved_tool.nominal.tool.xyz);
+        let found = moved_tool.with_registration(RegistrationRecord { tool_m, ..record });
+        assert_eq!(CalibrationFile::parse(&found.to_json()).unwrap(), found);
+        found.check_nominal(&arm_file, path).unwrap();
     }
 
     #[test]
