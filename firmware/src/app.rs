@@ -34,10 +34,11 @@ use crate::{CHANNELS, Config, FlashStorage, ServoBus};
 const SETTLED_RAD: f32 = 1e-6;
 
 /// A joint's command must go back by more than this before the board takes
-/// it to arrive the other way, rad: a twentieth of the servo pulse's 1 µs
-/// step (about 2e-3 rad), so the compensation's own convergence never flips
-/// the play offset, and a change the servo cannot see does not either.
-const APPROACH_DEAD_BAND_RAD: f32 = 1e-4;
+/// it to arrive the other way, rad: about one step of the 1 µs pulse (2.3e-3
+/// rad on the data-sheet curve), so a change the servo can hardly see, such
+/// as the compensation settling after a move, does not throw the offset to
+/// the other side. Ignoring a smaller reversal costs at most this much.
+const APPROACH_DEAD_BAND_RAD: f32 = 2e-3;
 
 /// What a handler answers: the response, or the error the host gets instead.
 pub(crate) type Reply = Result<Response, WireError>;
