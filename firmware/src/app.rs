@@ -2,11 +2,22 @@
 //! knows, its start-up, the servo frame, and the few rules every handler
 //! shares ([`Device::ensure_idle`], the limits and curves in force).
 //!
+//! Backlash: a joint with play rests half the play short of its command on
+//! the side it came from ([`model::backlash`]). The servo frame follows the
+//! way each joint's command moves and sends it half the play further that
+//! way, so the joint stops where it was meant to. Offsetting in the direction
+//! of motion adds no motion and no time, and works up to the joint limits
+//! (where the offset command is clamped, reported as `LIMIT_CLAMPED`);
+//! approaching every target from one side would overshoot and come back,
+//! which costs a reversal per move and room beyond the limits. The offset
+//! changes at the correction's bounded rate. `docs/METHOD.md` gives the reasons.
+//!
 //! This module imports neither the handlers nor the dispatch table: the
 //! handlers (`handlers.rs`) work on the [`Device`] defined here, and the
 //! table (`dispatch.rs`) names the handlers, so the modules form a line
 //! `app` ← `handlers` ← `dispatch` with no way back.
 
+use model::backlash::{self, ApproachTracker};
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::PROTOCOL_VERSION;
 use protocol::{
@@ -21,6 +32,13 @@ use crate::{CHANNELS, Config, FlashStorage, ServoBus};
 
 /// A command that changes by less than this from one frame to the next has settled, rad.
 const SETTLED_RAD: f32 = 1e-6;
+
+/// A joint's command must go back by more than this before the board takes
+/// it to arrive the other way, rad: about one step of the 1 µs pulse (2.3e-3
+/// rad on the data-sheet curve), so a change the servo can hardly see, such
+/// as the compensation settling after a move, does not throw the offset to
+/// the other side. Ignoring a smaller reversal costs at most this much.
+const APPROACH_DEAD_BAND_RAD: f32 = 2e-3;
 
 /// What a handler answers: the response, or the error the host gets instead.
 pub(crate) type Reply = Result<Response, WireError>;
@@ -104,6 +122,11 @@ pub struct Device<B, F> {
     pub(crate) pending: Option<SystemAction>,
     /// Correction (command minus nominal) on the servos now, rad.
     pub(crate) applied_correction: [f32; CHANNELS],
+    /// The way each joint's command last moved (the side of its play it rests on).
+    pub(crate) approach: ApproachTracker<f32>,
+    /// Backlash offset on the servos now, rad: half the calibration's play in
+    /// the direction of motion, changing at the correction's bounded rate.
+    pub(crate) applied_play: [f32; CHANNELS],
     /// Time of the last servo frame, µs.
     pub(crate) last_frame_us: u64,
     /// The servo curve without a calibration, ready for the servo frame.
@@ -135,6 +158,9 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             now_us,
             pending: None,
             applied_correction: [0.0; CHANNELS],
+            // Every joint taken to rest at home having arrived rising (as the host's tracker does).
+            approach: ApproachTracker::new([0.0; CHANNELS]),
+            applied_play: [0.0; CHANNELS],
             last_frame_us: now_us,
             uncalibrated: PreparedCurve::new(config.uncalibrated_curve),
         };
@@ -143,6 +169,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             device.apply(loaded.calibration, loaded.sequence);
         }
         device.position = device.home();
+        device.approach = ApproachTracker::new(device.position);
         device.motion = Profile::hold(device.position);
         for channel in 0..CHANNELS {
             device.bus.set_pulse(channel, None);
@@ -213,7 +240,8 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 continue;
             };
             let angle = self.curve(i).curve.angle(f32::from(pulse)).clamp(lo, hi);
-            let keep = angle - self.position[i];
+            // The play offset on the servo stays and fades to the new calibration's on its own.
+            let keep = angle - self.applied_play[i] - self.position[i];
             if keep.is_finite() {
                 self.applied_correction[i] = keep;
             }
@@ -235,6 +263,13 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             self.config.hard_limits_rad,
             self.config.default_limits_rad,
         )
+    }
+
+    /// Full width of each joint's play in force, rad: the calibration's, none without one.
+    fn play_widths(&self) -> [f32; CHANNELS] {
+        self.active.as_ref().map_or([0.0; CHANNELS], |a| {
+            a.calibration.calibrated.joints.map(|j| j.backlash)
+        })
     }
 
     /// The servo curve in force on `channel`: the calibration's, or the data-sheet curve.
@@ -291,6 +326,23 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 settling |= delta.abs() > step;
             }
             q_nominal[i] + self.applied_correction[i]
+        });
+        // Backlash: the joint rests on the side of its play it came from, half
+        // the play short of the command; command half the play beyond, in the
+        // way the command last moved. Held channels only: a limp joint follows nothing.
+        let approach = self.approach.follow(&command, APPROACH_DEAD_BAND_RAD);
+        let widths = self.play_widths();
+        let command: [f32; CHANNELS] = core::array::from_fn(|i| {
+            let held = matches!(self.channels[i], Channel::Held(_));
+            let offset = if held {
+                backlash::command_for(0.0, widths[i], approach[i])
+            } else {
+                0.0
+            };
+            let delta = offset - self.applied_play[i];
+            self.applied_play[i] += delta.clamp(-step, step);
+            settling |= delta.abs() > step;
+            command[i] + self.applied_play[i]
         });
         // One Newton step per frame: after a move the last steps still change the command.
         let converging = wanted

@@ -324,6 +324,79 @@ fn calibrated_curves_and_limits_drive_the_servos() {
     }
 }
 
+/// Each joint's play in [`backlash_calibration`], full width, rad: 0.5° to 3°.
+const PLAY_RAD: [f32; 6] = [0.0087, 0.02, 0.035, 0.05, 0.01, 0.03];
+
+/// The test calibration with [`PLAY_RAD`] of play in its joints.
+fn backlash_calibration(id: u32) -> Calibration {
+    let mut cal = test_calibration(id);
+    for (j, w) in cal.calibrated.joints.iter_mut().zip(PLAY_RAD) {
+        j.backlash = w;
+    }
+    cal
+}
+
+#[test]
+fn the_play_is_offset_by_half_its_width_the_way_each_joint_arrived() {
+    use model::backlash::{ApproachTracker, command_for};
+    let mut h = Harness::boot(SimFlash::new());
+    let cal = backlash_calibration(1);
+    assert!(matches!(h.push(&cal), Response::CalibrationStored(_)));
+    h.request(&Request::SetCompensation {
+        mode: CompensationMode::Off,
+    });
+    // From home, each joint rising, falling or staying put (and keeping its way in).
+    let mut tracker = ApproachTracker::new(cal.home_rad);
+    let targets = [
+        [0.4, 0.3, -0.6, 0.0, 0.9, 0.0],
+        [0.1, 0.3, -0.2, 0.5, 0.9, -0.7],
+        [0.1, -0.5, -0.2, -0.1, 0.6, -0.7],
+        [0.6, -0.5, 0.3, -0.1, 1.2, 0.2],
+    ];
+    let mut flipped = [false; 6];
+    let mut last = tracker.approach();
+    for q in targets {
+        assert_eq!(h.move_to(q), Response::Done);
+        h.frames(150);
+        assert!(!h.status().moving);
+        let ways = tracker.visit(&q);
+        for (i, joint) in cal.calibrated.joints.iter().enumerate() {
+            let command = command_for(q[i], PLAY_RAD[i], ways[i]);
+            let expected = joint.servo.pulse_us(command).round() as u16;
+            assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i} to {q:?}");
+            // Half the play is a few µs: the offset shows in the pulse.
+            let plain = joint.servo.pulse_us(q[i]).round() as u16;
+            assert!(h.dev.bus().now[i] != Some(plain), "joint {i}: no offset");
+            flipped[i] |= ways[i] != last[i];
+        }
+        last = ways;
+    }
+    assert_eq!(flipped, [true; 6], "every joint arrived both ways");
+    assert!(!h.status().faults.contains(Faults::LIMIT_CLAMPED));
+
+    // At the top of its range a joint arriving rising is clamped to the limit, and says so.
+    let [_, hi] = cal.calibrated.joints[0].limits;
+    assert_eq!(h.move_to([hi, -0.5, 0.3, -0.1, 1.2, 0.2]), Response::Done);
+    h.frames(150);
+    let top = cal.calibrated.joints[0].servo.pulse_us(hi).round() as u16;
+    assert_eq!(h.dev.bus().now[0], Some(top));
+    assert!(h.status().faults.contains(Faults::LIMIT_CLAMPED));
+}
+
+#[test]
+fn a_play_too_wide_or_negative_is_refused_whole_and_the_old_calibration_stays() {
+    let mut h = Harness::boot(SimFlash::new());
+    let Response::CalibrationStored(first) = h.push(&backlash_calibration(1)) else {
+        panic!("the test calibration is valid")
+    };
+    for width in [6f32.to_radians(), -1e-3] {
+        let mut bad = backlash_calibration(2);
+        bad.calibrated.joints[2].backlash = width;
+        assert_eq!(h.push(&bad), Response::Error(WireError::CalibrationInvalid));
+        assert_eq!(h.status().calibration, Some(first));
+    }
+}
+
 /// The most a held servo's pulse may change from one frame to the next while
 /// a correction fades in or out, µs: the steepest segment of `cal`'s curves
 /// (µs per rad) times the largest correction change per 20 ms frame, plus

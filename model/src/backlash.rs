@@ -14,6 +14,12 @@
 
 use crate::{JOINTS, Real, real};
 
+/// The widest play a calibration may carry, rad (5°). A hobby servo's dead
+/// band and horn play add up to a degree or two; a wider fitted play means
+/// a loose joint or a bad fit, and compensating it would throw the joint by
+/// half of it at every reversal.
+pub const MAX_WIDTH_RAD: f64 = 5.0 * core::f64::consts::PI / 180.0;
+
 /// The way a joint last moved to reach where it stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Approach {
@@ -76,10 +82,25 @@ impl<T: Real> ApproachTracker<T> {
 
     /// Moves to the commanded pose `q` and returns the way each joint arrives.
     pub fn visit(&mut self, q: &[T; JOINTS]) -> [Approach; JOINTS] {
-        for ((approach, last), qi) in self.approach.iter_mut().zip(&self.last).zip(q) {
-            *approach = approach.towards(*last, *qi);
+        self.follow(q, T::zero())
+    }
+
+    /// Follows a command that moves in small steps (the board's servo
+    /// frames): a joint turns round only once its command has gone back by
+    /// more than `dead_band` (rad) from the furthest point it reached the
+    /// way it was going, so jitter below it never flips the way in. With a
+    /// zero dead band this is [`ApproachTracker::visit`].
+    pub fn follow(&mut self, q: &[T; JOINTS], dead_band: T) -> [Approach; JOINTS] {
+        for ((&q, last), approach) in q.iter().zip(&mut self.last).zip(&mut self.approach) {
+            // How far the command went on the way the joint was going (negative: back).
+            let onward = approach.sign::<T>() * (q - *last);
+            if onward > T::zero() {
+                *last = q;
+            } else if onward < -dead_band {
+                *approach = approach.towards(*last, q);
+                *last = q;
+            }
         }
-        self.last = *q;
         self.approach
     }
 
@@ -110,6 +131,31 @@ mod tests {
             [Falling, Rising, Rising, Rising, Falling, Rising]
         );
         assert_eq!(t.approach()[4], Falling);
+    }
+
+    #[test]
+    fn following_turns_round_only_beyond_the_dead_band() {
+        let mut t = ApproachTracker::new([0.0f32; JOINTS]);
+        let way = |t: &mut ApproachTracker<f32>, x: f32| t.follow(&[x; JOINTS], 1e-3)[0];
+        assert_eq!(way(&mut t, 0.5), Rising);
+        // Jitter below the dead band from the highest point keeps the way in.
+        assert_eq!(way(&mut t, 0.4995), Rising);
+        assert_eq!(way(&mut t, 0.5008), Rising);
+        assert_eq!(way(&mut t, 0.4999), Rising);
+        // Back by more than the dead band from 0.5008: falling, from there on.
+        assert_eq!(way(&mut t, 0.4997), Falling);
+        assert_eq!(way(&mut t, 0.4999), Falling);
+        assert_eq!(way(&mut t, 0.2), Falling);
+        assert_eq!(way(&mut t, 0.2011), Rising);
+        // A zero dead band visits: any move decides.
+        let (mut a, mut b) = (
+            ApproachTracker::new([0.0; JOINTS]),
+            ApproachTracker::new([0.0; JOINTS]),
+        );
+        for x in [0.3, 0.3, 0.1, 0.1, 0.2, -0.4, -0.4] {
+            let q = [x, -x, 0.0, x, 1.0, x * x];
+            assert_eq!(a.visit(&q), b.follow(&q, 0.0));
+        }
     }
 
     #[test]

@@ -93,6 +93,12 @@ pub enum CalibrationFault {
     },
     /// A compliance or mass is negative.
     Negative,
+    /// Joint `joint`'s backlash (full width of its play) is negative or wider
+    /// than [`model::backlash::MAX_WIDTH_RAD`].
+    Backlash {
+        /// Joint index.
+        joint: u8,
+    },
     /// The home pose is outside the joint limits.
     Home,
 }
@@ -110,6 +116,12 @@ impl core::fmt::Display for CalibrationFault {
                 joint + 1
             ),
             Self::Negative => f.write_str("a compliance or mass is negative"),
+            Self::Backlash { joint } => write!(
+                f,
+                "joint {}: the backlash (full width of the play) is negative or wider than {:.0}°",
+                joint + 1,
+                model::backlash::MAX_WIDTH_RAD.to_degrees()
+            ),
             Self::Home => f.write_str("the home pose is outside the joint limits"),
         }
     }
@@ -143,6 +155,11 @@ impl Calibration {
             j.servo
                 .check()
                 .map_err(|fault| CalibrationFault::ServoCurve { joint, fault })?;
+            // The board offsets every command by half the play: a negative or
+            // very wide one would throw the joint the wrong way or far.
+            if !(0.0..=model::backlash::MAX_WIDTH_RAD).contains(&f64::from(j.backlash)) {
+                return Err(CalibrationFault::Backlash { joint });
+            }
         }
         if !self.calibrated.within_limits(&self.home_rad) {
             return Err(CalibrationFault::Home);

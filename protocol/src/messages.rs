@@ -20,7 +20,8 @@ pub enum Timing {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum CompensationMode {
-    /// Servo curves only: the targets go to the servos as they are.
+    /// Servo curves (and the play's offset, see `Joint::backlash`) only: the
+    /// targets go to the servos as they are.
     Off,
     /// Cancel the elastic sag only: the calibrated deflected arm reaches the
     /// calibrated rigid arm's tool point.

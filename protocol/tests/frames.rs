@@ -191,6 +191,25 @@ fn calibration_rejects_what_the_board_cannot_run() {
     let mut negative = good;
     negative.calibrated.joints[1].compliance = -0.01;
     assert_eq!(negative.check(), Err(protocol::CalibrationFault::Negative));
+    // Backlash: up to 5° full width is a worn hobby servo; beyond, or negative, is refused whole.
+    let mut play = good;
+    play.calibrated.joints[4].backlash = 4.9f32.to_radians();
+    assert_eq!(play.check(), Ok(()));
+    for width in [5.1f32.to_radians(), -0.001] {
+        play.calibrated.joints[4].backlash = width;
+        let fault = play.check().unwrap_err();
+        assert_eq!(fault, protocol::CalibrationFault::Backlash { joint: 4 });
+        let msg = fault.to_string();
+        assert!(msg.contains("joint 5") && msg.contains("5°"), "{msg}");
+        let bytes = play.encode(&mut buf).unwrap().to_vec();
+        assert_eq!(
+            Calibration::decode(&bytes),
+            None,
+            "the board refuses it whole"
+        );
+    }
+    play.calibrated.joints[4].backlash = f32::INFINITY;
+    assert_eq!(play.check(), Err(protocol::CalibrationFault::NotFinite));
 }
 
 proptest! {

@@ -440,6 +440,36 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
     );
 }
 
+#[test]
+fn push_refuses_a_play_wider_than_a_few_degrees_naming_the_joint() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = calibration_json(dir.path());
+    let mut file = CalibrationFile::read(&path).unwrap();
+    file.arm.joints[2].backlash = 7f64.to_radians();
+    std::fs::write(&path, file.to_json()).unwrap();
+    let device = DeviceArgs {
+        port: "socket://127.0.0.1:1".into(),
+        timeout_ms: 100,
+        retries: 0,
+    };
+    let err = push::run(&push::Args {
+        calibration: path,
+        home_deg: None,
+        target: None,
+        device,
+    })
+    .unwrap_err();
+    assert_eq!(err.exit_code(), 3);
+    let report = err.report();
+    assert!(
+        report.contains(
+            "joint 3: the backlash (full width of the play) is negative or wider than 5°"
+        ) && report.contains("found 7.000°")
+            && report.contains("not sent"),
+        "{report}"
+    );
+}
+
 /// `lrmcal move --xyz` as a user types it: solved from the board's own pose,
 /// on the bundled arm within the board's ±100° without a calibration and on
 /// the nominal arm of the board's calibration with one; the board ends at

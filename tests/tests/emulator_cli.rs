@@ -11,7 +11,7 @@ mod emulator_support;
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
-use emulator_support::{EmulatedBoard, RawLink, SERVO_PINS, calibration_bytes, expected_pulses};
+use emulator_support::{EmulatedBoard, ExpectedPulses, RawLink, SERVO_PINS, calibration_bytes};
 use host::io::calibration_file::CalibrationFile;
 use protocol::CompensationMode;
 use serde_json::json;
@@ -107,7 +107,9 @@ fn device_commands_drive_the_emulated_board() {
     args.extend(["--duration-ms", "400", "--port", p]);
     lrmcal(&args);
     let q = degrees.map(|d| f64::from(d.to_radians() as f32));
-    let expected = expected_pulses(&payload, &q, CompensationMode::Full, f64::from(0.0663f32));
+    let home = payload.home_rad.map(f64::from);
+    let expected =
+        ExpectedPulses::from(home).next(&payload, &q, CompensationMode::Full, f64::from(0.0663f32));
     let (widths, _) = board.servo_pulses(3);
     for (servo, widths) in widths.iter().enumerate() {
         for width in widths {

@@ -1,7 +1,8 @@
 //! The host's device client against the real firmware in the emulated RP2040, over the same
 //! link code as a USB serial port (`socket://`): status, push and pull bit-identical, a chip
 //! reset that keeps the flash, and moves whose servo pulses (measured from GPIO edges) are
-//! within 1 µs of the host's own servo curve + compensation, in every compensation mode.
+//! within 1 µs of the host's own servo curve + compensation + the play's offset the way each
+//! joint arrived, in every compensation mode.
 //!
 //! Needs `cargo firmware`, Node and `npm ci` in `tests/emulator`; run with
 //! `cargo test -p e2e --features emulator --test emulator_device`.
@@ -11,7 +12,8 @@ mod emulator_support;
 use std::time::Duration;
 
 use emulator_support::{
-    EmulatedBoard, RawLink, calibration_bytes, expected_pulses, test_calibration,
+    EmulatedBoard, ExpectedPulses, RawLink, calibration_bytes, curve_pulses, expected_command,
+    test_calibration,
 };
 use host::device::{Client, DeviceArgs, Link};
 use model::JOINTS;
@@ -91,6 +93,9 @@ fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
         (CompensationMode::Full, 0.0),
         (CompensationMode::Full, PAYLOAD_KG),
     ];
+    // The board starts at home; each joint's way into every target is the host's to follow.
+    let mut reference = ExpectedPulses::from(calibration.home_rad.map(f64::from));
+    let mut play_shift: f64 = 0.0;
     for (mode, payload) in cases {
         client.set_compensation(mode).expect("compensation mode");
         client.set_payload(payload as f32).expect("payload");
@@ -113,14 +118,21 @@ fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
             }
             // The firmware works in f32 on the f32 calibration; the host redoes it in f64.
             let q32 = targets.map(f64::from);
-            let expected = expected_pulses(&calibration, &q32, mode, f64::from(payload as f32));
-            // Guard: each case must tell a compensating board from one that is not.
-            let uncompensated = expected_pulses(&calibration, &q32, CompensationMode::Off, 0.0);
-            shift = expected
-                .iter()
-                .zip(&uncompensated)
-                .map(|(a, b)| (a - b).abs())
-                .fold(shift, f64::max);
+            let payload = f64::from(payload as f32);
+            let expected = reference.next(&calibration, &q32, mode, payload);
+            // Guards: each case must tell a compensating board from one that is not, and
+            // every move a board that offsets the play from one that does not.
+            let command = expected_command(&calibration, &q32, mode, payload);
+            let unplayed = curve_pulses(&calibration, &command);
+            let uncompensated = curve_pulses(&calibration, &q32);
+            let largest = |a: &[f64; JOINTS], b: &[f64; JOINTS], from: f64| {
+                a.iter()
+                    .zip(b)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(from, f64::max)
+            };
+            shift = largest(&unplayed, &uncompensated, shift);
+            play_shift = largest(&expected, &unplayed, play_shift);
             let (widths, _) = board.servo_pulses(3);
             for (servo, widths) in widths.iter().enumerate() {
                 for width in widths {
@@ -141,6 +153,10 @@ fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
             );
         }
     }
+    assert!(
+        play_shift > 3.0 * TOLERANCE_US,
+        "the play's offset moves the pulses by only {play_shift} µs"
+    );
 }
 
 #[test]

@@ -22,8 +22,19 @@ pub fn payload(
 }
 
 /// `fault` in words; for a servo curve, with the knots of `arm` (the
-/// calibrated arm it was found in) so the user sees where the curve turns.
+/// calibrated arm it was found in) so the user sees where the curve turns,
+/// for a backlash with its width.
 pub fn explain(fault: CalibrationFault, arm: &Arm<f64>) -> String {
+    if let CalibrationFault::Backlash { joint } = fault
+        && let Some(j) = arm.joints.get(usize::from(joint))
+    {
+        return format!(
+            "{fault}: found {:.3}° (`backlash` of joint {} in the calibrated arm); not sent, the \
+             board keeps the calibration it has",
+            j.backlash.to_degrees(),
+            joint + 1
+        );
+    }
     let CalibrationFault::ServoCurve { joint, .. } = fault else {
         return fault.to_string();
     };

@@ -21,12 +21,14 @@
 //! | `draw` | [`TrueArm::draw`]: the seeded true arm |
 //! | `effects` | servo error, approach direction and play, softening stiffness |
 //! | `measure` | [`TrueArm::simulate`] / [`TrueArm::measure`] |
+//! | [`positioning`] | the error at the tool when the board (the firmware library) drives the true arm |
 //! | `truth` | the truth file (JSON): true arm and the 43 errors by name |
 
 mod config;
 mod draw;
 mod effects;
 mod measure;
+pub mod positioning;
 mod truth;
 
 pub use config::SimConfig;

@@ -327,8 +327,9 @@ impl RawLink {
 }
 
 /// A calibration for the bundled arm with known errors and compliances, so that compensation
-/// has work to do, and servo curves of 5 to 9 knots with a bow between them, so that the board
-/// maps angle to pulse through every segment; `id` tells two of them apart in `status`.
+/// has work to do, servo curves of 5 to 9 knots with a bow between them, so that the board
+/// maps angle to pulse through every segment, and play in every joint, so that the board
+/// offsets it; `id` tells two of them apart in `status`.
 pub fn test_calibration(id: u32) -> protocol::Calibration {
     use model::ParamId;
     let nominal = host::io::arm_source::bundled("lrm")
@@ -354,6 +355,8 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
             .map(|&a| joint.servo.pulse_us(a) + (6.0 + i as f64) * (2.0 * a).sin())
             .collect();
         joint.servo = model::ServoCurve::new(&angles, &pulses).expect("5 to 9 knots");
+        // Play of 1° to 3.5° full width: half of it is 4 to 13 µs of pulse.
+        joint.backlash = (1.0 + 0.5 * i as f64).to_radians();
     }
     let calibration = protocol::Calibration {
         id,
@@ -468,17 +471,17 @@ impl RawLink {
     }
 }
 
-/// The pulses the host expects for nominal targets `q` (the firmware's rule, in f64).
-pub fn expected_pulses(
+/// The command the host expects the board to settle on for nominal targets `q`, before the
+/// play's offset (the firmware's compensation, in f64).
+pub fn expected_command(
     calibration: &protocol::Calibration,
     q: &[f64; model::JOINTS],
     mode: protocol::CompensationMode,
     payload_kg: f64,
 ) -> [f64; model::JOINTS] {
     let nominal = calibration.nominal.map(f64::from);
-    let calibrated = calibration.calibrated.map(f64::from);
-    let chain = calibrated.chain();
-    let command = match mode {
+    let chain = calibration.calibrated.map(f64::from).chain();
+    match mode {
         protocol::CompensationMode::Off => *q,
         _ => {
             let target = if mode == protocol::CompensationMode::Full {
@@ -504,9 +507,50 @@ pub fn expected_pulses(
             );
             solved.q
         }
-    };
-    let command = calibrated.clamp_to_limits(&command);
+    }
+}
+
+/// The pulses of the calibrated servo curves for `command`, clamped to the joint limits, µs.
+pub fn curve_pulses(
+    calibration: &protocol::Calibration,
+    command: &[f64; model::JOINTS],
+) -> [f64; model::JOINTS] {
+    let calibrated = calibration.calibrated.map(f64::from);
+    let command = calibrated.clamp_to_limits(command);
     std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
+}
+
+/// The host's side of a board's moves: which way each joint arrives at each target, and
+/// the pulses with half the play added that way (the firmware's rule, in f64, for moves
+/// whose commands run one way per joint, as a move between two poses does).
+pub struct ExpectedPulses {
+    approach: model::backlash::ApproachTracker<f64>,
+}
+
+impl ExpectedPulses {
+    /// A board standing at `home`, rad, every joint taken to have arrived rising.
+    pub fn from(home: [f64; model::JOINTS]) -> Self {
+        Self {
+            approach: model::backlash::ApproachTracker::new(home),
+        }
+    }
+
+    /// The pulses for nominal targets `q` reached after the targets passed before, µs.
+    pub fn next(
+        &mut self,
+        calibration: &protocol::Calibration,
+        q: &[f64; model::JOINTS],
+        mode: protocol::CompensationMode,
+        payload_kg: f64,
+    ) -> [f64; model::JOINTS] {
+        let command = expected_command(calibration, q, mode, payload_kg);
+        let ways = self.approach.visit(&command);
+        let joints = &calibration.calibrated.joints;
+        let played = std::array::from_fn(|i| {
+            model::backlash::command_for(command[i], f64::from(joints[i].backlash), ways[i])
+        });
+        curve_pulses(calibration, &played)
+    }
 }
 
 /// `lrmcal` run as a process (this package's `lrmcal-e2e`, the same program) against the
