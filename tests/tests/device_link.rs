@@ -395,7 +395,10 @@ fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
     );
     let msg = err.to_string();
     assert!(
-        msg.contains("the board speaks protocol 1, this lrmcal speaks 2: reflash the firmware"),
+        msg.contains(&format!(
+            "the board speaks protocol 1, this lrmcal speaks {}: reflash the firmware",
+            protocol::PROTOCOL_VERSION
+        )),
         "{msg}"
     );
 }
