@@ -295,10 +295,20 @@ fn help_teaches() {
             );
         }
     }
-    // The defaults printed in the help are the library's.
+    // The defaults printed in the help are the library's; the compliance
+    // ranges and the softening are the bundled arm's, scaled to another.
     let text = String::from_utf8(lrmcal(&["help", "simulate"]).stdout).unwrap();
+    let d = SimConfig::default();
+    let [lo, hi] = d.joint_compliance;
+    let [base_lo, base_hi] = d.base_compliance;
     assert!(
-        text.contains("[default: 0.2]") && text.contains("[default: 0.08,0.2 on the bundled arm"),
+        text.contains("[default: 0.2]")
+            && text.contains(&format!("[default: {lo},{hi} on the bundled arm"))
+            && text.contains(&format!("[default: {base_lo},{base_hi} on the bundled arm"))
+            && text.contains(&format!(
+                "[default: {} on the bundled arm",
+                d.softening_per_nm
+            )),
         "{text}"
     );
 }
