@@ -17,7 +17,7 @@
 //! table (`dispatch.rs`) names the handlers, so the modules form a line
 //! `app` ← `handlers` ← `dispatch` with no way back.
 
-use model::backlash::{self, ApproachTracker};
+use model::backlash::{self, Approach, ApproachTracker};
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::PROTOCOL_VERSION;
 use protocol::{
@@ -58,6 +58,9 @@ pub(crate) struct Active {
     pub compensator: Compensator,
     /// The calibrated servo curves, ready for the servo frame.
     pub curves: [PreparedCurve; CHANNELS],
+    /// Each joint's backlash offset arriving rising and falling, rad (worked
+    /// out once: the servo frame only picks one).
+    pub play_offsets: [[f32; 2]; CHANNELS],
 }
 
 /// What one servo channel does, with the pulse it puts out.
@@ -223,6 +226,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 .calibrated
                 .joints
                 .map(|j| PreparedCurve::new(j.servo)),
+            play_offsets: calibration.calibrated.joints.map(|j| {
+                [Approach::Rising, Approach::Falling]
+                    .map(|way| backlash::command_for(0.0, j.backlash, way))
+            }),
             calibration,
         });
     }
@@ -263,13 +270,6 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             self.config.hard_limits_rad,
             self.config.default_limits_rad,
         )
-    }
-
-    /// Full width of each joint's play in force, rad: the calibration's, none without one.
-    fn play_widths(&self) -> [f32; CHANNELS] {
-        self.active.as_ref().map_or([0.0; CHANNELS], |a| {
-            a.calibration.calibrated.joints.map(|j| j.backlash)
-        })
     }
 
     /// The servo curve in force on `channel`: the calibration's, or the data-sheet curve.
@@ -331,17 +331,19 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         // the play short of the command; command half the play beyond, in the
         // way the command last moved. Held channels only: a limp joint follows nothing.
         let approach = self.approach.follow(&command, APPROACH_DEAD_BAND_RAD);
-        let widths = self.play_widths();
+        let offsets = self.active.as_ref().map(|a| &a.play_offsets);
         let command: [f32; CHANNELS] = core::array::from_fn(|i| {
-            let held = matches!(self.channels[i], Channel::Held(_));
-            let offset = if held {
-                backlash::command_for(0.0, widths[i], approach[i])
-            } else {
-                0.0
+            let offset = match (offsets, self.channels[i], approach[i]) {
+                (Some(o), Channel::Held(_), Approach::Rising) => o[i][0],
+                (Some(o), Channel::Held(_), Approach::Falling) => o[i][1],
+                _ => 0.0,
             };
             let delta = offset - self.applied_play[i];
-            self.applied_play[i] += delta.clamp(-step, step);
-            settling |= delta.abs() > step;
+            // Holding on the same side, nothing changes: the frame's usual case.
+            if delta != 0.0 {
+                self.applied_play[i] += delta.clamp(-step, step);
+                settling |= delta.abs() > step;
+            }
             command[i] + self.applied_play[i]
         });
         // One Newton step per frame: after a move the last steps still change the command.

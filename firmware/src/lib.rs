@@ -12,7 +12,7 @@
 //!
 //! | module | what it holds |
 //! |---|---|
-//! | [`app`] | [`Device`] (the context): state, start-up, the servo frame, rules the handlers share |
+//! | [`app`] | [`Device`] (the context): state, start-up, the servo frame (with the backlash offset), rules the handlers share |
 //! | `handlers` | one function per endpoint of the `protocol` table |
 //! | `dispatch` | the dispatch table and [`Device::handle_frame`]: frames in, replies out |
 //! | [`servo`] | the servo bus trait, joint and pulse limits, angle → pulse |

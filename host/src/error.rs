@@ -129,6 +129,9 @@ pub enum Error {
         #[source]
         source: crate::ik::IkError,
     },
+    /// The positioning error at the tool could not be measured (`lrmcal demo`).
+    #[error("measure the positioning error through the board")]
+    Positioning(#[from] crate::sim::positioning::PositioningError),
     /// The emulated board could not be started, or stopped on its own (`lrmcal emulator`).
     #[error("run the emulated board: {reason}")]
     Emulator {
@@ -208,7 +211,8 @@ impl Error {
             | Self::AmbiguousLoad { .. }
             | Self::Simulate { .. }
             | Self::Plan { .. }
-            | Self::Ik { .. } => exit_codes::INVALID_INPUT,
+            | Self::Ik { .. }
+            | Self::Positioning(_) => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
             Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
             Self::FlashImage { .. } => exit_codes::INVALID_INPUT,

@@ -397,6 +397,8 @@ fn demo_writes_its_folder_and_prints_the_table() {
         "2",
         "--poses",
         "40",
+        "--targets",
+        "20",
         "--out",
         p(&out_dir),
     ]);
@@ -412,6 +414,10 @@ fn demo_writes_its_folder_and_prints_the_table() {
         "O1 of the 40 selected poses",
         "DETMAX vs 2 random 40-pose sets",
         "elasto-kinematic: 32 of 43 parameters identifiable",
+        // The error at the tool through the board, per board.
+        "Positioning error at the tool through the board, 20 random targets",
+        "uncalibrated  ",
+        "paper's model",
     ] {
         assert!(t.contains(needle), "{needle} missing from {t}");
     }
@@ -422,6 +428,8 @@ fn demo_writes_its_folder_and_prints_the_table() {
         "errors.png",
         "per-pose.svg",
         "o1-vs-poses.png",
+        "positioning.svg",
+        "positioning.png",
         "measurements.csv",
     ] {
         assert!(out_dir.join(f).exists(), "{f} not written");

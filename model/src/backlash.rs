@@ -93,7 +93,10 @@ impl<T: Real> ApproachTracker<T> {
     pub fn follow(&mut self, q: &[T; JOINTS], dead_band: T) -> [Approach; JOINTS] {
         for ((&q, last), approach) in q.iter().zip(&mut self.last).zip(&mut self.approach) {
             // How far the command went on the way the joint was going (negative: back).
-            let onward = approach.sign::<T>() * (q - *last);
+            let onward = match approach {
+                Approach::Rising => q - *last,
+                Approach::Falling => *last - q,
+            };
             if onward > T::zero() {
                 *last = q;
             } else if onward < -dead_band {

@@ -6,6 +6,10 @@ use protocol::ModelOption;
 
 use super::params::ParamKey;
 
+/// The option `lrmcal identify` fits unless told otherwise; the demo's
+/// positioning figure calls its calibration "ours".
+pub const DEFAULT: ModelOption = ModelOption::ElastoKinematic;
+
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
 /// compliances for elastic.

@@ -21,7 +21,7 @@ use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::calibration_file::ValidationSummary;
 use crate::io::measurements;
 use crate::plan::{PlanConfig, candidates};
-use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm};
+use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
 
 /// The paper's payload, kg.
 const PAPER_LOAD_KG: f64 = 0.0663;
@@ -35,7 +35,9 @@ lrmcal demo --model-only      # no unmodelled effects, no noise: a consistency c
 Writes to the output folder: measurements.csv (every candidate under both loads), \
 truth.json (the simulated true arm), calibration-<option>.json (one per option, the file \
 the firmware receives), report.json, and the plots errors.svg/png (validation error \
-per option), errors-cross-load.svg/png, per-pose.svg/png and o1-vs-poses.svg/png.")]
+per option), errors-cross-load.svg/png, per-pose.svg/png, o1-vs-poses.svg/png and \
+positioning.svg/png (the error at the tool when the board drives the simulated arm to random \
+targets: uncalibrated, the paper's model and ours).")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
@@ -53,6 +55,10 @@ pub struct Args {
     /// (elasto-kinematic); 0 skips it.
     #[arg(long, default_value_t = 20)]
     pub compare_random: usize,
+    /// Random tool-point targets the board drives the simulated arm to, for
+    /// the positioning error at the tool; 0 skips it.
+    #[arg(long, default_value_t = positioning::DEFAULT_TARGETS)]
+    pub targets: usize,
     /// Switch off every effect the model lacks and the tracker noise.
     #[arg(long)]
     pub model_only: bool,
@@ -164,6 +170,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     }
     report.o1_vs_poses = o1_vs_poses(&results, &O1_SIZES, &bar)?;
 
+    let mut files = Vec::with_capacity(results.len());
     for r in &results {
         let validation = r.held_out()?;
         let file = calibration_file(
@@ -181,9 +188,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &file.to_json())?;
+        files.push((r.option(), file));
     }
     write_text(&args.out.join("report.json"), &report.to_json())?;
-    let plot_files = plots::demo_figures(&args.out, &results, &report.o1_vs_poses)?;
+    let mut plot_files = plots::demo_figures(&args.out, &results, &report.o1_vs_poses)?;
+    let positioning = if args.targets > 0 {
+        let calibrations: Vec<_> = files.iter().map(|(o, f)| (*o, f)).collect();
+        let targets =
+            positioning::targets(&nominal, args.targets, args.seed, &PlanConfig::default())?;
+        let boards = positioning::demo_boards(&calibrations)?;
+        let rows = positioning::compare(&truth, &targets, &boards, PAPER_LOAD_KG)?;
+        plot_files.extend(positioning::plot(&args.out, &rows, PAPER_LOAD_KG)?);
+        Some(rows)
+    } else {
+        None
+    };
 
     println!(
         "\nValidation on the {} poses not selected, {PAPER_LOAD_KG} kg load (mean 3D error):",
@@ -206,6 +225,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
         for o in &ek.fit.outliers {
             println!("{}", summary::outlier(o));
         }
+    }
+    if let Some(rows) = &positioning {
+        println!(
+            "\nPositioning error at the tool through the board, {} random targets with {PAPER_LOAD_KG} kg \
+             (mm; nominal IK as `move --xyz`, the firmware's servo frames, the true arm):",
+            args.targets
+        );
+        print!("{}", positioning::table(rows));
     }
     println!(
         "\nwrote {} (calibration-*.json, report.json, measurements.csv, truth.json, {} plots) in {:.1} s",

@@ -74,6 +74,16 @@ impl std::str::FromStr for OptionChoice {
     }
 }
 
+impl std::fmt::Display for OptionChoice {
+    /// The name [`OptionChoice::from_str`] reads.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::One(option) => f.write_str(option.name()),
+            Self::All => f.write_str("all"),
+        }
+    }
+}
+
 impl OptionChoice {
     /// The options to run, in the paper's table order.
     pub fn options(self) -> Vec<ModelOption> {
@@ -102,6 +112,9 @@ mod tests {
             "all".parse::<OptionChoice>().map(|c| c.options().len()),
             Ok(3)
         );
+        for choice in [OptionChoice::All, OptionChoice::One(ModelOption::Elastic)] {
+            assert_eq!(choice.to_string().parse(), Ok(choice));
+        }
         let e = "rigid".parse::<OptionChoice>().unwrap_err();
         assert!(e.contains("rigid") && e.contains("elasto-kinematic, kinematic, elastic or all"));
     }

@@ -71,7 +71,7 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub poses: Option<PathBuf>,
     /// Model option: elasto-kinematic, kinematic, elastic or all.
-    #[arg(long, default_value = "elasto-kinematic")]
+    #[arg(long, default_value_t = OptionChoice::One(crate::calib::option::DEFAULT))]
     pub option: OptionChoice,
     /// Load whose measurements the fit uses, kg.
     #[arg(long, value_name = "KG")]

@@ -32,8 +32,9 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::TrueArm;
+use crate::calib::{CalibError, ModelOption, option, plots};
 use crate::ik::{self, IkError, IkOptions};
-use crate::io::calibration_file::ErrorStats;
+use crate::io::calibration_file::{CalibrationFile, ErrorStats};
 use crate::plan::PlanConfig;
 
 /// How many targets the demo visits.
@@ -70,6 +71,14 @@ pub enum PositioningError {
         /// What the solver said.
         #[source]
         source: IkError,
+    },
+    /// A calibration the board could not run.
+    #[error("the {label} calibration: {fault}")]
+    Calibration {
+        /// Which calibration.
+        label: String,
+        /// What is wrong with it.
+        fault: protocol::CalibrationFault,
     },
     /// The board refused a request.
     #[error("the board refused `{request}`: {error}")]
@@ -430,6 +439,58 @@ pub fn compare(
             })
         })
         .collect()
+}
+
+/// The boards the demo compares: none (uncalibrated), the paper's model
+/// (elasto-kinematic) and ours ([`option::DEFAULT`], the option `identify`
+/// fits by default), from the calibration files of `calibrations` (one per
+/// option, as the demo writes them; one row when ours is the paper's).
+pub fn demo_boards(
+    calibrations: &[(ModelOption, &CalibrationFile)],
+) -> Result<Vec<(String, Option<Calibration>)>, PositioningError> {
+    let mut boards = vec![("uncalibrated".to_owned(), None)];
+    let paper = ModelOption::ElastoKinematic;
+    let mut wanted = vec![(paper, format!("paper's model ({paper})"))];
+    if option::DEFAULT == paper {
+        wanted[0].1 = format!("paper's model = ours ({paper})");
+    } else {
+        wanted.push((option::DEFAULT, format!("ours ({})", option::DEFAULT)));
+    }
+    for (option, label) in wanted {
+        let Some((_, file)) = calibrations.iter().find(|(o, _)| *o == option) else {
+            continue;
+        };
+        let calibration =
+            crate::device::calibration::payload(file, [0.0; JOINTS]).map_err(|fault| {
+                PositioningError::Calibration {
+                    label: label.clone(),
+                    fault,
+                }
+            })?;
+        boards.push((label, Some(calibration)));
+    }
+    Ok(boards)
+}
+
+/// The comparison's box plot, `<dir>/positioning.svg` and `.png`; returns the files.
+pub fn plot(
+    dir: &std::path::Path,
+    rows: &[Positioning],
+    payload_kg: f64,
+) -> Result<Vec<std::path::PathBuf>, CalibError> {
+    let boxes: Vec<plots::Distribution> = rows
+        .iter()
+        .map(|r| plots::Distribution {
+            label: r.label.clone(),
+            values_mm: r.errors_m.iter().map(|e| e * 1e3).collect(),
+        })
+        .collect();
+    let count = rows.first().map_or(0, |r| r.errors_m.len());
+    plots::error_distribution(
+        &dir.join("positioning"),
+        &format!("Error at the tool through the board, {count} random targets, {payload_kg} kg"),
+        &boxes,
+    )
 }
 
 /// The comparison as a table, mm.
