@@ -35,6 +35,7 @@ use nalgebra::{DMatrix, DVector};
 use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::ColumnScale;
 use super::option::candidates;
+use super::servo_knots::fit_start;
 use super::params::ParamKey;
 use super::{CalibError, ModelOption, Sample};
 
@@ -104,7 +105,8 @@ pub fn analyse(
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
     let ids = candidates(option);
-    let j = jacobian(arm, &ids, samples, &JacobianOptions::default())?;
+    let start = fit_start(arm, &ids);
+    let j = jacobian(arm, &start, &ids, samples, &JacobianOptions::default())?;
     Ok(analyse_jacobian(option, &ids, &j))
 }
 
@@ -199,16 +201,18 @@ pub fn analyse_jacobian(
     }
 }
 
-/// Checks that `keys` are identifiable from `samples` at `arm`: the
+/// Checks that `keys` are identifiable from `samples` at `arm` (commanded
+/// through `commanding`'s servo curves): the
 /// column-scaled Jacobian has full rank. When it has not, the error names the
 /// parameters that dominate the weakest direction.
 pub fn check_full_rank(
+    commanding: &Arm<f64>,
     arm: &Arm<f64>,
     option: ModelOption,
     keys: &[ParamKey],
     samples: &[Sample],
 ) -> Result<(), CalibError> {
-    let j = jacobian(arm, keys, samples, &JacobianOptions::default())?;
+    let j = jacobian(commanding, arm, keys, samples, &JacobianOptions::default())?;
     let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
     let svd = scaled.svd(false, true);
     let rank = numerical_rank(&svd.singular_values);

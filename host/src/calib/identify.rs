@@ -34,9 +34,10 @@ use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
 use super::identifiability::check_full_rank;
-use super::jacobian::{JacobianOptions, jacobian, tool_points};
+use super::jacobian::{JacobianOptions, jacobian, measured_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
+use super::servo_knots;
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Sample};
 use crate::dataset::Measurement;
@@ -139,6 +140,9 @@ pub struct Identified {
 
 /// The measurements of one fit, as the solver sees them.
 struct FitData<'a> {
+    /// The arm the measurements were commanded through (its servo curves).
+    commanding: &'a Arm<f64>,
+    /// Where the fit starts: the corrections are added to it.
     nominal: &'a Arm<f64>,
     option: ModelOption,
     samples: Vec<Sample>,
@@ -148,7 +152,7 @@ struct FitData<'a> {
 impl FitData<'_> {
     /// Norms of the 3D residuals of `arm` against the measurements, m.
     fn residual_norms(&self, arm: &Arm<f64>) -> Result<Vec<f64>, CalibError> {
-        Ok(tool_points(arm, &self.samples)?
+        Ok(measured_points(self.commanding, arm, &self.samples)?
             .iter()
             .zip(&self.measured)
             .map(|(p, m)| (p - m).norm())
@@ -157,7 +161,7 @@ impl FitData<'_> {
 
     /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
     fn weighted_residuals(&self, arm: &Arm<f64>, sqrt_w: &[f64]) -> Option<DVector<f64>> {
-        let points = tool_points(arm, &self.samples).ok()?;
+        let points = measured_points(self.commanding, arm, &self.samples).ok()?;
         let mut r = DVector::zeros(3 * points.len());
         for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
             r.fixed_rows_mut::<3>(3 * k)
@@ -173,7 +177,13 @@ impl FitData<'_> {
         keys: &[ParamKey],
         sqrt_w: &[f64],
     ) -> Result<DMatrix<f64>, CalibError> {
-        let mut j = jacobian(arm, keys, &self.samples, &JacobianOptions::default())?;
+        let mut j = jacobian(
+            self.commanding,
+            arm,
+            keys,
+            &self.samples,
+            &JacobianOptions::default(),
+        )?;
         for (k, w) in sqrt_w.iter().enumerate() {
             j.rows_mut(3 * k, 3).scale_mut(*w);
         }
@@ -451,7 +461,13 @@ pub fn identify(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
+    // Servo knots move the curves on their grid; the measurements were
+    // commanded through the nominal arm's own curves.
+    let commanding = nominal;
+    let start = servo_knots::fit_start(nominal, keys);
+    let nominal = &start;
     let data = FitData {
+        commanding,
         nominal,
         option,
         samples: measurements.iter().map(Sample::from).collect(),
@@ -465,7 +481,7 @@ pub fn identify(
             params: keys.len(),
         });
     }
-    check_full_rank(nominal, option, keys, &data.samples)?;
+    check_full_rank(commanding, nominal, option, keys, &data.samples)?;
     let rms_before_m = rms(&data.residual_norms(nominal)?);
 
     let mut params = ParamVector::new(keys.iter().copied())?;
@@ -502,6 +518,7 @@ pub fn identify(
     }
 
     let arm = params.apply(nominal);
+    servo_knots::check_curves(&arm)?;
     let norms = data.residual_norms(&arm).map_err(|e| {
         data.solver_error(format!(
             "the fit ended where the model cannot be evaluated ({e}); {n} poses do not determine these {} parameters: measure more poses (e.g. select 50 with `lrmcal select`)",

@@ -14,12 +14,18 @@
 //! far below what these steps resolve. A compliance closer to zero than its
 //! step is differenced one-sidedly upwards (second order), so no evaluated arm
 //! ever has a negative compliance: the selection sees the physical model only.
+//!
+//! A measurement was commanded through the servo curves of the arm it was
+//! taken with (the nominal arm's); an arm whose curves differ stands at other
+//! angles ([`measured_points`], `servo_knots::reached`). Servo-knot columns
+//! are worked out from the joint-angle columns (`servo_knots::jacobian_columns`).
 
 use model::params::ParamKind;
 use model::{Arm, SolverOptions};
 use nalgebra::{DMatrix, Vector3};
 
 use super::params::ParamKey;
+use super::servo_knots::{jacobian_columns, reached_samples};
 use super::{CalibError, Sample};
 
 /// How the finite-difference steps are chosen.
@@ -63,6 +69,17 @@ pub fn tool_points(arm: &Arm<f64>, samples: &[Sample]) -> Result<Vec<Vector3<f64
         .collect()
 }
 
+/// The measured points of `arm` when `samples` were commanded through
+/// `commanding`'s servo curves (the arm the measurements were taken with):
+/// [`tool_points`] at the angles the servos of `arm` reach.
+pub fn measured_points(
+    commanding: &Arm<f64>,
+    arm: &Arm<f64>,
+    samples: &[Sample],
+) -> Result<Vec<Vector3<f64>>, CalibError> {
+    tool_points(arm, &reached_samples(commanding, arm, samples))
+}
+
 /// Writes `points` (3 rows each) into column `col` of `j`, scaled by `factor`,
 /// accumulating onto what is there.
 fn accumulate(j: &mut DMatrix<f64>, col: usize, points: &[Vector3<f64>], factor: f64) {
@@ -84,16 +101,41 @@ fn perturbed(arm: &Arm<f64>, id: ParamKey, delta: f64) -> Arm<f64> {
 
 /// The `3 n × m` Jacobian of the measured points of `samples` (rows `3k..3k+3`
 /// for sample `k`, x y z) with respect to the error parameters `ids` (columns),
-/// evaluated at `arm`, in m per unit of each parameter.
+/// evaluated at `arm` commanded through `commanding`'s servo curves (see
+/// [`measured_points`]), in m per unit of each parameter.
 pub fn jacobian(
+    commanding: &Arm<f64>,
     arm: &Arm<f64>,
     ids: &[ParamKey],
     samples: &[Sample],
     options: &JacobianOptions,
 ) -> Result<DMatrix<f64>, CalibError> {
     let mut j = DMatrix::zeros(3 * samples.len(), ids.len());
+    let knots: Vec<(usize, (usize, usize))> = ids
+        .iter()
+        .enumerate()
+        .filter_map(|(col, id)| match *id {
+            ParamKey::ServoKnot { joint, knot } => {
+                Some((col, (usize::from(joint), usize::from(knot))))
+            }
+            ParamKey::Arm(_) => None,
+        })
+        .collect();
+    if !knots.is_empty() {
+        let keys: Vec<(usize, usize)> = knots.iter().map(|&(_, k)| k).collect();
+        let columns = jacobian_columns(commanding, arm, &keys, samples)?;
+        for (c, &(col, _)) in knots.iter().enumerate() {
+            j.set_column(col, &columns.column(c));
+        }
+    }
+    // The arm's own parameters move no servo curve: difference them at the reached angles.
+    let reached = reached_samples(commanding, arm, samples);
+    let samples = reached.as_slice();
     let mut base: Option<Vec<Vector3<f64>>> = None;
     for (col, &id) in ids.iter().enumerate() {
+        if matches!(id, ParamKey::ServoKnot { .. }) {
+            continue;
+        }
         let value = id.value(arm);
         let h = step(id, value, options);
         if id.kind() == ParamKind::Compliance && value < h {
@@ -145,8 +187,8 @@ mod tests {
         let arm = test_arm();
         let ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
         let samples = small_samples(6);
-        let j1 = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
-        let j2 = jacobian(&arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
+        let j1 = jacobian(&arm, &arm, &ids, &samples, &JacobianOptions::default()).unwrap();
+        let j2 = jacobian(&arm, &arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
         for (c, id) in ids.iter().enumerate() {
             let scale = j1.column(c).norm().max(1e-3);
             let diff = (j1.column(c) - j2.column(c)).norm();
@@ -167,7 +209,7 @@ mod tests {
             .map(|n| ParamKey::from_name(n).unwrap())
             .collect();
         let samples = small_samples(5);
-        let j = jacobian(&arm, &ids, &samples, &JacobianOptions::default()).unwrap();
+        let j = jacobian(&arm, &arm, &ids, &samples, &JacobianOptions::default()).unwrap();
         for k in 0..samples.len() {
             let row = |r: usize, c: usize| j[(3 * k + r, c)];
             assert!(
@@ -187,7 +229,7 @@ mod tests {
         let k2 = ParamKey::from_name("k2").unwrap();
         let theta2 = ParamKey::from_name("j2.theta").unwrap();
         let samples = small_samples(4);
-        let j = jacobian(&arm, &[k2, theta2], &samples, &JacobianOptions::default()).unwrap();
+        let j = jacobian(&arm, &arm, &[k2, theta2], &samples, &JacobianOptions::default()).unwrap();
         let chain = arm.chain();
         for (k, s) in samples.iter().enumerate() {
             let d = chain

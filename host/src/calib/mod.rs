@@ -7,6 +7,7 @@
 //! | [`params`] | the free parameters: typed keys and the registry of their values |
 //! | [`option`] | the candidate parameters of each model option |
 //! | [`jacobian`] | d(measured point)/d(error parameters), through the elastic model |
+//! | [`servo_knots`] | each servo's own curve between its tuned points: the knot offsets |
 //! | [`identifiability`] | the largest identifiable parameter subset, by rank analysis |
 //! | [`observability`] | column scaling and the observability indices O1..O5 |
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
@@ -40,6 +41,7 @@ pub mod pipeline;
 pub mod plots;
 pub mod progress;
 pub mod report;
+pub mod servo_knots;
 pub mod summary;
 #[cfg(test)]
 mod testing;
@@ -47,7 +49,7 @@ pub mod validate;
 
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
-pub use protocol::ModelOption;
+pub use crate::io::model_option::ModelOption;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,7 +5,8 @@
 //! of the arm). A calibration may correct more than that: a tool point per
 //! measured target, the base pose in the tracker's frame, servo curve knots,
 //! backlash widths. [`ParamKey`] is the host's name for any of them; today it
-//! has the arm's own parameters ([`ParamKey::Arm`]). A new kind is one variant
+//! has the arm's own parameters ([`ParamKey::Arm`]) and the knots of its servo
+//! curves ([`ParamKey::ServoKnot`]). A new kind is one variant
 //! here with its stable name, its kind and the quantity it corrects; the
 //! registry, the solver and the files take it as it is.
 //!
@@ -22,6 +23,8 @@ use std::fmt;
 
 use model::params::ParamKind;
 use model::{Arm, ParamId};
+
+use crate::io::model_option::{servo_knot_from_name, servo_knot_name};
 
 /// What [`ParamVector`] needs of a key: an order for its index, a stable
 /// name, and the quantity it corrects in the model it applies to.
@@ -42,25 +45,46 @@ pub trait Key: Copy + Ord + fmt::Debug {
 pub enum ParamKey {
     /// One of the model's 43 error parameters: a field of the arm.
     Arm(ParamId),
+    /// The angle of knot `knot` (from 0) of joint `joint`'s (from 0) servo
+    /// curve: its correction is the angle the knot's pulse really reaches
+    /// minus the angle the curve had for it (see `calib::servo_knots`).
+    ServoKnot {
+        /// Joint, from 0.
+        joint: u8,
+        /// Knot of the joint's curve, from 0.
+        knot: u8,
+    },
 }
 
 impl ParamKey {
-    /// Stable name: the arm's parameters keep the model's names (`j3.d`, `base.pitch`, `k0`).
+    /// Stable name: the arm's parameters keep the model's names (`j3.d`,
+    /// `base.pitch`, `k0`), a servo knot is `j3.servo[5]` (joint and knot from 1).
     pub fn name(self) -> Cow<'static, str> {
         match self {
             Self::Arm(id) => Cow::Borrowed(id.name()),
+            Self::ServoKnot { joint, knot } => {
+                Cow::Owned(servo_knot_name(joint.into(), knot.into()))
+            }
         }
     }
 
     /// The key called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        ParamId::from_name(name).map(Self::Arm)
+        match servo_knot_from_name(name) {
+            // Both fit a u8: at most 6 joints and MAX_KNOTS knots.
+            Some((joint, knot)) => Some(Self::ServoKnot {
+                joint: joint as u8,
+                knot: knot as u8,
+            }),
+            None => ParamId::from_name(name).map(Self::Arm),
+        }
     }
 
     /// Physical kind, which sets the unit and the scale of steps and typical errors.
     pub fn kind(self) -> ParamKind {
         match self {
             Self::Arm(id) => id.kind(),
+            Self::ServoKnot { .. } => ParamKind::Angle,
         }
     }
 
@@ -80,9 +104,18 @@ impl ParamKey {
     }
 
     /// The quantity in `arm` this key corrects.
+    ///
+    /// # Panics
+    ///
+    /// For a servo knot the curve does not have: the fit puts every curve on
+    /// the knots it identifies first (`calib::servo_knots::on_grid`), so this
+    /// is a bug, not bad input.
     pub fn slot(self, arm: &mut Arm<f64>) -> &mut f64 {
         match self {
             Self::Arm(id) => id.value_mut(arm),
+            Self::ServoKnot { joint, knot } => {
+                &mut arm.joints[usize::from(joint)].servo.angles_rad_mut()[usize::from(knot)]
+            }
         }
     }
 }
@@ -305,6 +338,19 @@ mod tests {
             assert_eq!(k.lower_bound().is_some(), !id.is_geometric());
         }
         assert_eq!(ParamKey::from_name("j7.d"), None);
+        let knot = ParamKey::ServoKnot { joint: 2, knot: 4 };
+        assert_eq!(knot.name(), "j3.servo[5]");
+        assert_eq!(ParamKey::from_name("j3.servo[5]"), Some(knot));
+        assert_eq!(knot.kind(), ParamKind::Angle);
+        assert_eq!(knot.lower_bound(), None);
+        let mut arm = rigid_nominal();
+        arm.joints[2].servo = arm.joints[2]
+            .servo
+            .resampled(&[-1.0, -0.5, 0.0, 0.5, 1.0])
+            .unwrap();
+        assert_eq!(knot.value(&arm), 1.0);
+        *knot.slot(&mut arm) += 0.01;
+        assert_eq!(arm.joints[2].servo.angles_rad()[4], 1.01);
         assert_eq!(key("k0").to_string(), "k0");
     }
 

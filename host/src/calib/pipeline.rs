@@ -20,6 +20,7 @@ use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::progress::Progress;
+use super::servo_knots::fit_start;
 use super::validate::{LoadValidation, Validation, validate};
 use super::{CalibError, ModelOption, Sample};
 use crate::dataset::{Measurement, Pose};
@@ -60,7 +61,8 @@ impl CandidateBlocks {
             })
             .collect();
         let ids = option_candidates(option);
-        let j = jacobian(nominal, &ids, &samples, &JacobianOptions::default())?;
+        let start = fit_start(nominal, &ids);
+        let j = jacobian(nominal, &start, &ids, &samples, &JacobianOptions::default())?;
         let identifiability = analyse_jacobian(option, &ids, &j);
         // The kept parameters are a subsequence of the candidates, in order.
         let cols: Vec<usize> = ids

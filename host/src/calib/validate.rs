@@ -4,7 +4,7 @@
 
 use model::Arm;
 
-use super::jacobian::tool_points;
+use super::jacobian::measured_points;
 use super::{CalibError, Sample};
 use crate::dataset::Measurement;
 
@@ -68,17 +68,23 @@ pub fn validate_per_load(
         .collect()
 }
 
-/// 3D error norms of `arm`'s predictions against `measurements`, m.
-pub fn error_norms(arm: &Arm<f64>, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
+/// 3D error norms of `arm`'s predictions against `measurements`, which were
+/// commanded through `commanding`'s servo curves, m.
+pub fn error_norms(
+    commanding: &Arm<f64>,
+    arm: &Arm<f64>,
+    measurements: &[Measurement],
+) -> Result<Vec<f64>, CalibError> {
     let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
-    Ok(tool_points(arm, &samples)?
+    Ok(measured_points(commanding, arm, &samples)?
         .iter()
         .zip(measurements)
         .map(|(p, m)| (p - m.position).norm())
         .collect())
 }
 
-/// Compares `nominal` and `calibrated` on `measurements`.
+/// Compares `nominal` and `calibrated` on `measurements`, taken with `nominal`
+/// (commanded through its servo curves).
 pub fn validate(
     nominal: &Arm<f64>,
     calibrated: &Arm<f64>,
@@ -89,8 +95,8 @@ pub fn validate(
             what: "validate the calibration: no validation measurements".into(),
         });
     }
-    let before = error_norms(nominal, measurements)?;
-    let after = error_norms(calibrated, measurements)?;
+    let before = error_norms(nominal, nominal, measurements)?;
+    let after = error_norms(nominal, calibrated, measurements)?;
     let (b, a) = (ErrorStats::of(&before), ErrorStats::of(&after));
     Ok(Validation {
         before: b,

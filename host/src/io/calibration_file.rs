@@ -16,7 +16,7 @@
 use std::path::Path;
 
 use model::{Arm, ParamId, ServoCurve};
-use protocol::ModelOption;
+use crate::io::model_option::{ModelOption, servo_knot_from_name};
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};
@@ -144,7 +144,7 @@ pub struct CalibrationFile {
     /// [`SCHEMA_VERSION`] of the writer.
     pub schema_version: u32,
     /// Model option that was identified.
-    #[serde(with = "json::model_option")]
+    #[serde(with = "crate::io::model_option")]
     pub option: ModelOption,
     /// The nominal arm the errors are relative to.
     pub nominal: Arm<f64>,
@@ -211,11 +211,12 @@ impl CalibrationFile {
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
-            if ParamId::from_name(&p.name).is_none() || repeated {
+            let known = ParamId::from_name(&p.name).is_some() || servo_knot_from_name(&p.name).is_some();
+            if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
                     Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6), each once",
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, j1.servo[1] … j6.servo[9]), each once",
                         found: format!("`{}`", p.name),
                     },
                 ));
