@@ -112,7 +112,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
-        option: ModelOption::ElastoKinematic,
+        option: host::calib::ModelOption::ElastoKinematic,
         nominal,
         arm,
         parameters: vec![],

@@ -110,7 +110,7 @@ mod tests {
             ErrorStats::of(&[0.001]),
             None,
         );
-        assert_eq!(file.option, protocol::ModelOption::Elastic);
+        assert_eq!(file.option, ModelOption::Elastic);
         assert_eq!(file.arm, identified.arm);
         assert_eq!(file.at_bound, ["k6"]);
         assert_eq!(file.removed, ["k1"]);

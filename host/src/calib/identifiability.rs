@@ -35,8 +35,8 @@ use nalgebra::{DMatrix, DVector};
 use super::jacobian::{JacobianOptions, jacobian};
 use super::observability::ColumnScale;
 use super::option::candidates;
-use super::servo_knots::fit_start;
 use super::params::ParamKey;
+use super::servo_knots::fit_start;
 use super::{CalibError, ModelOption, Sample};
 
 /// Sine of the smallest angle between a kept column and the span of the others.

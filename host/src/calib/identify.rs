@@ -579,6 +579,7 @@ mod tests {
 
     fn fit_data<'a>(nominal: &'a Arm<f64>, meas: &[Measurement]) -> FitData<'a> {
         FitData {
+            commanding: nominal,
             nominal,
             option: ModelOption::Elastic,
             samples: meas.iter().map(Sample::from).collect(),

@@ -188,7 +188,14 @@ mod tests {
         let ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
         let samples = small_samples(6);
         let j1 = jacobian(&arm, &arm, &ids, &samples, &JacobianOptions::default()).unwrap();
-        let j2 = jacobian(&arm, &arm, &ids, &samples, &JacobianOptions { step_factor: 10.0 }).unwrap();
+        let j2 = jacobian(
+            &arm,
+            &arm,
+            &ids,
+            &samples,
+            &JacobianOptions { step_factor: 10.0 },
+        )
+        .unwrap();
         for (c, id) in ids.iter().enumerate() {
             let scale = j1.column(c).norm().max(1e-3);
             let diff = (j1.column(c) - j2.column(c)).norm();
@@ -229,7 +236,14 @@ mod tests {
         let k2 = ParamKey::from_name("k2").unwrap();
         let theta2 = ParamKey::from_name("j2.theta").unwrap();
         let samples = small_samples(4);
-        let j = jacobian(&arm, &arm, &[k2, theta2], &samples, &JacobianOptions::default()).unwrap();
+        let j = jacobian(
+            &arm,
+            &arm,
+            &[k2, theta2],
+            &samples,
+            &JacobianOptions::default(),
+        )
+        .unwrap();
         let chain = arm.chain();
         for (k, s) in samples.iter().enumerate() {
             let d = chain

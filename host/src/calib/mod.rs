@@ -47,9 +47,9 @@ pub mod summary;
 mod testing;
 pub mod validate;
 
+pub use crate::io::model_option::ModelOption;
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
-pub use crate::io::model_option::ModelOption;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,10 +1,10 @@
 //! The parameters each model option may fit: the paper's three and ours (the
 //! option itself is `crate::io::model_option::ModelOption`).
 
-use model::ParamId;
 use super::ModelOption;
 use super::params::ParamKey;
 use super::servo_knots;
+use model::ParamId;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7

@@ -147,7 +147,11 @@ pub fn jacobian_columns(
             tool_points(arm, &moved)
         };
         let (up, down) = (shifted(h)?, shifted(-h)?);
-        let slope: Vec<Vector3<f64>> = up.iter().zip(&down).map(|(u, d)| (u - d) / (2.0 * h)).collect();
+        let slope: Vec<Vector3<f64>> = up
+            .iter()
+            .zip(&down)
+            .map(|(u, d)| (u - d) / (2.0 * h))
+            .collect();
         for (col, &(_, knot)) in keys.iter().enumerate().filter(|(_, k)| k.0 == joint) {
             for (i, (s, d)) in samples.iter().zip(&slope).enumerate() {
                 let w = knot_weight(commanding, arm, joint, knot, s.q[joint]);

@@ -30,7 +30,7 @@ use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 const PAPER_LOAD_KG: f64 = 0.0663;
 
 /// Random poses the demo adds to the grid's candidates (see `docs/METHOD.md`).
-pub const DEMO_RANDOM_CANDIDATES: usize = 400;
+pub const DEMO_RANDOM_CANDIDATES: usize = crate::commands::plan::DEFAULT_PLAN_RANDOM;
 
 /// Poses off the grid every option is validated on, none of them a candidate.
 pub const OFF_GRID_POSES: usize = 200;

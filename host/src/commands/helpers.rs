@@ -104,6 +104,11 @@ mod tests {
             Ok(4)
         );
         let e = "rigid".parse::<OptionChoice>().unwrap_err();
-        assert!(e.contains("rigid") && e.contains("kinematic, elastic, elasto-kinematic or elasto-kinematic-servo or all"));
+        assert!(
+            e.contains("rigid")
+                && e.contains(
+                    "kinematic, elastic, elasto-kinematic or elasto-kinematic-servo or all"
+                )
+        );
     }
 }

@@ -15,8 +15,8 @@
 
 use std::path::Path;
 
-use model::{Arm, ParamId, ServoCurve};
 use crate::io::model_option::{ModelOption, servo_knot_from_name};
+use model::{Arm, ParamId, ServoCurve};
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};
@@ -211,7 +211,8 @@ impl CalibrationFile {
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
-            let known = ParamId::from_name(&p.name).is_some() || servo_knot_from_name(&p.name).is_some();
+            let known =
+                ParamId::from_name(&p.name).is_some() || servo_knot_from_name(&p.name).is_some();
             if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),

@@ -110,7 +110,7 @@ pub fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
     let joint: usize = joint.parse().ok()?;
     let knot: usize = knot.parse().ok()?;
     ((1..=model::JOINTS).contains(&joint) && (1..=model::servo::MAX_KNOTS).contains(&knot))
-        .then_some((joint - 1, knot - 1))
+        .then(|| (joint - 1, knot - 1))
 }
 
 /// The name of knot `knot` of joint `joint`'s curve (both from 0).
@@ -139,7 +139,15 @@ mod tests {
     fn servo_knot_names_round_trip_and_refuse_what_is_out_of_range() {
         assert_eq!(servo_knot_from_name("j3.servo[5]"), Some((2, 4)));
         assert_eq!(servo_knot_name(2, 4), "j3.servo[5]");
-        for bad in ["j0.servo[1]", "j7.servo[1]", "j1.servo[0]", "j1.servo[10]", "j1.servo[]", "j1.servo", "j1.theta"] {
+        for bad in [
+            "j0.servo[1]",
+            "j7.servo[1]",
+            "j1.servo[0]",
+            "j1.servo[10]",
+            "j1.servo[]",
+            "j1.servo",
+            "j1.theta",
+        ] {
             assert_eq!(servo_knot_from_name(bad), None, "{bad}");
         }
     }

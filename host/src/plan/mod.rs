@@ -261,7 +261,11 @@ impl PlanConfig {
 
 /// `config` with its bodies placed for `arm` (the skeleton when it has none:
 /// the same in every pose, so placed once), after checking both.
-fn placed(arm: &Arm<f64>, chain: &model::Chain<f64>, config: &PlanConfig) -> Result<PlanConfig, PlanError> {
+fn placed(
+    arm: &Arm<f64>,
+    chain: &model::Chain<f64>,
+    config: &PlanConfig,
+) -> Result<PlanConfig, PlanError> {
     config.check()?;
     if !arm.is_finite() {
         return Err(PlanError::NominalNotFinite);
@@ -288,7 +292,9 @@ pub fn random_candidates(
 ) -> Result<Vec<Pose>, PlanError> {
     let chain = arm.chain();
     let config = placed(arm, &chain, config)?;
-    Ok(random::random_poses(arm, &chain, &config, count, seed, first_id))
+    Ok(random::random_poses(
+        arm, &chain, &config, count, seed, first_id,
+    ))
 }
 
 /// Builds the candidate grid and filters it on the nominal arm, then adds
