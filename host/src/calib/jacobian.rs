@@ -14,12 +14,19 @@
 //! far below what these steps resolve. A compliance closer to zero than its
 //! step is differenced one-sidedly upwards (second order), so no evaluated arm
 //! ever has a negative compliance: the selection sees the physical model only.
+//!
+//! A sample's joints stand where its command drives them ([`Rig::standing_angles`]:
+//! through the rig's servo curves, with its backlash). The columns of servo
+//! knots and backlash widths move only those angles, so they are built from
+//! one joint-angle column per joint (`calib::joint_columns`).
 
 use model::SolverOptions;
 use model::params::ParamKind;
 use nalgebra::{DMatrix, Vector3};
 
+use super::joint_columns;
 use super::params::ParamKey;
+use super::servo_knots::fit_start;
 use super::{CalibError, Rig, Sample};
 
 /// How the finite-difference steps are chosen.
@@ -46,8 +53,19 @@ pub fn step(id: ParamKey, value: f64, options: &JacobianOptions) -> f64 {
 }
 
 /// Measured (deflected) points of `rig` for every sample, each of its
-/// sample's target, world frame, m.
+/// sample's target, with the joints where the sample's command drives them
+/// ([`Rig::standing_angles`]), world frame, m.
 pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+    let angles: Vec<[f64; model::JOINTS]> = samples.iter().map(|s| rig.standing_angles(s)).collect();
+    points_at(rig, samples, &angles)
+}
+
+/// [`tool_points`] with the joints at `angles` (one per sample), rad.
+pub fn points_at(
+    rig: &Rig,
+    samples: &[Sample],
+    angles: &[[f64; model::JOINTS]],
+) -> Result<Vec<Vector3<f64>>, CalibError> {
     // One chain per target: they differ in the tool point only, which the
     // deflection does not depend on.
     let chains: Vec<model::Chain<f64>> = (0..rig.targets.len())
@@ -60,7 +78,8 @@ pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, C
     let opts = SolverOptions::default();
     samples
         .iter()
-        .map(|s| {
+        .zip(angles)
+        .map(|(s, q)| {
             let chain = chains.get(s.target).ok_or_else(|| CalibError::Deflection {
                 pose: s.id,
                 load_kg: s.load_kg,
@@ -71,7 +90,7 @@ pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, C
                 ),
             })?;
             chain
-                .tool_point(&s.q, s.load_kg, &opts)
+                .tool_point(q, s.load_kg, &opts)
                 .map_err(|e| CalibError::Deflection {
                     pose: s.id,
                     load_kg: s.load_kg,
@@ -110,8 +129,14 @@ pub fn jacobian(
     options: &JacobianOptions,
 ) -> Result<DMatrix<f64>, CalibError> {
     let mut j = DMatrix::zeros(3 * samples.len(), ids.len());
+    // Servo-knot keys move the curves on their grid (the same map).
+    let rig = &fit_start(rig, ids);
+    let done = joint_columns::fill(rig, ids, samples, &mut j)?;
     let mut base: Option<Vec<Vector3<f64>>> = None;
     for (col, &id) in ids.iter().enumerate() {
+        if done[col] {
+            continue;
+        }
         let value = id.value(rig);
         let h = step(id, value, options);
         if id.kind() == ParamKind::Compliance && value < h {

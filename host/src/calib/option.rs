@@ -1,14 +1,15 @@
-//! The parameters each of the paper's three model options may fit (the option
-//! itself is `protocol::ModelOption`, the board stores it too).
+//! The parameters each model option may fit: the paper's three and ours (the
+//! option itself is `crate::io::model_option::ModelOption`).
 
-use model::ParamId;
-use protocol::ModelOption;
-
+use super::ModelOption;
 use super::params::ParamKey;
+use super::servo_knots;
+use model::ParamId;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic.
+/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
+/// knots of the six servo curves.
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -25,6 +26,10 @@ use super::params::ParamKey;
 /// point held cannot bring the point nearer joint 6's axis than the file's
 /// offset across `x6` (its `y` when `alpha6` is zero), so a true point 4 mm
 /// off the axis stays out of reach when the file says 11 mm.
+///
+/// Servo knots and backlash widths come last: a constant shift of a joint's
+/// knots is its `theta` (the base yaw for joint 1), which the paper's model
+/// already has, so the knot that only repeats it is the one removed.
 pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
@@ -32,11 +37,18 @@ pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     let dh = ParamId::all().filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
-        ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
+        ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
+            compliances.chain(geometric).collect()
+        }
         ModelOption::Kinematic => geometric.collect(),
         ModelOption::Elastic => compliances.collect(),
     };
-    ids.into_iter().map(ParamKey::Arm).collect()
+    let knots = option
+        .fits_servo_curves()
+        .then(servo_knots::keys)
+        .into_iter()
+        .flatten();
+    ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
 }
 
 #[cfg(test)]
@@ -44,8 +56,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn candidate_counts_are_43_36_7() {
+    fn candidate_counts_are_43_36_7_and_97() {
         assert_eq!(candidates(ModelOption::ElastoKinematic).len(), 43);
+        let ours = candidates(ModelOption::ElastoKinematicServo);
+        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
+        assert_eq!(ours[..43], candidates(ModelOption::ElastoKinematic)[..]);
         assert_eq!(candidates(ModelOption::Kinematic).len(), 36);
         assert_eq!(candidates(ModelOption::Elastic).len(), 7);
         assert!(

@@ -2,7 +2,7 @@
 //! and `lrmcal demo` print, rendered from the report, so the terminal and
 //! `report.json` always tell the same story.
 
-use super::experiments::RandomBaseline;
+use super::experiments::{GridErrors, RandomBaseline};
 use super::report::{OptionReport, OutlierReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
 
@@ -11,7 +11,7 @@ use crate::io::calibration_file::TargetTool;
 pub fn table(options: &[OptionReport]) -> String {
     let mut s = String::new();
     s.push_str(&format!(
-        "{:<18} {:>6} {:>26} {:>10} {:>11}\n",
+        "{:<22} {:>6} {:>26} {:>10} {:>11}\n",
         "model", "params", "mean error before -> after", "reduction", "cross-load"
     ));
     for o in options {
@@ -29,13 +29,27 @@ pub fn table(options: &[OptionReport]) -> String {
             None => ("-".into(), "-".into(), "-".into()),
         };
         s.push_str(&format!(
-            "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
+            "{:<22} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
             o.option.name(),
             o.identifiability.kept.len(),
             before,
             after,
             reduction,
             cross
+        ));
+    }
+    s
+}
+
+/// Each option's mean error on the grid and off it, side by side.
+pub fn grid_table(errors: &[GridErrors]) -> String {
+    let mut s = format!("{:<22} {:>10} {:>10}\n", "model", "grid", "off-grid");
+    for e in errors {
+        s.push_str(&format!(
+            "{:<22} {:>7.2} mm {:>7.2} mm\n",
+            e.option.name(),
+            e.grid.mean_m * 1e3,
+            e.off_grid.mean_m * 1e3
         ));
     }
     s

@@ -20,8 +20,8 @@
 
 use std::path::Path;
 
+use crate::io::model_option::{ModelOption, backlash_from_name, servo_knot_from_name};
 use model::{Arm, Frame, ParamId, ServoCurve};
-use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};
@@ -149,7 +149,7 @@ pub struct CalibrationFile {
     /// [`SCHEMA_VERSION`] of the writer.
     pub schema_version: u32,
     /// Model option that was identified.
-    #[serde(with = "json::model_option")]
+    #[serde(with = "crate::io::model_option")]
     pub option: ModelOption,
     /// The nominal arm the errors are relative to.
     pub nominal: Arm<f64>,
@@ -269,16 +269,30 @@ impl CalibrationFile {
                     },
                 ));
             }
+            let play = arm.joints.iter().enumerate().find(|(_, j)| {
+                !(j.backlash.is_finite() && j.backlash >= 0.0)
+            });
+            if let Some((i, j)) = play {
+                return Err(InputError::new(
+                    Location::key(None, format!("{which}.joints[{}].backlash", i + 1)),
+                    Problem::OutOfRange {
+                        expected: "a backlash width >= 0 rad",
+                        found: j.backlash.to_string(),
+                    },
+                ));
+            }
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
             let known = ParamId::from_name(&p.name).is_some()
+                || servo_knot_from_name(&p.name).is_some()
+                || backlash_from_name(&p.name).is_some()
                 || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
             if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
                     Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, tool[N].x … tool[N].z of a listed target), each once",
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, j1.servo[1] … j6.servo[9], j1.backlash … j6.backlash, tool[N].x … tool[N].z of a listed target), each once",
                         found: format!("`{}`", p.name),
                     },
                 ));
