@@ -57,9 +57,7 @@ pub const FROM_HOME: [Approach; JOINTS] = [Approach::Rising; JOINTS];
 /// [`model::backlash::ApproachTracker`]): the one definition the simulator,
 /// identification and validation share. A pose repeated (another load or
 /// target at the same pose) moves no joint and keeps the approaches.
-pub fn approaches<'a>(
-    qs: impl IntoIterator<Item = &'a [f64; JOINTS]>,
-) -> Vec<[Approach; JOINTS]> {
+pub fn approaches<'a>(qs: impl IntoIterator<Item = &'a [f64; JOINTS]>) -> Vec<[Approach; JOINTS]> {
     let mut tracker = ApproachTracker::new([0.0; JOINTS]);
     qs.into_iter().map(|q| tracker.visit(q)).collect()
 }

@@ -56,7 +56,8 @@ pub fn step(id: ParamKey, value: f64, options: &JacobianOptions) -> f64 {
 /// sample's target, with the joints where the sample's command drives them
 /// ([`Rig::standing_angles`]), world frame, m.
 pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
-    let angles: Vec<[f64; model::JOINTS]> = samples.iter().map(|s| rig.standing_angles(s)).collect();
+    let angles: Vec<[f64; model::JOINTS]> =
+        samples.iter().map(|s| rig.standing_angles(s)).collect();
     points_at(rig, samples, &angles)
 }
 
@@ -70,7 +71,7 @@ pub fn points_at(
     // deflection does not depend on.
     let chains: Vec<model::Chain<f64>> = (0..rig.targets.len())
         .map(|t| {
-            let mut chain = rig.arm.chain();
+            let mut chain = rig.chain();
             chain.tool_point = rig.tool_point(t).unwrap_or(chain.tool_point);
             chain
         })

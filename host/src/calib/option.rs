@@ -48,7 +48,18 @@ pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
         .then(servo_knots::keys)
         .into_iter()
         .flatten();
-    ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
+    // One softening per spring, after everything the paper's model has: a
+    // spring without torque (k1 on a level base) has none to show.
+    let softening = option
+        .fits_servo_curves()
+        .then(|| (0..=model::JOINTS as u8).map(|spring| ParamKey::Softening { spring }))
+        .into_iter()
+        .flatten();
+    ids.into_iter()
+        .map(ParamKey::Arm)
+        .chain(knots)
+        .chain(softening)
+        .collect()
 }
 
 #[cfg(test)]
@@ -59,7 +70,7 @@ mod tests {
     fn candidate_counts_are_43_36_7_and_97() {
         assert_eq!(candidates(ModelOption::ElastoKinematic).len(), 43);
         let ours = candidates(ModelOption::ElastoKinematicServo);
-        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
+        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS + 7);
         assert_eq!(ours[..43], candidates(ModelOption::ElastoKinematic)[..]);
         assert_eq!(candidates(ModelOption::Kinematic).len(), 36);
         assert_eq!(candidates(ModelOption::Elastic).len(), 7);

@@ -70,6 +70,12 @@ pub enum ParamKey {
         /// Knot of the joint's curve, from 0.
         knot: u8,
     },
+    /// How spring `spring`'s compliance grows with its torque, 1/Nm (0 the
+    /// base's, `k0`'s; 1..=6 the joints'), see [`Rig::softening_per_nm`].
+    Softening {
+        /// Spring, as the compliances `k0..k6` count them.
+        spring: u8,
+    },
     /// The full width of joint `joint`'s (from 0) play, rad
     /// (`model::Joint::backlash`, see `calib::backlash`).
     Backlash {
@@ -97,6 +103,7 @@ impl ParamKey {
                 Cow::Owned(servo_knot_name(joint.into(), knot.into()))
             }
             Self::Backlash { joint } => Cow::Owned(backlash_name(joint.into())),
+            Self::Softening { spring } => Cow::Owned(format!("s{spring}")),
         }
     }
 
@@ -114,6 +121,13 @@ impl ParamKey {
         }
         if let Some(joint) = backlash_from_name(name) {
             return Some(Self::Backlash { joint: joint as u8 });
+        }
+        if let Some(spring) = name
+            .strip_prefix('s')
+            .and_then(|n| n.parse::<u8>().ok())
+            .filter(|s| usize::from(*s) <= model::JOINTS && name.len() == 2)
+        {
+            return Some(Self::Softening { spring });
         }
         let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
         let target: u8 = target.parse().ok().filter(|t| *t > 0)?;
@@ -142,11 +156,17 @@ impl ParamKey {
             Self::Arm(id) => id.kind(),
             Self::TargetTool { .. } => ParamKind::Length,
             Self::ServoKnot { .. } | Self::Backlash { .. } => ParamKind::Angle,
+            // Its steps and typical size are a compliance's (about 0.1).
+            Self::Softening { .. } => ParamKind::Compliance,
         }
     }
 
     /// The smallest physical value of the quantity (not of its correction), if bounded.
     pub fn lower_bound(self) -> Option<f64> {
+        if let Self::Softening { .. } = self {
+            // A spring may soften or stiffen.
+            return None;
+        }
         match self.kind() {
             // A negative compliance would mean the arm bends against gravity.
             ParamKind::Compliance => Some(0.0),
@@ -168,6 +188,7 @@ impl ParamKey {
                 .copied()
                 .unwrap_or(f64::NAN),
             Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
+            Self::Softening { spring } => rig.softening_per_nm[usize::from(spring)],
         }
     }
 
@@ -188,6 +209,7 @@ impl ParamKey {
                 &mut rig.arm.joints[usize::from(joint)].servo.angles_rad_mut()[usize::from(knot)]
             }
             Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,
+            Self::Softening { spring } => &mut rig.softening_per_nm[usize::from(spring)],
         }
     }
 }

@@ -82,9 +82,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             Some(_) => continue,
             None => {}
         }
-        let q: [f64; JOINTS] = std::array::from_fn(|j| {
-            settled(row.pose.q[j], arm.arm.joints[j].backlash, way[j])
-        });
+        let q: [f64; JOINTS] =
+            std::array::from_fn(|j| settled(row.pose.q[j], arm.arm.joints[j].backlash, way[j]));
         let position = chain
             .tool_point(&q, load_kg, &options)
             .map_err(|reason| Error::Model {

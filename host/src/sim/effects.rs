@@ -10,7 +10,6 @@
 use model::{Arm, Deflection, DeflectionError, JOINTS, SolverOptions};
 use serde::{Deserialize, Serialize};
 
-
 /// A servo's smooth angle error: `e(q) = sine sin(omega q + phase) + cubic (q / 100°)³`.
 ///
 /// The servo curve of the method is two straight lines, so any error that is a

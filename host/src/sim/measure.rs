@@ -83,7 +83,11 @@ impl TrueArm {
         let capacity = passes.iter().map(|p| p.poses.len()).sum();
         let (mut measurements, mut noise_free) =
             (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
-        let ways = approaches(passes.iter().flat_map(|p| p.poses.iter().map(|pose| &pose.q)));
+        let ways = approaches(
+            passes
+                .iter()
+                .flat_map(|p| p.poses.iter().map(|pose| &pose.q)),
+        );
         let mut ways = ways.into_iter();
         for &Pass { load_kg, poses } in passes {
             for (pose, approach) in poses.iter().zip(ways.by_ref()) {
