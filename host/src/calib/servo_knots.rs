@@ -59,11 +59,16 @@ pub fn keys() -> impl Iterator<Item = ParamKey> {
 
 /// `arm` with every servo curve resampled on the [`grid_rad`] knots: the same
 /// map where the curve's own knots are among the grid's, and the curve the
-/// knot parameters move.
+/// knot parameters move. A curve that already has [`KNOTS`] knots is kept
+/// as it is: an identified one (a refit starts from it) has its knots' angles
+/// moved off the grid, and resampling would move its pulses instead.
 pub fn on_grid(arm: &Arm<f64>) -> Arm<f64> {
     let mut out = *arm;
     let grid = grid_rad();
     for joint in &mut out.joints {
+        if joint.servo.knot_count() == KNOTS {
+            continue;
+        }
         // KNOTS <= MAX_KNOTS: resampling on the grid cannot fail.
         if let Ok(curve) = joint.servo.resampled(&grid) {
             joint.servo = curve;
