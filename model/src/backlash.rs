@@ -76,8 +76,8 @@ impl<T: Real> ApproachTracker<T> {
 
     /// Moves to the commanded pose `q` and returns the way each joint arrives.
     pub fn visit(&mut self, q: &[T; JOINTS]) -> [Approach; JOINTS] {
-        for i in 0..JOINTS {
-            self.approach[i] = self.approach[i].towards(self.last[i], q[i]);
+        for ((way, last), to) in self.approach.iter_mut().zip(&self.last).zip(q) {
+            *way = way.towards(*last, *to);
         }
         self.last = *q;
         self.approach
