@@ -125,11 +125,21 @@ impl core::fmt::Display for DeflectionError {
 
 /// The angle a spring of compliance `k` and softening `s` yields under
 /// torque `tau`: `k (1 + s |tau|) tau`, exactly `k tau` when `s` is zero.
-fn yield_of<T: Real>(k: T, s: T, tau: T) -> T {
+pub(crate) fn yield_of<T: Real>(k: T, s: T, tau: T) -> T {
     if s == T::zero() {
         k * tau
     } else {
         k * (T::one() + s * tau.abs()) * tau
+    }
+}
+
+/// How fast that angle grows with the torque, `d/dtau [k (1 + s |tau|) tau]
+/// = k (1 + 2 s |tau|)`, exactly `k` when `s` is zero.
+pub(crate) fn yield_rate_of<T: Real>(k: T, s: T, tau: T) -> T {
+    if s == T::zero() {
+        k
+    } else {
+        k * (T::one() + (s + s) * tau.abs())
     }
 }
 

@@ -25,8 +25,8 @@ pub struct Link<T: Real> {
     pub compliance: T,
     /// How the compliance changes with the torque, 1/Nm: the joint yields
     /// `compliance (1 + softening |tau|)` rad per Nm at torque `tau`
-    /// (negative: it stiffens). 0, a linear spring, unless the host's
-    /// calibration sets it (`crate::elastic`).
+    /// (negative: it stiffens), [`crate::arm::Joint::softening`]; 0 is a
+    /// linear spring (`crate::elastic`).
     pub softening: T,
     /// Link mass, kg.
     pub mass: T,
@@ -150,13 +150,13 @@ impl<T: Real> Arm<T> {
                     sin_alpha,
                     cos_alpha,
                     compliance: j.compliance,
-                    softening: T::zero(),
+                    softening: j.softening,
                     mass: j.mass,
                     mass_com: Vector3::from(j.com) * j.mass,
                 }
             }),
             base_compliance: self.base_compliance,
-            base_softening: T::zero(),
+            base_softening: self.base_softening,
             base_gravity: base.rotation.inverse() * self.gravity_vector(),
             payload_com: (tool * Point3::from(self.payload_com)).coords,
         }
