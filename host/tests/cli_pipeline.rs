@@ -280,8 +280,8 @@ fn plan_simulate_identify_validate_predict() {
 
 /// A valid calibration file of the bundled arm, made through the library.
 fn calibration_json() -> String {
+    use host::calib::ModelOption;
     use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
-    use protocol::ModelOption;
     let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
     let mut arm = nominal;
     arm.joints[1].compliance = 0.1;
@@ -299,6 +299,7 @@ fn calibration_json() -> String {
         fit_residual: ErrorStats::of(&[1e-4]),
         validation: None,
         registration: None,
+        softening_per_nm: [0.0; 7],
         targets: vec![],
     }
     .to_json()

@@ -343,6 +343,7 @@ pub fn check_structure(
             q: p.q,
             load_kg,
             target: 0,
+            approach: crate::dataset::FROM_HOME,
         })
         .collect();
     let structural = analyse(nominal, measured.option, &grid)?.kept;
@@ -436,6 +437,7 @@ mod tests {
                 q: p.q,
                 load_kg: 0.0663,
                 target: 0,
+                approach: crate::dataset::FROM_HOME,
             })
             .collect();
         let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();

@@ -60,6 +60,7 @@ use super::identifiability::check_full_rank;
 use super::jacobian::{jacobian, tool_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
+use super::servo_knots;
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
@@ -612,6 +613,10 @@ pub fn identify(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
+    // Servo knots move the curves on their grid (the same map); the
+    // measurements stay commanded through the nominal curves.
+    let start = servo_knots::fit_start(nominal, keys);
+    let nominal = &start;
     let data = FitData::new(nominal, option, measurements)?;
     let n = data.samples.len();
     if 3 * n < keys.len() || n == 0 {
@@ -658,6 +663,7 @@ pub fn identify(
     }
 
     let rig = params.apply(nominal);
+    servo_knots::check_curves(&rig.arm)?;
     // Every point LM accepted could be evaluated, and the ceiling keeps the
     // deflection converging: failing here is not a question of more poses.
     let norms = data.residual_norms(&rig).map_err(|e| {

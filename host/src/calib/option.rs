@@ -1,18 +1,19 @@
-//! The parameters each of the paper's three model options may fit (the option
-//! itself is `protocol::ModelOption`, the board stores it too).
+//! The parameters each model option may fit: the paper's three and ours (the
+//! option itself is `crate::io::model_option::ModelOption`).
 
-use model::ParamId;
-use protocol::ModelOption;
-
+use super::ModelOption;
 use super::params::ParamKey;
+use super::servo_knots;
+use model::ParamId;
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
 /// positioning figure calls its calibration "ours".
-pub const DEFAULT: ModelOption = ModelOption::ElastoKinematic;
+pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic.
+/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
+/// knots of the six servo curves.
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -29,6 +30,10 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematic;
 /// point held cannot bring the point nearer joint 6's axis than the file's
 /// offset across `x6` (its `y` when `alpha6` is zero), so a true point 4 mm
 /// off the axis stays out of reach when the file says 11 mm.
+///
+/// Servo knots and backlash widths come last: a constant shift of a joint's
+/// knots is its `theta` (the base yaw for joint 1), which the paper's model
+/// already has, so the knot that only repeats it is the one removed.
 pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
@@ -36,11 +41,29 @@ pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     let dh = ParamId::all().filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
-        ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
+        ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
+            compliances.chain(geometric).collect()
+        }
         ModelOption::Kinematic => geometric.collect(),
         ModelOption::Elastic => compliances.collect(),
     };
-    ids.into_iter().map(ParamKey::Arm).collect()
+    let knots = option
+        .fits_servo_curves()
+        .then(servo_knots::keys)
+        .into_iter()
+        .flatten();
+    // One softening per spring, after everything the paper's model has: a
+    // spring without torque (k1 on a level base) has none to show.
+    let softening = option
+        .fits_servo_curves()
+        .then(|| (0..=model::JOINTS as u8).map(|spring| ParamKey::Softening { spring }))
+        .into_iter()
+        .flatten();
+    ids.into_iter()
+        .map(ParamKey::Arm)
+        .chain(knots)
+        .chain(softening)
+        .collect()
 }
 
 #[cfg(test)]
@@ -48,8 +71,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn candidate_counts_are_43_36_7() {
+    fn candidate_counts_are_43_36_7_and_97() {
         assert_eq!(candidates(ModelOption::ElastoKinematic).len(), 43);
+        let ours = candidates(ModelOption::ElastoKinematicServo);
+        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS + 7);
+        assert_eq!(ours[..43], candidates(ModelOption::ElastoKinematic)[..]);
         assert_eq!(candidates(ModelOption::Kinematic).len(), 36);
         assert_eq!(candidates(ModelOption::Elastic).len(), 7);
         assert!(

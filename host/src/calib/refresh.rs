@@ -43,7 +43,7 @@ use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::jacobian;
 use super::option::candidates;
 use super::params::ParamKey;
-use super::{CalibError, ModelOption, Rig};
+use super::{CalibError, ModelOption, Rig, backlash, servo_knots};
 use crate::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
@@ -65,8 +65,22 @@ pub const HOPELESS_FACTOR: f64 = 100.0;
 
 /// [`identify`], then, when `options.refresh`, the refresh described in the
 /// module docs. The result's estimates are corrections of `nominal`, the
-/// added parameters among them.
+/// added parameters among them; a negative fitted backlash width is zero in
+/// its rig (`calib::backlash::clamp`).
 pub fn identify_refreshed(
+    nominal: &Rig,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<Identified, CalibError> {
+    let mut identified = refreshed(nominal, option, keys, measurements, options)?;
+    backlash::clamp(&mut identified);
+    Ok(identified)
+}
+
+/// [`identify_refreshed`] before the widths are clamped.
+fn refreshed(
     nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
@@ -204,6 +218,8 @@ fn joining_at(
 /// The second fit's result as corrections of `nominal`: each estimate adds
 /// the first fit's correction of its key; the diagnostics count both fits.
 fn combine(nominal: &Rig, first: &Identified, second: Identified) -> Identified {
+    let keys: Vec<ParamKey> = second.estimates.iter().map(|e| e.id).collect();
+    let nominal = &servo_knots::fit_start(nominal, &keys);
     let before = |key: ParamKey| {
         first
             .estimates

@@ -17,7 +17,7 @@
 //! as equations for it and nothing would check them, so such a file is
 //! refused ([`Targets::check_poses`]).
 
-use model::Arm;
+use model::{Arm, JOINTS, ServoCurve};
 use nalgebra::Vector3;
 
 use super::params::ParamKey;
@@ -37,6 +37,13 @@ pub struct Rig {
     pub tools: Vec<Vector3<f64>>,
     /// The targets' names, as many as tool points.
     pub targets: Targets,
+    /// The servo curves the measurements were commanded through (the
+    /// nominal arm's); where the arm's own curves differ, a command stands
+    /// elsewhere (`calib::servo_knots::reached`).
+    pub command_curves: [ServoCurve<f64>; JOINTS],
+    /// Each spring's softening, 1/Nm, the base's first (`k0`'s), then the
+    /// joints' (`model::kinematics::Link::softening`); zero: linear springs.
+    pub softening_per_nm: [f64; JOINTS + 1],
 }
 
 impl From<Arm<f64>> for Rig {
@@ -56,7 +63,29 @@ impl Rig {
             arm,
             tools: vec![start; targets.len().saturating_sub(1)],
             targets,
+            command_curves: arm.joints.map(|j| j.servo),
+            softening_per_nm: [0.0; JOINTS + 1],
         }
+    }
+
+    /// The arm's chain, its springs softening as the rig says.
+    pub fn chain(&self) -> model::Chain<f64> {
+        let mut chain = self.arm.chain();
+        chain.base_softening = self.softening_per_nm[0];
+        for (link, s) in chain.links.iter_mut().zip(&self.softening_per_nm[1..]) {
+            link.softening = *s;
+        }
+        chain
+    }
+
+    /// The joint angles the arm stands at when `sample` was commanded: where
+    /// its servos drive the command sent through [`Rig::command_curves`],
+    /// short of it or beyond by half the play the way each joint arrived.
+    pub fn standing_angles(&self, sample: &Sample) -> [f64; JOINTS] {
+        let reached = super::servo_knots::reached(&self.command_curves, &self.arm, &sample.q);
+        std::array::from_fn(|j| {
+            model::backlash::settled(reached[j], self.arm.joints[j].backlash, sample.approach[j])
+        })
     }
 
     /// Tool point of target `t` in frame 6, m, if the rig has it.
@@ -352,6 +381,7 @@ mod tests {
                     q: s.q,
                     load_kg: load,
                     target,
+                    approach: s.approach,
                 })
             })
             .collect();

@@ -20,8 +20,8 @@
 
 use std::path::Path;
 
+use crate::io::model_option::{ModelOption, backlash_from_name, servo_knot_from_name};
 use model::{Arm, Frame, ParamId, ServoCurve};
-use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};
@@ -149,7 +149,7 @@ pub struct CalibrationFile {
     /// [`SCHEMA_VERSION`] of the writer.
     pub schema_version: u32,
     /// Model option that was identified.
-    #[serde(with = "json::model_option")]
+    #[serde(with = "crate::io::model_option")]
     pub option: ModelOption,
     /// The nominal arm the errors are relative to.
     pub nominal: Arm<f64>,
@@ -181,6 +181,11 @@ pub struct CalibrationFile {
     /// (which measures in the arm file's own frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration: Option<RegistrationRecord>,
+    /// How each spring's compliance grows with its torque, 1/Nm: the base's
+    /// (`k0`'s) first, then joints 1–6 (`s0`…`s6`, `docs/METHOD.md`); the
+    /// calibrated arm yields `k (1 + s |tau|)` per Nm. Absent: linear springs.
+    #[serde(default, skip_serializing_if = "is_linear")]
+    pub softening_per_nm: [f64; model::JOINTS + 1],
 }
 
 /// The arm's place in the measurement frame, as `lrmcal identify` found it.
@@ -240,6 +245,11 @@ pub struct ValidationSummary {
     pub after: ErrorStats,
 }
 
+/// Whether every spring is linear (no softening to write).
+fn is_linear(softening: &[f64; model::JOINTS + 1]) -> bool {
+    softening.iter().all(|s| *s == 0.0)
+}
+
 impl CalibrationFile {
     /// Pretty JSON text.
     pub fn to_json(&self) -> String {
@@ -274,16 +284,45 @@ impl CalibrationFile {
                     },
                 ));
             }
+            let play = arm
+                .joints
+                .iter()
+                .enumerate()
+                .find(|(_, j)| !(j.backlash.is_finite() && j.backlash >= 0.0));
+            if let Some((i, j)) = play {
+                return Err(InputError::new(
+                    Location::key(None, format!("{which}.joints[{}].backlash", i + 1)),
+                    Problem::OutOfRange {
+                        expected: "a backlash width >= 0 rad",
+                        found: j.backlash.to_string(),
+                    },
+                ));
+            }
+        }
+        if let Some(i) = file.softening_per_nm.iter().position(|s| !s.is_finite()) {
+            return Err(InputError::new(
+                Location::key(None, format!("softening_per_nm[{}]", i + 1)),
+                Problem::OutOfRange {
+                    expected: "a finite softening in 1/Nm",
+                    found: file.softening_per_nm[i].to_string(),
+                },
+            ));
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
             let known = ParamId::from_name(&p.name).is_some()
+                || matches!(
+                    crate::calib::ParamKey::from_name(&p.name),
+                    Some(crate::calib::ParamKey::Softening { .. })
+                )
+                || servo_knot_from_name(&p.name).is_some()
+                || backlash_from_name(&p.name).is_some()
                 || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
             if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
                     Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, tool[N].x … tool[N].z of a listed target), each once",
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, j1.servo[1] … j6.servo[9], j1.backlash … j6.backlash, s0 … s6, tool[N].x … tool[N].z of a listed target), each once",
                         found: format!("`{}`", p.name),
                     },
                 ));
@@ -434,6 +473,7 @@ pub(super) mod test_support {
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
             registration: None,
+            softening_per_nm: [0.0; 7],
             targets: vec![],
         }
     }
