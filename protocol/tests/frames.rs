@@ -102,6 +102,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         gravity: [0.0, 0.0, -9.8],
         base: model::Frame::identity(),
         base_compliance: 0.0,
+        base_softening: 0.0,
         tool: model::Frame::identity(),
         payload_com: [0.0; 3],
         joints: [model::Joint {
@@ -115,6 +116,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
             com: [0.0; 3],
             servo: model::ServoCurve::nominal(),
             backlash: 0.0,
+            softening: 0.0,
         }; 6],
     };
     let good = Calibration {
