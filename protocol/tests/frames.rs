@@ -193,6 +193,23 @@ fn calibration_rejects_what_the_board_cannot_run() {
     let mut negative = good;
     negative.calibrated.joints[1].compliance = -0.01;
     assert_eq!(negative.check(), Err(protocol::CalibrationFault::Negative));
+    // Softening springs are fine; one that stiffens so fast it would stop
+    // yielding under 10 Nm is refused, naming the spring.
+    let mut soft = good;
+    soft.calibrated.base_softening = 0.4;
+    soft.calibrated.joints[2].softening = -0.1;
+    assert_eq!(soft.check(), Ok(()));
+    soft.calibrated.joints[2].softening = -0.11;
+    assert_eq!(
+        soft.check(),
+        Err(protocol::CalibrationFault::Softening { spring: 3 })
+    );
+    soft.calibrated.joints[2].softening = 0.0;
+    soft.nominal.base_softening = -1.0;
+    assert_eq!(
+        soft.check(),
+        Err(protocol::CalibrationFault::Softening { spring: 0 })
+    );
 }
 
 proptest! {

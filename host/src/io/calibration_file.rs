@@ -504,6 +504,14 @@ mod tests {
         );
         let e = refused(&json.replacen("\"compliance\": 0.1", "\"compliance\": -0.1", 1));
         assert!(e.contains("key `arm.joints[2].compliance`"), "{e}");
+        // The first arm written is the nominal, its joints after its base.
+        let e = refused(&json.replacen("\"softening\": 0.0", "\"softening\": -0.5", 1));
+        assert!(
+            e.contains("key `nominal.joints[1].softening`") && e.contains("-0.5"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"base_softening\": 0.0", "\"base_softening\": -2.0", 2));
+        assert!(e.contains("key `nominal.base_softening`"), "{e}");
         let e = refused(&json.replacen("\"elastic\"", "\"rigid\"", 1));
         assert!(
             e.contains("key `option`") && e.contains("rigid") && e.contains("line 4"),
