@@ -299,7 +299,6 @@ fn calibration_json() -> String {
         fit_residual: ErrorStats::of(&[1e-4]),
         validation: None,
         registration: None,
-        softening_per_nm: [0.0; 7],
         targets: vec![],
     }
     .to_json()

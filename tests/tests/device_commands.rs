@@ -124,7 +124,6 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         validation: None,
         targets: vec![],
         registration: None,
-        softening_per_nm: [0.0; 7],
     };
     let path = dir.join("calibration.json");
     std::fs::write(&path, file.to_json()).unwrap();

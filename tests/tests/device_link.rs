@@ -168,7 +168,6 @@ fn calibration_file() -> CalibrationFile {
         validation: None,
         targets: vec![],
         registration: None,
-        softening_per_nm: [0.0; 7],
     }
 }
 

@@ -57,7 +57,6 @@ pub fn calibration_file(
         fit_residual,
         validation,
         registration: None,
-        softening_per_nm: identified.rig.softening_per_nm,
         targets: if identified.rig.targets.named() {
             target_tools(identified, &[])
         } else {
@@ -70,7 +69,7 @@ pub fn calibration_file(
 /// tool points (the nominal arm with the fitted ones: it has no idea where
 /// they are). A file without targets is its arms alone. Both rigs are
 /// commanded through the nominal arm's servo curves, as its measurements
-/// were; the calibrated one's springs soften as the file says.
+/// were.
 pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
     let names: Vec<TargetName> = file
         .targets
@@ -78,10 +77,9 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
         .filter_map(|t| TargetName::from(&t.name).ok())
         .collect();
     let command_curves = file.nominal.joints.map(|j| j.servo);
-    let rig = |arm: Arm<f64>, softening_per_nm| {
+    let rig = |arm: Arm<f64>| {
         let mut rig = Rig::from(arm);
         rig.command_curves = command_curves;
-        rig.softening_per_nm = softening_per_nm;
         if !file.targets.is_empty() && names.len() == file.targets.len() {
             rig.targets = Targets::named_as(&names);
             rig.tools = file.targets[1..]
@@ -91,10 +89,7 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
         }
         rig
     };
-    (
-        rig(file.nominal, [0.0; model::JOINTS + 1]),
-        rig(file.arm, file.softening_per_nm),
-    )
+    (rig(file.nominal), rig(file.arm))
 }
 
 /// Every target of `identified` with its tool point, fit residual and

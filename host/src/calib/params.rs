@@ -71,7 +71,7 @@ pub enum ParamKey {
         knot: u8,
     },
     /// How spring `spring`'s compliance grows with its torque, 1/Nm (0 the
-    /// base's, `k0`'s; 1..=6 the joints'), see [`Rig::softening_per_nm`].
+    /// base's, `k0`'s; 1..=6 the joints'), `model::Arm::base_softening` and `model::Joint::softening`.
     Softening {
         /// Spring, as the compliances `k0..k6` count them.
         spring: u8,
@@ -188,7 +188,8 @@ impl ParamKey {
                 .copied()
                 .unwrap_or(f64::NAN),
             Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
-            Self::Softening { spring } => rig.softening_per_nm[usize::from(spring)],
+            Self::Softening { spring: 0 } => rig.arm.base_softening,
+            Self::Softening { spring } => rig.arm.joints[usize::from(spring) - 1].softening,
         }
     }
 
@@ -209,7 +210,8 @@ impl ParamKey {
                 &mut rig.arm.joints[usize::from(joint)].servo.angles_rad_mut()[usize::from(knot)]
             }
             Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,
-            Self::Softening { spring } => &mut rig.softening_per_nm[usize::from(spring)],
+            Self::Softening { spring: 0 } => &mut rig.arm.base_softening,
+            Self::Softening { spring } => &mut rig.arm.joints[usize::from(spring) - 1].softening,
         }
     }
 }

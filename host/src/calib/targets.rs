@@ -41,9 +41,6 @@ pub struct Rig {
     /// nominal arm's); where the arm's own curves differ, a command stands
     /// elsewhere (`calib::servo_knots::reached`).
     pub command_curves: [ServoCurve<f64>; JOINTS],
-    /// Each spring's softening, 1/Nm, the base's first (`k0`'s), then the
-    /// joints' (`model::kinematics::Link::softening`); zero: linear springs.
-    pub softening_per_nm: [f64; JOINTS + 1],
 }
 
 impl From<Arm<f64>> for Rig {
@@ -64,18 +61,12 @@ impl Rig {
             tools: vec![start; targets.len().saturating_sub(1)],
             targets,
             command_curves: arm.joints.map(|j| j.servo),
-            softening_per_nm: [0.0; JOINTS + 1],
         }
     }
 
-    /// The arm's chain, its springs softening as the rig says.
+    /// The arm's chain, its springs softening as the arm says.
     pub fn chain(&self) -> model::Chain<f64> {
-        let mut chain = self.arm.chain();
-        chain.base_softening = self.softening_per_nm[0];
-        for (link, s) in chain.links.iter_mut().zip(&self.softening_per_nm[1..]) {
-            link.softening = *s;
-        }
-        chain
+        self.arm.chain()
     }
 
     /// The joint angles the arm stands at when `sample` was commanded: where

@@ -387,6 +387,7 @@ impl Checker<'_> {
             mass: self.non_negative(&k("mass"), &raw.mass, "a mass >= 0 kg")?,
             com: self.finite_array(&k("com"), &raw.com)?,
             servo,
+            // Play and softening are found by calibration, not described.
             backlash: 0.0,
             softening: 0.0,
         })

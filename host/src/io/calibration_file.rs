@@ -181,11 +181,6 @@ pub struct CalibrationFile {
     /// (which measures in the arm file's own frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration: Option<RegistrationRecord>,
-    /// How each spring's compliance grows with its torque, 1/Nm: the base's
-    /// (`k0`'s) first, then joints 1–6 (`s0`…`s6`, `docs/METHOD.md`); the
-    /// calibrated arm yields `k (1 + s |tau|)` per Nm. Absent: linear springs.
-    #[serde(default, skip_serializing_if = "is_linear")]
-    pub softening_per_nm: [f64; model::JOINTS + 1],
 }
 
 /// The arm's place in the measurement frame, as `lrmcal identify` found it.
@@ -245,11 +240,6 @@ pub struct ValidationSummary {
     pub after: ErrorStats,
 }
 
-/// Whether every spring is linear (no softening to write).
-fn is_linear(softening: &[f64; model::JOINTS + 1]) -> bool {
-    softening.iter().all(|s| *s == 0.0)
-}
-
 impl CalibrationFile {
     /// Pretty JSON text.
     pub fn to_json(&self) -> String {
@@ -298,15 +288,23 @@ impl CalibrationFile {
                     },
                 ));
             }
-        }
-        if let Some(i) = file.softening_per_nm.iter().position(|s| !s.is_finite()) {
-            return Err(InputError::new(
-                Location::key(None, format!("softening_per_nm[{}]", i + 1)),
-                Problem::OutOfRange {
-                    expected: "a finite softening in 1/Nm",
-                    found: file.softening_per_nm[i].to_string(),
-                },
-            ));
+            if let Some(spring) = arm.softening_fault() {
+                let (key, s) = match spring {
+                    0 => (format!("{which}.base_softening"), arm.base_softening),
+                    j => (
+                        format!("{which}.joints[{j}].softening"),
+                        arm.joints[j - 1].softening,
+                    ),
+                };
+                return Err(InputError::new(
+                    Location::key(None, key),
+                    Problem::OutOfRange {
+                        expected: "a finite softening >= -0.1 1/Nm (a spring that stiffens \
+                                   so fast would stop yielding below 10 Nm)",
+                        found: s.to_string(),
+                    },
+                ));
+            }
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
@@ -473,7 +471,6 @@ pub(super) mod test_support {
             fit_residual: ErrorStats::of(&[0.001]),
             validation: None,
             registration: None,
-            softening_per_nm: [0.0; 7],
             targets: vec![],
         }
     }
@@ -520,6 +517,14 @@ mod tests {
         );
         let e = refused(&json.replacen("\"compliance\": 0.1", "\"compliance\": -0.1", 1));
         assert!(e.contains("key `arm.joints[2].compliance`"), "{e}");
+        // The first arm written is the nominal, its joints after its base.
+        let e = refused(&json.replacen("\"softening\": 0.0", "\"softening\": -0.5", 1));
+        assert!(
+            e.contains("key `nominal.joints[1].softening`") && e.contains("-0.5"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"base_softening\": 0.0", "\"base_softening\": -2.0", 2));
+        assert!(e.contains("key `nominal.base_softening`"), "{e}");
         let e = refused(&json.replacen("\"elastic\"", "\"rigid\"", 1));
         assert!(
             e.contains("key `option`") && e.contains("rigid") && e.contains("line 4"),
