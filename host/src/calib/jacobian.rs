@@ -50,6 +50,9 @@ use super::{CalibError, Rig, Sample};
 /// The deflected state's seven coordinates: the six joint angles, then the base tilt.
 const STATE: usize = JOINTS + 1;
 
+/// Samples per share of the work on another core (a few ms of it).
+const PARALLEL_CHUNK: usize = 1024;
+
 /// Bodies that carry weight: links 1..6, then the payload (index 7).
 const PAYLOAD: usize = JOINTS + 1;
 
@@ -128,16 +131,17 @@ pub fn jacobian(
     Ok(slopes(rig, ids, samples)?.params)
 }
 
-/// [`jacobian`] and the joint-angle slopes of every sample, in one pass;
-/// samples are worked on all cores (each one's rows alone, so the result
-/// does not depend on how they are shared out).
+/// [`jacobian`] and the joint-angle slopes of every sample, in one pass.
+/// Sets of thousands of samples (a candidate pool) are worked on all cores,
+/// each sample's rows alone, so the result does not depend on how they are
+/// shared out; a fit's few hundred cost less than waking another thread.
 pub fn slopes(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Result<Slopes, CalibError> {
     // Servo-knot keys move the curves on their grid (the same map).
     let rig = &fit_start(rig, ids);
     let chains = target_chains(rig);
     let per_sample: Vec<(Matrix3xX<f64>, Matrix3x6<f64>)> = samples
         .par_iter()
-        .with_min_len(64)
+        .with_min_len(PARALLEL_CHUNK)
         .map(|s| pose_slopes(rig, chain_of(&chains, s)?, ids, s))
         .collect::<Result<_, _>>()?;
     let mut params = DMatrix::zeros(3 * samples.len(), ids.len());
