@@ -350,9 +350,9 @@ mod tests {
         let linear = arm.chain();
         let state = linear.evaluate(qa, beta, &target, payload, 1e-6).unwrap();
         let tau = linear.statics(&qa, beta, payload).torques;
-        for i in 0..JOINTS {
-            let expected = qa[i] - arm.joints[i].compliance * tau.joints[i];
-            assert_eq!(state.state.q[i].to_bits(), expected.to_bits(), "joint {i}");
+        for (i, (joint, q)) in arm.joints.iter().zip(state.state.q).enumerate() {
+            let expected = qa[i] - joint.compliance * tau.joints[i];
+            assert_eq!(q.to_bits(), expected.to_bits(), "joint {i}");
         }
         assert_eq!(
             state.beta_residual.to_bits(),
