@@ -420,7 +420,7 @@ fn three_gross_errors_are_named_and_do_not_pull_the_default_fit() {
 fn off_grid_means_mm(seed: u64) -> (f64, f64) {
     let nominal = bundled();
     let config = PlanConfig {
-        random: host::commands::plan::DEFAULT_PLAN_RANDOM,
+        random: host::plan::DEFAULT_RANDOM_POSES,
         ..PlanConfig::default()
     };
     let plan = candidates(&nominal, &config).expect("plan");

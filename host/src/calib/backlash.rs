@@ -15,12 +15,12 @@
 //! measurements to be fitted show its joint arriving both ways and the rank
 //! analysis over them keeps it.
 //!
-//! A fitted width is a physical quantity: a negative one is set to zero in
-//! the calibration ([`clamp`]) and said so, one wider than
-//! [`PLAUSIBLE_MAX_RAD`] is kept and flagged (`calib::summary::backlash`).
+//! A fitted width is a physical quantity the board takes: the fit keeps it
+//! between zero and [`FIT_MAX_RAD`] (its active set, `calib::identify`), so
+//! the calibration always reaches the board; one wider than
+//! [`PLAUSIBLE_MAX_RAD`] is flagged (`calib::summary::backlash`).
 
 use super::identifiability::{TypicalErrors, analyse_jacobian};
-use super::identify::Identified;
 use super::jacobian::jacobian;
 use super::params::ParamKey;
 use super::servo_knots::fit_start;
@@ -32,6 +32,11 @@ use model::backlash::Approach;
 /// Widest play a working hobby servo's joint has, rad (3°): wider means the
 /// measurements of the joint disagree with each other or its gears are worn.
 pub const PLAUSIBLE_MAX_RAD: f64 = 0.052_359_877_559_829_88;
+
+/// Widest play the fit may give a joint, rad: the board's widest
+/// (`model::backlash::MAX_WIDTH_RAD`, 5°) less what rounding to the board's
+/// f32 could add.
+pub const FIT_MAX_RAD: f64 = model::backlash::MAX_WIDTH_RAD * (1.0 - 1e-6);
 
 /// Fewest fitted poses at which a joint must have arrived each way before
 /// its width is fitted.
@@ -80,15 +85,4 @@ pub fn with_widths(
         .copied()
         .chain(widths.into_iter().filter(|k| analysis.kept.contains(k)))
         .collect())
-}
-
-/// Sets every negative fitted width of `identified`'s rig to zero (no play
-/// is narrower than none); its estimate keeps the fitted value, so the
-/// summary can say what was changed.
-pub fn clamp(identified: &mut Identified) {
-    for joint in &mut identified.rig.arm.joints {
-        if joint.backlash < 0.0 {
-            joint.backlash = 0.0;
-        }
-    }
 }

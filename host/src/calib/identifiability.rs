@@ -145,7 +145,7 @@ pub fn analyse(
     option: ModelOption,
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
-    let ids = candidates(option);
+    let ids = candidates(option, arm);
     let j = jacobian(&Rig::from(*arm), &ids, samples)?;
     Ok(analyse_jacobian(
         option,
@@ -347,14 +347,14 @@ pub fn check_structure(
         })
         .collect();
     let structural = analyse(nominal, measured.option, &grid)?.kept;
-    // Compared over the arm's parameters: further targets' tool points are
-    // the measurements' own, the grid has none.
-    let arm_kept = measured
+    // Compared over the rig's own parameters: further targets' tool points
+    // are the measurements' own, the grid has none.
+    let own_kept = measured
         .kept
         .iter()
-        .filter(|p| matches!(p, ParamKey::Arm(_)))
+        .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
         .count();
-    if arm_kept >= structural.len() {
+    if own_kept >= structural.len() {
         return Ok(());
     }
     let missing: Vec<String> = structural
@@ -364,7 +364,7 @@ pub fn check_structure(
         .collect();
     Err(CalibError::Unidentifiable {
         option: measured.option.name().into(),
-        identified: arm_kept,
+        identified: own_kept,
         structural: structural.len(),
         missing: missing.join(", "),
     })

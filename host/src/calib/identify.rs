@@ -214,12 +214,12 @@ impl<'a> FitData<'a> {
 
     /// The smallest and largest physical value of `key`'s quantity, if bounded.
     fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
-        let upper = self
+        let ceiling = self
             .ceilings
             .iter()
             .find(|(k, _)| *k == key)
             .map(|(_, c)| *c);
-        (key.lower_bound(), upper)
+        (key.lower_bound(), ceiling.or(key.upper_bound()))
     }
 
     /// Norms of the 3D residuals of `arm` against the measurements, m.
@@ -663,7 +663,7 @@ pub fn identify(
     }
 
     let rig = params.apply(nominal);
-    servo_knots::check_curves(&rig.arm)?;
+    servo_knots::check_curves(&nominal.arm, &rig.arm)?;
     // Every point LM accepted could be evaluated, and the ceiling keeps the
     // deflection converging: failing here is not a question of more poses.
     let norms = data.residual_norms(&rig).map_err(|e| {

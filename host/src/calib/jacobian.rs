@@ -579,9 +579,10 @@ mod tests {
     /// central differences as closely as the paper's.
     #[test]
     fn servo_backlash_and_softening_columns_match_central_differences() {
-        let mut ids = crate::calib::option::candidates(ModelOption::ElastoKinematicServo);
-        ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));
         let mut lively = lively_rig();
+        let mut ids =
+            crate::calib::option::candidates(ModelOption::ElastoKinematicServo, &lively.arm);
+        ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));
         ids.extend(lively.tool_keys());
         for spring in 0..=JOINTS as u8 {
             *ParamKey::Softening { spring }.slot(&mut lively) = 0.2 + 0.05 * f64::from(spring);

@@ -4,7 +4,7 @@
 use super::ModelOption;
 use super::params::ParamKey;
 use super::servo_knots;
-use model::ParamId;
+use model::{Arm, ParamId};
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
 /// positioning figure calls its calibration "ours".
@@ -12,8 +12,8 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
-/// knots of the six servo curves.
+/// compliances for elastic, and for elasto-kinematic-servo the 43, the
+/// knots of `arm`'s servo curves and the springs' softening.
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -34,7 +34,7 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 /// Servo knots and backlash widths come last: a constant shift of a joint's
 /// knots is its `theta` (the base yaw for joint 1), which the paper's model
 /// already has, so the knot that only repeats it is the one removed.
-pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
+pub fn candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
     let frames = ParamId::all().filter(is_frame);
@@ -49,7 +49,7 @@ pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
     };
     let knots = option
         .fits_servo_curves()
-        .then(servo_knots::keys)
+        .then(|| servo_knots::keys(arm))
         .into_iter()
         .flatten();
     // One softening per spring, after everything the paper's model has: a
@@ -69,30 +69,48 @@ pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::testing::test_arm;
 
     #[test]
     fn candidate_counts_are_43_36_7_and_97() {
-        assert_eq!(candidates(ModelOption::ElastoKinematic).len(), 43);
-        let ours = candidates(ModelOption::ElastoKinematicServo);
+        let arm = test_arm();
+        assert_eq!(candidates(ModelOption::ElastoKinematic, &arm).len(), 43);
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
         assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS + 7);
-        assert_eq!(ours[..43], candidates(ModelOption::ElastoKinematic)[..]);
-        assert_eq!(candidates(ModelOption::Kinematic).len(), 36);
-        assert_eq!(candidates(ModelOption::Elastic).len(), 7);
+        assert_eq!(
+            ours[..43],
+            candidates(ModelOption::ElastoKinematic, &arm)[..]
+        );
+        assert_eq!(candidates(ModelOption::Kinematic, &arm).len(), 36);
+        assert_eq!(candidates(ModelOption::Elastic, &arm).len(), 7);
         assert!(
-            candidates(ModelOption::Elastic)
+            candidates(ModelOption::Elastic, &arm)
                 .iter()
                 .all(|k| k.lower_bound() == Some(0.0))
         );
         assert_eq!(
-            candidates(ModelOption::ElastoKinematic)[..7],
-            candidates(ModelOption::Elastic)[..]
+            candidates(ModelOption::ElastoKinematic, &arm)[..7],
+            candidates(ModelOption::Elastic, &arm)[..]
         );
         // The frames before the DH parameters: they hold every base pose and tool point.
-        let kin = candidates(ModelOption::Kinematic);
+        let kin = candidates(ModelOption::Kinematic, &arm);
         assert_eq!(
             (kin[0].name(), kin[11].name()),
             ("base.x".into(), "tool.yaw".into())
         );
         assert_eq!(kin[12].name(), "j1.theta");
+    }
+
+    #[test]
+    fn a_joint_without_a_servo_curve_has_no_knots() {
+        let mut arm = test_arm();
+        arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
+        assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS + 7);
+        assert!(
+            !ours
+                .iter()
+                .any(|k| matches!(k, ParamKey::ServoKnot { joint: 5, .. }))
+        );
     }
 }

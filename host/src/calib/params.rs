@@ -163,14 +163,23 @@ impl ParamKey {
 
     /// The smallest physical value of the quantity (not of its correction), if bounded.
     pub fn lower_bound(self) -> Option<f64> {
-        if let Self::Softening { .. } = self {
+        match self {
             // A spring may soften or stiffen.
-            return None;
-        }
-        match self.kind() {
+            Self::Softening { .. } => None,
+            // No play is narrower than none.
+            Self::Backlash { .. } => Some(0.0),
             // A negative compliance would mean the arm bends against gravity.
-            ParamKind::Compliance => Some(0.0),
-            ParamKind::Length | ParamKind::Angle => None,
+            _ if self.kind() == ParamKind::Compliance => Some(0.0),
+            _ => None,
+        }
+    }
+
+    /// The largest value of the quantity the board accepts, if bounded
+    /// (a compliance's ceiling depends on the poses: `calib::identify`).
+    pub fn upper_bound(self) -> Option<f64> {
+        match self {
+            Self::Backlash { .. } => Some(super::backlash::FIT_MAX_RAD),
+            _ => None,
         }
     }
 
@@ -440,6 +449,15 @@ mod tests {
         assert_eq!(ParamKey::from_name("j3.servo[5]"), Some(knot));
         assert_eq!(knot.kind(), ParamKind::Angle);
         assert_eq!(knot.lower_bound(), None);
+        assert_eq!(knot.upper_bound(), None);
+        let play = ParamKey::Backlash { joint: 5 };
+        assert_eq!(play.lower_bound(), Some(0.0));
+        // The widest play the fit may reach survives the board's f32 check.
+        let widest = f64::from(play.upper_bound().unwrap() as f32);
+        assert!(
+            widest <= model::backlash::MAX_WIDTH_RAD
+                && widest > 0.99 * model::backlash::MAX_WIDTH_RAD
+        );
         let mut rig = Rig::from(rigid_nominal());
         rig.arm.joints[2].servo = rig.arm.joints[2]
             .servo

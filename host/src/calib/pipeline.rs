@@ -82,7 +82,7 @@ impl CandidateBlocks {
         // are confounded with (the arm's own tool point, frame 6's
         // translation) is what the rank analysis removes.
         let mut ids = nominal.tool_keys();
-        ids.extend(option_candidates(option));
+        ids.extend(option_candidates(option, &nominal.arm));
         let j = jacobian(nominal, &ids, &samples)?;
         let identifiability =
             analyse_jacobian(option, &ids, &j, &TypicalErrors::of_arm(&nominal.arm));

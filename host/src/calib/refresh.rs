@@ -43,7 +43,7 @@ use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::jacobian;
 use super::option::candidates;
 use super::params::ParamKey;
-use super::{CalibError, ModelOption, Rig, backlash, servo_knots};
+use super::{CalibError, ModelOption, Rig, servo_knots};
 use crate::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
@@ -65,22 +65,8 @@ pub const HOPELESS_FACTOR: f64 = 100.0;
 
 /// [`identify`], then, when `options.refresh`, the refresh described in the
 /// module docs. The result's estimates are corrections of `nominal`, the
-/// added parameters among them; a negative fitted backlash width is zero in
-/// its rig (`calib::backlash::clamp`).
+/// added parameters among them.
 pub fn identify_refreshed(
-    nominal: &Rig,
-    option: ModelOption,
-    keys: &[ParamKey],
-    measurements: &[Measurement],
-    options: &IdentifyOptions,
-) -> Result<Identified, CalibError> {
-    let mut identified = refreshed(nominal, option, keys, measurements, options)?;
-    backlash::clamp(&mut identified);
-    Ok(identified)
-}
-
-/// [`identify_refreshed`] before the widths are clamped.
-fn refreshed(
     nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
@@ -171,7 +157,11 @@ fn joining_at(
     let ordered: Vec<ParamKey> = keys
         .iter()
         .copied()
-        .chain(candidates(option).into_iter().filter(|k| !keys.contains(k)))
+        .chain(
+            candidates(option, &first.rig.arm)
+                .into_iter()
+                .filter(|k| !keys.contains(k)),
+        )
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
     let analysis = analyse_jacobian_within(option, &ordered, &j, typical, REFRESH_TOLERANCE);

@@ -46,15 +46,25 @@ pub fn grid_rad() -> [f64; KNOTS] {
     std::array::from_fn(|k| ((k as f64 - 4.0) * KNOT_SPACING_DEG).to_radians())
 }
 
-/// The knot parameters of every joint, joint by joint: the candidates our
-/// option adds to the paper's 43.
-pub fn keys() -> impl Iterator<Item = ParamKey> {
-    (0..JOINTS).flat_map(|joint| {
-        (0..KNOTS).map(move |knot| ParamKey::ServoKnot {
-            joint: joint as u8,
-            knot: knot as u8,
+/// The knot parameters of every joint of `arm` driven through a servo
+/// curve, joint by joint: the candidates our option adds to the paper's 43.
+/// A joint without one (an arm moved by its own controller, whose file has
+/// no `servo` table) has no curve to correct.
+pub fn keys(arm: &Arm<f64>) -> impl Iterator<Item = ParamKey> + '_ {
+    (0..JOINTS)
+        .filter(|&joint| has_curve(&arm.joints[joint].servo))
+        .flat_map(|joint| {
+            (0..KNOTS).map(move |knot| ParamKey::ServoKnot {
+                joint: joint as u8,
+                knot: knot as u8,
+            })
         })
-    })
+}
+
+/// Whether `curve` maps angle to pulse (a joint without a servo table has
+/// a flat one the model never reads).
+fn has_curve(curve: &ServoCurve<f64>) -> bool {
+    curve.is_monotonic()
 }
 
 /// `arm` with every servo curve resampled on the [`grid_rad`] knots: the same
@@ -66,7 +76,7 @@ pub fn on_grid(arm: &Arm<f64>) -> Arm<f64> {
     let mut out = *arm;
     let grid = grid_rad();
     for joint in &mut out.joints {
-        if joint.servo.knot_count() == KNOTS {
+        if joint.servo.knot_count() == KNOTS || !has_curve(&joint.servo) {
             continue;
         }
         // KNOTS <= MAX_KNOTS: resampling on the grid cannot fail.
@@ -121,11 +131,15 @@ pub(super) fn knot_weight(rig: &Rig, joint: usize, knot: usize, q: f64) -> f64 {
     moved.angle(pulse) - own.angle(pulse)
 }
 
-/// Checks that every identified curve still maps angle to pulse one-to-one:
-/// a fit that moved a knot past its neighbour made a curve the board must
-/// never receive.
-pub fn check_curves(arm: &Arm<f64>) -> Result<(), CalibError> {
-    for (j, joint) in arm.joints.iter().enumerate() {
+/// Checks that every curve the fit moved from `start`'s still maps angle to
+/// pulse one-to-one: a fit that moved a knot past its neighbour made a curve
+/// the board must never receive. A curve the fit left alone is the arm
+/// file's (or none, for a joint without a servo table).
+pub fn check_curves(start: &Arm<f64>, fitted: &Arm<f64>) -> Result<(), CalibError> {
+    for (j, (was, joint)) in start.joints.iter().zip(&fitted.joints).enumerate() {
+        if joint.servo == was.servo {
+            continue;
+        }
         if let Err(fault) = joint.servo.check() {
             let knots: Vec<String> = joint
                 .servo

@@ -116,8 +116,9 @@ fn held_and_joined(o: &OptionReport) -> (Vec<&RemovedReport>, Vec<&str>) {
     (held, joined.iter().map(|r| r.name.as_str()).collect())
 }
 
-/// Warnings on the fitted backlash widths: a negative width (set to zero in
-/// the calibration) and one wider than `calib::backlash::PLAUSIBLE_MAX_RAD`.
+/// Warnings on the fitted backlash widths: one the fit left at the widest
+/// the board takes (`calib::backlash::FIT_MAX_RAD`: the measurements asked
+/// for more) and one wider than `calib::backlash::PLAUSIBLE_MAX_RAD`.
 pub fn backlash(o: &OptionReport) -> Vec<String> {
     o.fit
         .parameters
@@ -125,9 +126,9 @@ pub fn backlash(o: &OptionReport) -> Vec<String> {
         .filter_map(|p| {
             let joint = crate::io::model_option::backlash_from_name(&p.name)? + 1;
             let deg = p.value.to_degrees();
-            if p.value < 0.0 {
+            if p.value >= super::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
                 Some(format!(
-                    "warning: joint {joint}'s backlash fitted {deg:.3}° (negative): set to 0 in the calibration"
+                    "warning: joint {joint}'s backlash held at {deg:.2}°, the widest the board takes: the measurements asked for more, so those of joint {joint} are inconsistent, its servo is worn, or its play is confounded with its servo curve (measure it arriving both ways at more angles)"
                 ))
             } else if p.value > super::backlash::PLAUSIBLE_MAX_RAD {
                 Some(format!(
@@ -288,7 +289,7 @@ mod tests {
         let mut o = elastic_report();
         let template = o.fit.parameters[0].clone();
         o.fit.parameters = [
-            ("j2.backlash", -0.001),
+            ("j2.backlash", crate::calib::backlash::FIT_MAX_RAD),
             ("j5.backlash", 4f64.to_radians()),
             ("j3.backlash", 0.01),
         ]
@@ -302,7 +303,7 @@ mod tests {
         let w = backlash(&o);
         assert_eq!(w.len(), 2, "{w:?}");
         assert!(
-            w[0].contains("joint 2") && w[0].contains("set to 0"),
+            w[0].contains("joint 2") && w[0].contains("the widest the board takes"),
             "{}",
             w[0]
         );

@@ -23,14 +23,11 @@ use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::calibration_file::ValidationSummary;
 use crate::io::measurements;
-use crate::plan::{PlanConfig, candidates, random_candidates};
+use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
 use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
 
 /// The paper's payload, kg.
 const PAPER_LOAD_KG: f64 = 0.0663;
-
-/// Random poses the demo adds to the grid's candidates (see `docs/METHOD.md`).
-pub const DEMO_RANDOM_CANDIDATES: usize = crate::commands::plan::DEFAULT_PLAN_RANDOM;
 
 /// Poses off the grid every option is validated on, none of them a candidate.
 pub const OFF_GRID_POSES: usize = 200;
@@ -64,7 +61,7 @@ pub struct Args {
     #[arg(long, default_value_t = 60)]
     pub poses: usize,
     /// Random poses off the grid added to the candidates.
-    #[arg(long, default_value_t = DEMO_RANDOM_CANDIDATES)]
+    #[arg(long, default_value_t = DEFAULT_RANDOM_POSES)]
     pub random: usize,
     /// DETMAX random starts per option.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]

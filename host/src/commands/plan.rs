@@ -7,7 +7,7 @@ use crate::dataset::PoseRow;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::pose_list;
-use crate::plan::{DEFAULT_RANDOM_SEED, Levels, PlanConfig, candidates};
+use crate::plan::{DEFAULT_RANDOM_POSES, DEFAULT_RANDOM_SEED, Levels, PlanConfig, candidates};
 
 /// Generate the candidate poses: a grid of joint levels, filtered for safety.
 #[derive(Debug, clap::Args)]
@@ -41,7 +41,7 @@ pub struct Args {
     /// Random poses off the grid to add (over ±100°, kept when clear of the
     /// limits and collisions): they let the servo curves be identified
     /// between the grid's angles.
-    #[arg(long, value_name = "N", default_value_t = DEFAULT_PLAN_RANDOM)]
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_RANDOM_POSES)]
     pub random: usize,
     /// Seed of the random poses.
     #[arg(long, default_value_t = DEFAULT_RANDOM_SEED)]
@@ -77,9 +77,6 @@ pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
         _ => Err(format!("expected a distance >= 0 in mm, found `{text}`")),
     }
 }
-
-/// Random poses `plan` adds to the grid unless told otherwise (see `docs/METHOD.md`).
-pub const DEFAULT_PLAN_RANDOM: usize = 400;
 
 /// Runs `lrmcal plan`.
 pub fn run(args: &Args) -> Result<(), Error> {

@@ -76,6 +76,11 @@ impl Default for PlanConfig {
 /// Seed of the random candidate poses unless told otherwise.
 pub const DEFAULT_RANDOM_SEED: u64 = 7;
 
+/// Random poses off the grid `lrmcal plan` (and `simulate` without a pose
+/// list) adds to the grid unless told otherwise: they let the servo curves
+/// be identified between the grid's angles (see `docs/METHOD.md`).
+pub const DEFAULT_RANDOM_POSES: usize = 400;
+
 /// Why a grid pose was dropped (the first test it failed).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub enum DropReason {
@@ -159,13 +164,19 @@ impl PlanReport {
 }
 
 impl fmt::Display for PlanReport {
-    /// A short human summary: survivors, and drops per reason.
+    /// A short human summary: survivors, drops per reason, random poses added.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let c = self.counts();
+        // Random poses have ids after the grid's.
+        let random = self
+            .kept
+            .iter()
+            .filter(|p| p.id as usize >= self.grid_size)
+            .count();
         writeln!(
             f,
             "{} of {} grid poses kept, {} dropped:",
-            self.kept.len(),
+            self.kept.len() - random,
             self.grid_size,
             self.dropped.len()
         )?;
@@ -174,6 +185,12 @@ impl fmt::Display for PlanReport {
         writeln!(f, "  self-collision: {:>7}", c.self_collision)?;
         for (reason, n) in self.detailed_counts() {
             writeln!(f, "    {n:>7}  {reason}")?;
+        }
+        if random > 0 {
+            writeln!(
+                f,
+                "{random} random poses off the grid added, clear of the limits and collisions"
+            )?;
         }
         Ok(())
     }
