@@ -582,6 +582,9 @@ mod tests {
         let mut lively = lively_rig();
         let mut ids =
             crate::calib::option::candidates(ModelOption::ElastoKinematicServo, &lively.arm);
+        ids.extend(crate::calib::option::refresh_candidates(
+            ModelOption::ElastoKinematicServo,
+        ));
         ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));
         ids.extend(lively.tool_keys());
         for spring in 0..=JOINTS as u8 {

@@ -12,8 +12,8 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic, and for elasto-kinematic-servo the 43, the
-/// knots of `arm`'s servo curves and the springs' softening.
+/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
+/// knots of `arm`'s servo curves (its softenings: [`refresh_candidates`]).
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -52,17 +52,21 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
         .then(|| servo_knots::keys(arm))
         .into_iter()
         .flatten();
-    // One softening per spring, after everything the paper's model has: a
-    // spring without torque (k1 on a level base) has none to show.
-    let softening = option
-        .fits_servo_curves()
-        .then(|| (0..=model::JOINTS as u8).map(|spring| ParamKey::Softening { spring }))
-        .into_iter()
-        .flatten();
-    ids.into_iter()
-        .map(ParamKey::Arm)
-        .chain(knots)
-        .chain(softening)
+    ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
+}
+
+/// Parameters of `option` that only the refresh proposes, at the estimate
+/// (`calib::refresh`): one softening per spring. A softening's effect is
+/// its spring's compliance times `|tau| tau`, so it is zero on an arm file's
+/// rigid springs and vanishes wherever the fit takes the compliance to
+/// zero: only at the estimate can the analysis and the fit's deviations
+/// tell whether the poses determine it.
+pub fn refresh_candidates(option: ModelOption) -> Vec<ParamKey> {
+    if !option.fits_servo_curves() {
+        return Vec::new();
+    }
+    (0..=model::JOINTS as u8)
+        .map(|spring| ParamKey::Softening { spring })
         .collect()
 }
 
@@ -76,7 +80,12 @@ mod tests {
         let arm = test_arm();
         assert_eq!(candidates(ModelOption::ElastoKinematic, &arm).len(), 43);
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
-        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS + 7);
+        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
+        assert_eq!(
+            refresh_candidates(ModelOption::ElastoKinematicServo).len(),
+            7
+        );
+        assert!(refresh_candidates(ModelOption::ElastoKinematic).is_empty());
         assert_eq!(
             ours[..43],
             candidates(ModelOption::ElastoKinematic, &arm)[..]
@@ -106,7 +115,7 @@ mod tests {
         let mut arm = test_arm();
         arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
-        assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS + 7);
+        assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS);
         assert!(
             !ours
                 .iter()

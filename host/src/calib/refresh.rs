@@ -16,6 +16,12 @@
 //! of theirs by more than [`REFRESH_TOLERANCE`] joins, and the fit goes on
 //! from the estimate with the larger set.
 //!
+//! Our option's spring softenings are proposed here only
+//! (`calib::option::refresh_candidates`): a softening's effect is its
+//! spring's compliance times `|tau| tau`, zero on an arm file's rigid
+//! springs and gone wherever the fit takes the compliance to zero, so only
+//! at the estimate can the poses be seen to determine it.
+//!
 //! Independent is not the same as determined: away from the nominal point
 //! `j1.d` differs from the base's height only by the lever of the base's
 //! elastic tilt (about 1 %), so with millimetres of noise and unmodelled
@@ -41,7 +47,7 @@
 use super::identifiability::{TypicalErrors, analyse_jacobian_within};
 use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::jacobian;
-use super::option::candidates;
+use super::option::{candidates, refresh_candidates};
 use super::params::ParamKey;
 use super::{CalibError, ModelOption, Rig, servo_knots};
 use crate::dataset::Measurement;
@@ -160,6 +166,7 @@ fn joining_at(
         .chain(
             candidates(option, &first.rig.arm)
                 .into_iter()
+                .chain(refresh_candidates(option))
                 .filter(|k| !keys.contains(k)),
         )
         .collect();
