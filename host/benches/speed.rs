@@ -7,8 +7,8 @@
 //!   analysis sees it) and at a compliant one (as the fit sees it);
 //! - the pool `plan --levels 5` (5^6 = 15,625 grid poses, filtered by limits
 //!   and collisions): the candidates' analysis (Jacobian, rank analysis,
-//!   column scale), DETMAX for 60 poses (8 starts) and the elasto-kinematic
-//!   fit of those 60 poses, and their sum;
+//!   column scale), DETMAX for 60 poses (8 starts) and the fit of those 60
+//!   poses, and their sum, for the paper's model and for ours;
 //! - the whole `lrmcal demo` (the release binary, default arguments).
 //!
 //! Run: `cargo bench -p host --bench speed` (the README's performance
@@ -154,52 +154,54 @@ fn pool(nominal: &model::Arm<f64>) {
         pool.len(),
         plan.grid_size
     );
-    let option = ModelOption::ElastoKinematic;
     let rig = Rig::from(nominal);
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let detmax_options = DetmaxOptions {
         n: 60,
         ..DetmaxOptions::default()
     };
-    let runs = 3;
-    let mut rows: Vec<[Duration; 3]> = Vec::new();
-    for _ in 0..runs {
-        let start = Instant::now();
-        let blocks = CandidateBlocks::build(&rig, option, &pool, &[LOAD]).expect("blocks");
-        let analysed = start.elapsed();
-        let start = Instant::now();
-        let design = detmax(
-            &blocks.blocks,
-            &detmax_options,
-            &host::calib::progress::Silent,
-        )
-        .expect("detmax");
-        let selected = start.elapsed();
-        let poses: Vec<Pose> = design.chosen.iter().map(|&c| pool[c]).collect();
-        let measured = truth.measure(&poses, &[LOAD]).expect("measure");
-        let start = Instant::now();
-        black_box(
-            identify_refreshed(
-                &rig,
-                option,
-                &blocks.identifiability.kept,
-                &measured,
-                &IdentifyOptions::default(),
+    for option in [ModelOption::ElastoKinematic, host::calib::option::DEFAULT] {
+        let runs = 3;
+        let mut rows: Vec<[Duration; 3]> = Vec::new();
+        for _ in 0..runs {
+            let start = Instant::now();
+            let blocks = CandidateBlocks::build(&rig, option, &pool, &[LOAD]).expect("blocks");
+            let analysed = start.elapsed();
+            let start = Instant::now();
+            let design = detmax(
+                &blocks.blocks,
+                &detmax_options,
+                &host::calib::progress::Silent,
             )
-            .expect("fit"),
+            .expect("detmax");
+            let selected = start.elapsed();
+            let poses: Vec<Pose> = design.chosen.iter().map(|&c| pool[c]).collect();
+            let measured = truth.measure(&poses, &[LOAD]).expect("measure");
+            let start = Instant::now();
+            black_box(
+                identify_refreshed(
+                    &rig,
+                    option,
+                    &blocks.identifiability.kept,
+                    &measured,
+                    &IdentifyOptions::default(),
+                )
+                .expect("fit"),
+            );
+            rows.push([analysed, selected, start.elapsed()]);
+        }
+        rows.sort_by_key(|r| r.iter().sum::<Duration>());
+        let [analysed, selected, fitted] = rows[rows.len() / 2];
+        println!(
+            "  {}: candidates' analysis {}, DETMAX (60 poses, {} starts) {}, fit of the 60 {}: {} in all",
+            option.name(),
+            ms(analysed),
+            detmax_options.starts,
+            ms(selected),
+            ms(fitted),
+            ms(analysed + selected + fitted)
         );
-        rows.push([analysed, selected, start.elapsed()]);
     }
-    rows.sort_by_key(|r| r.iter().sum::<Duration>());
-    let [analysed, selected, fitted] = rows[rows.len() / 2];
-    println!(
-        "  candidates' analysis {}, DETMAX (60 poses, {} starts) {}, fit of the 60 {}: {} in all",
-        ms(analysed),
-        detmax_options.starts,
-        ms(selected),
-        ms(fitted),
-        ms(analysed + selected + fitted)
-    );
 }
 
 fn demo() {
