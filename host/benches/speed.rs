@@ -112,6 +112,7 @@ fn jacobian_per_pose(nominal: &model::Arm<f64>) {
             q: p.q,
             load_kg: LOAD,
             target: 0,
+            approach: host::dataset::FROM_HOME,
         })
         .collect();
     let mut compliant = nominal;
