@@ -474,6 +474,33 @@ fn a_curve_that_turns_back_is_refused_whole_and_the_old_calibration_stays() {
     assert_eq!(h.status().calibration, Some(first), "and after a reboot");
 }
 
+/// A softening calibration is stored and used; one whose spring stiffens so
+/// fast it would stop yielding under the arm's torques (below
+/// `model::arm::MIN_SOFTENING_PER_NM`), or is not finite, is refused whole.
+#[test]
+fn a_spring_that_stiffens_too_fast_is_refused_whole() {
+    let mut h = Harness::boot(SimFlash::new());
+    let mut soft = test_calibration(1);
+    soft.calibrated.base_softening = 0.3;
+    soft.calibrated
+        .joints
+        .iter_mut()
+        .for_each(|j| j.softening = 0.3);
+    let Response::CalibrationStored(first) = h.push(&soft) else {
+        panic!("a softening calibration is valid")
+    };
+    for bad in [-0.2, f32::NAN] {
+        let mut stiff = test_calibration(2);
+        stiff.calibrated.joints[1].softening = bad;
+        assert_eq!(
+            h.push(&stiff),
+            Response::Error(WireError::CalibrationInvalid),
+            "softening {bad}"
+        );
+        assert_eq!(h.status().calibration, Some(first));
+    }
+}
+
 #[test]
 fn a_reboot_keeps_the_calibration_and_a_cut_write_keeps_the_old_one() {
     let mut h = Harness::boot(SimFlash::new());

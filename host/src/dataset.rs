@@ -3,7 +3,13 @@
 //!
 //! Files carry degrees and millimetres; everything in memory is radians and
 //! metres. The parsers and writers live in `crate::io`.
+//!
+//! A measurement file's rows are in the order the poses were visited
+//! (`docs/FORMATS.md`): that order says which way each joint arrived at each
+//! pose ([`visiting_order`]), which the backlash of the joints depends on.
 
+use model::JOINTS;
+use model::backlash::{Approach, ApproachTracker};
 use nalgebra::Vector3;
 
 /// One commanded joint configuration with its id.
@@ -37,6 +43,31 @@ pub struct Measurement {
     /// Which target was measured; `None` in a file without a `target`
     /// column, whose rows are all of the one target (the arm's tool point).
     pub target: Option<TargetName>,
+    /// The way each joint arrived at the pose, from the rows' order
+    /// ([`visiting_order`]); not a column of the file.
+    pub approach: [Approach; JOINTS],
+}
+
+/// The approach of a joint that has not moved since home: the arm starts
+/// there, every joint taken to have arrived rising.
+pub const FROM_HOME: [Approach; JOINTS] = [Approach::Rising; JOINTS];
+
+/// The way each joint arrives at each of the commanded poses `qs`, visited
+/// in order from home (`q = 0`, every joint rising,
+/// [`model::backlash::ApproachTracker`]): the one definition the simulator,
+/// identification and validation share. A pose repeated (another load or
+/// target at the same pose) moves no joint and keeps the approaches.
+pub fn approaches<'a>(qs: impl IntoIterator<Item = &'a [f64; JOINTS]>) -> Vec<[Approach; JOINTS]> {
+    let mut tracker = ApproachTracker::new([0.0; JOINTS]);
+    qs.into_iter().map(|q| tracker.visit(q)).collect()
+}
+
+/// Sets every row's approach from the rows' order, the visiting order.
+pub fn visiting_order(rows: &mut [Measurement]) {
+    let ways = approaches(rows.iter().map(|m| &m.pose.q));
+    for (m, way) in rows.iter_mut().zip(ways) {
+        m.approach = way;
+    }
 }
 
 /// A predicted tool point for a pose.
@@ -72,4 +103,39 @@ pub fn poses_under(rows: &[Measurement], load_kg: f64) -> Vec<Pose> {
         .filter(|m| m.load_kg == load_kg && seen.insert(m.pose.id))
         .map(|m| m.pose)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use Approach::{Falling, Rising};
+
+    fn row(q: [f64; JOINTS], load_kg: f64) -> Measurement {
+        Measurement {
+            pose: Pose { id: 0, q },
+            load_kg,
+            position: Vector3::zeros(),
+            target: None,
+            approach: FROM_HOME,
+        }
+    }
+
+    /// From home, a joint whose command rises arrives rising, one whose
+    /// command falls arrives falling, one not moved keeps its way; the same
+    /// pose again (another load) moves nothing.
+    #[test]
+    fn the_rows_order_gives_each_joint_its_way_in() {
+        let mut rows = [
+            row([0.5, 0.0, -0.5, 0.0, 0.0, 0.0], 0.0),
+            row([0.2, 0.0, -0.5, 0.3, 0.0, 0.0], 0.0),
+            row([0.2, 0.0, -0.5, 0.3, 0.0, 0.0], 0.07),
+            row([0.2, 1.0, 0.0, 0.3, -0.1, 0.0], 0.0),
+        ];
+        visiting_order(&mut rows);
+        let ways: Vec<_> = rows.iter().map(|m| m.approach).collect();
+        assert_eq!(ways[0], [Rising, Rising, Falling, Rising, Rising, Rising]);
+        assert_eq!(ways[1], [Falling, Rising, Falling, Rising, Rising, Rising]);
+        assert_eq!(ways[2], ways[1]);
+        assert_eq!(ways[3], [Falling, Rising, Rising, Rising, Falling, Rising]);
+    }
 }

@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::lrmcal;
+use common::{default_calibration_file, lrmcal};
 
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
@@ -188,7 +188,7 @@ fn plan_simulate_identify_validate_predict() {
         "--out",
         s(&cal_dir),
     ]);
-    let cal = cal_dir.join("calibration-elasto-kinematic.json");
+    let cal = cal_dir.join(default_calibration_file());
     let report = cal_dir.join("report.json");
     let cal_json = json(&cal);
     assert_eq!(cal_json["schema"], "lrmcal-calibration");
@@ -196,7 +196,7 @@ fn plan_simulate_identify_validate_predict() {
         cal_json["schema_version"],
         host::io::calibration_file::SCHEMA_VERSION
     );
-    assert_eq!(cal_json["option"], "elasto-kinematic");
+    assert_eq!(cal_json["option"], host::calib::option::DEFAULT.name());
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);
     let used: BTreeSet<u32> = cal_json["poses_used"]
@@ -280,8 +280,8 @@ fn plan_simulate_identify_validate_predict() {
 
 /// A valid calibration file of the bundled arm, made through the library.
 fn calibration_json() -> String {
+    use host::calib::ModelOption;
     use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
-    use protocol::ModelOption;
     let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
     let mut arm = nominal;
     arm.joints[1].compliance = 0.1;

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{lrmcal, p, text};
+use common::{default_calibration_file, lrmcal, p, text};
 
 use std::path::Path;
 use std::process::Output;
@@ -85,7 +85,7 @@ fn a_y_up_tracker_frame_is_registered() {
         !printed.contains("warning: the registered base is tilted"),
         "{printed}"
     );
-    let cal = CalibrationFile::read(&dir.path().join("cal/calibration-elasto-kinematic.json"))
+    let cal = CalibrationFile::read(&dir.path().join("cal").join(default_calibration_file()))
         .expect("calibration file");
     let reg = cal.registration.expect("registration recorded");
     assert!(reg.registered);
@@ -117,7 +117,7 @@ fn a_y_up_tracker_frame_is_registered() {
     let out = identify(&own, &dir.path().join("own"), &[]);
     assert!(out.status.success(), "{}", text(&out));
     let own_cal =
-        CalibrationFile::read(&dir.path().join("own/calibration-elasto-kinematic.json")).unwrap();
+        CalibrationFile::read(&dir.path().join("own").join(default_calibration_file())).unwrap();
     let (a, b) = (
         cal.validation.expect("validated").after.mean_m,
         own_cal.validation.expect("validated").after.mean_m,
@@ -131,7 +131,7 @@ fn a_y_up_tracker_frame_is_registered() {
     let out = lrmcal(&[
         "validate",
         "--calibration",
-        p(&dir.path().join("cal/calibration-elasto-kinematic.json")),
+        p(&dir.path().join("cal").join(default_calibration_file())),
         "--measurements",
         &seen,
     ]);

@@ -10,7 +10,7 @@ use std::process::Output;
 
 use host::dataset::Measurement;
 use host::io::{arm_source::ArmSource, measurements, pose_list};
-use host::plan::{PlanConfig, candidates};
+use host::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
 use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 
 fn stderr(out: &Output) -> String {
@@ -60,8 +60,11 @@ fn plan_writes_the_survivors_and_says_why_the_rest_went() {
     let run = lrmcal(&["plan", "--out", path(&out)]);
     assert!(run.status.success(), "{}", stderr(&run));
     let rows = pose_list::read(&out).unwrap();
-    assert_eq!(rows.len(), 405);
+    // The grid's survivors, then the random poses off the grid (ids after the grid's).
+    assert_eq!(rows.len(), 405 + DEFAULT_RANDOM_POSES);
     assert!(rows.iter().all(|r| r.load_kg.is_none()));
+    assert!(rows[405..].iter().all(|r| r.pose.id >= 729));
+    assert!(rows[..405].iter().all(|r| r.pose.id < 729));
     let home = rows
         .iter()
         .find(|r| r.pose.id == 364)
@@ -142,7 +145,7 @@ fn simulate_is_seeded_byte_for_byte() {
     // Both loads for every candidate, noisy and noise-free rows line up.
     let noisy = measurements::parse(std::str::from_utf8(&a[0]).unwrap()).unwrap();
     let exact = measurements::parse(std::str::from_utf8(&a[2]).unwrap()).unwrap();
-    assert_eq!(noisy.len(), 810);
+    assert_eq!(noisy.len(), 2 * (405 + DEFAULT_RANDOM_POSES));
     assert!(
         noisy
             .iter()

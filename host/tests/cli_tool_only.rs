@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::lrmcal;
+use common::{default_calibration_file, lrmcal};
 
 use std::path::Path;
 
@@ -55,7 +55,7 @@ fn a_tool_change_re_teaches_the_tool_point_and_keeps_the_arm() {
         "--out",
         s(&path("cal")),
     ]);
-    let old_file = path("cal").join("calibration-elasto-kinematic.json");
+    let old_file = path("cal").join(default_calibration_file());
     let old = CalibrationFile::read(&old_file).unwrap();
 
     // The same arm (same seed: the same drawn errors) with a new tool,
@@ -102,8 +102,7 @@ fn a_tool_change_re_teaches_the_tool_point_and_keeps_the_arm() {
         printed.contains("tool points re-taught from 8 measurements"),
         "{printed}"
     );
-    let new =
-        CalibrationFile::read(&path("retaught").join("calibration-elasto-kinematic.json")).unwrap();
+    let new = CalibrationFile::read(&path("retaught").join(default_calibration_file())).unwrap();
 
     // The arm is the old calibration's, joint by joint and base; only the tool moved.
     assert_eq!(new.arm.joints, old.arm.joints);

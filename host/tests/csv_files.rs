@@ -4,7 +4,7 @@
 
 use std::f64::consts::PI;
 
-use host::dataset::{Measurement, Pose, PoseRow, Prediction};
+use host::dataset::{FROM_HOME, Measurement, Pose, PoseRow, Prediction, visiting_order};
 use host::error::InputError;
 use host::io::{atomic, measurements, pose_list, predictions};
 use nalgebra::Vector3;
@@ -245,8 +245,9 @@ fn predictions_parse_and_reject_repeated_ids() {
     assert_names(&err, 3, Some("pose"), &["line 2"]);
 }
 
+/// 20 rows visited in order (their approaches follow it).
 fn sample_measurements() -> Vec<Measurement> {
-    (0..20)
+    let mut rows: Vec<Measurement> = (0..20)
         .map(|i| {
             let f = i as f64;
             Measurement {
@@ -257,9 +258,12 @@ fn sample_measurements() -> Vec<Measurement> {
                 load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
                 position: Vector3::new(0.2 + 0.001 * f, -0.035021, 0.1887654321),
                 target: None,
+                approach: FROM_HOME,
             }
         })
-        .collect()
+        .collect();
+    visiting_order(&mut rows);
+    rows
 }
 
 #[test]
@@ -283,7 +287,12 @@ fn measurements_round_trip_through_a_file() {
                 .all(|(x, y)| (x - y).abs() < 1e-10)
         );
         assert!((a.position - b.position).norm() < 1e-9);
+        // The reader works out each joint's way in from the rows' order.
+        assert_eq!(a.approach, b.approach);
     }
+    // Joint 2 falls from pose 1 on; joint 1 rises throughout.
+    assert_eq!(back[5].approach[0], model::backlash::Approach::Rising);
+    assert_eq!(back[5].approach[1], model::backlash::Approach::Falling);
 }
 
 #[test]

@@ -9,6 +9,16 @@ use crate::{Real, ServoCurve};
 /// Number of joints of the arm.
 pub const JOINTS: usize = 6;
 
+/// Torque up to which a stiffening spring must still yield, Nm: a softening
+/// `s < 0` makes `1 + s |tau|` vanish at `|tau| = 1/|s|`, so it is accepted
+/// only down to `-1 / SPRING_TORQUE_LIMIT_NM`. Ten times the stall torque of
+/// the strongest hobby servos (about 1 Nm), far beyond any torque the arm's
+/// own weight and payload put on a joint that can hold them.
+pub const SPRING_TORQUE_LIMIT_NM: f64 = 10.0;
+
+/// The lowest softening a spring may have, 1/Nm (see [`SPRING_TORQUE_LIMIT_NM`]).
+pub const MIN_SOFTENING_PER_NM: f64 = -1.0 / SPRING_TORQUE_LIMIT_NM;
+
 /// A rigid frame: `Trans(xyz) * Rz(yaw) * Ry(pitch) * Rx(roll)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Frame<T> {
@@ -67,6 +77,12 @@ pub struct Joint<T> {
     /// [`crate::backlash`]). 0 in files written before it existed.
     #[serde(default = "crate::zero")]
     pub backlash: T,
+    /// How the joint's compliance grows with its torque, 1/Nm: it yields
+    /// `compliance (1 + softening |tau|)` rad per Nm at torque `tau`
+    /// (negative: it stiffens, down to [`MIN_SOFTENING_PER_NM`]; see
+    /// [`crate::elastic`]). 0, a linear spring, in files written before it existed.
+    #[serde(default = "crate::zero")]
+    pub softening: T,
 }
 
 /// The whole arm: geometry, masses, elasticity and servo curves.
@@ -82,6 +98,9 @@ pub struct Arm<T> {
     pub base: Frame<T>,
     /// Compliance of the base tilt about its own y axis, rad/Nm.
     pub base_compliance: T,
+    /// The base tilt's [`Joint::softening`], 1/Nm; 0 in files written before it existed.
+    #[serde(default = "crate::zero")]
+    pub base_softening: T,
     /// Frame 6 -> measured tool point.
     pub tool: Frame<T>,
     /// Payload centre of mass in the tool frame, m.
@@ -102,6 +121,7 @@ impl<T: Real> Arm<T> {
             gravity: v3(self.gravity),
             base: frame(&self.base),
             base_compliance: f(self.base_compliance),
+            base_softening: f(self.base_softening),
             tool: frame(&self.tool),
             payload_com: v3(self.payload_com),
             joints: self.joints.map(|j| Joint {
@@ -115,6 +135,7 @@ impl<T: Real> Arm<T> {
                 com: v3(j.com),
                 servo: j.servo.map(f),
                 backlash: f(j.backlash),
+                softening: f(j.softening),
             }),
         }
     }
@@ -138,6 +159,16 @@ impl<T: Real> Arm<T> {
             let [lo, hi] = self.joints[i].limits;
             q[i].clamp(lo, hi)
         })
+    }
+
+    /// The first spring whose softening is not finite or below
+    /// [`MIN_SOFTENING_PER_NM`] (its compliance would vanish or turn negative
+    /// under a torque the arm can meet): 0 the base's, 1..=6 the joints'.
+    pub fn softening_fault(&self) -> Option<usize> {
+        let min: T = crate::real(MIN_SOFTENING_PER_NM);
+        core::iter::once(self.base_softening)
+            .chain(self.joints.iter().map(|j| j.softening))
+            .position(|s| !(s.is_finite() && s >= min))
     }
 
     /// Whether every number in the arm is finite (no NaN, no infinity).

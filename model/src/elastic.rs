@@ -1,6 +1,13 @@
 //! Elastic deflection: `qa_i = q_i + k_i tau_i(qa, beta)` and
 //! `beta = k0 tau0(qa, beta)`, solved together by fixed-point iteration.
 //!
+//! **Springs that are not linear.** A servo's gear train and horn take up
+//! their play and bend further as the load grows, so a joint's compliance
+//! may depend on its torque: `k_i (1 + s_i |tau_i|)` with the softening
+//! `s_i` of [`crate::kinematics::Link::softening`] (1/Nm; negative when the
+//! joint stiffens). With every `s_i` zero, the default, the map is the
+//! linear one bit for bit.
+//!
 //! The torques depend on the deflected pose, so the deflection is iterated from
 //! `qa = q, beta = 0` until the largest change of any angle falls below the
 //! tolerance. For realistic compliances the map is a strong contraction
@@ -116,6 +123,26 @@ impl core::fmt::Display for DeflectionError {
     }
 }
 
+/// The angle a spring of compliance `k` and softening `s` yields under
+/// torque `tau`: `k (1 + s |tau|) tau`, exactly `k tau` when `s` is zero.
+pub(crate) fn yield_of<T: Real>(k: T, s: T, tau: T) -> T {
+    if s == T::zero() {
+        k * tau
+    } else {
+        k * (T::one() + s * tau.abs()) * tau
+    }
+}
+
+/// How fast that angle grows with the torque, `d/dtau [k (1 + s |tau|) tau]
+/// = k (1 + 2 s |tau|)`, exactly `k` when `s` is zero.
+pub(crate) fn yield_rate_of<T: Real>(k: T, s: T, tau: T) -> T {
+    if s == T::zero() {
+        k
+    } else {
+        k * (T::one() + (s + s) * tau.abs())
+    }
+}
+
 impl<T: Real> Chain<T> {
     /// Deflection for commanded angles `q` (rad) and payload `payload_kg`, from `qa = q, beta = 0`.
     pub fn deflect(
@@ -183,7 +210,8 @@ impl<T: Real> Chain<T> {
     }
 
     /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the
-    /// deflected angles `qa` and base tilt `beta`.
+    /// deflected angles `qa` and base tilt `beta` (`k (1 + s |tau|)` for `k`
+    /// where a spring softens, see the module docs).
     pub fn elastic_map(
         &self,
         q: &[T; JOINTS],
@@ -192,8 +220,14 @@ impl<T: Real> Chain<T> {
         payload_kg: T,
     ) -> ([T; JOINTS], T) {
         let tau = self.gravity_torques(qa, beta, payload_kg);
-        let qa = core::array::from_fn(|i| q[i] + self.links[i].compliance * tau.joints[i]);
-        (qa, self.base_compliance * tau.base)
+        let qa = core::array::from_fn(|i| {
+            let link = &self.links[i];
+            q[i] + yield_of(link.compliance, link.softening, tau.joints[i])
+        });
+        (
+            qa,
+            yield_of(self.base_compliance, self.base_softening, tau.base),
+        )
     }
 
     /// Largest violation of the fixed-point equation by a solution, rad.
@@ -263,6 +297,29 @@ mod tests {
         assert!((d.tool_point() - chain.rigid_tool_point(&q)).norm() < 1e-15);
         assert!(chain.fixed_point_residual(&q, 0.0663, &d) == 0.0);
         assert!(!lrm_like_arm::<f64>().chain().is_rigid());
+    }
+
+    /// A softening spring yields more under the same torque, and the
+    /// solution still satisfies its own (nonlinear) equation.
+    #[test]
+    fn softening_springs_yield_more_and_satisfy_their_equation() {
+        let arm = lrm_like_arm();
+        let linear: Chain<f64> = arm.chain();
+        let mut soft = linear;
+        for link in &mut soft.links {
+            link.softening = 0.3;
+        }
+        soft.base_softening = 0.3;
+        let opts = SolverOptions::default();
+        let mut rng = StdRng::seed_from_u64(5);
+        for _ in 0..20 {
+            let q: [f64; JOINTS] = random_q(&mut rng);
+            let a = linear.deflect(&q, 0.0663, &opts).unwrap();
+            let b = soft.deflect(&q, 0.0663, &opts).unwrap();
+            assert!(soft.fixed_point_residual(&q, 0.0663, &b) < 1e-12);
+            // Joint 2 carries the most torque: its sag grows.
+            assert!((b.qa[1] - q[1]).abs() > (a.qa[1] - q[1]).abs());
+        }
     }
 
     #[test]

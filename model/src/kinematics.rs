@@ -23,6 +23,11 @@ pub struct Link<T: Real> {
     pub cos_alpha: T,
     /// Joint compliance, rad/Nm.
     pub compliance: T,
+    /// How the compliance changes with the torque, 1/Nm: the joint yields
+    /// `compliance (1 + softening |tau|)` rad per Nm at torque `tau`
+    /// (negative: it stiffens), [`crate::arm::Joint::softening`]; 0 is a
+    /// linear spring (`crate::elastic`).
+    pub softening: T,
     /// Link mass, kg.
     pub mass: T,
     /// Mass times centre of mass in DH frame i, kg·m.
@@ -40,6 +45,8 @@ pub struct Chain<T: Real> {
     pub links: [Link<T>; JOINTS],
     /// Base tilt compliance about y0, rad/Nm.
     pub base_compliance: T,
+    /// The base's [`Link::softening`], 1/Nm.
+    pub base_softening: T,
     /// Gravity in the base frame (before the elastic tilt), m/s².
     pub base_gravity: Vector3<T>,
     /// Payload centre of mass in frame 6, m.
@@ -143,11 +150,13 @@ impl<T: Real> Arm<T> {
                     sin_alpha,
                     cos_alpha,
                     compliance: j.compliance,
+                    softening: j.softening,
                     mass: j.mass,
                     mass_com: Vector3::from(j.com) * j.mass,
                 }
             }),
             base_compliance: self.base_compliance,
+            base_softening: self.base_softening,
             base_gravity: base.rotation.inverse() * self.gravity_vector(),
             payload_com: (tool * Point3::from(self.payload_com)).coords,
         }

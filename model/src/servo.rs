@@ -238,6 +238,13 @@ impl<T: Real> ServoCurve<T> {
         &mut self.pulses[..n]
     }
 
+    /// The knots' angles to change in place (identification moves a knot to
+    /// the angle its pulse really reaches), rad.
+    pub fn angles_rad_mut(&mut self) -> &mut [T] {
+        let n = self.knot_count();
+        &mut self.angles[..n]
+    }
+
     /// The same curve with every number passed through `f` (e.g. `f64 -> f32`).
     pub fn map<U: Real>(&self, f: impl Fn(T) -> U) -> ServoCurve<U> {
         let mut out = ServoCurve {

@@ -33,6 +33,7 @@ fn joint<T: Real>(
         com: com.map(real),
         servo: ServoCurve::nominal(),
         backlash: real(0.0),
+        softening: real(0.0),
     }
 }
 
@@ -43,6 +44,7 @@ pub fn planar_arm<T: Real>() -> Arm<T> {
         gravity: [0.0, 0.0, -9.80665].map(real),
         base: Frame::identity(),
         base_compliance: T::zero(),
+        base_softening: T::zero(),
         tool: Frame {
             xyz: [0.0, 0.0, 0.03].map(real),
             rpy: [T::zero(); 3],
@@ -67,6 +69,7 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
         gravity: [0.0, 0.0, -9.80665].map(real),
         base: Frame::identity(),
         base_compliance: real(0.03),
+        base_softening: T::zero(),
         tool: Frame {
             xyz: [0.0, 0.0, 0.04].map(real),
             rpy: [T::zero(); 3],

@@ -101,6 +101,13 @@ pub enum CalibrationFault {
     },
     /// The home pose is outside the joint limits.
     Home,
+    /// A spring stiffens too fast (softening below
+    /// [`model::arm::MIN_SOFTENING_PER_NM`]): its compliance would vanish
+    /// under a torque the arm can meet.
+    Softening {
+        /// Spring: 0 the base's, 1..=6 the joints'.
+        spring: u8,
+    },
 }
 
 impl core::fmt::Display for CalibrationFault {
@@ -123,6 +130,11 @@ impl core::fmt::Display for CalibrationFault {
                 model::backlash::MAX_WIDTH_RAD.to_degrees()
             ),
             Self::Home => f.write_str("the home pose is outside the joint limits"),
+            Self::Softening { spring } => write!(
+                f,
+                "spring {spring} (0 the base, 1-6 the joints): softening below {} 1/Nm",
+                model::arm::MIN_SOFTENING_PER_NM
+            ),
         }
     }
 }
@@ -145,6 +157,11 @@ impl Calibration {
                     .any(|j| j.compliance < 0.0 || j.mass < 0.0)
             {
                 return Err(CalibrationFault::Negative);
+            }
+            if let Some(spring) = arm.softening_fault() {
+                return Err(CalibrationFault::Softening {
+                    spring: spring as u8,
+                });
             }
         }
         for (i, j) in self.calibrated.joints.iter().enumerate() {

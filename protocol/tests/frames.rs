@@ -102,6 +102,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         gravity: [0.0, 0.0, -9.8],
         base: model::Frame::identity(),
         base_compliance: 0.0,
+        base_softening: 0.0,
         tool: model::Frame::identity(),
         payload_com: [0.0; 3],
         joints: [model::Joint {
@@ -115,6 +116,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
             com: [0.0; 3],
             servo: model::ServoCurve::nominal(),
             backlash: 0.0,
+            softening: 0.0,
         }; 6],
     };
     let good = Calibration {
@@ -210,6 +212,23 @@ fn calibration_rejects_what_the_board_cannot_run() {
     }
     play.calibrated.joints[4].backlash = f32::INFINITY;
     assert_eq!(play.check(), Err(protocol::CalibrationFault::NotFinite));
+    // Softening springs are fine; one that stiffens so fast it would stop
+    // yielding under 10 Nm is refused, naming the spring.
+    let mut soft = good;
+    soft.calibrated.base_softening = 0.4;
+    soft.calibrated.joints[2].softening = -0.1;
+    assert_eq!(soft.check(), Ok(()));
+    soft.calibrated.joints[2].softening = -0.11;
+    assert_eq!(
+        soft.check(),
+        Err(protocol::CalibrationFault::Softening { spring: 3 })
+    );
+    soft.calibrated.joints[2].softening = 0.0;
+    soft.nominal.base_softening = -1.0;
+    assert_eq!(
+        soft.check(),
+        Err(protocol::CalibrationFault::Softening { spring: 0 })
+    );
 }
 
 proptest! {

@@ -49,11 +49,13 @@ pub fn fixed_arm() -> Arm<f32> {
             ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
         },
         backlash: 0.001 * i as f32,
+        softening: 0.05 * i as f32,
     };
     Arm {
         gravity: [0.0, 0.0, -9.80665],
         base: Frame::identity(),
         base_compliance: 0.03,
+        base_softening: -0.02,
         tool: Frame {
             xyz: [0.0, 0.0, 0.04],
             rpy: [0.0; 3],

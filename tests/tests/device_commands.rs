@@ -17,7 +17,7 @@ use host::commands::{compensation, detach, move_, payload, pull, push};
 use host::device::DeviceArgs;
 use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
 use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, FrameReader, ModelOption};
+use protocol::{CompensationMode, FrameReader};
 
 /// A board on a local socket: one connection at a time (each command opens
 /// its own), servo frames every 20 ms of wall time. Stops when dropped.
@@ -112,7 +112,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
-        option: ModelOption::ElastoKinematic,
+        option: host::calib::ModelOption::ElastoKinematic,
         nominal,
         arm,
         parameters: vec![],

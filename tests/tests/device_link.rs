@@ -9,11 +9,12 @@ use std::time::Duration;
 
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
+use host::calib::ModelOption;
 use host::device::{Client, ClientError, CommsError, Link, calibration};
 use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool};
 use model::{Arm, ParamId};
 use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, Faults, FrameReader, ModelOption, Timing, WireError};
+use protocol::{CompensationMode, Faults, FrameReader, Timing, WireError};
 
 /// The board at the other end of a USB cable, run in-process. Every read by
 /// the host lets 20 ms of board time pass (one servo frame).

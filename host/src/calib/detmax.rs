@@ -8,23 +8,40 @@
 //! result when the determinant rose; k grows from 1 to
 //! [`DetmaxOptions::max_excursion`] when shorter excursions stop paying.
 //!
-//! No step refactors J. With `M⁻¹` at hand, the matrix determinant lemma gives
-//! every candidate's gain as `det(I ± A M⁻¹ Aᵀ)` (an r×r determinant, r = 3 per
-//! load), and the Woodbury identity updates `M⁻¹` by a rank-r correction after
-//! each add or drop. `M⁻¹` is rebuilt from scratch only after an accepted
-//! excursion, which bounds rounding drift. A tiny ridge (`1e-9 I`) keeps the
+//! No step refactors J, and no step multiplies by `M⁻¹` over every
+//! candidate. The state keeps, for every candidate `c`, its *dispersion*
+//! `G_c = A M⁻¹ Aᵀ` (r×r, r = 3 per load): by the matrix determinant lemma
+//! its gain is `det(I + G_c)` to add it and `det(I − G_c)` to drop it, an
+//! r×r determinant each. Adding or dropping a pose `u` changes `M⁻¹` by the
+//! rank-r Woodbury correction `∓ K̃ K̃ᵀ` (`K̃ = M⁻¹ A_uᵀ L⁻ᵀ`, `L Lᵀ = S =
+//! I ± A_u M⁻¹ A_uᵀ`), so every dispersion changes by `∓ (A_c K̃)(A_c K̃)ᵀ`.
+//! An excursion only collects its corrections: the design's own ~N poses
+//! are corrected one by one, and a scan for the best addition reads every
+//! candidate once with all of them applied (one product of the stacked
+//! candidates with the corrections' columns, 3·m multiplications per
+//! candidate and correction, where `A M⁻¹ Aᵀ` from scratch takes 3·m² + 9·m).
+//! Most excursions are rejected and then cost no pass at all; an accepted
+//! one writes its corrections into the dispersions in one pass. `M⁻¹` and
+//! `ln det M` are rebuilt from the members after every excursion, so
+//! whether an excursion is kept is decided on exact figures; the
+//! dispersions are rebuilt from scratch after [`REBUILD_AFTER`] corrections,
+//! which bounds their rounding drift. A tiny ridge (`1e-9 I`) keeps the
 //! random start invertible; the reported determinant is recomputed without it.
-//! Several seeded random starts run and the best design is kept.
 //!
-//! The result is a function of the blocks *in their order*: the starts are
-//! drawn over candidate indices and a tie goes to the lowest index, the
-//! same on every run. `pipeline` passes the candidates in a canonical order
-//! (by joint angles, then pose id), so that the poses chosen do not depend on
-//! the order of the rows of the file they came from.
+//! Several seeded random starts run, on every core, and the best design is
+//! kept (the first among equals). The result is a function of the blocks
+//! *in their order*: the starts are drawn over candidate indices, a tie
+//! goes to the lowest index, and no start depends on another or on the
+//! thread it runs on. `pipeline` passes the candidates in a canonical order
+//! (by joint angles, then pose id), so that the poses chosen do not depend
+//! on the order of the rows of the file they came from.
+
+use std::sync::mpsc;
 
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
 use rand::{SeedableRng, rngs::StdRng};
+use rayon::prelude::*;
 
 use super::CalibError;
 use super::progress::Progress;
@@ -69,6 +86,11 @@ pub struct Design {
 
 const RIDGE: f64 = 1e-9;
 
+/// Rank-r updates of the dispersions between two rebuilds from scratch. Each
+/// adds rounding of about `eps · |G|`; a few dozen leave the gains good to
+/// 1e-13, far finer than the differences between candidates.
+pub const REBUILD_AFTER: usize = 64;
+
 /// `ln det` of the information matrix of `chosen`, without any ridge; −∞ when singular.
 pub fn log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
     let Some(m) = blocks.first().map(|b| b.ncols()) else {
@@ -84,129 +106,262 @@ pub fn log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
     }
 }
 
-/// The exchange state of one design: membership, `M⁻¹` and `ln det M` (with ridge).
+/// The candidates as the exchange reads them: the blocks, and all of them
+/// stacked and transposed (`m × r·C`: a candidate's rows are `r·m`
+/// contiguous numbers), for the passes over every candidate.
+struct Pool<'a> {
+    blocks: &'a [DMatrix<f64>],
+    /// Rows per block.
+    r: usize,
+    stacked_t: DMatrix<f64>,
+}
+
+impl<'a> Pool<'a> {
+    fn new(blocks: &'a [DMatrix<f64>]) -> Self {
+        let all: Vec<usize> = (0..blocks.len()).collect();
+        Self {
+            blocks,
+            r: blocks.first().map_or(0, |b| b.nrows()),
+            stacked_t: stack(blocks, &all).transpose(),
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.blocks.len()
+    }
+
+    fn m(&self) -> usize {
+        self.stacked_t.nrows()
+    }
+
+    /// Candidate `c`'s rows, one after the other.
+    fn rows(&self, c: usize) -> &[f64] {
+        let n = self.r * self.m();
+        &self.stacked_t.as_slice()[n * c..n * (c + 1)]
+    }
+}
+
+/// `det(I + sign · G)` of an r×r matrix `g` (column-major) that is
+/// symmetric, by Cholesky in `scratch`; `None` when `I + sign · G` is not
+/// positive definite (a pose the design cannot do without, to drop).
+fn det_shifted(g: &[f64], sign: f64, r: usize, scratch: &mut [f64]) -> Option<f64> {
+    if r == 3 && sign > 0.0 {
+        // I + G with G positive semidefinite is positive definite: the
+        // determinant written out (one load, the common case) says it all.
+        let a = |i: usize, j: usize| g[i + 3 * j] + if i == j { 1.0 } else { 0.0 };
+        let det = a(0, 0) * (a(1, 1) * a(2, 2) - a(1, 2) * a(2, 1))
+            - a(0, 1) * (a(1, 0) * a(2, 2) - a(1, 2) * a(2, 0))
+            + a(0, 2) * (a(1, 0) * a(2, 1) - a(1, 1) * a(2, 0));
+        return (det > 0.0 && det.is_finite()).then_some(det);
+    }
+    for (i, (s, v)) in scratch.iter_mut().zip(g).enumerate() {
+        *s = sign * v + if i % (r + 1) == 0 { 1.0 } else { 0.0 };
+    }
+    let mut det = 1.0;
+    for j in 0..r {
+        let mut d = scratch[j + j * r];
+        for k in 0..j {
+            d -= scratch[j + k * r] * scratch[j + k * r];
+        }
+        if d <= 0.0 || !d.is_finite() {
+            return None;
+        }
+        let l = d.sqrt();
+        det *= d;
+        scratch[j + j * r] = l;
+        for i in j + 1..r {
+            let mut v = scratch[i + j * r];
+            for k in 0..j {
+                v -= scratch[i + k * r] * scratch[j + k * r];
+            }
+            scratch[i + j * r] = v / l;
+        }
+    }
+    Some(det)
+}
+
+/// The rank-r changes of `M⁻¹` made since the dispersions were last
+/// written: a pose added (`sign` = 1) or dropped (−1) takes
+/// `sign · K̃ K̃ᵀ` from `M⁻¹` and `sign · (A_c K̃)(A_c K̃)ᵀ` from each
+/// dispersion.
+#[derive(Clone, Debug, Default)]
+struct Corrections {
+    /// The `K̃` side by side, by groups of four columns (zeros past the
+    /// last): group `g`'s row `k` at `m·g + k`. Four columns at a time fill
+    /// two vector registers, and no sum is reduced across lanes.
+    groups: Vec<[f64; 4]>,
+    /// The same columns one after the other (`m × w`, column-major), for
+    /// the pass over every candidate.
+    columns: Vec<f64>,
+    /// Each column's sign.
+    signs: Vec<f64>,
+}
+
+impl Corrections {
+    fn is_empty(&self) -> bool {
+        self.signs.is_empty()
+    }
+
+    fn push(&mut self, k: &DMatrix<f64>, sign: f64) {
+        let m = k.nrows();
+        self.columns.extend_from_slice(k.as_slice());
+        for col in k.column_iter() {
+            let lane = self.signs.len() % 4;
+            if lane == 0 {
+                self.groups.resize(self.groups.len() + m, [0.0; 4]);
+            }
+            let start = self.groups.len() - m;
+            for (g, v) in self.groups[start..].iter_mut().zip(col.iter()) {
+                g[lane] = *v;
+            }
+            self.signs.push(sign);
+        }
+    }
+
+    /// `A_c K̃` of every candidate at once (`w' × r·C`: candidate `c`'s row
+    /// `i` is column `r·c + i`), `None` when there is nothing to correct.
+    ///
+    /// One product `K̃ᵀ · stacked` through nalgebra's blocked kernel
+    /// (matrixmultiply, vectorised for the machine it runs on), which it
+    /// uses only above 5 rows: fewer columns are padded with zeros (`w'`).
+    fn products(&self, pool: &Pool) -> Option<DMatrix<f64>> {
+        if self.is_empty() {
+            return None;
+        }
+        let m = pool.m();
+        let w = self.signs.len();
+        let mut kt = DMatrix::zeros(w.max(6), m);
+        kt.rows_mut(0, w)
+            .copy_from(&DMatrix::from_row_slice(w, m, &self.columns));
+        Some(kt * &pool.stacked_t)
+    }
+
+    /// `g` corrected for candidate `c` into `out`, from [`Corrections::products`].
+    fn correct(&self, g: &[f64], products: &DMatrix<f64>, c: usize, r: usize, out: &mut [f64]) {
+        out.copy_from_slice(g);
+        let p = |i: usize| products.column(r * c + i);
+        for (j, &sign) in self.signs.iter().enumerate() {
+            for b in 0..r {
+                let pb = sign * p(b)[j];
+                for a in 0..r {
+                    out[a + b * r] -= p(a)[j] * pb;
+                }
+            }
+        }
+    }
+
+    /// `g` corrected for candidate `rows` (its `r` rows of `m`) into
+    /// `out`, for a few candidates; `p` is scratch for `A_c K̃`.
+    fn apply(&self, g: &[f64], rows: &[f64], r: usize, p: &mut Vec<[f64; 4]>, out: &mut [f64]) {
+        out.copy_from_slice(g);
+        if self.is_empty() {
+            return;
+        }
+        let m = rows.len() / r;
+        // p[group · r + row] = row · K̃'s columns of the group; three rows
+        // at a time, six independent sums.
+        p.clear();
+        for group in self.groups.chunks_exact(m) {
+            let threes = rows.chunks_exact(3 * m);
+            let rest = threes.remainder();
+            for three in threes {
+                let (a0, rest) = three.split_at(m);
+                let (a1, a2) = rest.split_at(m);
+                let mut acc = [[0.0; 4]; 3];
+                for k in 0..m {
+                    let kk = &group[k];
+                    for l in 0..4 {
+                        acc[0][l] += a0[k] * kk[l];
+                        acc[1][l] += a1[k] * kk[l];
+                        acc[2][l] += a2[k] * kk[l];
+                    }
+                }
+                p.extend(acc);
+            }
+            // A block is 3 rows per load and target; any other count ends here.
+            for a in rest.chunks_exact(m) {
+                let mut acc = [0.0; 4];
+                for (x, kk) in a.iter().zip(group) {
+                    for l in 0..4 {
+                        acc[l] += x * kk[l];
+                    }
+                }
+                p.push(acc);
+            }
+        }
+        for (j, &sign) in self.signs.iter().enumerate() {
+            let (group, lane) = (j / 4, j % 4);
+            let pj = |row: usize| p[group * r + row][lane];
+            for b in 0..r {
+                let pb = sign * pj(b);
+                for a in 0..r {
+                    out[a + b * r] -= pj(a) * pb;
+                }
+            }
+        }
+    }
+}
+
+/// The exchange state of one design: membership, `M⁻¹`, `ln det M` (with
+/// ridge), every candidate's dispersion and the best addition.
 #[derive(Clone)]
 struct State<'a> {
-    blocks: &'a [DMatrix<f64>],
-    /// All blocks stacked and transposed (`m × r·C`, so each candidate row is a
-    /// contiguous column), for the one-product scan of additions.
-    stacked_t: &'a DMatrix<f64>,
+    pool: &'a Pool<'a>,
     member: Vec<bool>,
     minv: DMatrix<f64>,
     log_det: f64,
+    /// `A_c M⁻¹ A_cᵀ` of candidate `c` at `r²·c..`, column-major.
+    dispersion: Vec<f64>,
+    /// Corrections written into the dispersions since they were last rebuilt.
+    corrections: usize,
+    /// The candidate whose addition raises `ln det M` most.
+    best_addition: Option<usize>,
 }
 
 impl<'a> State<'a> {
-    fn new(blocks: &'a [DMatrix<f64>], stacked_t: &'a DMatrix<f64>, chosen: &[usize]) -> Self {
-        let mut member = vec![false; blocks.len()];
+    fn new(pool: &'a Pool<'a>, chosen: &[usize]) -> Self {
+        let mut member = vec![false; pool.len()];
         for &c in chosen {
             member[c] = true;
         }
-        let m = blocks[0].ncols();
+        let m = pool.m();
         let mut s = Self {
-            blocks,
-            stacked_t,
+            pool,
             member,
             minv: DMatrix::zeros(m, m),
             log_det: 0.0,
+            dispersion: Vec::new(),
+            corrections: 0,
+            best_addition: None,
         };
-        s.refactor();
+        s.log_det = refactor(pool, &s.member, &mut s.minv);
+        s.dispersion = dispersion(pool, &s.minv);
+        s.write(&Corrections::default());
         s
     }
 
-    /// Rebuilds `M⁻¹` and `ln det M` from the members.
-    fn refactor(&mut self) {
-        let m = self.blocks[0].ncols();
-        let mut info = DMatrix::identity(m, m) * RIDGE;
-        for (c, _) in self.member.iter().enumerate().filter(|(_, in_)| **in_) {
-            info.gemm_tr(1.0, &self.blocks[c], &self.blocks[c], 1.0);
-        }
-        // The ridge makes `info` positive definite whatever the members.
-        if let Some(ch) = info.cholesky() {
-            self.log_det = 2.0 * ch.l_dirty().diagonal().iter().map(|d| d.ln()).sum::<f64>();
-            self.minv = ch.inverse();
-        }
+    fn chosen(&self) -> Vec<usize> {
+        (0..self.member.len()).filter(|&c| self.member[c]).collect()
     }
 
-    /// `I + sign · A M⁻¹ Aᵀ` and `M⁻¹ Aᵀ` for candidate `c`.
-    fn capacitance(&self, c: usize, sign: f64) -> (DMatrix<f64>, DMatrix<f64>) {
-        let a = &self.blocks[c];
-        let k = &self.minv * a.transpose();
-        let r = a.nrows();
-        let s = DMatrix::identity(r, r) + (a * &k) * sign;
-        (s, k)
-    }
-
-    /// Change of `ln det M` if `c` were added (`sign` = 1) or removed (−1).
-    fn gain(&self, c: usize, sign: f64) -> f64 {
-        let (s, _) = self.capacitance(c, sign);
-        let det = s.determinant();
-        if det > 0.0 {
-            det.ln()
-        } else {
-            f64::NEG_INFINITY
+    /// An excursion from this state that has not moved yet.
+    fn trial(&self) -> Trial<'_, 'a> {
+        Trial {
+            state: self,
+            changes: Changes {
+                member: self.member.clone(),
+                minv: self.minv.clone(),
+                log_det: self.log_det,
+                own: None,
+                corrections: Corrections::default(),
+            },
         }
     }
 
-    /// Adds (`sign` = 1) or removes (−1) candidate `c` with a Woodbury update.
-    fn update(&mut self, c: usize, sign: f64) {
-        let (s, k) = self.capacitance(c, sign);
-        let det = s.determinant();
-        match s.try_inverse() {
-            Some(sinv) if det > 0.0 => {
-                self.minv -= (&k * sinv * k.transpose()) * sign;
-                self.log_det += det.ln();
-                self.member[c] = sign > 0.0;
-            }
-            // Removing a pose the design cannot do without: refactor instead.
-            _ => {
-                self.member[c] = sign > 0.0;
-                self.refactor();
-            }
-        }
-    }
-
-    /// The candidate whose addition raises (or whose removal lowers least) `ln det M`.
-    fn best(&self, adding: bool) -> Option<usize> {
-        if adding {
-            return self.best_addition();
-        }
-        first_max(
-            (0..self.blocks.len())
-                .filter(|&c| self.member[c])
-                .map(|c| (c, self.gain(c, -1.0))),
-        )
-    }
-
-    /// The best addition, scanning every candidate with one product `M⁻¹ Aᵀ`
-    /// over all stacked blocks (one GEMM instead of an allocation per
-    /// candidate), then each r×r capacitance `I + A_c (M⁻¹ A_cᵀ)` from
-    /// contiguous columns.
-    fn best_addition(&self) -> Option<usize> {
-        let r = self.blocks.first()?.nrows();
-        let pt = &self.minv * self.stacked_t;
-        first_max(
-            (0..self.blocks.len())
-                .filter(|&c| !self.member[c])
-                .map(|c| {
-                    let s = DMatrix::from_fn(r, r, |i, j| {
-                        let dot = pt.column(r * c + i).dot(&self.stacked_t.column(r * c + j));
-                        if i == j { 1.0 + dot } else { dot }
-                    });
-                    let det = s.determinant();
-                    let gain = if det > 0.0 {
-                        det.ln()
-                    } else {
-                        f64::NEG_INFINITY
-                    };
-                    (c, gain)
-                }),
-        )
-    }
-
-    /// One excursion of length `k`, up first (`up`) or down first.
-    fn excursion(&self, k: usize, up: bool) -> State<'a> {
-        let mut t = self.clone();
+    /// One excursion of length `k`, up first (`up`) or down first: what
+    /// it changes, `M⁻¹` and `ln det` rebuilt from its members.
+    fn excursion(&self, k: usize, up: bool) -> Changes {
+        let mut t = self.trial();
         for phase in [up, !up] {
             for _ in 0..k {
                 if let Some(c) = t.best(phase) {
@@ -214,12 +369,172 @@ impl<'a> State<'a> {
                 }
             }
         }
-        t.refactor();
-        t
+        let mut changes = t.changes;
+        changes.log_det = refactor(self.pool, &changes.member, &mut changes.minv);
+        changes
     }
 
-    fn chosen(&self) -> Vec<usize> {
-        (0..self.member.len()).filter(|&c| self.member[c]).collect()
+    /// Makes the outcome of an excursion from this state the state: its
+    /// corrections written into the dispersions, or the dispersions
+    /// rebuilt from scratch when enough have piled up.
+    fn accept(&mut self, changes: Changes) {
+        let Changes {
+            member,
+            minv,
+            log_det,
+            own,
+            corrections,
+        } = changes;
+        self.member = member;
+        self.minv = minv;
+        self.log_det = log_det;
+        if let Some(own) = own {
+            self.dispersion = own;
+            self.corrections = 0;
+        }
+        self.corrections += corrections.signs.len() / self.pool.r.max(1);
+        if self.corrections >= REBUILD_AFTER {
+            self.dispersion = dispersion(self.pool, &self.minv);
+            self.corrections = 0;
+            self.write(&Corrections::default());
+        } else {
+            self.write(&corrections);
+        }
+    }
+
+    /// One pass over every candidate: `corrections` written into its
+    /// dispersion, and the best addition found on the way.
+    fn write(&mut self, corrections: &Corrections) {
+        let (pool, r) = (self.pool, self.pool.r);
+        let products = corrections.products(pool);
+        let mut out = vec![0.0; r * r];
+        let mut scratch = vec![0.0; r * r];
+        let mut dets = Vec::with_capacity(pool.len());
+        for (c, g) in self.dispersion.chunks_exact_mut(r * r).enumerate() {
+            if let Some(p) = &products {
+                corrections.correct(g, p, c, r, &mut out);
+                g.copy_from_slice(&out);
+            }
+            if !self.member[c] {
+                dets.push((c, det_shifted(g, 1.0, r, &mut scratch)));
+            }
+        }
+        self.best_addition = first_max(
+            dets.into_iter()
+                .map(|(c, d)| (c, d.unwrap_or(f64::NEG_INFINITY))),
+        );
+    }
+}
+
+/// Rebuilds `minv` from the `member` blocks and returns `ln det M`.
+fn refactor(pool: &Pool, member: &[bool], minv: &mut DMatrix<f64>) -> f64 {
+    let m = minv.nrows();
+    let mut info = DMatrix::identity(m, m) * RIDGE;
+    for (c, _) in member.iter().enumerate().filter(|(_, in_)| **in_) {
+        let b = &pool.blocks[c];
+        info.gemm_tr(1.0, b, b, 1.0);
+    }
+    // The ridge makes `info` positive definite whatever the members.
+    match info.cholesky() {
+        Some(ch) => {
+            *minv = ch.inverse();
+            2.0 * ch.l_dirty().diagonal().iter().map(|d| d.ln()).sum::<f64>()
+        }
+        None => f64::NEG_INFINITY,
+    }
+}
+
+/// Every candidate's dispersion `A_c M⁻¹ A_cᵀ`, from scratch.
+fn dispersion(pool: &Pool, minv: &DMatrix<f64>) -> Vec<f64> {
+    let r = pool.r;
+    let pt = minv * &pool.stacked_t;
+    let at = &pool.stacked_t;
+    let mut out = vec![0.0; r * r * pool.len()];
+    for (c, g) in out.chunks_exact_mut(r * r).enumerate() {
+        for j in 0..r {
+            for i in 0..r {
+                g[i + j * r] = pt.column(r * c + i).dot(&at.column(r * c + j));
+            }
+        }
+    }
+    out
+}
+
+/// What an excursion changes: its design and `M⁻¹`, and the corrections
+/// its steps made to the dispersions of the state it started from.
+struct Changes {
+    member: Vec<bool>,
+    minv: DMatrix<f64>,
+    log_det: f64,
+    /// Dispersions rebuilt from scratch after a step that could not be a
+    /// correction, in place of the state's.
+    own: Option<Vec<f64>>,
+    corrections: Corrections,
+}
+
+/// An excursion under way from `state`.
+struct Trial<'s, 'a> {
+    state: &'s State<'a>,
+    changes: Changes,
+}
+
+impl Trial<'_, '_> {
+    /// The candidate whose addition raises (or whose removal lowers least)
+    /// `ln det M` most, the first (lowest index) among equals.
+    fn best(&self, adding: bool) -> Option<usize> {
+        let c = &self.changes;
+        if adding && c.corrections.is_empty() && c.own.is_none() {
+            return self.state.best_addition;
+        }
+        let pool = self.state.pool;
+        let r = pool.r;
+        let base = c.own.as_deref().unwrap_or(&self.state.dispersion);
+        let sign = if adding { 1.0 } else { -1.0 };
+        let (mut p, mut g, mut scratch) = (Vec::new(), vec![0.0; r * r], vec![0.0; r * r]);
+        // Additions scan every candidate: one product for all; removals
+        // scan the design's few poses, each its own.
+        let products = if adding {
+            c.corrections.products(pool)
+        } else {
+            None
+        };
+        // det(I ± G_c) is monotonic in the gain ln det(I ± G_c).
+        first_max((0..pool.len()).filter(|&i| c.member[i] != adding).map(|i| {
+            let gi = &base[r * r * i..r * r * (i + 1)];
+            match &products {
+                Some(all) => c.corrections.correct(gi, all, i, r, &mut g),
+                None => c.corrections.apply(gi, pool.rows(i), r, &mut p, &mut g),
+            }
+            let det = det_shifted(&g, sign, r, &mut scratch);
+            (i, det.unwrap_or(f64::NEG_INFINITY))
+        }))
+    }
+
+    /// Adds (`sign` = 1) or removes (−1) candidate `c`: a Woodbury update
+    /// of `M⁻¹` and one more correction of the dispersions.
+    fn update(&mut self, c: usize, sign: f64) {
+        let pool = self.state.pool;
+        let ch = &mut self.changes;
+        let a = &pool.blocks[c];
+        let k = &ch.minv * a.transpose();
+        let r = a.nrows();
+        let s = DMatrix::identity(r, r) + (a * &k) * sign;
+        ch.member[c] = sign > 0.0;
+        // K̃ = K L⁻ᵀ, so that K S⁻¹ Kᵀ = K̃ K̃ᵀ.
+        let factor = s.cholesky().and_then(|l| {
+            let kt = l.l().solve_lower_triangular(&k.transpose())?.transpose();
+            Some((l, kt))
+        });
+        let Some((l, kt)) = factor else {
+            // Removing a pose the design cannot do without: start afresh.
+            ch.log_det = refactor(pool, &ch.member, &mut ch.minv);
+            ch.own = Some(dispersion(pool, &ch.minv));
+            ch.corrections = Corrections::default();
+            return;
+        };
+        ch.minv -= (&kt * kt.transpose()) * sign;
+        ch.log_det += 2.0 * l.l_dirty().diagonal().iter().map(|d| d.ln()).sum::<f64>();
+        ch.corrections.push(&kt, sign);
     }
 }
 
@@ -231,6 +546,29 @@ fn first_max(gains: impl Iterator<Item = (usize, f64)>) -> Option<usize> {
             _ => Some((c, gain)),
         })
         .map(|(c, _)| c)
+}
+
+/// One start of the exchange, from the random design its seed draws:
+/// the chosen candidates and the accepted excursions.
+fn run_start(pool: &Pool, options: &DetmaxOptions, start: usize) -> (Vec<usize>, usize) {
+    let mut rng = StdRng::seed_from_u64(options.seed.wrapping_add(start as u64));
+    let first = sample(&mut rng, pool.len(), options.n).into_vec();
+    let mut state = State::new(pool, &first);
+    let mut excursions = 0;
+    'search: loop {
+        for k in 1..=options.max_excursion {
+            for up in [true, false] {
+                let changes = state.excursion(k, up);
+                if changes.log_det > state.log_det + 1e-10 {
+                    state.accept(changes);
+                    excursions += 1;
+                    continue 'search;
+                }
+            }
+        }
+        break;
+    }
+    (state.chosen(), excursions)
 }
 
 /// Selects `options.n` of the candidate `blocks` (each `r × m`, column-scaled)
@@ -258,29 +596,35 @@ pub fn detmax(
             params: m,
         });
     }
-    let all: Vec<usize> = (0..blocks.len()).collect();
-    let stacked_t = stack(blocks, &all).transpose();
-    let mut best: Option<Design> = None;
-    let mut start_log_dets = Vec::new();
-    for s in 0..options.starts.max(1) {
-        let mut rng = StdRng::seed_from_u64(options.seed.wrapping_add(s as u64));
-        let start = sample(&mut rng, blocks.len(), options.n).into_vec();
-        let mut state = State::new(blocks, &stacked_t, &start);
-        let mut excursions = 0;
-        'search: loop {
-            for k in 1..=options.max_excursion {
-                for up in [true, false] {
-                    let t = state.excursion(k, up);
-                    if t.log_det > state.log_det + 1e-10 {
-                        state = t;
-                        excursions += 1;
-                        continue 'search;
-                    }
-                }
-            }
-            break;
+    let pool = Pool::new(blocks);
+    let starts = options.starts.max(1);
+    // The starts run on rayon's threads; this one reports each as it ends
+    // (the caller's progress need not be shareable between threads).
+    let (done, finished) = mpsc::channel::<()>();
+    let runs: Vec<(Vec<usize>, usize)> = std::thread::scope(|scope| {
+        let pool = &pool;
+        let worker = scope.spawn(move || {
+            (0..starts)
+                .into_par_iter()
+                .map_with(done, |done, s| {
+                    let run = run_start(pool, options, s);
+                    // The receiver only goes away once every start is over.
+                    let _ = done.send(());
+                    run
+                })
+                .collect::<Vec<_>>()
+        });
+        for () in finished {
+            progress.advance(1);
         }
-        let chosen = state.chosen();
+        worker.join()
+    })
+    .map_err(|_| CalibError::Empty {
+        what: "select poses: a DETMAX start failed".into(),
+    })?;
+    let mut best: Option<Design> = None;
+    let mut start_log_dets = Vec::with_capacity(runs.len());
+    for (chosen, excursions) in runs {
         let ld = log_det(blocks, &chosen);
         start_log_dets.push(ld);
         if best.as_ref().is_none_or(|b| ld > b.log_det) {
@@ -291,7 +635,6 @@ pub fn detmax(
                 start_log_dets: Vec::new(),
             });
         }
-        progress.advance(1);
     }
     let mut best = best.ok_or_else(|| CalibError::Empty {
         what: "select poses".into(),
@@ -326,13 +669,19 @@ pub fn stack(blocks: &[DMatrix<f64>], chosen: &[usize]) -> DMatrix<f64> {
     out
 }
 
-/// Random candidate blocks for the tests.
+/// Random candidate blocks of 3 rows for the tests.
 #[cfg(test)]
 fn random_blocks(count: usize, m: usize, seed: u64) -> Vec<DMatrix<f64>> {
+    random_blocks_of(count, 3, m, seed)
+}
+
+/// Random candidate blocks of `rows` rows for the tests.
+#[cfg(test)]
+fn random_blocks_of(count: usize, rows: usize, m: usize, seed: u64) -> Vec<DMatrix<f64>> {
     use rand::Rng;
     let mut rng = StdRng::seed_from_u64(seed);
     (0..count)
-        .map(|_| DMatrix::from_fn(3, m, |_, _| rng.random_range(-1.0..1.0)))
+        .map(|_| DMatrix::from_fn(rows, m, |_, _| rng.random_range(-1.0..1.0)))
         .collect()
 }
 
@@ -341,33 +690,112 @@ mod tests {
     use super::*;
     use crate::calib::progress::Silent;
 
-    /// The Woodbury-updated state agrees with a state rebuilt from scratch.
-    #[test]
-    fn rank_three_updates_match_refactoring() {
-        let blocks = random_blocks(40, 8, 3);
-        let all: Vec<usize> = (0..blocks.len()).collect();
-        let stacked_t = stack(&blocks, &all).transpose();
-        let mut s = State::new(&blocks, &stacked_t, &[0, 1, 2, 3, 4]);
-        s.update(10, 1.0);
-        s.update(2, -1.0);
-        s.update(20, 1.0);
-        let mut fresh = s.clone();
-        fresh.refactor();
-        assert!((s.log_det - fresh.log_det).abs() < 1e-9);
-        assert!((&s.minv - &fresh.minv).amax() < 1e-9 * fresh.minv.amax());
+    /// `ln det` of the members plus the ridge, from scratch.
+    fn ridged_log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
+        let m = blocks[0].ncols();
+        let mut info = DMatrix::identity(m, m) * RIDGE;
+        for &c in chosen {
+            info.gemm_tr(1.0, &blocks[c], &blocks[c], 1.0);
+        }
+        let ch = info.cholesky().unwrap();
+        2.0 * ch.l_dirty().diagonal().iter().map(|d| d.ln()).sum::<f64>()
     }
 
-    /// The one-product scan of additions picks what the per-candidate lemma picks.
+    /// After adds and drops, the updated `M⁻¹`, `ln det` and dispersions
+    /// agree with a state built from scratch on the same members, for
+    /// blocks of one load (3 rows), of two (6 rows) and of 4 rows.
     #[test]
-    fn stacked_scan_agrees_with_the_determinant_lemma() {
+    fn rank_r_updates_match_rebuilding() {
+        for rows in [3, 4, 6] {
+            let blocks = random_blocks_of(40, rows, 8, 3);
+            let pool = Pool::new(&blocks);
+            let mut s = State::new(&pool, &[0, 1, 2, 3, 4]);
+            let mut t = s.trial();
+            for (c, sign) in [(10, 1.0), (2, -1.0), (20, 1.0), (0, -1.0), (33, 1.0)] {
+                t.update(c, sign);
+            }
+            let changes = t.changes;
+            let updated = (changes.minv.clone(), changes.log_det);
+            s.accept(changes);
+            assert_eq!(s.chosen(), [1, 3, 4, 10, 20, 33]);
+            let fresh = State::new(&pool, &s.chosen());
+            assert!((updated.1 - fresh.log_det).abs() < 1e-9);
+            assert!((&updated.0 - &fresh.minv).amax() < 1e-9 * fresh.minv.amax());
+            let worst = s
+                .dispersion
+                .iter()
+                .zip(&fresh.dispersion)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            let size = fresh.dispersion.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                worst < 1e-10 * size,
+                "{rows} rows: drift {worst:e} of {size:e}"
+            );
+        }
+    }
+
+    /// Every candidate's gain is the change of `ln det` its addition or
+    /// removal makes (the determinant lemma), and the best addition and
+    /// removal are the largest, from a state and from a trial with
+    /// corrections pending.
+    #[test]
+    fn gains_are_the_changes_of_ln_det() {
         let blocks = random_blocks(60, 8, 4);
-        let all: Vec<usize> = (0..blocks.len()).collect();
-        let stacked_t = stack(&blocks, &all).transpose();
-        let s = State::new(&blocks, &stacked_t, &[1, 5, 9, 13, 17]);
-        let by_lemma = (0..blocks.len())
-            .filter(|&c| !s.member[c])
-            .max_by(|&a, &b| s.gain(a, 1.0).total_cmp(&s.gain(b, 1.0)));
-        assert_eq!(s.best_addition(), by_lemma);
+        let pool = Pool::new(&blocks);
+        let chosen = [1, 5, 9, 13, 17, 21];
+        let s = State::new(&pool, &chosen);
+        let base = ridged_log_det(&blocks, &chosen);
+        let mut scratch = [0.0; 9];
+        let gain = |design: &[usize], c: usize| {
+            let with: Vec<usize> = if design.contains(&c) {
+                design.iter().copied().filter(|&x| x != c).collect()
+            } else {
+                design.iter().copied().chain([c]).collect()
+            };
+            ridged_log_det(&blocks, &with) - ridged_log_det(&blocks, design)
+        };
+        for c in 0..blocks.len() {
+            let sign = if s.member[c] { -1.0 } else { 1.0 };
+            let det = det_shifted(&s.dispersion[9 * c..9 * c + 9], sign, 3, &mut scratch);
+            let expected = gain(&chosen, c);
+            assert!((det.unwrap().ln() - expected).abs() < 1e-9, "candidate {c}");
+        }
+        assert!(base.is_finite());
+        let best = |design: &[usize], adding: bool| {
+            (0..blocks.len())
+                .filter(|c| design.contains(c) != adding)
+                .max_by(|&a, &b| gain(design, a).total_cmp(&gain(design, b)))
+        };
+        let mut t = s.trial();
+        assert_eq!(t.best(true), best(&chosen, true));
+        assert_eq!(t.best(false), best(&chosen, false));
+        t.update(30, 1.0);
+        t.update(5, -1.0);
+        let moved = [1, 9, 13, 17, 21, 30];
+        assert_eq!(t.best(true), best(&moved, true));
+        assert_eq!(t.best(false), best(&moved, false));
+    }
+
+    /// The design does not depend on how many threads run the starts.
+    #[test]
+    fn threads_do_not_change_the_design() {
+        let blocks = random_blocks(150, 10, 6);
+        let opts = DetmaxOptions {
+            n: 15,
+            starts: 5,
+            ..Default::default()
+        };
+        let on = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| detmax(&blocks, &opts, &Silent).unwrap())
+        };
+        let one = on(1);
+        assert_eq!(one, on(3));
+        assert_eq!(one.start_log_dets.len(), 5);
     }
 
     /// On a small problem, DETMAX finds the exhaustive optimum.

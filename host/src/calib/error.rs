@@ -17,6 +17,18 @@ pub enum CalibError {
         /// The model's explanation.
         message: String,
     },
+    /// An identified servo curve that no longer maps angle to pulse one-to-one.
+    #[error(
+        "identify joint {joint}'s servo curve: {fault} (identified knot angles {knots}); the board must never receive it: measure more poses of this joint, or fit the elasto-kinematic option"
+    )]
+    ServoCurve {
+        /// Joint, from 1.
+        joint: usize,
+        /// What is wrong with the curve.
+        fault: String,
+        /// The identified knot angles, degrees.
+        knots: String,
+    },
     /// Fewer measured coordinates than parameters to fit.
     #[error(
         "identify {params} parameters from {poses} poses ({rows} coordinates): at least {params} coordinates are needed, and in practice several times more; measure more poses or choose fewer with --select"

@@ -1,6 +1,7 @@
 //! Experiments on top of a calibration run: how DETMAX compares with random
 //! selections of the same size, how O1 grows with the number of poses, and
-//! what a few gross measurement errors among the fitted poses cost a fit.
+//! what a few gross measurement errors among the fitted poses cost a fit,
+//! and how the calibration does on the grid and off it.
 
 use serde::Serialize;
 
@@ -13,8 +14,9 @@ use super::pipeline::{
 };
 use super::progress::{Progress, Silent};
 use super::refresh::identify_refreshed;
-use super::validate::validate;
+use super::validate::{ErrorStats, validate};
 use super::{CalibError, ModelOption};
+use crate::dataset::Measurement;
 
 /// Random set `s` of a comparison is drawn with seed `RANDOM_SEED + s`.
 pub const RANDOM_SEED: u64 = 1000;
@@ -216,6 +218,38 @@ pub fn o1_vs_poses(
     }
     progress.end();
     Ok(out)
+}
+
+/// A calibration's error on held-out grid poses and on poses off the grid.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct GridErrors {
+    /// The option.
+    pub option: ModelOption,
+    /// On the candidates of the grid (ids below the grid's size) not selected.
+    pub grid: ErrorStats,
+    /// On `off_grid`, poses none of the candidates'.
+    pub off_grid: ErrorStats,
+}
+
+/// `result`'s calibration validated on its held-out candidates whose ids are
+/// below `grid_size` (the grid's; random candidates come after) and on the
+/// measurements `off_grid`.
+pub fn grid_and_off_grid(
+    inputs: &Inputs,
+    result: &OptionResult,
+    grid_size: usize,
+    off_grid: &[Measurement],
+) -> Result<GridErrors, CalibError> {
+    let grid_ids = inputs
+        .held_out(&result.pose_ids())
+        .into_iter()
+        .filter(|&id| (id as usize) < grid_size);
+    let grid = inputs.measurements.of(grid_ids, result.identify_load_kg);
+    Ok(GridErrors {
+        option: result.option(),
+        grid: validate(&inputs.nominal, &result.identified.rig, &grid)?.after,
+        off_grid: validate(&inputs.nominal, &result.identified.rig, off_grid)?.after,
+    })
 }
 
 #[cfg(test)]

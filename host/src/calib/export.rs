@@ -67,25 +67,27 @@ pub fn calibration_file(
 
 /// The nominal and the corrected rig of `file`: its arms with its targets'
 /// tool points (the nominal arm with the fitted ones: it has no idea where
-/// they are). A file without targets is its arms alone.
+/// they are). A file without targets is its arms alone. Both rigs are
+/// commanded through the nominal arm's servo curves, as its measurements
+/// were.
 pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
     let names: Vec<TargetName> = file
         .targets
         .iter()
         .filter_map(|t| TargetName::from(&t.name).ok())
         .collect();
-    if file.targets.is_empty() || names.len() < file.targets.len() {
-        return (file.nominal.into(), file.arm.into());
-    }
-    let tools: Vec<Vector3<f64>> = file.targets[1..]
-        .iter()
-        .map(|t| Vector3::from(t.tool_m))
-        .collect();
-    let targets = Targets::named_as(&names);
-    let rig = |arm: Arm<f64>| Rig {
-        arm,
-        tools: tools.clone(),
-        targets: targets.clone(),
+    let command_curves = file.nominal.joints.map(|j| j.servo);
+    let rig = |arm: Arm<f64>| {
+        let mut rig = Rig::from(arm);
+        rig.command_curves = command_curves;
+        if !file.targets.is_empty() && names.len() == file.targets.len() {
+            rig.targets = Targets::named_as(&names);
+            rig.tools = file.targets[1..]
+                .iter()
+                .map(|t| Vector3::from(t.tool_m))
+                .collect();
+        }
+        rig
     };
     (rig(file.nominal), rig(file.arm))
 }
@@ -174,7 +176,7 @@ mod tests {
             ErrorStats::of(&[0.001]),
             None,
         );
-        assert_eq!(file.option, protocol::ModelOption::Elastic);
+        assert_eq!(file.option, ModelOption::Elastic);
         assert_eq!(file.arm, identified.rig.arm);
         assert_eq!(file.at_bound, ["k6"]);
         assert_eq!(file.removed, ["k1"]);

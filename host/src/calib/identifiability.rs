@@ -63,16 +63,22 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 /// past the others), every confounded one misses it by millions.
 pub const RESOLUTION_M: f64 = 1e-7;
 
-/// Typical sizes of the parameters' errors on one arm: 1 mm, 1 mrad, and
-/// for compliances 0.01 rad/Nm on the bundled arm, carried to another arm by
-/// the ratio of gravity torques ([`crate::scale`]): the same sag angle, so a
-/// UR10's shoulder, a hundred times the torque, gets 1e-4 rad/Nm.
+/// Typical sizes of the parameters' errors on one arm: 1 mm, 1 mrad, for
+/// compliances 0.01 rad/Nm and for softenings 0.1 1/Nm on the bundled arm,
+/// carried to another arm by the ratio of gravity torques ([`crate::scale`]):
+/// the same sag angle, so a UR10's shoulder, a hundred times the torque,
+/// gets 1e-4 rad/Nm; and the same change of compliance over the arm's
+/// torques (`s |tau|`), so 1e-3 1/Nm there.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TypicalErrors {
     /// A joint compliance's, rad/Nm.
     joint_compliance: f64,
     /// The base compliance's, rad/Nm.
     base_compliance: f64,
+    /// A joint spring's softening, 1/Nm.
+    joint_softening: f64,
+    /// The base spring's softening, 1/Nm.
+    base_softening: f64,
 }
 
 impl TypicalErrors {
@@ -82,15 +88,21 @@ impl TypicalErrors {
         Self {
             joint_compliance: 1e-2 * joints,
             base_compliance: 1e-2 * base,
+            joint_softening: 0.1 * joints,
+            base_softening: 0.1 * base,
         }
     }
 
     /// A typical size of an error of `key`.
     pub fn of(&self, key: ParamKey) -> f64 {
-        match key.kind() {
-            ParamKind::Length | ParamKind::Angle => 1e-3,
-            ParamKind::Compliance if key.name() == "k0" => self.base_compliance,
-            ParamKind::Compliance => self.joint_compliance,
+        match key {
+            ParamKey::Softening { spring: 0 } => self.base_softening,
+            ParamKey::Softening { .. } => self.joint_softening,
+            _ => match key.kind() {
+                ParamKind::Length | ParamKind::Angle => 1e-3,
+                ParamKind::Compliance if key.name() == "k0" => self.base_compliance,
+                ParamKind::Compliance => self.joint_compliance,
+            },
         }
     }
 }
@@ -145,7 +157,7 @@ pub fn analyse(
     option: ModelOption,
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
-    let ids = candidates(option);
+    let ids = candidates(option, arm);
     let j = jacobian(&Rig::from(*arm), &ids, samples)?;
     Ok(analyse_jacobian(
         option,
@@ -343,17 +355,18 @@ pub fn check_structure(
             q: p.q,
             load_kg,
             target: 0,
+            approach: crate::dataset::FROM_HOME,
         })
         .collect();
     let structural = analyse(nominal, measured.option, &grid)?.kept;
-    // Compared over the arm's parameters: further targets' tool points are
-    // the measurements' own, the grid has none.
-    let arm_kept = measured
+    // Compared over the rig's own parameters: further targets' tool points
+    // are the measurements' own, the grid has none.
+    let own_kept = measured
         .kept
         .iter()
-        .filter(|p| matches!(p, ParamKey::Arm(_)))
+        .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
         .count();
-    if arm_kept >= structural.len() {
+    if own_kept >= structural.len() {
         return Ok(());
     }
     let missing: Vec<String> = structural
@@ -363,7 +376,7 @@ pub fn check_structure(
         .collect();
     Err(CalibError::Unidentifiable {
         option: measured.option.name().into(),
-        identified: arm_kept,
+        identified: own_kept,
         structural: structural.len(),
         missing: missing.join(", "),
     })
@@ -436,6 +449,7 @@ mod tests {
                 q: p.q,
                 load_kg: 0.0663,
                 target: 0,
+                approach: crate::dataset::FROM_HOME,
             })
             .collect();
         let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();

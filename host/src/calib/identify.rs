@@ -60,6 +60,7 @@ use super::identifiability::check_full_rank;
 use super::jacobian::{jacobian, tool_points};
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
+use super::servo_knots;
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
@@ -213,12 +214,12 @@ impl<'a> FitData<'a> {
 
     /// The smallest and largest physical value of `key`'s quantity, if bounded.
     fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
-        let upper = self
+        let ceiling = self
             .ceilings
             .iter()
             .find(|(k, _)| *k == key)
             .map(|(_, c)| *c);
-        (key.lower_bound(), upper)
+        (key.lower_bound(), ceiling.or(key.upper_bound()))
     }
 
     /// Norms of the 3D residuals of `arm` against the measurements, m.
@@ -612,6 +613,10 @@ pub fn identify(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
+    // Servo knots move the curves on their grid (the same map); the
+    // measurements stay commanded through the nominal curves.
+    let start = servo_knots::fit_start(nominal, keys);
+    let nominal = &start;
     let data = FitData::new(nominal, option, measurements)?;
     let n = data.samples.len();
     if 3 * n < keys.len() || n == 0 {
@@ -658,6 +663,7 @@ pub fn identify(
     }
 
     let rig = params.apply(nominal);
+    servo_knots::check_curves(&nominal.arm, &rig.arm)?;
     // Every point LM accepted could be evaluated, and the ceiling keeps the
     // deflection converging: failing here is not a question of more poses.
     let norms = data.residual_norms(&rig).map_err(|e| {

@@ -7,6 +7,9 @@
 //! | [`params`] | the free parameters: typed keys and the registry of their values |
 //! | [`option`] | the candidate parameters of each model option |
 //! | [`jacobian`] | d(measured point)/d(parameters, joint angles), exact through the elastic model |
+//! | [`servo_knots`] | each servo's own curve between its tuned points: the knot offsets |
+//! | [`backlash`] | each joint's play, from the order the poses were visited |
+//! | `joint_columns` | the Jacobian columns of knots and play, from one joint-angle column per joint |
 //! | [`identifiability`] | the largest identifiable parameter subset, by rank analysis |
 //! | [`observability`] | column scaling and the observability indices O1..O5 |
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
@@ -28,6 +31,7 @@
 //! benchmarked alone; the subcommands in `crate::commands` only read files,
 //! call these and write files.
 
+pub mod backlash;
 pub mod checks;
 pub mod detmax;
 pub mod error;
@@ -36,6 +40,7 @@ pub mod export;
 pub mod identifiability;
 pub mod identify;
 pub mod jacobian;
+mod joint_columns;
 pub mod observability;
 pub mod option;
 pub mod params;
@@ -45,15 +50,16 @@ pub mod progress;
 pub mod refresh;
 pub mod registration;
 pub mod report;
+pub mod servo_knots;
 pub mod summary;
 pub mod targets;
 #[cfg(test)]
 mod testing;
 pub mod validate;
 
+pub use crate::io::model_option::ModelOption;
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
-pub use protocol::ModelOption;
 pub use targets::Rig;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
@@ -67,6 +73,8 @@ pub struct Sample {
     pub load_kg: f64,
     /// Index of the measured target in its [`Rig`] (0: the arm's tool point).
     pub target: usize,
+    /// The way each joint arrived at the pose (its backlash's side).
+    pub approach: [model::backlash::Approach; model::JOINTS],
 }
 
 /// A measurement as a sample of target 0; `targets::Targets::samples` gives
@@ -78,6 +86,7 @@ impl From<&crate::dataset::Measurement> for Sample {
             q: m.pose.q,
             load_kg: m.load_kg,
             target: 0,
+            approach: m.approach,
         }
     }
 }

@@ -1,18 +1,19 @@
-//! The parameters each of the paper's three model options may fit (the option
-//! itself is `protocol::ModelOption`, the board stores it too).
+//! The parameters each model option may fit: the paper's three and ours (the
+//! option itself is `crate::io::model_option::ModelOption`).
 
-use model::ParamId;
-use protocol::ModelOption;
-
+use super::ModelOption;
 use super::params::ParamKey;
+use super::servo_knots;
+use model::{Arm, ParamId};
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
 /// positioning figure calls its calibration "ours".
-pub const DEFAULT: ModelOption = ModelOption::ElastoKinematic;
+pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic.
+/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
+/// knots of `arm`'s servo curves (its softenings: [`refresh_candidates`]).
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -29,44 +30,96 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematic;
 /// point held cannot bring the point nearer joint 6's axis than the file's
 /// offset across `x6` (its `y` when `alpha6` is zero), so a true point 4 mm
 /// off the axis stays out of reach when the file says 11 mm.
-pub fn candidates(option: ModelOption) -> Vec<ParamKey> {
+///
+/// Servo knots and backlash widths come last: a constant shift of a joint's
+/// knots is its `theta` (the base yaw for joint 1), which the paper's model
+/// already has, so the knot that only repeats it is the one removed.
+pub fn candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
     let frames = ParamId::all().filter(is_frame);
     let dh = ParamId::all().filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
-        ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
+        ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
+            compliances.chain(geometric).collect()
+        }
         ModelOption::Kinematic => geometric.collect(),
         ModelOption::Elastic => compliances.collect(),
     };
-    ids.into_iter().map(ParamKey::Arm).collect()
+    let knots = option
+        .fits_servo_curves()
+        .then(|| servo_knots::keys(arm))
+        .into_iter()
+        .flatten();
+    ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
+}
+
+/// Parameters of `option` that only the refresh proposes, at the estimate
+/// (`calib::refresh`): one softening per spring. A softening's effect is
+/// its spring's compliance times `|tau| tau`, so it is zero on an arm file's
+/// rigid springs and vanishes wherever the fit takes the compliance to
+/// zero: only at the estimate can the analysis and the fit's deviations
+/// tell whether the poses determine it.
+pub fn refresh_candidates(option: ModelOption) -> Vec<ParamKey> {
+    if !option.fits_servo_curves() {
+        return Vec::new();
+    }
+    (0..=model::JOINTS as u8)
+        .map(|spring| ParamKey::Softening { spring })
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::testing::test_arm;
 
     #[test]
-    fn candidate_counts_are_43_36_7() {
-        assert_eq!(candidates(ModelOption::ElastoKinematic).len(), 43);
-        assert_eq!(candidates(ModelOption::Kinematic).len(), 36);
-        assert_eq!(candidates(ModelOption::Elastic).len(), 7);
+    fn candidate_counts_are_43_36_7_and_97() {
+        let arm = test_arm();
+        assert_eq!(candidates(ModelOption::ElastoKinematic, &arm).len(), 43);
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
+        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
+        assert_eq!(
+            refresh_candidates(ModelOption::ElastoKinematicServo).len(),
+            7
+        );
+        assert!(refresh_candidates(ModelOption::ElastoKinematic).is_empty());
+        assert_eq!(
+            ours[..43],
+            candidates(ModelOption::ElastoKinematic, &arm)[..]
+        );
+        assert_eq!(candidates(ModelOption::Kinematic, &arm).len(), 36);
+        assert_eq!(candidates(ModelOption::Elastic, &arm).len(), 7);
         assert!(
-            candidates(ModelOption::Elastic)
+            candidates(ModelOption::Elastic, &arm)
                 .iter()
                 .all(|k| k.lower_bound() == Some(0.0))
         );
         assert_eq!(
-            candidates(ModelOption::ElastoKinematic)[..7],
-            candidates(ModelOption::Elastic)[..]
+            candidates(ModelOption::ElastoKinematic, &arm)[..7],
+            candidates(ModelOption::Elastic, &arm)[..]
         );
         // The frames before the DH parameters: they hold every base pose and tool point.
-        let kin = candidates(ModelOption::Kinematic);
+        let kin = candidates(ModelOption::Kinematic, &arm);
         assert_eq!(
             (kin[0].name(), kin[11].name()),
             ("base.x".into(), "tool.yaw".into())
         );
         assert_eq!(kin[12].name(), "j1.theta");
+    }
+
+    #[test]
+    fn a_joint_without_a_servo_curve_has_no_knots() {
+        let mut arm = test_arm();
+        arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
+        assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS);
+        assert!(
+            !ours
+                .iter()
+                .any(|k| matches!(k, ParamKey::ServoKnot { joint: 5, .. }))
+        );
     }
 }

@@ -5,11 +5,13 @@
 //! of the arm). A calibration may correct more than that: a tool point per
 //! measured target, the base pose in the tracker's frame, servo curve knots,
 //! backlash widths. [`ParamKey`] is the host's name for any of them: the
-//! arm's own parameters ([`ParamKey::Arm`]) and the tool points of further
-//! measured targets ([`ParamKey::TargetTool`], see `calib::targets`). A new
-//! kind is one variant here with its stable name, its kind and the quantity
-//! it corrects in a [`Rig`]; the registry, the solver and the files take it
-//! as it is.
+//! arm's own parameters ([`ParamKey::Arm`]), the tool points of further
+//! measured targets ([`ParamKey::TargetTool`], see `calib::targets`), the
+//! knots of the servo curves ([`ParamKey::ServoKnot`], see
+//! `calib::servo_knots`) and the joints' backlash ([`ParamKey::Backlash`]).
+//! A new kind is one variant here with its stable name, its kind and the
+//! quantity it corrects in a [`Rig`]; the registry, the solver and the files
+//! take it as it is.
 //!
 //! [`ParamVector`] keeps its keys in the order given (the solver's column
 //! order), finds a key through a sorted index (never by position), knows which
@@ -26,6 +28,10 @@ use model::ParamId;
 use model::params::ParamKind;
 
 use super::targets::Rig;
+
+use crate::io::model_option::{
+    backlash_from_name, backlash_name, servo_knot_from_name, servo_knot_name,
+};
 
 /// What [`ParamVector`] needs of a key: an order for its index, a stable
 /// name, and the quantity it corrects in the model it applies to.
@@ -55,6 +61,27 @@ pub enum ParamKey {
         /// 0 x, 1 y, 2 z.
         axis: u8,
     },
+    /// The angle of knot `knot` (from 0) of joint `joint`'s (from 0) servo
+    /// curve: its correction is the angle the knot's pulse really reaches
+    /// minus the angle the curve had for it (see `calib::servo_knots`).
+    ServoKnot {
+        /// Joint, from 0.
+        joint: u8,
+        /// Knot of the joint's curve, from 0.
+        knot: u8,
+    },
+    /// How spring `spring`'s compliance grows with its torque, 1/Nm (0 the
+    /// base's, `k0`'s; 1..=6 the joints'), `model::Arm::base_softening` and `model::Joint::softening`.
+    Softening {
+        /// Spring, as the compliances `k0..k6` count them.
+        spring: u8,
+    },
+    /// The full width of joint `joint`'s (from 0) play, rad
+    /// (`model::Joint::backlash`, see `calib::backlash`).
+    Backlash {
+        /// Joint, from 0.
+        joint: u8,
+    },
 }
 
 /// Axis letters of [`ParamKey::TargetTool`] names.
@@ -62,7 +89,9 @@ const AXES: [&str; 3] = ["x", "y", "z"];
 
 impl ParamKey {
     /// Stable name: the arm's parameters keep the model's names (`j3.d`,
-    /// `base.pitch`, `k0`); a further target's tool point is `tool[2].x`.
+    /// `base.pitch`, `k0`); a further target's tool point is `tool[2].x`, a
+    /// servo knot `j3.servo[5]` (joint and knot from 1), a backlash width
+    /// `j3.backlash` (joint from 1).
     pub fn name(self) -> Cow<'static, str> {
         match self {
             Self::Arm(id) => Cow::Borrowed(id.name()),
@@ -70,6 +99,11 @@ impl ParamKey {
                 let axis = AXES.get(usize::from(axis)).copied().unwrap_or("?");
                 Cow::Owned(format!("tool[{target}].{axis}"))
             }
+            Self::ServoKnot { joint, knot } => {
+                Cow::Owned(servo_knot_name(joint.into(), knot.into()))
+            }
+            Self::Backlash { joint } => Cow::Owned(backlash_name(joint.into())),
+            Self::Softening { spring } => Cow::Owned(format!("s{spring}")),
         }
     }
 
@@ -77,6 +111,23 @@ impl ParamKey {
     pub fn from_name(name: &str) -> Option<Self> {
         if let Some(id) = ParamId::from_name(name) {
             return Some(Self::Arm(id));
+        }
+        // Both fit a u8: at most 6 joints and MAX_KNOTS knots.
+        if let Some((joint, knot)) = servo_knot_from_name(name) {
+            return Some(Self::ServoKnot {
+                joint: joint as u8,
+                knot: knot as u8,
+            });
+        }
+        if let Some(joint) = backlash_from_name(name) {
+            return Some(Self::Backlash { joint: joint as u8 });
+        }
+        if let Some(spring) = name
+            .strip_prefix('s')
+            .and_then(|n| n.parse::<u8>().ok())
+            .filter(|s| usize::from(*s) <= model::JOINTS && name.len() == 2)
+        {
+            return Some(Self::Softening { spring });
         }
         let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
         let target: u8 = target.parse().ok().filter(|t| *t > 0)?;
@@ -104,15 +155,31 @@ impl ParamKey {
         match self {
             Self::Arm(id) => id.kind(),
             Self::TargetTool { .. } => ParamKind::Length,
+            Self::ServoKnot { .. } | Self::Backlash { .. } => ParamKind::Angle,
+            // Its steps and typical size are a compliance's (about 0.1).
+            Self::Softening { .. } => ParamKind::Compliance,
         }
     }
 
     /// The smallest physical value of the quantity (not of its correction), if bounded.
     pub fn lower_bound(self) -> Option<f64> {
-        match self.kind() {
+        match self {
+            // A spring may soften or stiffen.
+            Self::Softening { .. } => None,
+            // No play is narrower than none.
+            Self::Backlash { .. } => Some(0.0),
             // A negative compliance would mean the arm bends against gravity.
-            ParamKind::Compliance => Some(0.0),
-            ParamKind::Length | ParamKind::Angle => None,
+            _ if self.kind() == ParamKind::Compliance => Some(0.0),
+            _ => None,
+        }
+    }
+
+    /// The largest value of the quantity the board accepts, if bounded
+    /// (a compliance's ceiling depends on the poses: `calib::identify`).
+    pub fn upper_bound(self) -> Option<f64> {
+        match self {
+            Self::Backlash { .. } => Some(super::backlash::FIT_MAX_RAD),
+            _ => None,
         }
     }
 
@@ -123,20 +190,37 @@ impl ParamKey {
             Self::TargetTool { target, axis } => rig
                 .tool_point(usize::from(target))
                 .map_or(f64::NAN, |p| p[usize::from(axis)]),
+            Self::ServoKnot { joint, knot } => rig.arm.joints[usize::from(joint)]
+                .servo
+                .angles_rad()
+                .get(usize::from(knot))
+                .copied()
+                .unwrap_or(f64::NAN),
+            Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
+            Self::Softening { spring: 0 } => rig.arm.base_softening,
+            Self::Softening { spring } => rig.arm.joints[usize::from(spring) - 1].softening,
         }
     }
 
     /// The quantity in `rig` this key corrects.
     ///
     /// # Panics
-    /// For a target the rig does not have: keys are made for their rig
-    /// (`Rig::tool_keys`), so that is a bug of the caller.
+    /// For a target the rig does not have (keys are made for their rig,
+    /// `Rig::tool_keys`), or a servo knot its curve does not have (the fit
+    /// puts every curve on the knots it identifies first,
+    /// `calib::servo_knots::fit_start`): a bug of the caller either way.
     pub fn slot(self, rig: &mut Rig) -> &mut f64 {
         match self {
             Self::Arm(id) => id.value_mut(&mut rig.arm),
             Self::TargetTool { target, axis } => {
                 &mut rig.tools[usize::from(target) - 1][usize::from(axis)]
             }
+            Self::ServoKnot { joint, knot } => {
+                &mut rig.arm.joints[usize::from(joint)].servo.angles_rad_mut()[usize::from(knot)]
+            }
+            Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,
+            Self::Softening { spring: 0 } => &mut rig.arm.base_softening,
+            Self::Softening { spring } => &mut rig.arm.joints[usize::from(spring) - 1].softening,
         }
     }
 }
@@ -360,6 +444,34 @@ mod tests {
             assert_eq!(k.lower_bound().is_some(), !id.is_geometric());
         }
         assert_eq!(ParamKey::from_name("j7.d"), None);
+        let knot = ParamKey::ServoKnot { joint: 2, knot: 4 };
+        assert_eq!(knot.name(), "j3.servo[5]");
+        assert_eq!(ParamKey::from_name("j3.servo[5]"), Some(knot));
+        assert_eq!(knot.kind(), ParamKind::Angle);
+        assert_eq!(knot.lower_bound(), None);
+        assert_eq!(knot.upper_bound(), None);
+        let play = ParamKey::Backlash { joint: 5 };
+        assert_eq!(play.lower_bound(), Some(0.0));
+        // The widest play the fit may reach survives the board's f32 check.
+        let widest = f64::from(play.upper_bound().unwrap() as f32);
+        assert!(
+            widest <= model::backlash::MAX_WIDTH_RAD
+                && widest > 0.99 * model::backlash::MAX_WIDTH_RAD
+        );
+        let mut rig = Rig::from(rigid_nominal());
+        rig.arm.joints[2].servo = rig.arm.joints[2]
+            .servo
+            .resampled(&[-1.0, -0.5, 0.0, 0.5, 1.0])
+            .unwrap();
+        assert_eq!(knot.value(&rig), 1.0);
+        *knot.slot(&mut rig) += 0.01;
+        assert_eq!(rig.arm.joints[2].servo.angles_rad()[4], 1.01);
+        let play = ParamKey::Backlash { joint: 5 };
+        assert_eq!(play.name(), "j6.backlash");
+        assert_eq!(ParamKey::from_name("j6.backlash"), Some(play));
+        assert_eq!(play.kind(), ParamKind::Angle);
+        *play.slot(&mut rig) += 0.004;
+        assert_eq!(play.value(&rig), 0.004);
         assert_eq!(key("k0").to_string(), "k0");
     }
 

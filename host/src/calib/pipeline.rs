@@ -24,8 +24,8 @@ use super::progress::Progress;
 use super::refresh::identify_refreshed;
 use super::targets::Targets;
 use super::validate::{LoadValidation, Validation, validate};
-use super::{CalibError, ModelOption, Rig, Sample};
-use crate::dataset::{Measurement, Pose};
+use super::{CalibError, ModelOption, Rig, Sample, backlash};
+use crate::dataset::{FROM_HOME, Measurement, Pose};
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the
 /// identifiable parameters of one option.
@@ -71,6 +71,8 @@ impl CandidateBlocks {
                         q: p.q,
                         load_kg,
                         target,
+                        // No backlash is analysed here (`calib::backlash`).
+                        approach: FROM_HOME,
                     })
                 })
             })
@@ -80,7 +82,7 @@ impl CandidateBlocks {
         // are confounded with (the arm's own tool point, frame 6's
         // translation) is what the rank analysis removes.
         let mut ids = nominal.tool_keys();
-        ids.extend(option_candidates(option));
+        ids.extend(option_candidates(option, &nominal.arm));
         let j = jacobian(nominal, &ids, &samples)?;
         let identifiability =
             analyse_jacobian(option, &ids, &j, &TypicalErrors::of_arm(&nominal.arm));
@@ -420,10 +422,16 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let identified = identify_refreshed(
+    let keys = backlash::with_widths(
         &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,
+        &fit_set,
+    )?;
+    let identified = identify_refreshed(
+        &inputs.nominal,
+        selection.option,
+        &keys,
         &fit_set,
         &settings.identify,
     )?;

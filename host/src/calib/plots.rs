@@ -411,7 +411,15 @@ mod tests {
             p(ModelOption::ElastoKinematic, 60, 0.75),
         ]);
         let labels: Vec<&str> = series.iter().map(|s| s.label.as_str()).collect();
-        assert_eq!(labels, ["kinematic", "elastic", "elasto-kinematic"]);
+        assert_eq!(
+            labels,
+            [
+                "kinematic",
+                "elastic",
+                "elasto-kinematic",
+                "elasto-kinematic-servo"
+            ]
+        );
         assert_eq!(series[0].points, [(10.0, 0.2)]);
         assert!(series[1].points.is_empty());
         assert_eq!(series[2].points, [(50.0, 0.7), (60.0, 0.75)]);

@@ -16,6 +16,12 @@
 //! of theirs by more than [`REFRESH_TOLERANCE`] joins, and the fit goes on
 //! from the estimate with the larger set.
 //!
+//! Our option's spring softenings are proposed here only
+//! (`calib::option::refresh_candidates`): a softening's effect is its
+//! spring's compliance times `|tau| tau`, zero on an arm file's rigid
+//! springs and gone wherever the fit takes the compliance to zero, so only
+//! at the estimate can the poses be seen to determine it.
+//!
 //! Independent is not the same as determined: away from the nominal point
 //! `j1.d` differs from the base's height only by the lever of the base's
 //! elastic tilt (about 1 %), so with millimetres of noise and unmodelled
@@ -41,9 +47,9 @@
 use super::identifiability::{TypicalErrors, analyse_jacobian_within};
 use super::identify::{Estimate, Identified, IdentifyOptions, identify};
 use super::jacobian::jacobian;
-use super::option::candidates;
+use super::option::{candidates, refresh_candidates};
 use super::params::ParamKey;
-use super::{CalibError, ModelOption, Rig};
+use super::{CalibError, ModelOption, Rig, servo_knots};
 use crate::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
@@ -157,7 +163,12 @@ fn joining_at(
     let ordered: Vec<ParamKey> = keys
         .iter()
         .copied()
-        .chain(candidates(option).into_iter().filter(|k| !keys.contains(k)))
+        .chain(
+            candidates(option, &first.rig.arm)
+                .into_iter()
+                .chain(refresh_candidates(option))
+                .filter(|k| !keys.contains(k)),
+        )
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
     let analysis = analyse_jacobian_within(option, &ordered, &j, typical, REFRESH_TOLERANCE);
@@ -204,6 +215,8 @@ fn joining_at(
 /// The second fit's result as corrections of `nominal`: each estimate adds
 /// the first fit's correction of its key; the diagnostics count both fits.
 fn combine(nominal: &Rig, first: &Identified, second: Identified) -> Identified {
+    let keys: Vec<ParamKey> = second.estimates.iter().map(|e| e.id).collect();
+    let nominal = &servo_knots::fit_start(nominal, &keys);
     let before = |key: ParamKey| {
         first
             .estimates

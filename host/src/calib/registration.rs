@@ -779,6 +779,7 @@ mod tests {
                 q: [0.3 * i as f64 - 1.5, 0.3, -0.4, 0.2, 0.5, 0.1],
                 load_kg: 0.0,
                 target: 0,
+                approach: crate::dataset::FROM_HOME,
             })
             .collect();
         let reg = register(&nominal, &measure(&truth, &pan), Gravity::LevelBase(G)).unwrap();

@@ -2,7 +2,7 @@
 //! and `lrmcal demo` print, rendered from the report, so the terminal and
 //! `report.json` always tell the same story.
 
-use super::experiments::RandomBaseline;
+use super::experiments::{GridErrors, RandomBaseline};
 use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
 
@@ -11,7 +11,7 @@ use crate::io::calibration_file::TargetTool;
 pub fn table(options: &[OptionReport]) -> String {
     let mut s = String::new();
     s.push_str(&format!(
-        "{:<18} {:>6} {:>26} {:>10} {:>11}\n",
+        "{:<22} {:>6} {:>26} {:>10} {:>11}\n",
         "model", "params", "mean error before -> after", "reduction", "cross-load"
     ));
     for o in options {
@@ -29,13 +29,27 @@ pub fn table(options: &[OptionReport]) -> String {
             None => ("-".into(), "-".into(), "-".into()),
         };
         s.push_str(&format!(
-            "{:<18} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
+            "{:<22} {:>6} {:>12} -> {:>6} mm {:>10} {:>11}\n",
             o.option.name(),
             o.fit.parameters.len(),
             before,
             after,
             reduction,
             cross
+        ));
+    }
+    s
+}
+
+/// Each option's mean error on the grid and off it, side by side.
+pub fn grid_table(errors: &[GridErrors]) -> String {
+    let mut s = format!("{:<22} {:>10} {:>10}\n", "model", "grid", "off-grid");
+    for e in errors {
+        s.push_str(&format!(
+            "{:<22} {:>7.2} mm {:>7.2} mm\n",
+            e.option.name(),
+            e.grid.mean_m * 1e3,
+            e.off_grid.mean_m * 1e3
         ));
     }
     s
@@ -78,6 +92,7 @@ pub fn option_details(o: &OptionReport) -> String {
     if let Some(line) = weak(o) {
         lines.push(format!("  {line}"));
     }
+    lines.extend(backlash(o).into_iter().map(|w| format!("  {w}")));
     lines.extend(f.outliers.iter().map(|x| format!("  {}", outlier(x))));
     lines.extend(
         o.validation
@@ -99,6 +114,32 @@ fn held_and_joined(o: &OptionReport) -> (Vec<&RemovedReport>, Vec<&str>) {
         .iter()
         .partition(|r| fitted(&r.name));
     (held, joined.iter().map(|r| r.name.as_str()).collect())
+}
+
+/// Warnings on the fitted backlash widths: one the fit left at the widest
+/// the board takes (`calib::backlash::FIT_MAX_RAD`: the measurements asked
+/// for more) and one wider than `calib::backlash::PLAUSIBLE_MAX_RAD`.
+pub fn backlash(o: &OptionReport) -> Vec<String> {
+    o.fit
+        .parameters
+        .iter()
+        .filter_map(|p| {
+            let joint = crate::io::model_option::backlash_from_name(&p.name)? + 1;
+            let deg = p.value.to_degrees();
+            if p.value >= super::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
+                Some(format!(
+                    "warning: joint {joint}'s backlash held at {deg:.2}°, the widest the board takes: the measurements asked for more, so those of joint {joint} are inconsistent, its servo is worn, or its play is confounded with its servo curve (measure it arriving both ways at more angles)"
+                ))
+            } else if p.value > super::backlash::PLAUSIBLE_MAX_RAD {
+                Some(format!(
+                    "warning: joint {joint}'s backlash fitted {deg:.2}°, more than {:.0}°: measurements of joint {joint} are inconsistent or the servo is worn",
+                    super::backlash::PLAUSIBLE_MAX_RAD.to_degrees()
+                ))
+            } else {
+                None
+            }
+        })
+        .collect()
 }
 
 /// The parameters the fit's data barely determine, with value and standard
@@ -239,6 +280,40 @@ mod tests {
         let r =
             calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
         OptionReport::from(&r)
+    }
+
+    /// A negative width is said to be set to zero; one of 4° names the joint
+    /// and what it means; a plausible one says nothing.
+    #[test]
+    fn implausible_backlash_widths_are_warned_about() {
+        let mut o = elastic_report();
+        let template = o.fit.parameters[0].clone();
+        o.fit.parameters = [
+            ("j2.backlash", crate::calib::backlash::FIT_MAX_RAD),
+            ("j5.backlash", 4f64.to_radians()),
+            ("j3.backlash", 0.01),
+        ]
+        .into_iter()
+        .map(|(name, value)| crate::io::calibration_file::FittedParam {
+            name: name.into(),
+            value,
+            ..template.clone()
+        })
+        .collect();
+        let w = backlash(&o);
+        assert_eq!(w.len(), 2, "{w:?}");
+        assert!(
+            w[0].contains("joint 2") && w[0].contains("the widest the board takes"),
+            "{}",
+            w[0]
+        );
+        assert!(
+            w[1].contains("4.00°")
+                && w[1].contains("measurements of joint 5 are inconsistent or the servo is worn"),
+            "{}",
+            w[1]
+        );
+        assert!(option_details(&o).contains(&w[1]));
     }
 
     #[test]

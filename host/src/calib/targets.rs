@@ -17,7 +17,7 @@
 //! as equations for it and nothing would check them, so such a file is
 //! refused ([`Targets::check_poses`]).
 
-use model::Arm;
+use model::{Arm, JOINTS, ServoCurve};
 use nalgebra::Vector3;
 
 use super::params::ParamKey;
@@ -37,6 +37,10 @@ pub struct Rig {
     pub tools: Vec<Vector3<f64>>,
     /// The targets' names, as many as tool points.
     pub targets: Targets,
+    /// The servo curves the measurements were commanded through (the
+    /// nominal arm's); where the arm's own curves differ, a command stands
+    /// elsewhere (`calib::servo_knots::reached`).
+    pub command_curves: [ServoCurve<f64>; JOINTS],
 }
 
 impl From<Arm<f64>> for Rig {
@@ -56,7 +60,23 @@ impl Rig {
             arm,
             tools: vec![start; targets.len().saturating_sub(1)],
             targets,
+            command_curves: arm.joints.map(|j| j.servo),
         }
+    }
+
+    /// The arm's chain, its springs softening as the arm says.
+    pub fn chain(&self) -> model::Chain<f64> {
+        self.arm.chain()
+    }
+
+    /// The joint angles the arm stands at when `sample` was commanded: where
+    /// its servos drive the command sent through [`Rig::command_curves`],
+    /// short of it or beyond by half the play the way each joint arrived.
+    pub fn standing_angles(&self, sample: &Sample) -> [f64; JOINTS] {
+        let reached = super::servo_knots::reached(&self.command_curves, &self.arm, &sample.q);
+        std::array::from_fn(|j| {
+            model::backlash::settled(reached[j], self.arm.joints[j].backlash, sample.approach[j])
+        })
     }
 
     /// Tool point of target `t` in frame 6, m, if the rig has it.
@@ -352,6 +372,7 @@ mod tests {
                     q: s.q,
                     load_kg: load,
                     target,
+                    approach: s.approach,
                 })
             })
             .collect();

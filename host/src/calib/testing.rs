@@ -46,15 +46,20 @@ pub fn true_errors(seed: u64) -> [f64; PARAM_COUNT] {
     random_errors(&mut StdRng::seed_from_u64(seed), &sizes)
 }
 
-/// `n` random poses within ±100°, alternating between no load and 66.3 g.
+/// `n` random poses within ±100°, alternating between no load and 66.3 g,
+/// visited in order (each joint's approach follows it).
 pub fn small_samples(n: usize) -> Vec<Sample> {
     let mut rng = StdRng::seed_from_u64(11);
-    (0..n)
-        .map(|i| Sample {
+    let qs: Vec<[f64; model::JOINTS]> = (0..n).map(|_| random_q(&mut rng)).collect();
+    qs.iter()
+        .zip(crate::dataset::approaches(&qs))
+        .enumerate()
+        .map(|(i, (q, approach))| Sample {
             id: i as u32,
-            q: random_q(&mut rng),
+            q: *q,
             load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
             target: 0,
+            approach,
         })
         .collect()
 }
@@ -75,6 +80,7 @@ pub fn measure_rig(rig: &Rig, samples: &[Sample]) -> Vec<Measurement> {
             load_kg: s.load_kg,
             position,
             target: rig.targets.name_at(s.target),
+            approach: s.approach,
         })
         .collect()
 }

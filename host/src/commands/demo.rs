@@ -1,14 +1,17 @@
 //! `lrmcal demo`: the whole method on the bundled arm with no files of your
-//! own: plan the candidates, simulate a true arm measured under no load and
-//! 66.3 g, select N poses per option with DETMAX, identify, validate on the
-//! rest, check across loads, compare with random selections, and write the
-//! calibrations, the report and the plots to one folder.
+//! own: plan the candidates (the grid and random poses off it), simulate a
+//! true arm measured under no load and 66.3 g, select N poses per option with
+//! DETMAX, identify, validate on the rest and on poses off the grid, check
+//! across loads, compare with random selections, and write the calibrations,
+//! the report and the plots to one folder.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::calib::detmax::DetmaxOptions;
-use crate::calib::experiments::{O1_SIZES, o1_vs_poses, random_baseline};
+use crate::calib::experiments::{
+    GridErrors, O1_SIZES, grid_and_off_grid, o1_vs_poses, random_baseline,
+};
 use crate::calib::export::calibration_file;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
@@ -20,11 +23,20 @@ use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::calibration_file::ValidationSummary;
 use crate::io::measurements;
-use crate::plan::{PlanConfig, candidates};
+use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
 use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
 
 /// The paper's payload, kg.
 const PAPER_LOAD_KG: f64 = 0.0663;
+
+/// Poses off the grid every option is validated on, none of them a candidate.
+pub const OFF_GRID_POSES: usize = 200;
+
+/// Seed of the off-grid validation poses (the candidates' is another).
+pub const OFF_GRID_SEED: u64 = 2024;
+
+/// Ids of the off-grid validation poses start here, far from any candidate's.
+pub const OFF_GRID_FIRST_ID: u32 = 1_000_000;
 
 /// Run the whole calibration on a simulated arm and write everything it produces.
 #[derive(Debug, clap::Args)]
@@ -33,7 +45,7 @@ lrmcal demo\n  \
 lrmcal demo --out my-demo --seed 7\n  \
 lrmcal demo --model-only      # no unmodelled effects, no noise: a consistency check\n\n\
 Writes to the output folder: measurements.csv (every candidate under both loads), \
-truth.json (the simulated true arm), calibration-<option>.json (one per option, the file \
+off-grid.csv (the off-grid validation poses), truth.json (the simulated true arm), calibration-<option>.json (one per option, the file \
 the firmware receives), report.json, and the plots errors.svg/png (validation error \
 per option), errors-cross-load.svg/png, per-pose.svg/png, o1-vs-poses.svg/png and \
 positioning.svg/png (the error at the tool when the board drives the simulated arm to random \
@@ -46,13 +58,16 @@ pub struct Args {
     #[arg(long, default_value_t = DEFAULT_SEED)]
     pub seed: u64,
     /// Poses to select per option.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 60)]
     pub poses: usize,
+    /// Random poses off the grid added to the candidates.
+    #[arg(long, default_value_t = DEFAULT_RANDOM_POSES)]
+    pub random: usize,
     /// DETMAX random starts per option.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
     /// Random selections of as many poses (--poses) to compare DETMAX with
-    /// (elasto-kinematic); 0 skips it.
+    /// (elasto-kinematic-servo); 0 skips it.
     #[arg(long, default_value_t = 20)]
     pub compare_random: usize,
     /// Random tool-point targets the board drives the simulated arm to, for
@@ -81,9 +96,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
         source,
     })?;
 
-    let plan =
-        candidates(&nominal, &PlanConfig::default()).map_err(|source| Error::Plan { source })?;
+    let plan_config = PlanConfig {
+        random: args.random,
+        ..PlanConfig::default()
+    };
+    let plan = candidates(&nominal, &plan_config).map_err(|source| Error::Plan { source })?;
     let poses = plan.kept;
+    let off_grid_poses = random_candidates(
+        &nominal,
+        &PlanConfig::default(),
+        OFF_GRID_POSES,
+        OFF_GRID_SEED,
+        OFF_GRID_FIRST_ID,
+    )
+    .map_err(|source| Error::Plan { source })?;
     let config = if args.model_only {
         SimConfig::model_only()
     } else {
@@ -96,12 +122,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let all = truth
         .measure(&poses, &loads)
         .map_err(|source| Error::Simulate { source })?;
+    let off_grid = truth
+        .measure(&off_grid_poses, &[PAPER_LOAD_KG])
+        .map_err(|source| Error::Simulate { source })?;
     measurements::write(&args.out.join("measurements.csv"), &all)?;
+    measurements::write(&args.out.join("off-grid.csv"), &off_grid)?;
     write_text(&args.out.join("truth.json"), &truth.truth_json())?;
     println!(
-        "{} candidate poses of {} (grid filtered by joint limits and collisions); true arm seed {}{}",
+        "{} candidate poses ({} of the {} grid poses clear of the joint limits and collisions, {} random ones off the grid); true arm seed {}{}",
         poses.len(),
+        poses.len() - args.random.min(poses.len()),
         plan.grid_size,
+        args.random,
         args.seed,
         if args.model_only {
             ", model-only (no unmodelled effects, no noise)"
@@ -139,13 +171,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
         other_load_kg: Some(PAPER_LOAD_KG),
         ..settings.clone()
     };
-    let reverse = calibrate_option(&inputs, ModelOption::ElastoKinematic, &unloaded, &bar)?;
+    let reverse = calibrate_option(&inputs, ModelOption::DEFAULT, &unloaded, &bar)?;
     let ek = results
         .iter()
-        .find(|r| r.option() == ModelOption::ElastoKinematic)
+        .find(|r| r.option() == ModelOption::DEFAULT)
         .ok_or_else(|| CalibError::Empty {
-            what: "run the elasto-kinematic option".into(),
+            what: format!("run the {} option", ModelOption::DEFAULT),
         })?;
+    let grid_errors = results
+        .iter()
+        .map(|r| grid_and_off_grid(&inputs, r, plan.grid_size, &off_grid))
+        .collect::<Result<Vec<GridErrors>, CalibError>>()?;
 
     let mut report = Report::new(
         loaded.origin.clone(),
@@ -213,10 +249,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(line) = reversed.first().and_then(summary::cross_load) {
         println!("{line}");
     }
-    if let Some(ek) = forward
-        .iter()
-        .find(|o| o.option == ModelOption::ElastoKinematic)
-    {
+    println!(
+        "\nOn the grid (its poses not selected) and off it ({} random poses), {PAPER_LOAD_KG} kg (mean 3D error):",
+        off_grid.len()
+    );
+    print!("{}", summary::grid_table(&grid_errors));
+    if let Some(ek) = forward.iter().find(|o| o.option == ModelOption::DEFAULT) {
         println!("\n{}", summary::identifiable(ek));
         println!("{}", summary::selection(ek));
         if let Some(b) = &report.random_baseline {
@@ -235,7 +273,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         print!("{}", positioning::table(rows));
     }
     println!(
-        "\nwrote {} (calibration-*.json, report.json, measurements.csv, truth.json, {} plots) in {:.1} s",
+        "\nwrote {} (calibration-*.json, report.json, measurements.csv, off-grid.csv, truth.json, {} plots) in {:.1} s",
         args.out.display(),
         plot_files.len(),
         started.elapsed().as_secs_f64()

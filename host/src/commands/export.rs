@@ -14,7 +14,7 @@ use crate::io::urdf::{self, UrdfOptions};
 /// Export an arm for other tools.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
-lrmcal export --urdf --calibration cal/calibration-elasto-kinematic.json --out arm.urdf\n  \
+lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --out arm.urdf\n  \
 lrmcal export --urdf --arm my_arm.toml > nominal.urdf\n\n\
 The URDF chain is world -> base_link -> link_1..link_6 (revolute joint_1..joint_6) -> \
 flange -> tool0 -> tool_point. Joint positions are lrmcal's commanded angles in radians, \

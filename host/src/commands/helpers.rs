@@ -51,12 +51,12 @@ impl Progress for Bar {
     }
 }
 
-/// Which options to fit: one, or all three for comparison.
+/// Which options to fit: one, or all of them for comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OptionChoice {
     /// One option.
     One(ModelOption),
-    /// All three.
+    /// Every option: the paper's three and ours.
     All,
 }
 
@@ -68,7 +68,8 @@ impl std::str::FromStr for OptionChoice {
             ("all", _) => Ok(Self::All),
             (_, Some(option)) => Ok(Self::One(option)),
             (_, None) => Err(format!(
-                "unknown model option `{s}`: expected elasto-kinematic, kinematic, elastic or all"
+                "unknown model option `{s}`: expected {} or all",
+                crate::io::model_option::names()
             )),
         }
     }
@@ -85,7 +86,7 @@ impl std::fmt::Display for OptionChoice {
 }
 
 impl OptionChoice {
-    /// The options to run, in the paper's table order.
+    /// The options to run, in the table order (the paper's, then ours).
     pub fn options(self) -> Vec<ModelOption> {
         match self {
             Self::One(o) => vec![o],
@@ -110,12 +111,17 @@ mod tests {
         }
         assert_eq!(
             "all".parse::<OptionChoice>().map(|c| c.options().len()),
-            Ok(3)
+            Ok(4)
         );
         for choice in [OptionChoice::All, OptionChoice::One(ModelOption::Elastic)] {
             assert_eq!(choice.to_string().parse(), Ok(choice));
         }
         let e = "rigid".parse::<OptionChoice>().unwrap_err();
-        assert!(e.contains("rigid") && e.contains("elasto-kinematic, kinematic, elastic or all"));
+        assert!(
+            e.contains("rigid")
+                && e.contains(
+                    "kinematic, elastic, elasto-kinematic or elasto-kinematic-servo or all"
+                )
+        );
     }
 }

@@ -70,7 +70,9 @@ pub struct Args {
     /// Use exactly the poses of this pose list.
     #[arg(long, value_name = "FILE")]
     pub poses: Option<PathBuf>,
-    /// Model option: elasto-kinematic, kinematic, elastic or all.
+    /// Model option: elasto-kinematic-servo (each servo's own curve, backlash
+    /// and stiffening too), elasto-kinematic, kinematic, elastic (the paper's
+    /// three) or all.
     #[arg(long, default_value_t = OptionChoice::One(crate::calib::option::DEFAULT))]
     pub option: OptionChoice,
     /// Load whose measurements the fit uses, kg.

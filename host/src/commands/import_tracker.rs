@@ -9,7 +9,7 @@
 use std::path::PathBuf;
 
 use crate::commands::measure::{non_negative, positive};
-use crate::dataset::Measurement;
+use crate::dataset::{FROM_HOME, Measurement};
 use crate::error::Error;
 use crate::io::{measurements, pose_list, read_text};
 use crate::tracker::TrackerError;
@@ -112,6 +112,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
             load_kg: args.load_kg.or(row.load_kg).unwrap_or(0.0),
             position: turn * period.position,
             target: None,
+            // The take's still periods are in the order the poses were
+            // visited; the file's readers work the approach out from it.
+            approach: FROM_HOME,
         })
         .collect();
     measurements::write(&args.out, &rows)?;

@@ -19,7 +19,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
 
-use crate::dataset::{Measurement, Pose};
+use crate::dataset::{FROM_HOME, Measurement, Pose};
 use crate::device::DeviceArgs;
 use crate::error::Error;
 use crate::io::{measurements, pose_list};
@@ -331,11 +331,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
         bar.set_message(format!("pose {}", pose.id));
         arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
         let position = tracker.next(pose.id, &bar)?;
+        // Appended in the order visited: the file's readers work out from
+        // it which way each joint arrived (its backlash's side).
         done.push(Measurement {
             pose,
             load_kg,
             position,
             target: None,
+            approach: FROM_HOME,
         });
         measurements::write(out, &done)?;
         bar.inc(1);
@@ -439,6 +442,7 @@ mod tests {
             load_kg: 0.0,
             position: Vector3::zeros(),
             target: None,
+            approach: FROM_HOME,
         }];
         let left: Vec<(u32, f64)> = remaining(&poses, &done)
             .iter()

@@ -7,7 +7,7 @@ use crate::dataset::PoseRow;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
 use crate::io::pose_list;
-use crate::plan::{Levels, PlanConfig, candidates};
+use crate::plan::{DEFAULT_RANDOM_POSES, DEFAULT_RANDOM_SEED, Levels, PlanConfig, candidates};
 
 /// Generate the candidate poses: a grid of joint levels, filtered for safety.
 #[derive(Debug, clap::Args)]
@@ -38,6 +38,14 @@ pub struct Args {
     /// comma-separated angles in degrees; the same for every joint.
     #[arg(long, value_name = "N|DEG,...", default_value_t = Levels::paper(), allow_hyphen_values = true)]
     pub levels: Levels,
+    /// Random poses off the grid to add (over ±100°, kept when clear of the
+    /// limits and collisions): they let the servo curves be identified
+    /// between the grid's angles.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_RANDOM_POSES)]
+    pub random: usize,
+    /// Seed of the random poses.
+    #[arg(long, default_value_t = DEFAULT_RANDOM_SEED)]
+    pub seed: u64,
     /// Height of the ground plane in the world (measurement) frame, mm
     /// [default: the arm file's `[collision] floor`, else 0].
     #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = finite)]
@@ -75,6 +83,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
     let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
     config.levels = args.levels.clone();
+    config.random = args.random;
+    config.seed = args.seed;
     if args.no_ground {
         config.ground_z_m = None;
     } else if let Some(z) = args.ground_z_mm {

@@ -1,12 +1,14 @@
 //! `lrmcal predict`: where an arm (nominal or calibrated) puts its tool point
-//! for each pose of a list, elastic deflection under the load included.
+//! for each pose of a list, elastic deflection under the load included, and
+//! the joints' backlash with the poses visited in the list's order.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use model::SolverOptions;
+use model::backlash::settled;
+use model::{JOINTS, SolverOptions};
 
-use crate::dataset::Prediction;
+use crate::dataset::{Prediction, approaches};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
 use crate::io::{pose_list, predictions};
@@ -64,7 +66,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // A prediction file holds one position per pose id: the same pose listed
     // under several loads needs one load for all (`--load-kg`).
     let mut load_of = HashMap::new();
-    for row in rows.iter().map(|l| &l.row) {
+    // The poses are visited in the file's order: a joint with play stands
+    // short of or beyond its command by half the play, the way it arrived.
+    let ways = approaches(rows.iter().map(|l| &l.row.pose.q));
+    for (row, way) in rows.iter().map(|l| &l.row).zip(ways) {
         let id = row.pose.id;
         let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
         match load_of.insert(id, load_kg) {
@@ -77,8 +82,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
             Some(_) => continue,
             None => {}
         }
+        let q: [f64; JOINTS] =
+            std::array::from_fn(|j| settled(row.pose.q[j], arm.arm.joints[j].backlash, way[j]));
         let position = chain
-            .tool_point(&row.pose.q, load_kg, &options)
+            .tool_point(&q, load_kg, &options)
             .map_err(|reason| Error::Model {
                 pose: id,
                 load_kg,

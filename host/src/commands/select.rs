@@ -31,10 +31,11 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub candidates: PathBuf,
     /// Poses to select.
-    #[arg(long, default_value_t = 50)]
+    #[arg(long, default_value_t = 60)]
     pub n: usize,
-    /// Model option: elasto-kinematic, kinematic, elastic or all.
-    #[arg(long, default_value = "elasto-kinematic")]
+    /// Model option: elasto-kinematic-servo (each servo's own curve too),
+    /// elasto-kinematic, kinematic, elastic (the paper's three) or all.
+    #[arg(long, default_value = "elasto-kinematic-servo")]
     pub option: OptionChoice,
     /// Loads each pose will be measured under, kg (repeat or comma-separate).
     #[arg(long, value_name = "KG", value_delimiter = ',', default_values_t = [0.0663])]

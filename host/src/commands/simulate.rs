@@ -8,7 +8,7 @@ use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
 use crate::io::{measurements, pose_list};
-use crate::plan::{PlanConfig, candidates};
+use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
 use crate::sim::{DEFAULT_SEED, Pass, SimConfig, TrueArm};
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
@@ -245,7 +245,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
 /// The poses to measure under each load, in order.
 fn passes(args: &Args, arm: &LoadedArm) -> Result<Vec<(f64, Vec<Pose>)>, Error> {
     let Some(path) = &args.poses else {
-        let plan = candidates(&arm.arm, &PlanConfig::for_arm(&arm.arm, &arm.collision)?)?;
+        // `lrmcal plan`'s defaults: the grid and the random poses off it.
+        let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
+        config.random = DEFAULT_RANDOM_POSES;
+        let plan = candidates(&arm.arm, &config)?;
         let loads = args.loads.clone().unwrap_or(DEFAULT_LOADS_KG.to_vec());
         return Ok(loads.into_iter().map(|l| (l, plan.kept.clone())).collect());
     };

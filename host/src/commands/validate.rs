@@ -16,7 +16,7 @@ use crate::io::measurements;
 /// Check a calibration against measurements it was not identified from.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
-lrmcal validate --calibration cal/calibration-elasto-kinematic.json --measurements other.csv\n  \
+lrmcal validate --calibration cal/calibration-elasto-kinematic-servo.json --measurements other.csv\n  \
 lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated), and names the measurements whose error \

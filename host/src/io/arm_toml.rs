@@ -387,7 +387,9 @@ impl Checker<'_> {
             mass: self.non_negative(&k("mass"), &raw.mass, "a mass >= 0 kg")?,
             com: self.finite_array(&k("com"), &raw.com)?,
             servo,
+            // Play and softening are found by calibration, not described.
             backlash: 0.0,
+            softening: 0.0,
         })
     }
 }
@@ -737,6 +739,7 @@ impl RawArm {
                 &self.base.compliance,
                 "a compliance >= 0 rad/Nm",
             )?,
+            base_softening: 0.0,
             tool: c.frame("tool", &self.tool.xyz, &self.tool.rpy)?,
             payload_com: c.finite_array("payload.com", &self.payload.com)?,
             joints: joints.try_into().expect("length checked above"),

@@ -1,8 +1,7 @@
 //! What the JSON files `lrmcal` writes have in common: pretty text, a schema
 //! name and version that a reader checks before anything else, errors that
 //! name the line and the key (`arm.joints[3].compliance`, array positions
-//! counted from 1 as everywhere in messages), and the spelling of a model
-//! option.
+//! counted from 1 as everywhere in messages).
 //!
 //! A JSON format is a module of [`crate::io`] with plain serde structs, its
 //! `SCHEMA` and `SCHEMA_VERSION`, and `parse`/`read` built on [`parse`]; the
@@ -124,27 +123,4 @@ fn json_error(error: &serde_json::Error, key: Option<String>) -> InputError {
         },
         Problem::Syntax { message },
     )
-}
-
-/// A [`protocol::ModelOption`] in JSON files: its stable name
-/// (`"elasto-kinematic"`, `"kinematic"`, `"elastic"`), as on the command line.
-/// Use with `#[serde(with = "crate::io::json::model_option")]`.
-pub mod model_option {
-    use protocol::ModelOption;
-    use serde::{Deserialize, Deserializer, Serializer, de::Error};
-
-    /// Writes the option's name.
-    pub fn serialize<S: Serializer>(option: &ModelOption, s: S) -> Result<S::Ok, S::Error> {
-        s.serialize_str(option.name())
-    }
-
-    /// Reads an option by name.
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<ModelOption, D::Error> {
-        let name = String::deserialize(d)?;
-        ModelOption::from_name(&name).ok_or_else(|| {
-            D::Error::custom(format!(
-                "unknown model option `{name}`: expected elasto-kinematic, kinematic or elastic"
-            ))
-        })
-    }
 }

@@ -8,7 +8,9 @@ use std::path::Path;
 
 use nalgebra::Vector3;
 
-use crate::dataset::{MAX_TARGETS, Measurement, Pose, TARGET_NAME_MAX, TargetName};
+use crate::dataset::{
+    FROM_HOME, MAX_TARGETS, Measurement, Pose, TARGET_NAME_MAX, TargetName, visiting_order,
+};
 use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
     Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg, format_mm,
@@ -86,9 +88,12 @@ pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
             load_kg,
             position: Vector3::from(mm) / 1000.0,
             target,
+            approach: FROM_HOME,
         });
         Ok(())
     })?;
+    // The rows are in the order the poses were visited (the format's contract).
+    visiting_order(&mut out);
     Ok(out)
 }
 

@@ -17,6 +17,7 @@ pub mod calibration_file;
 mod csv_table;
 pub mod json;
 pub mod measurements;
+pub mod model_option;
 pub mod pose_list;
 pub mod predictions;
 pub mod urdf;

@@ -18,6 +18,7 @@
 //! | `volumes` | the bodies on the model's frames, which pairs are tested, the floor and self-collision tests |
 
 mod grid;
+pub mod random;
 mod spec;
 mod volumes;
 
@@ -52,6 +53,11 @@ pub struct PlanConfig {
     /// The arm's bodies; `None` (the default): the skeleton of whichever arm
     /// the frames belong to ([`BodySet::skeleton`]).
     pub bodies: Option<BodySet>,
+    /// Random poses off the grid to add, drawn over ±100° and kept when they
+    /// pass the same tests (see [`random`]). Default 0: the grid alone.
+    pub random: usize,
+    /// Seed of the random poses.
+    pub seed: u64,
 }
 
 impl Default for PlanConfig {
@@ -61,9 +67,19 @@ impl Default for PlanConfig {
             ground_z_m: Floor::default().z_m(),
             clearance_m: DEFAULT_CLEARANCE_M,
             bodies: None,
+            random: 0,
+            seed: DEFAULT_RANDOM_SEED,
         }
     }
 }
+
+/// Seed of the random candidate poses unless told otherwise.
+pub const DEFAULT_RANDOM_SEED: u64 = 7;
+
+/// Random poses off the grid `lrmcal plan` (and `simulate` without a pose
+/// list) adds to the grid unless told otherwise: they let the servo curves
+/// be identified between the grid's angles (see `docs/METHOD.md`).
+pub const DEFAULT_RANDOM_POSES: usize = 400;
 
 /// Why a grid pose was dropped (the first test it failed).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
@@ -100,7 +116,8 @@ pub struct Dropped {
 pub struct PlanReport {
     /// Poses in the grid.
     pub grid_size: usize,
-    /// The surviving poses, in grid order, with their grid ids.
+    /// The surviving poses, in grid order, with their grid ids, then the
+    /// random ones (ids from `grid_size` on).
     pub kept: Vec<Pose>,
     /// The dropped poses, in grid order.
     pub dropped: Vec<Dropped>,
@@ -147,13 +164,19 @@ impl PlanReport {
 }
 
 impl fmt::Display for PlanReport {
-    /// A short human summary: survivors, and drops per reason.
+    /// A short human summary: survivors, drops per reason, random poses added.
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let c = self.counts();
+        // Random poses have ids after the grid's.
+        let random = self
+            .kept
+            .iter()
+            .filter(|p| p.id as usize >= self.grid_size)
+            .count();
         writeln!(
             f,
             "{} of {} grid poses kept, {} dropped:",
-            self.kept.len(),
+            self.kept.len() - random,
             self.grid_size,
             self.dropped.len()
         )?;
@@ -162,6 +185,12 @@ impl fmt::Display for PlanReport {
         writeln!(f, "  self-collision: {:>7}", c.self_collision)?;
         for (reason, n) in self.detailed_counts() {
             writeln!(f, "    {n:>7}  {reason}")?;
+        }
+        if random > 0 {
+            writeln!(
+                f,
+                "{random} random poses off the grid added, clear of the limits and collisions"
+            )?;
         }
         Ok(())
     }
@@ -247,28 +276,50 @@ impl PlanConfig {
     }
 }
 
-/// Builds the candidate grid and filters it on the nominal arm.
-pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, PlanError> {
+/// `config` with its bodies placed for `arm` (the skeleton when it has none:
+/// the same in every pose, so placed once), after checking both.
+fn placed(
+    arm: &Arm<f64>,
+    chain: &model::Chain<f64>,
+    config: &PlanConfig,
+) -> Result<PlanConfig, PlanError> {
     config.check()?;
     if !arm.is_finite() {
         return Err(PlanError::NominalNotFinite);
     }
-    let chain = arm.chain();
-    // The skeleton is the same in every pose: place it once.
-    let skeleton;
-    let config = match config.bodies {
-        Some(_) => config,
-        None => {
-            skeleton = PlanConfig {
-                bodies: Some(BodySet::skeleton(
-                    &chain.frames(&[0.0; model::JOINTS], 0.0),
-                    None,
-                )),
-                ..config.clone()
-            };
-            &skeleton
-        }
+    let bodies = match &config.bodies {
+        Some(b) => b.clone(),
+        None => BodySet::skeleton(&chain.frames(&[0.0; model::JOINTS], 0.0), None),
     };
+    Ok(PlanConfig {
+        bodies: Some(bodies),
+        ..config.clone()
+    })
+}
+
+/// `count` random poses off the grid that pass `config`'s tests on `arm`,
+/// drawn with `seed`, ids from `first_id` on (see [`random`]): the poses
+/// `candidates` adds, or a validation set of poses none of the grid's.
+pub fn random_candidates(
+    arm: &Arm<f64>,
+    config: &PlanConfig,
+    count: usize,
+    seed: u64,
+    first_id: u32,
+) -> Result<Vec<Pose>, PlanError> {
+    let chain = arm.chain();
+    let config = placed(arm, &chain, config)?;
+    Ok(random::random_poses(
+        arm, &chain, &config, count, seed, first_id,
+    ))
+}
+
+/// Builds the candidate grid and filters it on the nominal arm, then adds
+/// `config.random` random poses.
+pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, PlanError> {
+    let chain = arm.chain();
+    let placed = placed(arm, &chain, config)?;
+    let config = &placed;
     let mut report = PlanReport {
         grid_size: config.levels.grid_size(),
         kept: Vec::new(),
@@ -280,6 +331,15 @@ pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, Pla
             Some(reason) => report.dropped.push(Dropped { pose, reason }),
         }
     }
+    let first_id = u32::try_from(report.grid_size).unwrap_or(u32::MAX);
+    report.kept.extend(random::random_poses(
+        arm,
+        &chain,
+        config,
+        config.random,
+        config.seed,
+        first_id,
+    ));
     Ok(report)
 }
 

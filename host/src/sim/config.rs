@@ -57,7 +57,7 @@ pub struct SimConfig {
     /// Full width of the direction-dependent play of each joint, rad: a joint
     /// that reached its pose moving up stops half a width short, moving down
     /// half a width beyond (per-servo widths drawn in 0.5..1.5 × this). See
-    /// [`super::approach_directions`] for how the direction is found.
+    /// [`crate::dataset::approaches`] for how the direction is found.
     /// Default 0.5° (a hobby servo's dead band of a few µs, plus horn play).
     /// 0 switches it off.
     pub backlash_rad: f64,

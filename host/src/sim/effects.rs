@@ -10,8 +10,6 @@
 use model::{Arm, Deflection, DeflectionError, JOINTS, SolverOptions};
 use serde::{Deserialize, Serialize};
 
-use crate::dataset::Pose;
-
 /// A servo's smooth angle error: `e(q) = sine sin(omega q + phase) + cubic (q / 100°)³`.
 ///
 /// The servo curve of the method is two straight lines, so any error that is a
@@ -35,34 +33,6 @@ impl ServoError {
         let x = q / 100f64.to_radians();
         self.sine_rad * (self.omega * q + self.phase_rad).sin() + self.cubic_rad * x * x * x
     }
-}
-
-/// The direction in which each joint last moved to reach each pose: `+1.0` up
-/// (increasing angle), `-1.0` down.
-///
-/// How the approach is modelled: the poses are visited in the order given,
-/// starting from the home pose `q = 0` which every joint is taken to have
-/// reached moving up. A joint whose commanded angle rises to the next pose
-/// approaches it from below (`+1`), one whose angle falls from above (`-1`),
-/// and one that does not move keeps the direction it had, because it stays
-/// where it stopped.
-pub fn approach_directions(poses: &[Pose]) -> Vec<[f64; JOINTS]> {
-    let mut previous = [0.0; JOINTS];
-    let mut direction = [1.0; JOINTS];
-    poses
-        .iter()
-        .map(|pose| {
-            for i in 0..JOINTS {
-                if pose.q[i] > previous[i] {
-                    direction[i] = 1.0;
-                } else if pose.q[i] < previous[i] {
-                    direction[i] = -1.0;
-                }
-            }
-            previous = pose.q;
-            direction
-        })
-        .collect()
 }
 
 /// Largest change of any angle between two outer iterations of the softened
@@ -124,24 +94,6 @@ pub fn softened_deflection(
 mod tests {
     use super::*;
     use crate::sim::test_support::bundled_arm;
-
-    fn pose(id: u32, q: [f64; JOINTS]) -> Pose {
-        Pose { id, q }
-    }
-
-    #[test]
-    fn approach_follows_the_visiting_order() {
-        let poses = [
-            pose(0, [0.5, 0.0, -0.5, 0.0, 0.0, 0.0]),
-            pose(1, [0.2, 0.0, -0.5, 0.3, 0.0, 0.0]),
-            pose(2, [0.2, 1.0, 0.0, 0.3, -0.1, 0.0]),
-        ];
-        let d = approach_directions(&poses);
-        assert_eq!(d[0], [1.0, 1.0, -1.0, 1.0, 1.0, 1.0]);
-        // Joint 1 goes down, joint 3 stays (keeps down), joint 4 goes up.
-        assert_eq!(d[1], [-1.0, 1.0, -1.0, 1.0, 1.0, 1.0]);
-        assert_eq!(d[2], [-1.0, 1.0, 1.0, 1.0, -1.0, 1.0]);
-    }
 
     #[test]
     fn servo_error_is_not_piecewise_linear() {

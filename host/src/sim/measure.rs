@@ -1,11 +1,14 @@
 //! Measuring the true arm: commanded poses and loads in, tracker positions out.
 //!
-//! For each load the poses are visited once, in the order given, starting
-//! from home (the order sets the approach direction of every joint, see
-//! [`approach_directions`]). A commanded angle `q` becomes the angle the
-//! servo really drives to, `q + e(q) - dir * b` (smooth servo error `e`, half
-//! play `b`); the model of the true arm deflects that under gravity (with
-//! softened compliances if switched on); the tracker adds Gaussian noise.
+//! For each load the poses are visited once, in the order given, the passes
+//! one after the other, the first starting from home: the rows come out in
+//! visiting order, and the way each joint arrives at each row is
+//! [`crate::dataset::approaches`] of that order, the definition
+//! identification uses on a measurement file. A commanded angle `q` becomes
+//! the angle the servo really drives to, `q + e(q) - s b` (smooth servo
+//! error `e`, half play `b`, `s = ±1` rising or falling); the model of the
+//! true arm deflects that under gravity (with softened compliances if
+//! switched on); the tracker adds Gaussian noise.
 
 use std::collections::HashSet;
 
@@ -16,8 +19,9 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use super::draw::NOISE_STREAM;
-use super::{SimError, TrueArm, approach_directions, softened_deflection};
-use crate::dataset::{Measurement, Pose};
+use super::{SimError, TrueArm, softened_deflection};
+use crate::dataset::{Measurement, Pose, approaches};
+use model::backlash::{Approach, settled};
 
 /// What the simulated tracker saw, and what it would have seen without noise.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,10 +34,14 @@ pub struct Simulation {
 
 impl TrueArm {
     /// The angle each servo really drives to when commanded `q`, having
-    /// approached it in direction `direction` (±1 per joint), rad.
-    pub fn driven_angles(&self, q: &[f64; JOINTS], direction: &[f64; JOINTS]) -> [f64; JOINTS] {
+    /// arrived the way `approach` says, rad.
+    pub fn driven_angles(&self, q: &[f64; JOINTS], approach: &[Approach; JOINTS]) -> [f64; JOINTS] {
         core::array::from_fn(|i| {
-            q[i] + self.servo_errors[i].at(q[i]) - direction[i] * self.backlash_half_rad[i]
+            settled(
+                q[i] + self.servo_errors[i].at(q[i]),
+                2.0 * self.backlash_half_rad[i],
+                approach[i],
+            )
         })
     }
 
@@ -65,7 +73,7 @@ impl TrueArm {
         self.simulate_passes(&passes)
     }
 
-    /// Runs the passes in order; each starts from home (see the module docs
+    /// Runs the passes in order, the first from home (see the module docs
     /// for the effects). Deterministic: the same true arm and passes give the
     /// same numbers (the noise comes from the arm's seed).
     pub fn simulate_passes(&self, passes: &[Pass<'_>]) -> Result<Simulation, SimError> {
@@ -75,9 +83,15 @@ impl TrueArm {
         let capacity = passes.iter().map(|p| p.poses.len()).sum();
         let (mut measurements, mut noise_free) =
             (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
+        let ways = approaches(
+            passes
+                .iter()
+                .flat_map(|p| p.poses.iter().map(|pose| &pose.q)),
+        );
+        let mut ways = ways.into_iter();
         for &Pass { load_kg, poses } in passes {
-            for (pose, direction) in poses.iter().zip(&approach_directions(poses)) {
-                let driven = self.driven_angles(&pose.q, direction);
+            for (pose, approach) in poses.iter().zip(ways.by_ref()) {
+                let driven = self.driven_angles(&pose.q, &approach);
                 let point =
                     self.tool_point(&driven, load_kg)
                         .map_err(|reason| SimError::Model {
@@ -92,6 +106,7 @@ impl TrueArm {
                     load_kg,
                     position: point,
                     target: None,
+                    approach,
                 };
                 noise_free.push(exact);
                 measurements.push(Measurement {

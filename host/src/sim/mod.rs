@@ -19,7 +19,7 @@
 //! |---|---|
 //! | `config` | [`SimConfig`]: error sizes, effect switches and their defaults |
 //! | `draw` | [`TrueArm::draw`]: the seeded true arm |
-//! | `effects` | servo error, approach direction and play, softening stiffness |
+//! | `effects` | servo error, softening stiffness |
 //! | `measure` | [`TrueArm::simulate`] / [`TrueArm::measure`] |
 //! | [`positioning`] | the error at the tool when the board (the firmware library) drives the true arm |
 //! | `truth` | the truth file (JSON): true arm and the 43 errors by name |
@@ -33,7 +33,7 @@ mod truth;
 
 pub use config::SimConfig;
 pub use draw::TrueArm;
-pub use effects::{ServoError, approach_directions, softened_deflection};
+pub use effects::{ServoError, softened_deflection};
 pub use measure::{Pass, Simulation};
 pub use truth::TRUTH_SCHEMA;
 

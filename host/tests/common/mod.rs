@@ -29,3 +29,9 @@ pub fn text(out: &Output) -> String {
 pub fn p(path: &Path) -> &str {
     path.to_str().expect("utf-8 path")
 }
+
+/// The file `identify` writes for its default model option.
+#[allow(dead_code)]
+pub fn default_calibration_file() -> String {
+    format!("calibration-{}.json", host::calib::option::DEFAULT.name())
+}

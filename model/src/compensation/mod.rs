@@ -8,7 +8,9 @@
 //! For given `qa` and base tilt `beta` the chain is rigid, so the position
 //! Jacobian is exact and cheap, and the command that produces `qa` follows
 //! from the elastic equation without any inner iteration:
-//! `q = qa − K τ(qa, beta)`, with `beta = k0 τ0(qa, beta)` updated alongside.
+//! `q = qa − K τ(qa, beta)`, with `beta = k0 τ0(qa, beta)` updated alongside
+//! (each spring softening as the arm says: `k (1 + s |τ|) τ` for `k τ`, the
+//! one model identification fits, see `crate::elastic`).
 //! The arm has 6 joints for 3 equations; of all deflected configurations that
 //! reach the point, the iteration converges to the one closest to the nominal
 //! command — the arm ends up shaped as nearly as possible as the user asked —
@@ -45,7 +47,7 @@ pub use slope::Slope;
 
 use nalgebra::Vector3;
 
-use crate::elastic::DeflectionError;
+use crate::elastic::{DeflectionError, yield_of};
 use crate::kinematics::{Chain, untilt};
 use crate::statics::Statics;
 use crate::{JOINTS, Real, real};
@@ -102,7 +104,7 @@ pub struct Evaluation<T: Real> {
     pub state: Compensation<T>,
     /// The arm at the state, as each joint sees it.
     statics: Statics<T>,
-    /// `k0 τ0 − beta`, rad.
+    /// `k0 (1 + s0 |τ0|) τ0 − beta`, rad.
     beta_residual: T,
     /// Target minus tool point, frame 0, m.
     error: Vector3<T>,
@@ -114,7 +116,7 @@ pub struct Evaluation<T: Real> {
 
 impl<T: Real> Chain<T> {
     /// The state with deflected angles `qa` and base tilt `beta`: the command
-    /// that produces it, `q = qa − K τ(qa, beta)`, and how far its tool point
+    /// that produces it, `q = qa − k (1 + s |τ|) τ` joint by joint, and how far its tool point
     /// is from `target`, given in the base frame ([`Chain::to_base`]).
     /// One sweep of [`Chain::statics`], no iteration.
     pub fn evaluate(
@@ -127,7 +129,7 @@ impl<T: Real> Chain<T> {
     ) -> Result<Evaluation<T>, DeflectionError> {
         let statics = self.statics(&qa, beta, payload_kg);
         let tau = statics.torques;
-        let beta_residual = self.base_compliance * tau.base - beta;
+        let beta_residual = yield_of(self.base_compliance, self.base_softening, tau.base) - beta;
         // The tool point relative to the base, in frame 0, is also the tilt's lever.
         let lever = statics.tool_points[0];
         let error = untilt(target, statics.tilt_sin_cos) - lever;
@@ -137,7 +139,10 @@ impl<T: Real> Chain<T> {
             return Err(DeflectionError::NotFinite);
         }
         let state = Compensation {
-            q: core::array::from_fn(|i| qa[i] - self.links[i].compliance * tau.joints[i]),
+            q: core::array::from_fn(|i| {
+                let link = &self.links[i];
+                qa[i] - yield_of(link.compliance, link.softening, tau.joints[i])
+            }),
             qa,
             beta,
             error_m,
@@ -285,6 +290,83 @@ mod tests {
         }
     }
 
+    /// The calibrated arm with every spring, the base's too, softening by `s` 1/Nm.
+    fn softened(mut arm: crate::Arm<f64>, s: f64) -> crate::Arm<f64> {
+        arm.base_softening = s;
+        arm.joints.iter_mut().for_each(|j| j.softening = s);
+        arm
+    }
+
+    /// With softening springs the commands put the softened arm, deflected as
+    /// `crate::elastic` (identification's model) deflects it, on the target;
+    /// a compensation for linear springs misses it.
+    #[test]
+    fn softened_arm_commanded_by_its_compensation_reaches_the_target() {
+        let mut rng = StdRng::seed_from_u64(11);
+        let nominal = lrm_like_arm::<f64>().chain();
+        let arm = perturbed(&mut rng);
+        let soft = softened(arm, 0.8).chain();
+        let linear = arm.chain();
+        let opts = CompensationOptions {
+            tolerance_m: 1e-9,
+            ..Default::default()
+        };
+        let solver = crate::SolverOptions {
+            tolerance: 1e-13,
+            ..Default::default()
+        };
+        let (mut solved, mut worst_linear) = (0, 0.0f64);
+        while solved < 200 {
+            let q: [f64; 6] = random_q(&mut rng);
+            if q[2].abs() < 0.3 {
+                continue;
+            }
+            solved += 1;
+            let target = nominal.tool_point(&q, 0.0663, &solver).unwrap();
+            let c = soft.compensate(&q, &target, 0.0663, None, &opts).unwrap();
+            assert!(c.converged, "{q:?}: {c:?}");
+            let reached = soft.tool_point(&c.q, 0.0663, &solver).unwrap();
+            assert!(
+                (reached - target).norm() < 1e-8,
+                "{q:?}: {reached} vs {target}"
+            );
+            let l = linear.compensate(&q, &target, 0.0663, None, &opts).unwrap();
+            let missed = soft.tool_point(&l.q, 0.0663, &solver).unwrap();
+            worst_linear = worst_linear.max((missed - target).norm());
+        }
+        assert!(
+            worst_linear > 1e-4,
+            "linear springs' commands miss by {worst_linear:e} m"
+        );
+    }
+
+    /// At zero softening the command is `qa − k τ` bit for bit, as it was for
+    /// linear springs; any softening changes it where there is torque.
+    #[test]
+    fn zero_softening_is_the_linear_spring_bit_for_bit() {
+        let arm = lrm_like_arm::<f64>();
+        let (qa, beta, payload) = ([0.3, 0.7, -0.9, 0.4, 1.1, -0.2], 0.01, 0.0663);
+        let target = Vector3::new(0.2, 0.1, 0.3);
+        let linear = arm.chain();
+        let state = linear.evaluate(qa, beta, &target, payload, 1e-6).unwrap();
+        let tau = linear.statics(&qa, beta, payload).torques;
+        for (i, (joint, q)) in arm.joints.iter().zip(state.state.q).enumerate() {
+            let expected = qa[i] - joint.compliance * tau.joints[i];
+            assert_eq!(q.to_bits(), expected.to_bits(), "joint {i}");
+        }
+        assert_eq!(
+            state.beta_residual.to_bits(),
+            (arm.base_compliance * tau.base - beta).to_bits()
+        );
+        let soft = softened(arm, 1e-3).chain();
+        let softened_state = soft.evaluate(qa, beta, &target, payload, 1e-6).unwrap();
+        // Joints under torque (joint 1's axis is vertical: none on it).
+        for i in (0..JOINTS).filter(|&i| tau.joints[i].abs() > 1e-6) {
+            assert_ne!(softened_state.state.q[i], state.state.q[i], "joint {i}");
+        }
+        assert_ne!(softened_state.beta_residual, state.beta_residual);
+    }
+
     /// Whatever the pose (stretched, singular wrist, out of reach), the answer
     /// is never further from the target than the nominal command was.
     #[test]
@@ -407,10 +489,17 @@ mod tests {
     }
 
     /// Seen from a moved target, a state's error is the one a fresh evaluation
-    /// there gives, and its slope's tilt gain predicts how the base tilt's fixed point moves.
+    /// there gives, and its slope's tilt gain predicts how the base tilt's fixed
+    /// point moves, with linear, softening and stiffening springs.
     #[test]
     fn retarget_and_tilt_change_match_a_fresh_evaluation() {
-        let chain = lrm_like_arm::<f64>().chain();
+        for s in [0.0, 0.8, -0.05] {
+            retarget_and_tilt_change_with_softening(s);
+        }
+    }
+
+    fn retarget_and_tilt_change_with_softening(softening: f64) {
+        let chain = softened(lrm_like_arm::<f64>(), softening).chain();
         let (qa, payload) = ([0.3, 0.7, -0.9, 0.4, 1.1, -0.2], 0.0663);
         let beta = chain
             .deflect(&qa, payload, &crate::SolverOptions::default())
@@ -432,7 +521,8 @@ mod tests {
         let fixed_beta = |qa: &[f64; 6]| {
             let mut b = beta;
             for _ in 0..50 {
-                b = chain.base_compliance * chain.gravity_torques(qa, b, payload).base;
+                let tau0 = chain.gravity_torques(qa, b, payload).base;
+                b = yield_of(chain.base_compliance, chain.base_softening, tau0);
             }
             b
         };
@@ -441,7 +531,7 @@ mod tests {
         // First order: what is left is second order in dqa.
         assert!(
             (change - predicted).abs() < 0.01 * change.abs(),
-            "{predicted:e} vs {change:e}"
+            "softening {softening}: {predicted:e} vs {change:e}"
         );
     }
 }

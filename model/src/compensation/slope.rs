@@ -4,6 +4,7 @@
 use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
 
 use super::Evaluation;
+use crate::elastic::yield_rate_of;
 use crate::kinematics::Chain;
 use crate::statics::Statics;
 use crate::{JOINTS, Real};
@@ -75,8 +76,10 @@ impl<T: Real> Chain<T> {
 
     /// The base tilt's response to the joints, `(∂beta/∂qa, s)`.
     ///
-    /// Linearising `beta = k0 τ0(qa, beta)` gives `Δbeta = s (r + k0 ∂τ0/∂qa · Δqa)`
-    /// with `s = 1 / (1 − k0 ∂τ0/∂beta)`. Turning joint `c` turns the load
+    /// Linearising `beta = y(τ0(qa, beta))`, `y = k0 (1 + s0 |τ0|) τ0` the
+    /// base spring's yield, gives `Δbeta = s (r + y' ∂τ0/∂qa · Δqa)` with
+    /// `s = 1 / (1 − y' ∂τ0/∂beta)` and `y' = k0 (1 + 2 s0 |τ0|)` its rate
+    /// (`k0` for a linear spring). Turning joint `c` turns the load
     /// beyond it about its axis, so `∂τ0/∂qa_c = (z × v_c) · (g × y0)`, both
     /// in joint `c`'s frame (`g × y0` carried forward from frame 0).
     fn tilt_gain(&self, s: &Statics<T>) -> (Vector6<T>, T) {
@@ -93,9 +96,9 @@ impl<T: Real> Chain<T> {
         // τ0 = (v0 × g0)_y and g0 turns with the tilt: ∂τ0/∂beta = −(y0 × g0)·(y0 × v0).
         let v0 = &s.moments[0];
         let dtau0_dbeta = -(g0.z * v0.z + g0.x * v0.x);
-        let k0 = self.base_compliance;
-        let tilt_scale = T::one() / (T::one() - k0 * dtau0_dbeta);
-        (dtau0_dqa * (tilt_scale * k0), tilt_scale)
+        let rate0 = yield_rate_of(self.base_compliance, self.base_softening, s.torques.base);
+        let tilt_scale = T::one() / (T::one() - rate0 * dtau0_dbeta);
+        (dtau0_dqa * (tilt_scale * rate0), tilt_scale)
     }
 }
 

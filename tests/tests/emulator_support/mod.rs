@@ -328,8 +328,8 @@ impl RawLink {
 
 /// A calibration for the bundled arm with known errors and compliances, so that compensation
 /// has work to do, servo curves of 5 to 9 knots with a bow between them, so that the board
-/// maps angle to pulse through every segment, and play in every joint, so that the board
-/// offsets it; `id` tells two of them apart in `status`.
+/// maps angle to pulse through every segment, play in every joint, so that the board
+/// offsets it, and springs that soften with torque; `id` tells two of them apart in `status`.
 pub fn test_calibration(id: u32) -> protocol::Calibration {
     use model::ParamId;
     let nominal = host::io::arm_source::bundled("lrm")
@@ -357,7 +357,11 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         joint.servo = model::ServoCurve::new(&angles, &pulses).expect("5 to 9 knots");
         // Play of 1° to 3.5° full width: half of it is 4 to 13 µs of pulse.
         joint.backlash = (1.0 + 0.5 * i as f64).to_radians();
+        // Springs that soften with torque, so the board works out the
+        // nonlinear spring (the cycle benchmark's worst case).
+        joint.softening = 0.2 + 0.05 * i as f64;
     }
+    calibrated.base_softening = 0.25;
     let calibration = protocol::Calibration {
         id,
         option: protocol::ModelOption::ElastoKinematic,
