@@ -40,7 +40,7 @@ use model::Arm;
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
 lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --no-robust\n  \
-lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic.json --tool-only\n\n\
+lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic-servo.json --tool-only\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
