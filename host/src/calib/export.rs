@@ -7,6 +7,8 @@ use nalgebra::Vector3;
 
 use super::ParamKey;
 use super::identify::{Estimate, Identified};
+use super::pipeline::OptionResult;
+use super::registration::Registration;
 use super::targets::{Rig, Targets};
 use crate::dataset::TargetName;
 use crate::io::calibration_file::{
@@ -114,6 +116,41 @@ pub fn target_tools(
             validation_after: validation_per_target.get(t).copied(),
         })
         .collect()
+}
+
+/// The calibration file `identify` writes for `result`, fitted from
+/// `nominal` (in the arm file's frame) after `registration`: the arms in the
+/// measurement frame, each target's held-out error, and the registration's
+/// record (`registered` false when the arm file's base was kept).
+pub fn registered_calibration_file(
+    registration: &Registration,
+    registered: bool,
+    nominal: &Arm<f64>,
+    result: &OptionResult,
+) -> CalibrationFile {
+    let load = result.identify_load_kg;
+    let mut cal = calibration_file(
+        &registration.arm_in_measurement_frame(nominal),
+        &registration.identified_in_measurement_frame(nominal, &result.identified),
+        &result.held(),
+        result.pose_ids(),
+        vec![load],
+        result.identified.fit_residual,
+        result.validation.as_ref().map(|v| ValidationSummary {
+            load_kg: load,
+            before: v.before,
+            after: v.after,
+        }),
+    );
+    let per_target = result
+        .validation
+        .as_ref()
+        .map(|v| v.after_per_target(result.identified.rig.targets.len()))
+        .unwrap_or_default();
+    for (target, after) in cal.targets.iter_mut().zip(per_target) {
+        target.validation_after = Some(after);
+    }
+    cal.with_registration(registration.record(registered))
 }
 
 #[cfg(test)]

@@ -55,6 +55,7 @@ pub mod summary;
 pub mod targets;
 #[cfg(test)]
 mod testing;
+pub mod tool_only;
 pub mod validate;
 
 pub use crate::io::model_option::ModelOption;

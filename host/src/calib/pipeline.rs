@@ -144,6 +144,16 @@ pub enum Choice {
     Given(Vec<u32>),
 }
 
+impl Choice {
+    /// How many poses it takes.
+    pub fn poses(&self) -> usize {
+        match self {
+            Self::Detmax(d) => d.n,
+            Self::Given(ids) => ids.len(),
+        }
+    }
+}
+
 impl Selection {
     /// Chooses among `candidates`, whose analysis is `blocks`; a DETMAX
     /// choice reports one progress unit per start.

@@ -57,8 +57,9 @@ use super::checks::IMPLAUSIBLE_M;
 use super::identify::{Estimate, Identified};
 use super::jacobian::tool_points;
 use super::params::ParamKey;
-use super::{CalibError, Rig, Sample};
+use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
+use crate::io::calibration_file::RegistrationRecord;
 
 /// A point farther than this many times the median distance after the
 /// alignment is left out of the next solve.
@@ -95,6 +96,19 @@ pub enum Gravity {
 }
 
 impl Gravity {
+    /// Gravity of `nominal`'s size: along the minus `z` of `up` (the
+    /// measurement frame's rotation that takes `z` to its up axis) when
+    /// given, else along frame 0's `-z` when the base stands level, else
+    /// the arm file's `gravity` read in the measurement frame.
+    pub fn chosen(nominal: &Arm<f64>, up: Option<Rotation3<f64>>, level_base: bool) -> Self {
+        let g = nominal.gravity_vector().norm();
+        match (up, level_base) {
+            (Some(up), _) => Self::Measured(up.inverse() * Vector3::new(0.0, 0.0, -g)),
+            (None, true) => Self::LevelBase(g),
+            (None, false) => Self::Measured(nominal.gravity_vector()),
+        }
+    }
+
     /// Gravity in the arm file's world frame, for the registration `frame`
     /// (world → measurement frame) of `nominal`.
     pub fn in_arm_frame(&self, nominal: &Arm<f64>, frame: &IsometryMatrix3<f64>) -> Vector3<f64> {
@@ -655,6 +669,76 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
         })
 }
 
+/// Coordinates of a rigid motion: what registration takes from the
+/// measurements before the fit sees them.
+pub const REGISTRATION_DOF: usize = 6;
+
+/// Refuses a fit of `params` parameters from `poses` registered poses when
+/// their coordinates (one point a pose) do not also cover the base's place
+/// that registration took from them: three poses register exactly and would
+/// leave the fit nothing to check itself against.
+pub fn check_registered_count(
+    poses: usize,
+    params: usize,
+    option: ModelOption,
+) -> Result<(), CalibError> {
+    // Fewer coordinates than parameters: the selection and the fit refuse
+    // those themselves, with their own counts.
+    if 3 * poses >= params && 3 * poses < params + REGISTRATION_DOF {
+        return Err(CalibError::Registration {
+            problem: format!(
+                "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
+                3 * poses
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// [`super::checks::check_plausible`] on registered measurements: a point
+/// still 150 mm off after the best rigid motion gets the likely cause
+/// ([`diagnose`]) in its message.
+pub fn check_plausible_registered(
+    nominal: &Arm<f64>,
+    measurements: &[Measurement],
+    file: &str,
+) -> Result<(), CalibError> {
+    super::checks::check_plausible(nominal, measurements, file).map_err(|e| match e {
+        CalibError::BadMeasurement {
+            pose,
+            load_kg,
+            file,
+            problem,
+        } => {
+            let hint = diagnose(nominal, measurements).unwrap_or_else(|| GENERIC_HINT.into());
+            CalibError::BadMeasurement {
+                pose,
+                load_kg,
+                file,
+                problem: format!("{problem}; {hint}"),
+            }
+        }
+        other => other,
+    })
+}
+
+impl Registration {
+    /// What the calibration file records of it; `registered` is false when
+    /// the arm file's base was kept (`--no-register`).
+    pub fn record(&self, registered: bool) -> RegistrationRecord {
+        RegistrationRecord {
+            registered,
+            frame: frame_of(&self.frame),
+            base: frame_of(&self.base),
+            gravity: self.gravity.into(),
+            before_rms_m: self.before_rms_m,
+            after_rms_m: self.after_rms_m,
+            trimmed: self.trimmed.iter().map(|(pose, _)| *pose).collect(),
+            tool_m: self.tool.map(Into::into),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -694,6 +778,21 @@ mod tests {
     /// frame (to well below the fit's resolution), carries the gravity
     /// along, and the nominal arm's distance after registration does not
     /// depend on the frame.
+
+    /// Registered poses must give the base's six coordinates on top of the
+    /// parameters; fewer coordinates than parameters are the fit's to refuse.
+    #[test]
+    fn a_registered_fit_needs_six_coordinates_more_than_its_parameters() {
+        let option = ModelOption::ElastoKinematic;
+        let e = check_registered_count(12, 32, option).unwrap_err();
+        assert!(
+            e.to_string().contains("36 coordinates, fewer than the 6")
+                && e.to_string().contains("--no-register"),
+            "{e}"
+        );
+        assert!(check_registered_count(13, 32, option).is_ok());
+        assert!(check_registered_count(10, 32, option).is_ok());
+    }
     #[test]
     fn finds_the_frame_of_the_measurements() {
         let truth = test_arm();

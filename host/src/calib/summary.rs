@@ -3,8 +3,10 @@
 //! `report.json` always tell the same story.
 
 use super::experiments::{GridErrors, RandomBaseline};
+use super::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
+use model::Arm;
 
 /// The paper-style table: option, parameters, mean error before → after,
 /// reduction, and the cross-load reduction when there is one.
@@ -264,6 +266,89 @@ pub fn targets_table(targets: &[TargetTool]) -> String {
         );
     }
     out
+}
+
+/// What `identify` prints of a registration of `nominal`: where the base
+/// stands, how far the arm was from the measurements before and after, the
+/// tool point found or kept, the measurements left out; and a warning when
+/// the base came out tilted.
+pub fn registration(reg: &Registration, nominal: &Arm<f64>) -> (String, Option<String>) {
+    let mm = |v: [f64; 3]| {
+        format!(
+            "({:.1}, {:.1}, {:.1}) mm",
+            v[0] * 1e3,
+            v[1] * 1e3,
+            v[2] * 1e3
+        )
+    };
+    let base = frame_of(&reg.base);
+    let mut lines = vec![
+        format!(
+            "Registered the arm in the measurement frame: base at {}, roll {:.2} pitch {:.2} yaw {:.2} deg",
+            mm(base.xyz),
+            base.rpy[0].to_degrees(),
+            base.rpy[1].to_degrees(),
+            base.rpy[2].to_degrees()
+        ),
+        format!(
+            "  nominal arm to the measurements: {:.1} mm RMS as the arm file places it, {:.1} mm after registration (largest {:.1} mm)",
+            reg.before_rms_m * 1e3,
+            reg.after_rms_m * 1e3,
+            reg.after_max_m * 1e3
+        ),
+        match reg.tool {
+            Some(tool) => format!(
+                "  tool point found with it: {} in frame 6 (the arm file: {}); the fit starts there",
+                mm(tool.into()),
+                mm(nominal.tool.xyz)
+            ),
+            None => format!(
+                "  tool point: the arm file's {} kept; the last link turns too little to find it (turn {:.2}, {:.1} needed: measure poses that turn the wrist)",
+                mm(nominal.tool.xyz),
+                reg.tool_turn,
+                MIN_TOOL_TURN
+            ),
+        },
+    ];
+    if !reg.trimmed.is_empty() {
+        let named: Vec<String> = reg
+            .trimmed
+            .iter()
+            .map(|(pose, load)| format!("pose {pose} ({load} kg)"))
+            .collect();
+        lines.push(format!(
+            "  left out of the registration as far off: {}",
+            named.join(", ")
+        ));
+    }
+    let warning = (reg.base_tilt_rad > TILT_WARNING_RAD).then(|| {
+        format!(
+            "warning: the registered base is tilted {:.0} deg from up (-gravity {:?} m/s² in the measurement frame); if the arm stands level, give the frame's up axis with --up or pass --level-base",
+            reg.base_tilt_rad.to_degrees(),
+            reg.gravity.map(|v| (v * 1e3).round() / 1e3).as_slice()
+        )
+    });
+    (lines.join("\n"), warning)
+}
+
+/// The warning `identify --no-robust` gives when the fit of option `o` to
+/// the measurements of `file` left some far off the others at full weight.
+pub fn unweighted_outliers(o: &OptionReport, file: &str) -> Option<String> {
+    if o.fit.outliers.is_empty() {
+        return None;
+    }
+    let poses: Vec<String> = o
+        .fit
+        .outliers
+        .iter()
+        .map(|x| format!("{} ({:.1} mm)", x.pose, x.residual_mm))
+        .collect();
+    Some(format!(
+        "warning: {}: {} measurements of {file} are far off the others (poses {}) and keep their full weight because of --no-robust; without it they are down-weighted",
+        o.option,
+        poses.len(),
+        poses.join(", ")
+    ))
 }
 
 #[cfg(test)]

@@ -11,24 +11,25 @@
 
 use std::path::PathBuf;
 
-use crate::calib::checks::{
-    check_in_candidates, check_measured, check_plausible, identification_load,
-};
+use crate::calib::checks::{check_in_candidates, check_measured, identification_load};
 use crate::calib::detmax::DetmaxOptions;
-use crate::calib::export::{calibration_file, target_tools};
+use crate::calib::export::registered_calibration_file;
 use crate::calib::identifiability::check_structure;
-use crate::calib::identify::{IdentifyOptions, identify};
+use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
-use crate::calib::registration::{GENERIC_HINT, Gravity, Registration, diagnose, register};
+use crate::calib::registration::{
+    Gravity, Registration, check_plausible_registered, check_registered_count, register,
+};
 use crate::calib::report::Report;
-use crate::calib::targets::{Rig, Targets, tool_keys};
+use crate::calib::targets::Targets;
+use crate::calib::tool_only::retaught;
 use crate::calib::{CalibError, summary};
 use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
 use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::{CalibrationFile, RegistrationRecord, ValidationSummary};
+use crate::io::calibration_file::CalibrationFile;
 use crate::io::{measurements, pose_list};
 use crate::tracker::axes::Up;
 use model::Arm;
@@ -39,7 +40,7 @@ use model::Arm;
 lrmcal identify --measurements m.csv --select 50 --out cal\n  \
 lrmcal identify --measurements m.csv --poses selection.csv --option all --out cal\n  \
 lrmcal identify --measurements m.csv --load-kg 0.0663 --candidates candidates.csv --no-robust\n  \
-lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic.json --tool-only\n\n\
+lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto-kinematic-servo.json --tool-only\n\n\
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
@@ -142,7 +143,23 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
     targets.check_poses(&under_load, &file)?;
     if let Some(path) = &args.calibration {
-        return tool_only(args, path, targets, &under_load, load);
+        let cal = retaught(
+            CalibrationFile::read(path)?,
+            targets,
+            &under_load,
+            load,
+            &identify_options(args),
+        )?;
+        let out = create_out(args)?.join(format!("calibration-{}.json", cal.option));
+        write_text(&out, &cal.to_json())?;
+        println!(
+            "tool points re-taught from {} measurements with the arm of {} held fixed:",
+            under_load.len(),
+            path.display()
+        );
+        print!("{}", summary::targets_table(&cal.targets));
+        println!("  wrote {}", out.display());
+        return Ok(());
     }
     // The nominal arm knows the first target's tool point only: the others
     // may sit anywhere on the flange.
@@ -156,25 +173,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     // are small corrections; the file gets the result in the measurement frame.
     let nominal = registration.arm_for_fit(&nominal);
     let all = registration.to_arm_frame(&all);
-    let first = registration.to_arm_frame(&first);
-    // Still 150 mm off after the best rigid motion: say what to check.
-    check_plausible(&nominal, &first, &file).map_err(|e| match e {
-        CalibError::BadMeasurement {
-            pose,
-            load_kg,
-            file,
-            problem,
-        } => {
-            let hint = diagnose(&nominal, &first).unwrap_or_else(|| GENERIC_HINT.into());
-            CalibError::BadMeasurement {
-                pose,
-                load_kg,
-                file,
-                problem: format!("{problem}; {hint}"),
-            }
-        }
-        other => other,
-    })?;
+    check_plausible_registered(&nominal, &registration.to_arm_frame(&first), &file)?;
     if let Some(path) = &args.candidates {
         let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
         check_in_candidates(&all, &candidates, &file)?;
@@ -197,15 +196,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         identify_load_kg: load,
         other_load_kg: loads.iter().copied().find(|l| *l != load),
         choice,
-        identify: IdentifyOptions {
-            robust: !args.no_robust,
-            ..Default::default()
-        },
+        identify: identify_options(args),
     };
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
-        path: args.out.clone(),
-        source,
-    })?;
+    create_out(args)?;
 
     let inputs = Inputs::new(&nominal, &measured, &all);
     let bar = Bar::new();
@@ -215,7 +208,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
         if !args.no_register {
-            check_registered_count(&settings.choice, blocks.identifiability.kept.len(), option)?;
+            let params = blocks.identifiability.kept.len();
+            check_registered_count(settings.choice.poses(), params, option)?;
         }
         results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
     }
@@ -228,47 +222,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &results,
     );
     for (r, details) in results.iter().zip(&report.options) {
-        let per_target = r
-            .validation
-            .as_ref()
-            .map(|v| v.after_per_target(targets.len()))
-            .unwrap_or_default();
-        let mut cal = calibration_file(
-            &registration.arm_in_measurement_frame(&nominal),
-            &registration.identified_in_measurement_frame(&nominal, &r.identified),
-            &r.held(),
-            r.pose_ids(),
-            vec![load],
-            r.identified.fit_residual,
-            r.validation.as_ref().map(|v| ValidationSummary {
-                load_kg: load,
-                before: v.before,
-                after: v.after,
-            }),
-        );
-        for (target, after) in cal.targets.iter_mut().zip(per_target) {
-            target.validation_after = Some(after);
-        }
-        let cal = cal.with_registration(record(args, &registration));
+        let cal = registered_calibration_file(&registration, !args.no_register, &nominal, r);
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
         if !cal.targets.is_empty() {
             print!("{}", summary::targets_table(&cal.targets));
         }
-        if args.no_robust && !details.fit.outliers.is_empty() {
-            let poses: Vec<String> = details
-                .fit
-                .outliers
-                .iter()
-                .map(|o| format!("{} ({:.1} mm)", o.pose, o.residual_mm))
-                .collect();
-            eprintln!(
-                "warning: {}: {} measurements of {file} are far off the others (poses {}) and keep their full weight because of --no-robust; without it they are down-weighted",
-                r.option(),
-                poses.len(),
-                poses.join(", ")
-            );
+        if args.no_robust
+            && let Some(warning) = summary::unweighted_outliers(details, &file)
+        {
+            eprintln!("{warning}");
         }
         println!("  wrote {}", path.display());
     }
@@ -279,56 +243,31 @@ pub fn run(args: &Args) -> Result<(), Error> {
     Ok(())
 }
 
-/// Coordinates of a rigid motion: what registration takes from the
-/// measurements before the fit sees them.
-const REGISTRATION_DOF: usize = 6;
-
-/// Refuses a fit of `params` parameters from the poses `choice` takes when
-/// their coordinates (one point a pose) do not also cover the base's place
-/// that registration took from them: three poses register exactly and would
-/// leave the fit nothing to check itself against.
-fn check_registered_count(
-    choice: &Choice,
-    params: usize,
-    option: crate::calib::ModelOption,
-) -> Result<(), CalibError> {
-    let poses = match choice {
-        Choice::Detmax(d) => d.n,
-        Choice::Given(ids) => ids.len(),
-    };
-    // Fewer coordinates than parameters: the selection and the fit refuse
-    // those themselves, with their own counts.
-    if 3 * poses >= params && 3 * poses < params + REGISTRATION_DOF {
-        return Err(CalibError::Registration {
-            problem: format!(
-                "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
-                3 * poses
-            ),
-        });
-    }
-    Ok(())
-}
-
-/// Gravity in the measurement frame as the arguments give it.
-fn gravity(args: &Args, nominal: &Arm<f64>) -> Gravity {
-    let g = nominal.gravity_vector().norm();
-    match (args.up, args.level_base) {
-        (Some(up), _) => {
-            Gravity::Measured(up.rotation().inverse() * nalgebra::Vector3::new(0.0, 0.0, -g))
-        }
-        (None, true) => Gravity::LevelBase(g),
-        (None, false) => Gravity::Measured(nominal.gravity_vector()),
+/// The fit's options as the arguments set them.
+fn identify_options(args: &Args) -> IdentifyOptions {
+    IdentifyOptions {
+        robust: !args.no_robust,
+        ..Default::default()
     }
 }
 
-/// Registers the arm on `all` (the first target's rows; or keeps the file's base with
-/// `--no-register`) and prints where it stands.
+/// Creates the output folder if missing; its path.
+fn create_out(args: &Args) -> Result<&std::path::Path, Error> {
+    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
+        path: args.out.clone(),
+        source,
+    })?;
+    Ok(&args.out)
+}
+
+/// Registers the arm on `first` (the first target's rows; or keeps the
+/// file's base with `--no-register`) and prints where it stands.
 fn registration(
     args: &Args,
     nominal: &Arm<f64>,
-    all: &[crate::dataset::Measurement],
+    first: &[crate::dataset::Measurement],
 ) -> Result<Registration, Error> {
-    let gravity = gravity(args, nominal);
+    let gravity = Gravity::chosen(nominal, args.up.map(Up::rotation), args.level_base);
     if args.no_register {
         let g = match gravity {
             Gravity::Measured(g) => g,
@@ -337,140 +276,16 @@ fn registration(
         return Ok(Registration::identity(nominal, g));
     }
     let file = args.measurements.display();
-    let reg = register(nominal, all, gravity).map_err(|e| match e {
+    let reg = register(nominal, first, gravity).map_err(|e| match e {
         CalibError::Registration { problem } => CalibError::Registration {
             problem: format!("{file}: {problem}"),
         },
         other => other,
     })?;
-    let base = crate::calib::registration::frame_of(&reg.base);
-    println!(
-        "Registered the arm in the measurement frame: base at ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg",
-        base.xyz[0] * 1e3,
-        base.xyz[1] * 1e3,
-        base.xyz[2] * 1e3,
-        base.rpy[0].to_degrees(),
-        base.rpy[1].to_degrees(),
-        base.rpy[2].to_degrees()
-    );
-    println!(
-        "  nominal arm to the measurements: {:.1} mm RMS as the arm file places it, {:.1} mm after registration (largest {:.1} mm)",
-        reg.before_rms_m * 1e3,
-        reg.after_rms_m * 1e3,
-        reg.after_max_m * 1e3
-    );
-    let mm = |v: [f64; 3]| {
-        format!(
-            "({:.1}, {:.1}, {:.1}) mm",
-            v[0] * 1e3,
-            v[1] * 1e3,
-            v[2] * 1e3
-        )
-    };
-    match reg.tool {
-        Some(tool) => println!(
-            "  tool point found with it: {} in frame 6 (the arm file: {}); the fit starts there",
-            mm(tool.into()),
-            mm(nominal.tool.xyz)
-        ),
-        None => println!(
-            "  tool point: the arm file's {} kept; the last link turns too little to find it (turn {:.2}, {:.1} needed: measure poses that turn the wrist)",
-            mm(nominal.tool.xyz),
-            reg.tool_turn,
-            crate::calib::registration::MIN_TOOL_TURN
-        ),
-    }
-    if !reg.trimmed.is_empty() {
-        let named: Vec<String> = reg
-            .trimmed
-            .iter()
-            .map(|(pose, load)| format!("pose {pose} ({load} kg)"))
-            .collect();
-        println!(
-            "  left out of the registration as far off: {}",
-            named.join(", ")
-        );
-    }
-    if reg.base_tilt_rad > crate::calib::registration::TILT_WARNING_RAD {
-        eprintln!(
-            "warning: the registered base is tilted {:.0} deg from up (-gravity {:?} m/s² in the measurement frame); if the arm stands level, give the frame's up axis with --up or pass --level-base",
-            reg.base_tilt_rad.to_degrees(),
-            reg.gravity.map(|v| (v * 1e3).round() / 1e3).as_slice()
-        );
+    let (lines, warning) = summary::registration(&reg, nominal);
+    println!("{lines}");
+    if let Some(warning) = warning {
+        eprintln!("{warning}");
     }
     Ok(reg)
-}
-
-/// What the calibration file records of the registration.
-fn record(args: &Args, reg: &Registration) -> RegistrationRecord {
-    RegistrationRecord {
-        registered: !args.no_register,
-        frame: crate::calib::registration::frame_of(&reg.frame),
-        base: crate::calib::registration::frame_of(&reg.base),
-        gravity: reg.gravity.into(),
-        before_rms_m: reg.before_rms_m,
-        after_rms_m: reg.after_rms_m,
-        trimmed: reg.trimmed.iter().map(|(pose, _)| *pose).collect(),
-        tool_m: reg.tool.map(Into::into),
-    }
-}
-
-/// `--tool-only`: fits the tool point of every target of `measurements`
-/// (under `load`) with the arm of the calibration at `path` held fixed, and
-/// writes that calibration with the new tool points.
-fn tool_only(
-    args: &Args,
-    path: &std::path::Path,
-    targets: Targets,
-    measurements: &[crate::dataset::Measurement],
-    load: f64,
-) -> Result<(), Error> {
-    let old = CalibrationFile::read(path)?;
-    let mut rig = Rig::new(old.arm, targets);
-    // A target the old calibration knows starts from where it was.
-    for (t, name) in rig.targets.names().iter().enumerate().skip(1) {
-        if let Some(known) = old.targets.iter().find(|k| &k.name == name) {
-            rig.tools[t - 1] = known.tool_m.into();
-        }
-    }
-    let keys = tool_keys(0..rig.targets.len());
-    let options = IdentifyOptions {
-        robust: !args.no_robust,
-        ..Default::default()
-    };
-    let fit = identify(&rig, old.option, &keys, measurements, &options)?;
-    let mut poses: Vec<u32> = measurements.iter().map(|m| m.pose.id).collect();
-    poses.dedup();
-    let mut parameters: Vec<_> = old
-        .parameters
-        .iter()
-        .filter(|p| !p.name.starts_with("tool.") && !p.name.starts_with("tool["))
-        .cloned()
-        .collect();
-    parameters.extend(fit.estimates.iter().map(Into::into));
-    let cal = CalibrationFile {
-        arm: fit.rig.arm,
-        parameters,
-        poses_used: poses,
-        loads_kg: vec![load],
-        fit_residual: fit.fit_residual,
-        // Every measurement fitted the tool points: none is left to validate on.
-        validation: None,
-        targets: target_tools(&fit, &[]),
-        ..old
-    };
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
-        path: args.out.clone(),
-        source,
-    })?;
-    let out = args.out.join(format!("calibration-{}.json", cal.option));
-    write_text(&out, &cal.to_json())?;
-    println!(
-        "tool points re-taught from {} measurements with the arm of {} held fixed:",
-        measurements.len(),
-        path.display()
-    );
-    print!("{}", summary::targets_table(&cal.targets));
-    println!("  wrote {}", out.display());
-    Ok(())
 }
