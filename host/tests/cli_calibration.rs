@@ -418,7 +418,7 @@ fn demo_writes_its_folder_and_prints_the_table() {
         "cross-load",
         // The counts follow --poses and the option's candidates.
         "O1 of the 40 selected poses",
-        "DETMAX vs 2 random 40-pose sets",
+        "DETMAX vs 2 random 40-pose sets (elasto-kinematic)",
         "elasto-kinematic-servo: 80 of 97 parameters identifiable",
         // The error at the tool through the board, per board.
         "Positioning error at the tool through the board, 20 random targets",

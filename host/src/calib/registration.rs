@@ -774,11 +774,6 @@ mod tests {
             .collect()
     }
 
-    /// A compliant arm measured from random frames: registration finds each
-    /// frame (to well below the fit's resolution), carries the gravity
-    /// along, and the nominal arm's distance after registration does not
-    /// depend on the frame.
-
     /// Registered poses must give the base's six coordinates on top of the
     /// parameters; fewer coordinates than parameters are the fit's to refuse.
     #[test]
@@ -793,6 +788,11 @@ mod tests {
         assert!(check_registered_count(13, 32, option).is_ok());
         assert!(check_registered_count(10, 32, option).is_ok());
     }
+
+    /// A compliant arm measured from random frames: registration finds each
+    /// frame (to well below the fit's resolution), carries the gravity
+    /// along, and the nominal arm's distance after registration does not
+    /// depend on the frame.
     #[test]
     fn finds_the_frame_of_the_measurements() {
         let truth = test_arm();

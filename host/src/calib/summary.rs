@@ -234,9 +234,10 @@ pub fn selection(o: &OptionReport) -> String {
 /// DETMAX against random selections of the same size.
 pub fn random_baseline(b: &RandomBaseline) -> String {
     format!(
-        "DETMAX vs {} random {}-pose sets: O1 {:.4} vs median {:.4}; validation mean {:.2} vs median {:.2} mm",
+        "DETMAX vs {} random {}-pose sets ({}): O1 {:.4} vs median {:.4}; validation mean {:.2} vs median {:.2} mm",
         b.sets,
         b.poses,
+        b.option,
         b.detmax_o1,
         b.random_o1_median,
         b.detmax_mean_m * 1e3,
@@ -459,7 +460,7 @@ mod tests {
         };
         assert_eq!(
             random_baseline(&b),
-            "DETMAX vs 20 random 40-pose sets: O1 0.6913 vs median 0.6470; validation mean 3.28 vs median 3.41 mm"
+            "DETMAX vs 20 random 40-pose sets (elasto-kinematic): O1 0.6913 vs median 0.6470; validation mean 3.28 vs median 3.41 mm"
         );
     }
 }
