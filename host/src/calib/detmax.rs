@@ -36,15 +36,12 @@
 //! (by joint angles, then pose id), so that the poses chosen do not depend
 //! on the order of the rows of the file they came from.
 
-use std::sync::mpsc;
-
 use nalgebra::DMatrix;
 use rand::seq::index::sample;
 use rand::{SeedableRng, rngs::StdRng};
-use rayon::prelude::*;
 
 use super::CalibError;
-use super::progress::Progress;
+use super::progress::{Progress, par_map};
 
 /// Settings of the exchange.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -597,30 +594,12 @@ pub fn detmax(
         });
     }
     let pool = Pool::new(blocks);
-    let starts = options.starts.max(1);
-    // The starts run on rayon's threads; this one reports each as it ends
-    // (the caller's progress need not be shareable between threads).
-    let (done, finished) = mpsc::channel::<()>();
-    let runs: Vec<(Vec<usize>, usize)> = std::thread::scope(|scope| {
-        let pool = &pool;
-        let worker = scope.spawn(move || {
-            (0..starts)
-                .into_par_iter()
-                .map_with(done, |done, s| {
-                    let run = run_start(pool, options, s);
-                    // The receiver only goes away once every start is over.
-                    let _ = done.send(());
-                    run
-                })
-                .collect::<Vec<_>>()
-        });
-        for () in finished {
-            progress.advance(1);
+    // The starts run on every core; each reports as it ends.
+    let starts: Vec<usize> = (0..options.starts.max(1)).collect();
+    let runs = par_map(&starts, |&s| run_start(&pool, options, s), progress).ok_or_else(|| {
+        CalibError::Empty {
+            what: "select poses: a DETMAX start failed".into(),
         }
-        worker.join()
-    })
-    .map_err(|_| CalibError::Empty {
-        what: "select poses: a DETMAX start failed".into(),
     })?;
     let mut best: Option<Design> = None;
     let mut start_log_dets = Vec::with_capacity(runs.len());

@@ -1,7 +1,7 @@
 //! Experiments on top of a calibration run: how DETMAX compares with random
-//! selections of the same size, how O1 grows with the number of poses, and
-//! what a few gross measurement errors among the fitted poses cost a fit,
-//! and how the calibration does on the grid and off it.
+//! selections of the same size, how O1 and the error fall with the number
+//! of poses, what a few gross measurement errors among the fitted poses
+//! cost a fit, and how the calibration does on the grid and off it.
 
 use serde::Serialize;
 
@@ -10,10 +10,11 @@ use nalgebra::Vector3;
 use super::detmax::{DetmaxOptions, detmax, random_design};
 use super::identify::IdentifyOptions;
 use super::pipeline::{
-    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_option,
+    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks, calibrate_option,
 };
-use super::progress::{Progress, Silent};
+use super::progress::{Progress, Silent, par_map};
 use super::refresh::identify_refreshed;
+use super::servo_knots::KnotSpacing;
 use super::validate::{ErrorStats, validate};
 use super::{CalibError, ModelOption};
 use crate::dataset::Measurement;
@@ -23,6 +24,13 @@ pub const RANDOM_SEED: u64 = 1000;
 
 /// Selection sizes of the O1 sweep.
 pub const O1_SIZES: [usize; 9] = [10, 15, 20, 30, 40, 50, 60, 80, 100];
+
+/// Selection sizes of the error sweep: from fewer poses than any elastic
+/// model needs to the demo's 60.
+pub const ERROR_SIZES: [usize; 8] = [10, 15, 20, 25, 30, 40, 50, 60];
+
+/// DETMAX random starts per size of the error sweep (the runs themselves use more).
+pub const ERROR_SWEEP_STARTS: usize = 4;
 
 /// The middle value of `v` (the upper one of the two middle values when
 /// their number is even); NaN when empty.
@@ -193,11 +201,9 @@ pub fn o1_vs_poses(
     let mut out = Vec::new();
     for r in results {
         let blocks = &r.selection.candidates;
-        let m = blocks.identifiability.kept.len();
-        let rows_per_pose = blocks.blocks.first().map_or(0, |b| b.nrows());
         for &n in sizes {
             progress.advance(1);
-            if rows_per_pose * n < m + 3 || n > blocks.blocks.len() {
+            if blocks.fewest_poses() > n || n > blocks.blocks.len() {
                 continue;
             }
             let d = detmax(
@@ -218,6 +224,115 @@ pub fn o1_vs_poses(
     }
     progress.end();
     Ok(out)
+}
+
+/// How well a calibration of one option from a DETMAX selection of some
+/// number of poses does.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ErrorPoint {
+    /// The option.
+    pub option: ModelOption,
+    /// Poses selected and fitted.
+    pub poses: usize,
+    /// The servo curves' knot spacing the fit chose, for an option with servo curves.
+    pub knots: Option<KnotSpacing>,
+    /// On the held-out candidates of the grid and on the off-grid poses;
+    /// `None` when the poses cannot determine the option's parameters or
+    /// the fit failed.
+    pub errors: Option<GridErrors>,
+    /// Why there are no errors, if there are none.
+    pub failure: Option<String>,
+}
+
+/// The error of each of `results`' options calibrated from DETMAX
+/// selections of each of `sizes` poses as `settings` say (every other
+/// setting as in the runs, [`ERROR_SWEEP_STARTS`] starts, no cross-load
+/// check), validated as [`grid_and_off_grid`] does. A size a run already
+/// selected is that run; the others reuse its candidates' analysis, or one
+/// with a coarser knot grid when the poses cannot carry its parameters
+/// (`CandidateBlocks::build_for`); a size too small even for the coarsest
+/// has no calibration (`CandidateBlocks::selects_for`). The sizes run on
+/// every core; one progress unit per option and size.
+pub fn error_vs_poses(
+    inputs: &Inputs,
+    results: &[&OptionResult],
+    settings: &RunSettings,
+    sizes: &[usize],
+    grid_size: usize,
+    off_grid: &[Measurement],
+    progress: &dyn Progress,
+) -> Result<Vec<ErrorPoint>, CalibError> {
+    let tasks: Vec<(&OptionResult, usize)> = results
+        .iter()
+        .flat_map(|r| sizes.iter().map(move |&n| (*r, n)))
+        .collect();
+    progress.begin("error against the number of poses", tasks.len() as u64);
+    let points = par_map(
+        &tasks,
+        |&(r, n)| {
+            let option = r.option();
+            let point = |run: Result<OptionResult, CalibError>| {
+                let errors = run.and_then(|run| {
+                    let errors = grid_and_off_grid(inputs, &run, grid_size, off_grid)?;
+                    Ok((run.knots.map(|k| k.chosen), errors))
+                });
+                match errors {
+                    Ok((knots, errors)) => ErrorPoint {
+                        option,
+                        poses: n,
+                        knots,
+                        errors: Some(errors),
+                        failure: None,
+                    },
+                    Err(e) => ErrorPoint {
+                        option,
+                        poses: n,
+                        knots: None,
+                        errors: None,
+                        failure: Some(e.to_string()),
+                    },
+                }
+            };
+            if r.selection.poses.len() == n {
+                return point(Ok(r.clone()));
+            }
+            let run_settings = RunSettings {
+                choice: Choice::Detmax(DetmaxOptions {
+                    n,
+                    starts: ERROR_SWEEP_STARTS,
+                    ..Default::default()
+                }),
+                other_load_kg: None,
+                ..settings.clone()
+            };
+            let blocks = if r.selection.candidates.selects_for(n) {
+                Ok(r.selection.candidates.clone())
+            } else {
+                CandidateBlocks::build_for(
+                    &inputs.nominal,
+                    option,
+                    inputs.candidates,
+                    &[r.identify_load_kg],
+                    n,
+                )
+            };
+            point(blocks.and_then(|b| {
+                if !b.selects_for(n) {
+                    return Err(CalibError::TooFewPoses {
+                        poses: n,
+                        rows: n * b.blocks.first().map_or(0, |b| b.nrows()),
+                        params: b.identifiability.kept.len(),
+                    });
+                }
+                calibrate_blocks(inputs, b, &run_settings, &Silent)
+            }))
+        },
+        progress,
+    );
+    progress.end();
+    points.ok_or_else(|| CalibError::Empty {
+        what: "calibrate from fewer poses: a run failed".into(),
+    })
 }
 
 /// A calibration's error on held-out grid poses and on poses off the grid.

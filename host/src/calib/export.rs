@@ -189,6 +189,7 @@ mod tests {
             diagnostics: Diagnostics {
                 termination: "Converged".into(),
                 converged: true,
+                exhausted: false,
                 evaluations: 3,
                 active_set_rounds: 1,
                 failed_steps: 0,
@@ -198,6 +199,7 @@ mod tests {
                 rms_after_m: 0.001,
                 sigma_m: 0.001,
                 condition: 1.0,
+                loo_mean_m: 0.0012,
             },
             fit_residual: ErrorStats::of(&[0.001]),
             fit_residual_per_target: vec![ErrorStats::of(&[0.001])],

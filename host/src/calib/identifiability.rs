@@ -44,6 +44,7 @@ use super::jacobian::jacobian;
 use super::observability::ColumnScale;
 use super::option::candidates;
 use super::params::ParamKey;
+use super::servo_knots::{self, KnotSpacing};
 use super::{CalibError, ModelOption, Rig, Sample};
 
 /// Sine of the smallest angle between a kept column and the span of the others.
@@ -142,6 +143,9 @@ pub struct Identifiability {
     pub svd_rank: usize,
     /// Condition number of the kept, unit-scaled columns.
     pub kept_condition: f64,
+    /// The grid of the servo curves' knots among the candidates, if any
+    /// (`calib::servo_knots`).
+    pub knots: Option<KnotSpacing>,
 }
 
 impl Identifiability {
@@ -151,13 +155,24 @@ impl Identifiability {
     }
 }
 
-/// Runs the analysis for `option` at `arm` over `samples`.
+/// Runs the analysis for `option` at `arm` over `samples`, servo knots on
+/// the finest grid.
 pub fn analyse(
     arm: &Arm<f64>,
     option: ModelOption,
     samples: &[Sample],
 ) -> Result<Identifiability, CalibError> {
-    let ids = candidates(option, arm);
+    analyse_spaced(arm, option, KnotSpacing::FINEST, samples)
+}
+
+/// [`analyse`] with the servo knots on the grid of `spacing`.
+pub fn analyse_spaced(
+    arm: &Arm<f64>,
+    option: ModelOption,
+    spacing: KnotSpacing,
+    samples: &[Sample],
+) -> Result<Identifiability, CalibError> {
+    let ids = candidates(option, arm, spacing);
     let j = jacobian(&Rig::from(*arm), &ids, samples)?;
     Ok(analyse_jacobian(
         option,
@@ -293,6 +308,7 @@ pub fn analyse_jacobian_within(
         removed,
         svd_rank,
         kept_condition,
+        knots: servo_knots::spacing_of(ids),
     }
 }
 
@@ -342,7 +358,8 @@ pub fn check_full_rank(
 
 /// Refuses a measured pose set that identifies fewer of `measured.option`'s
 /// parameters than the arm's structure allows: what the -100/0/+100° grid of
-/// every joint identifies under `load_kg` is what positions can reveal at all.
+/// every joint identifies under `load_kg` (servo knots on `measured`'s grid)
+/// is what positions can reveal at all.
 pub fn check_structure(
     nominal: &Arm<f64>,
     measured: &Identifiability,
@@ -358,7 +375,8 @@ pub fn check_structure(
             approach: crate::dataset::FROM_HOME,
         })
         .collect();
-    let structural = analyse(nominal, measured.option, &grid)?.kept;
+    let spacing = measured.knots.unwrap_or(KnotSpacing::FINEST);
+    let structural = analyse_spaced(nominal, measured.option, spacing, &grid)?.kept;
     // Compared over the rig's own parameters: further targets' tool points
     // are the measurements' own, the grid has none.
     let own_kept = measured

@@ -42,6 +42,14 @@
 //! by more than [`WEAK_REACH_FRACTION`] of the reach. The fit keeps them (they
 //! do not harm the measured points), and says how little they mean.
 //!
+//! **Leave-one-out error.** How well the fit predicts a pose it did not see
+//! is estimated from the fit itself: each measurement's residual in the fit
+//! without it is `(I − H_kk)⁻¹ r_k` (`H` the hat matrix of the linearised
+//! fit, `r_k` the measurement's residual; exact for a linear fit), and
+//! their mean norm is reported (`loo_mean_m`). A model with more parameters
+//! than the poses carry fits its own poses better and this worse; the
+//! servo curves' knot spacing is chosen by it (`calib::knot_choice`).
+//!
 //! **Robust fit, the default (Huber, by iteratively reweighted least squares).** Each
 //! measurement's weight depends on the norm `e` of its 3D residual relative to
 //! a robust scale `s = median(e) / 1.5382` (the median of the norm of a 3D
@@ -50,7 +58,7 @@
 //! whose residual exceeds [`OUTLIER_K`]`·s` are named as outliers (a clean 3D
 //! Gaussian residual exceeds 4.5 σ with probability 5e-4).
 
-use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt};
+use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
@@ -97,6 +105,9 @@ pub struct IdentifyOptions {
     /// Run the rank analysis again at the estimate and fit what it adds
     /// (`super::refresh`, which the pipeline calls); false is the paper's reduction.
     pub refresh: bool,
+    /// Most residual evaluations of one LM run, in units of the free
+    /// parameters + 1 (MINPACK's `maxfev` factor).
+    pub patience: usize,
 }
 
 impl Default for IdentifyOptions {
@@ -106,6 +117,7 @@ impl Default for IdentifyOptions {
             max_active_set_rounds: 10,
             max_irls_rounds: 12,
             refresh: true,
+            patience: 50,
         }
     }
 }
@@ -145,6 +157,9 @@ pub struct Diagnostics {
     pub termination: String,
     /// Whether the last LM run reported success.
     pub converged: bool,
+    /// Whether an LM run spent its whole evaluation budget
+    /// ([`IdentifyOptions::patience`]) before converging.
+    pub exhausted: bool,
     /// Residual evaluations over all LM runs.
     pub evaluations: usize,
     /// Active-set rounds used.
@@ -164,6 +179,10 @@ pub struct Diagnostics {
     pub sigma_m: f64,
     /// Condition number of the column-scaled Jacobian at the solution.
     pub condition: f64,
+    /// Mean 3D error at each fitted measurement of the fit without it
+    /// (leave-one-out, from the linearised fit: see the module docs), m;
+    /// infinite when a measurement alone decides a parameter.
+    pub loo_mean_m: f64,
 }
 
 /// The outcome of an identification.
@@ -224,10 +243,15 @@ impl<'a> FitData<'a> {
 
     /// Norms of the 3D residuals of `arm` against the measurements, m.
     fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
+        Ok(self.residuals(arm)?.iter().map(|r| r.norm()).collect())
+    }
+
+    /// The 3D residuals of `arm` against the measurements, m.
+    fn residuals(&self, arm: &Rig) -> Result<Vec<Vector3<f64>>, CalibError> {
         Ok(tool_points(arm, &self.samples)?
             .iter()
             .zip(&self.measured)
-            .map(|(p, m)| (p - m).norm())
+            .map(|(p, m)| p - m)
             .collect())
     }
 
@@ -345,6 +369,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 #[derive(Debug, Default)]
 struct Tally {
     evaluations: usize,
+    exhausted: bool,
     active_set_rounds: usize,
     irls_rounds: usize,
     failed_steps: usize,
@@ -370,6 +395,7 @@ fn fit(
     data: &FitData,
     params: &mut ParamVector,
     sqrt_w: &[f64],
+    patience: usize,
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
     let start = data
@@ -388,9 +414,10 @@ fn fit(
         failed: std::cell::Cell::new(0),
     };
     let (problem, report) = LevenbergMarquardt::new()
-        .with_patience(50)
+        .with_patience(patience.max(1))
         .minimize(problem);
     tally.evaluations += report.number_of_evaluations;
+    tally.exhausted |= report.termination == TerminationReason::LostPatience;
     tally.failed_steps += problem.failed.get();
     tally.converged = report.termination.was_successful();
     tally.termination = format!("{:?}", report.termination);
@@ -470,23 +497,25 @@ fn release_candidate(
 
 /// Step *active set*: fit the free parameters, fix those that end outside their
 /// bounds at the bound and fit again, release a fixed one whose multiplier has
-/// the wrong sign; until neither happens or the round budget of
-/// `max_rounds` (counted over the whole identification) is spent, in which
-/// case what is still below its bound is fixed there, so the result is always
-/// a physical arm.
+/// the wrong sign; until neither happens, the round budget of
+/// `options.max_active_set_rounds` (counted over the whole identification)
+/// is spent or an LM run spent its evaluation budget, in which case what is
+/// still outside its bounds is fixed there, so the result is always a
+/// physical arm.
 fn active_set(
     data: &FitData,
     params: &mut ParamVector,
     sqrt_w: &[f64],
-    max_rounds: usize,
+    options: &IdentifyOptions,
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
     loop {
         tally.active_set_rounds += 1;
-        fit(data, params, sqrt_w, tally)?;
+        fit(data, params, sqrt_w, options.patience, tally)?;
         let arm = params.apply(data.nominal);
         let outside = outside_bounds(data, params, &arm);
-        if tally.active_set_rounds >= max_rounds {
+        // A run that spent its budget would spend it again from about there.
+        if tally.active_set_rounds >= options.max_active_set_rounds || tally.exhausted {
             return fix_at_bound(params, data.nominal, &outside);
         }
         if !outside.is_empty() {
@@ -522,25 +551,60 @@ struct Covariance {
     condition: f64,
     /// One standard deviation per free parameter, in `free` order, SI units.
     std: Vec<f64>,
+    /// Mean leave-one-out error of the measurements, m.
+    loo_mean_m: f64,
+}
+
+/// Mean over the measurements of the norm of their leave-one-out residual
+/// `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of measurement `k`, `H_kk`
+/// its 3×3 block of the hat matrix `U Uᵀ` of the weighted Jacobian (`U` its
+/// left singular vectors; a measurement's weight scales its residual and
+/// its rows alike, so it cancels). Exact for a linear least-squares fit,
+/// the classic PRESS statistic; infinite when `I − H_kk` is singular (the
+/// measurement alone decides a direction of the parameters).
+fn leave_one_out_mean(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> f64 {
+    let total: f64 = residuals
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let rows = u.rows(3 * k, 3);
+            let i_minus_h = nalgebra::Matrix3::identity() - rows * rows.transpose();
+            i_minus_h
+                .lu()
+                .solve(r)
+                .filter(|e| e.iter().all(|v| v.is_finite()))
+                .map_or(f64::INFINITY, |e| e.norm())
+        })
+        .sum();
+    total / residuals.len().max(1) as f64
 }
 
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
-/// with `s² = RSS / (3n − m)` of the weighted residual norms.
+/// with `s² = RSS / (3n − m)` of the weighted residual norms, and the
+/// leave-one-out error of the measurements ([`leave_one_out_mean`]).
 fn covariance(
     data: &FitData,
     arm: &Rig,
     free: &[ParamKey],
     weights: &[f64],
-    norms: &[f64],
+    residuals: &[Vector3<f64>],
 ) -> Result<Covariance, CalibError> {
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let j = data.weighted_jacobian(arm, free, &sqrt_w)?;
-    let rss: f64 = norms.iter().zip(weights).map(|(e, w)| w * e * e).sum();
+    let rss: f64 = residuals
+        .iter()
+        .zip(weights)
+        .map(|(e, w)| w * e.norm_squared())
+        .sum();
     let dof = (3 * data.samples.len()).saturating_sub(free.len()).max(1);
     let sigma_m = (rss / dof as f64).sqrt();
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
+    let loo_mean_m = svd
+        .u
+        .as_ref()
+        .map_or(f64::NAN, |u| leave_one_out_mean(u, residuals));
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
     let vt = svd.v_t.as_ref();
     let std = (0..free.len())
@@ -561,6 +625,7 @@ fn covariance(
         sigma_m,
         condition,
         std,
+        loo_mean_m,
     })
 }
 
@@ -640,14 +705,8 @@ pub fn identify(
     for _ in 0..rounds {
         tally.irls_rounds += 1;
         let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-        active_set(
-            &data,
-            &mut params,
-            &sqrt_w,
-            options.max_active_set_rounds,
-            &mut tally,
-        )?;
-        if !options.robust {
+        active_set(&data, &mut params, &sqrt_w, options, &mut tally)?;
+        if !options.robust || tally.exhausted {
             break;
         }
         let new = huber_weights(&data.residual_norms(&params.apply(nominal))?);
@@ -666,13 +725,14 @@ pub fn identify(
     servo_knots::check_curves(&nominal.arm, &rig.arm)?;
     // Every point LM accepted could be evaluated, and the ceiling keeps the
     // deflection converging: failing here is not a question of more poses.
-    let norms = data.residual_norms(&rig).map_err(|e| {
+    let residuals = data.residuals(&rig).map_err(|e| {
         data.solver_error(format!(
             "the fitted arm's deflection cannot be evaluated ({e})"
         ))
     })?;
+    let norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let free: Vec<ParamKey> = params.free().collect();
-    let cov = covariance(&data, &rig, &free, &weights, &norms)?;
+    let cov = covariance(&data, &rig, &free, &weights, &residuals)?;
     let mut std = cov.std.into_iter();
     let reach = crate::ik::reach_m(&nominal.arm);
     let estimates = params
@@ -696,6 +756,7 @@ pub fn identify(
         diagnostics: Diagnostics {
             termination: tally.termination,
             converged: tally.converged,
+            exhausted: tally.exhausted,
             evaluations: tally.evaluations,
             active_set_rounds: tally.active_set_rounds,
             failed_steps: tally.failed_steps,
@@ -705,6 +766,7 @@ pub fn identify(
             rms_after_m: rms(&norms),
             sigma_m: cov.sigma_m,
             condition: cov.condition,
+            loo_mean_m: cov.loo_mean_m,
         },
         fit_residual: ErrorStats::of(&norms),
         fit_residual_per_target: (0..data.nominal.targets.len())
@@ -888,9 +950,10 @@ mod tests {
         }
         let data = fit_data(&nominal, &meas);
         let arm = nominal.clone();
-        let norms = data.residual_norms(&arm).unwrap();
+        let residuals = data.residuals(&arm).unwrap();
+        let norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
         let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
-        let cov = covariance(&data, &arm, &keys, &weights, &norms).unwrap();
+        let cov = covariance(&data, &arm, &keys, &weights, &residuals).unwrap();
         let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
         let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
         let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
@@ -905,6 +968,50 @@ mod tests {
                 keys[c]
             );
         }
+    }
+
+    /// The leave-one-out errors from the hat matrix equal those of refitting a
+    /// linear problem without each measurement in turn; a measurement that
+    /// alone decides a parameter cannot be predicted.
+    #[test]
+    fn leave_one_out_equals_refitting_without_each_measurement() {
+        let (n, m) = (8, 5);
+        let j = DMatrix::from_fn(3 * n, m, |r, c| {
+            ((r * 7 + c * 13) % 11) as f64 - 5.0 + 0.1 * c as f64
+        });
+        let y = DVector::from_fn(3 * n, |r, _| ((r * 5) % 9) as f64 * 0.3 - 1.0);
+        let fit = |rows: &[usize]| {
+            let a = j.select_rows(rows);
+            let b = y.select_rows(rows);
+            (a.transpose() * &a).try_inverse().unwrap() * a.transpose() * b
+        };
+        let all: Vec<usize> = (0..3 * n).collect();
+        let beta = fit(&all);
+        let r = &y - &j * &beta;
+        let residuals: Vec<Vector3<f64>> = (0..n)
+            .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]))
+            .collect();
+        let u = j.clone().svd(true, false).u.unwrap();
+        let refitted: f64 = (0..n)
+            .map(|k| {
+                let rest: Vec<usize> = all.iter().copied().filter(|i| i / 3 != k).collect();
+                let beta_k = fit(&rest);
+                (y.rows(3 * k, 3) - j.rows(3 * k, 3) * beta_k).norm()
+            })
+            .sum::<f64>()
+            / n as f64;
+        let loo = leave_one_out_mean(&u, &residuals);
+        assert!(
+            (loo - refitted).abs() < 1e-9 * refitted,
+            "{loo} vs {refitted}"
+        );
+        assert!(loo > residuals.iter().map(|r| r.norm()).sum::<f64>() / n as f64);
+        // Five parameters from two measurements (six rows): the first
+        // measurement's rows are all the data have for some direction.
+        let two = j.rows(0, 6).clone_owned();
+        let u = two.svd(true, false).u.unwrap();
+        let loo = leave_one_out_mean(&u, &residuals[..2]);
+        assert!(loo.is_infinite() || loo > 1e6, "{loo}");
     }
 
     /// The ceiling of each compliance is MAX_SAG_RAD over the largest torque

@@ -580,8 +580,11 @@ mod tests {
     #[test]
     fn servo_backlash_and_softening_columns_match_central_differences() {
         let mut lively = lively_rig();
-        let mut ids =
-            crate::calib::option::candidates(ModelOption::ElastoKinematicServo, &lively.arm);
+        let mut ids = crate::calib::option::candidates(
+            ModelOption::ElastoKinematicServo,
+            &lively.arm,
+            crate::calib::servo_knots::KnotSpacing::FINEST,
+        );
         ids.extend(crate::calib::option::refresh_candidates(
             ModelOption::ElastoKinematicServo,
         ));

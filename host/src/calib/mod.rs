@@ -15,12 +15,13 @@
 //! | [`detmax`] | D-optimal pose selection by Mitchell's DETMAX exchange |
 //! | [`identify`] | Levenberg–Marquardt fit in named steps: active set for bounds, robust option |
 //! | [`refresh`] | the rank analysis again at the estimate, and the fit with what it adds |
+//! | [`knot_choice`] | the servo curves' knot spacing whose fit best predicts the poses it leaves out |
 //! | [`validate`] | error statistics before/after on held-out poses |
 //! | [`registration`] | the arm's base in the tracker's frame, from the measurements (closed form, trimmed) |
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
 //! | [`targets`] | several measured targets per pose: one arm, a tool point each |
 //! | [`pipeline`] | select → identify → validate for one option |
-//! | [`experiments`] | DETMAX against random selections, O1 against the number of poses |
+//! | [`experiments`] | DETMAX against random selections, O1 and the error against the number of poses |
 //! | [`export`] | the results as the file formats of `crate::io` hold them (calibration file) |
 //! | [`report`] | the machine-readable report, schema header included |
 //! | [`summary`] | the paper-style table and the lines the commands print |
@@ -41,6 +42,7 @@ pub mod identifiability;
 pub mod identify;
 pub mod jacobian;
 mod joint_columns;
+pub mod knot_choice;
 pub mod observability;
 pub mod option;
 pub mod params;

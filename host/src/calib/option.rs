@@ -3,7 +3,7 @@
 
 use super::ModelOption;
 use super::params::ParamKey;
-use super::servo_knots;
+use super::servo_knots::{self, KnotSpacing};
 use model::{Arm, ParamId};
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
@@ -13,7 +13,8 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
 /// compliances for elastic, and for elasto-kinematic-servo the 43 and the
-/// knots of `arm`'s servo curves (its softenings: [`refresh_candidates`]).
+/// knots of `arm`'s servo curves on the grid of `spacing` (its softenings:
+/// [`refresh_candidates`]).
 ///
 /// The order is a preference: when parameters are confounded, the rank
 /// analysis keeps the earlier one. Compliances come first, as the elastic
@@ -34,7 +35,7 @@ pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
 /// Servo knots and backlash widths come last: a constant shift of a joint's
 /// knots is its `theta` (the base yaw for joint 1), which the paper's model
 /// already has, so the knot that only repeats it is the one removed.
-pub fn candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
+pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> Vec<ParamKey> {
     let compliances = ParamId::all().filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
     let frames = ParamId::all().filter(is_frame);
@@ -49,7 +50,7 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
     };
     let knots = option
         .fits_servo_curves()
-        .then(|| servo_knots::keys(arm))
+        .then(|| servo_knots::keys(arm, spacing))
         .into_iter()
         .flatten();
     ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
@@ -75,11 +76,16 @@ mod tests {
     use super::*;
     use crate::calib::testing::test_arm;
 
+    const FINEST: KnotSpacing = KnotSpacing::FINEST;
+
     #[test]
     fn candidate_counts_are_43_36_7_and_97() {
         let arm = test_arm();
-        assert_eq!(candidates(ModelOption::ElastoKinematic, &arm).len(), 43);
-        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
+        assert_eq!(
+            candidates(ModelOption::ElastoKinematic, &arm, FINEST).len(),
+            43
+        );
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
         assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
         assert_eq!(
             refresh_candidates(ModelOption::ElastoKinematicServo).len(),
@@ -88,21 +94,21 @@ mod tests {
         assert!(refresh_candidates(ModelOption::ElastoKinematic).is_empty());
         assert_eq!(
             ours[..43],
-            candidates(ModelOption::ElastoKinematic, &arm)[..]
+            candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..]
         );
-        assert_eq!(candidates(ModelOption::Kinematic, &arm).len(), 36);
-        assert_eq!(candidates(ModelOption::Elastic, &arm).len(), 7);
+        assert_eq!(candidates(ModelOption::Kinematic, &arm, FINEST).len(), 36);
+        assert_eq!(candidates(ModelOption::Elastic, &arm, FINEST).len(), 7);
         assert!(
-            candidates(ModelOption::Elastic, &arm)
+            candidates(ModelOption::Elastic, &arm, FINEST)
                 .iter()
                 .all(|k| k.lower_bound() == Some(0.0))
         );
         assert_eq!(
-            candidates(ModelOption::ElastoKinematic, &arm)[..7],
-            candidates(ModelOption::Elastic, &arm)[..]
+            candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..7],
+            candidates(ModelOption::Elastic, &arm, FINEST)[..]
         );
         // The frames before the DH parameters: they hold every base pose and tool point.
-        let kin = candidates(ModelOption::Kinematic, &arm);
+        let kin = candidates(ModelOption::Kinematic, &arm, FINEST);
         assert_eq!(
             (kin[0].name(), kin[11].name()),
             ("base.x".into(), "tool.yaw".into())
@@ -111,10 +117,45 @@ mod tests {
     }
 
     #[test]
+    fn coarser_grids_take_every_second_or_fourth_knot() {
+        let arm = test_arm();
+        for (spacing, knots, names) in [
+            (
+                KnotSpacing::Deg50,
+                5,
+                ["j2.servo[1]", "j2.servo[3]", "j2.servo[9]"],
+            ),
+            (
+                KnotSpacing::Deg100,
+                3,
+                ["j2.servo[1]", "j2.servo[5]", "j2.servo[9]"],
+            ),
+        ] {
+            let ours = candidates(ModelOption::ElastoKinematicServo, &arm, spacing);
+            assert_eq!(ours.len(), 43 + 6 * knots, "{spacing}");
+            let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
+            let joint2: Vec<String> = ours
+                .iter()
+                .filter(|k| matches!(k, ParamKey::ServoKnot { joint: 1, .. }))
+                .map(|k| k.name().into_owned())
+                .collect();
+            assert!(names.iter().all(|n| joint2.contains(n)), "{joint2:?}");
+            assert_eq!(servo_knots::spacing_of(&ours), Some(spacing));
+            assert_eq!(
+                servo_knots::on_spacing(
+                    &candidates(ModelOption::ElastoKinematicServo, &arm, FINEST),
+                    spacing
+                ),
+                ours
+            );
+        }
+    }
+
+    #[test]
     fn a_joint_without_a_servo_curve_has_no_knots() {
         let mut arm = test_arm();
         arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
-        let ours = candidates(ModelOption::ElastoKinematicServo, &arm);
+        let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
         assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS);
         assert!(
             !ours

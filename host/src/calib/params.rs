@@ -61,9 +61,11 @@ pub enum ParamKey {
         /// 0 x, 1 y, 2 z.
         axis: u8,
     },
-    /// The angle of knot `knot` (from 0) of joint `joint`'s (from 0) servo
-    /// curve: its correction is the angle the knot's pulse really reaches
-    /// minus the angle the curve had for it (see `calib::servo_knots`).
+    /// The angle of knot `knot` of joint `joint`'s (from 0) servo curve,
+    /// the knot counted from 0 on the finest grid (every 25° from -100°,
+    /// whatever the spacing fitted): its correction is the angle the knot's
+    /// pulse really reaches minus the angle the curve had for it (see
+    /// `calib::servo_knots`).
     ServoKnot {
         /// Joint, from 0.
         joint: u8,
@@ -190,12 +192,12 @@ impl ParamKey {
             Self::TargetTool { target, axis } => rig
                 .tool_point(usize::from(target))
                 .map_or(f64::NAN, |p| p[usize::from(axis)]),
-            Self::ServoKnot { joint, knot } => rig.arm.joints[usize::from(joint)]
-                .servo
-                .angles_rad()
-                .get(usize::from(knot))
-                .copied()
-                .unwrap_or(f64::NAN),
+            Self::ServoKnot { joint, knot } => {
+                let curve = &rig.arm.joints[usize::from(joint)].servo;
+                super::servo_knots::curve_index(curve, usize::from(knot))
+                    .and_then(|i| curve.angles_rad().get(i).copied())
+                    .unwrap_or(f64::NAN)
+            }
             Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
             Self::Softening { spring: 0 } => rig.arm.base_softening,
             Self::Softening { spring } => rig.arm.joints[usize::from(spring) - 1].softening,
@@ -216,7 +218,10 @@ impl ParamKey {
                 &mut rig.tools[usize::from(target) - 1][usize::from(axis)]
             }
             Self::ServoKnot { joint, knot } => {
-                &mut rig.arm.joints[usize::from(joint)].servo.angles_rad_mut()[usize::from(knot)]
+                let curve = &mut rig.arm.joints[usize::from(joint)].servo;
+                let i = super::servo_knots::curve_index(curve, usize::from(knot))
+                    .expect("the fit puts the curve on its knots' grid first");
+                &mut curve.angles_rad_mut()[i]
             }
             Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,
             Self::Softening { spring: 0 } => &mut rig.arm.base_softening,
@@ -458,14 +463,27 @@ mod tests {
             widest <= model::backlash::MAX_WIDTH_RAD
                 && widest > 0.99 * model::backlash::MAX_WIDTH_RAD
         );
+        // A knot counts on the finest grid: on a 9-knot curve it is the
+        // curve's own, on a 5-knot one every second of them.
         let mut rig = Rig::from(rigid_nominal());
+        let nine: Vec<f64> = (0..9).map(|k| (k as f64 - 4.0) * 0.25).collect();
+        rig.arm.joints[2].servo = rig.arm.joints[2].servo.resampled(&nine).unwrap();
+        assert_eq!(knot.value(&rig), 0.0);
+        *knot.slot(&mut rig) += 0.01;
+        assert_eq!(rig.arm.joints[2].servo.angles_rad()[4], 0.01);
         rig.arm.joints[2].servo = rig.arm.joints[2]
             .servo
             .resampled(&[-1.0, -0.5, 0.0, 0.5, 1.0])
             .unwrap();
-        assert_eq!(knot.value(&rig), 1.0);
-        *knot.slot(&mut rig) += 0.01;
+        let last = ParamKey::ServoKnot { joint: 2, knot: 8 };
+        assert_eq!(last.value(&rig), 1.0);
+        *last.slot(&mut rig) += 0.01;
         assert_eq!(rig.arm.joints[2].servo.angles_rad()[4], 1.01);
+        assert!(
+            ParamKey::ServoKnot { joint: 2, knot: 3 }
+                .value(&rig)
+                .is_nan()
+        );
         let play = ParamKey::Backlash { joint: 5 };
         assert_eq!(play.name(), "j6.backlash");
         assert_eq!(ParamKey::from_name("j6.backlash"), Some(play));

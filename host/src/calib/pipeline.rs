@@ -14,17 +14,18 @@ use model::Arm;
 use nalgebra::DMatrix;
 
 use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
-use super::identifiability::{Identifiability, TypicalErrors, analyse_jacobian};
+use super::identifiability::{Identifiability, TypicalErrors, analyse_jacobian, check_structure};
 use super::identify::{Identified, IdentifyOptions};
 use super::jacobian::jacobian;
+use super::knot_choice::{self, ChosenFit, KnotChoice};
 use super::observability::{ColumnScale, Observability};
 use super::option::candidates as option_candidates;
 use super::params::ParamKey;
 use super::progress::Progress;
-use super::refresh::identify_refreshed;
+use super::servo_knots::KnotSpacing;
 use super::targets::Targets;
 use super::validate::{LoadValidation, Validation, validate};
-use super::{CalibError, ModelOption, Rig, Sample, backlash};
+use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::{FROM_HOME, Measurement, Pose};
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the
@@ -42,11 +43,58 @@ pub struct CandidateBlocks {
 impl CandidateBlocks {
     /// Analyses `candidates` measured under each of `loads_kg` for `option`
     /// at `nominal`, every target of the rig at every pose: the columns are
-    /// the further targets' tool points and the option's candidates, a
-    /// pose's block has the rows of all its targets.
+    /// the further targets' tool points and the option's candidates (servo
+    /// knots on the finest grid), a pose's block has the rows of all its
+    /// targets.
     pub fn build(
         nominal: &Rig,
         option: ModelOption,
+        candidates: &[Pose],
+        loads_kg: &[f64],
+    ) -> Result<Self, CalibError> {
+        Self::build_spaced(nominal, option, KnotSpacing::FINEST, candidates, loads_kg)
+    }
+
+    /// The analysis for the finest knot spacing whose parameters `poses` of
+    /// the candidates can determine (an option without knots has one):
+    /// [`CandidateBlocks::build`], then coarser grids while the kept
+    /// parameters need more poses ([`CandidateBlocks::fewest_poses`]) or,
+    /// when all the candidates are to be fitted, leave some of what the
+    /// arm's structure identifies undetermined
+    /// (`identifiability::check_structure`, under the first load). The
+    /// coarsest grid's when none will do: the callers' checks then say why.
+    pub fn build_for(
+        nominal: &Rig,
+        option: ModelOption,
+        candidates: &[Pose],
+        loads_kg: &[f64],
+        poses: usize,
+    ) -> Result<Self, CalibError> {
+        let mut spacing = KnotSpacing::FINEST;
+        loop {
+            let blocks = Self::build_spaced(nominal, option, spacing, candidates, loads_kg)?;
+            // When every candidate is fitted the analysis is over the fitted
+            // poses themselves: they must determine all the structure allows.
+            let carried = || {
+                blocks.selects_for(poses)
+                    && (poses < candidates.len()
+                        || check_structure(&nominal.arm, &blocks.identifiability, loads_kg[0])
+                            .is_ok())
+            };
+            match spacing.coarser() {
+                Some(coarser) if blocks.identifiability.knots.is_some() && !carried() => {
+                    spacing = coarser;
+                }
+                _ => return Ok(blocks),
+            }
+        }
+    }
+
+    /// [`CandidateBlocks::build`] with the servo knots on the grid of `spacing`.
+    pub fn build_spaced(
+        nominal: &Rig,
+        option: ModelOption,
+        spacing: KnotSpacing,
         candidates: &[Pose],
         loads_kg: &[f64],
     ) -> Result<Self, CalibError> {
@@ -82,7 +130,7 @@ impl CandidateBlocks {
         // are confounded with (the arm's own tool point, frame 6's
         // translation) is what the rank analysis removes.
         let mut ids = nominal.tool_keys();
-        ids.extend(option_candidates(option, &nominal.arm));
+        ids.extend(option_candidates(option, &nominal.arm, spacing));
         let j = jacobian(nominal, &ids, &samples)?;
         let identifiability =
             analyse_jacobian(option, &ids, &j, &TypicalErrors::of_arm(&nominal.arm));
@@ -112,6 +160,25 @@ impl CandidateBlocks {
     /// The option analysed.
     pub fn option(&self) -> ModelOption {
         self.identifiability.option
+    }
+
+    /// The fewest poses whose rows can determine the kept parameters, with
+    /// three rows to spare: `3·loads·targets·n ≥ m + 3`.
+    pub fn fewest_poses(&self) -> usize {
+        let rows = self.blocks.first().map_or(3, |b| b.nrows()).max(1);
+        (self.identifiability.kept.len() + 3).div_ceil(rows)
+    }
+
+    /// Whether a selection of `poses` poses is made for these parameters:
+    /// when they are servo knots, the poses must determine them with a
+    /// quarter to spare ([`CandidateBlocks::fewest_poses`]); a design that
+    /// needs every pose to pin the finest curves is poor for the coarser
+    /// ones the fit will then choose (`calib::knot_choice`).
+    pub fn selects_for(&self, poses: usize) -> bool {
+        match self.identifiability.knots {
+            Some(_) => 5 * self.fewest_poses() <= 4 * poses,
+            None => self.fewest_poses() <= poses,
+        }
     }
 
     /// O1..O5 of the candidate subset `chosen` (indices into the candidates).
@@ -242,7 +309,13 @@ pub fn select(
     choice: &Choice,
     progress: &dyn Progress,
 ) -> Result<Selection, CalibError> {
-    let blocks = CandidateBlocks::build(&(*nominal).into(), option, candidates, loads_kg)?;
+    let blocks = CandidateBlocks::build_for(
+        &(*nominal).into(),
+        option,
+        candidates,
+        loads_kg,
+        choice.poses(),
+    )?;
     Selection::choose(blocks, candidates, choice, progress)
 }
 
@@ -336,6 +409,8 @@ pub struct OptionResult {
     pub selection: Selection,
     /// The identification on the selected poses.
     pub identified: Identified,
+    /// How the servo curves' knot spacing was chosen, for an option that fits them.
+    pub knots: Option<KnotChoice>,
     /// Validation on the other candidates under the identification load
     /// (none when every candidate was used for the fit).
     pub validation: Option<Validation>,
@@ -394,11 +469,12 @@ pub fn calibrate_option(
     settings: &RunSettings,
     progress: &dyn Progress,
 ) -> Result<OptionResult, CalibError> {
-    let blocks = CandidateBlocks::build(
+    let blocks = CandidateBlocks::build_for(
         &inputs.nominal,
         option,
         inputs.candidates,
         &[settings.identify_load_kg],
+        settings.choice.poses(),
     )?;
     calibrate_blocks(inputs, blocks, settings, progress)
 }
@@ -432,16 +508,10 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let keys = backlash::with_widths(
+    let ChosenFit { identified, knots } = knot_choice::fit(
         &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,
-        &fit_set,
-    )?;
-    let identified = identify_refreshed(
-        &inputs.nominal,
-        selection.option,
-        &keys,
         &fit_set,
         &settings.identify,
     )?;
@@ -467,6 +537,7 @@ pub fn calibrate_blocks(
         identify_load_kg: load,
         selection,
         identified,
+        knots,
         validation,
         cross_load,
     })

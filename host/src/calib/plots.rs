@@ -14,7 +14,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontStyle;
 
-use super::experiments::O1Point;
+use super::experiments::{ErrorPoint, O1Point};
 use super::pipeline::OptionResult;
 use super::validate::Validation;
 use super::{CalibError, ModelOption};
@@ -321,12 +321,42 @@ pub fn o1_series(points: &[O1Point]) -> Vec<Series> {
         .collect()
 }
 
+/// Two series per option of the error sweep, mean error (mm) off the grid
+/// and on it against the number of poses, in the order the options come;
+/// sizes without a calibration are left out.
+pub fn error_series(points: &[ErrorPoint]) -> Vec<Series> {
+    let mut options: Vec<ModelOption> = Vec::new();
+    for p in points {
+        if !options.contains(&p.option) {
+            options.push(p.option);
+        }
+    }
+    let series = |o: ModelOption, off_grid: bool| Series {
+        label: format!("{o}, {}", if off_grid { "off the grid" } else { "grid" }),
+        points: points
+            .iter()
+            .filter(|p| p.option == o)
+            .filter_map(|p| {
+                let e = p.errors.as_ref()?;
+                let stats = if off_grid { &e.off_grid } else { &e.grid };
+                Some((p.poses as f64, stats.mean_m * 1e3))
+            })
+            .collect(),
+    };
+    options
+        .into_iter()
+        .flat_map(|o| [series(o, true), series(o, false)])
+        .collect()
+}
+
 /// The demo's figures in `dir` (`errors`, `errors-cross-load`, `per-pose` of
-/// the elasto-kinematic option, `o1-vs-poses`); returns the files written.
+/// the elasto-kinematic option, `o1-vs-poses`, and `errors-vs-poses` when
+/// the error sweep ran); returns the files written.
 pub fn demo_figures(
     dir: &Path,
     results: &[OptionResult],
     o1: &[O1Point],
+    errors: &[ErrorPoint],
 ) -> Result<Vec<PathBuf>, CalibError> {
     let load = results.first().map_or(0.0, |r| r.identify_load_kg);
     let mut files = Vec::new();
@@ -361,6 +391,16 @@ pub fn demo_figures(
         &o1_series(o1),
         true,
     )?);
+    if !errors.is_empty() {
+        files.extend(xy(
+            &dir.join("errors-vs-poses"),
+            &format!("Mean error against the number of poses fitted, {load} kg"),
+            "number of poses (DETMAX)",
+            "mean 3D error (mm)",
+            &error_series(errors),
+            true,
+        )?);
+    }
     Ok(files)
 }
 

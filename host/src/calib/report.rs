@@ -11,9 +11,10 @@
 use serde::Serialize;
 
 use super::ModelOption;
-use super::experiments::{O1Point, RandomBaseline};
+use super::experiments::{ErrorPoint, O1Point, RandomBaseline};
 use super::identifiability::Identifiability;
 use super::identify::{Identified, Outlier};
+use super::knot_choice::KnotChoice;
 use super::observability::Observability;
 use super::pipeline::OptionResult;
 use super::validate::{ErrorStats, Validation};
@@ -21,8 +22,10 @@ use crate::io::calibration_file::FittedParam;
 
 /// Name of the report schema.
 pub const REPORT_SCHEMA: &str = "lrmcal-report";
-/// Version of the report schema (2: named list entries).
-pub const REPORT_SCHEMA_VERSION: u32 = 2;
+/// Version of the report schema (2: named list entries; 3: the fit's
+/// leave-one-out error, the knot spacing chosen, the error against the
+/// number of poses).
+pub const REPORT_SCHEMA_VERSION: u32 = 3;
 
 /// A kept parameter that reproduces a removed one.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -156,6 +159,10 @@ pub struct FitReport {
     pub sigma_mm: f64,
     /// Condition number of the scaled Jacobian at the solution.
     pub condition: f64,
+    /// Mean error at each fitted measurement of the fit without it
+    /// (leave-one-out, `calib::identify`), mm; `null` when a measurement
+    /// alone decides a parameter.
+    pub loo_mean_mm: f64,
     /// Fitted parameters.
     pub parameters: Vec<FittedParam>,
     /// Measurements named as outliers, largest residual first.
@@ -183,6 +190,7 @@ impl From<&Identified> for FitReport {
             rms_after_mm: d.rms_after_m * 1e3,
             sigma_mm: d.sigma_m * 1e3,
             condition: d.condition,
+            loo_mean_mm: d.loo_mean_m * 1e3,
             parameters: f.estimates.iter().map(FittedParam::from).collect(),
             outliers: f.outliers.iter().map(OutlierReport::from).collect(),
         }
@@ -255,6 +263,8 @@ pub struct OptionReport {
     pub observability: Observability,
     /// The fit.
     pub fit: FitReport,
+    /// How the servo curves' knot spacing was chosen, for an option that fits them.
+    pub knots: Option<KnotChoice>,
     /// Validation on held-out poses under the identification load, if any were held out.
     pub validation: Option<ValidationReport>,
     /// Validation under the other load.
@@ -272,6 +282,7 @@ impl From<&OptionResult> for OptionReport {
             start_log_dets: r.selection.design.start_log_dets.clone(),
             observability: r.selection.observability,
             fit: (&r.identified).into(),
+            knots: r.knots.clone(),
             validation: r
                 .validation
                 .as_ref()
@@ -305,6 +316,8 @@ pub struct Report {
     pub random_baseline: Option<RandomBaseline>,
     /// O1 of DETMAX selections per number of poses, when computed.
     pub o1_vs_poses: Vec<O1Point>,
+    /// The error of calibrations from DETMAX selections per number of poses, when computed.
+    pub error_vs_poses: Vec<ErrorPoint>,
 }
 
 impl Report {
@@ -329,6 +342,7 @@ impl Report {
             options: results.into_iter().map(OptionReport::from).collect(),
             random_baseline: None,
             o1_vs_poses: Vec::new(),
+            error_vs_poses: Vec::new(),
         }
     }
 

@@ -2,7 +2,7 @@
 //! and `lrmcal demo` print, rendered from the report, so the terminal and
 //! `report.json` always tell the same story.
 
-use super::experiments::{GridErrors, RandomBaseline};
+use super::experiments::{ErrorPoint, GridErrors, RandomBaseline};
 use super::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
 use crate::io::calibration_file::TargetTool;
@@ -57,6 +57,66 @@ pub fn grid_table(errors: &[GridErrors]) -> String {
     s
 }
 
+/// Each option's mean error on the grid and off it against the number of
+/// poses fitted, a row per number (`-` where the poses could not determine
+/// the option or its fit failed), the knot spacing chosen beside ours.
+pub fn error_table(points: &[ErrorPoint]) -> String {
+    let mut options: Vec<_> = Vec::new();
+    let mut sizes: Vec<usize> = Vec::new();
+    for p in points {
+        if !options.contains(&p.option) {
+            options.push(p.option);
+        }
+        if !sizes.contains(&p.poses) {
+            sizes.push(p.poses);
+        }
+    }
+    let mut s = format!("{:>5}", "poses");
+    for o in &options {
+        s.push_str(&format!("  {:>36}", format!("{o}: grid / off-grid")));
+    }
+    s.push('\n');
+    for n in sizes {
+        s.push_str(&format!("{n:>5}"));
+        for o in &options {
+            let cell = points
+                .iter()
+                .find(|p| p.poses == n && p.option == *o)
+                .and_then(|p| {
+                    let e = p.errors.as_ref()?;
+                    let knots = p.knots.map(|k| format!(" ({k})")).unwrap_or_default();
+                    Some(format!(
+                        "{:.2} / {:.2} mm{knots}",
+                        e.grid.mean_m * 1e3,
+                        e.off_grid.mean_m * 1e3
+                    ))
+                })
+                .unwrap_or("-".into());
+            s.push_str(&format!("  {cell:>36}"));
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// How the servo curves' knot spacing was chosen, for an option that fits them.
+pub fn knots(o: &OptionReport) -> Option<String> {
+    let k = o.knots.as_ref()?;
+    let trials: Vec<String> = k
+        .trials
+        .iter()
+        .map(|t| match t.loo_mean_mm {
+            Some(mm) => format!("{} {mm:.2} mm", t.spacing),
+            None => format!("{} failed", t.spacing),
+        })
+        .collect();
+    Some(format!(
+        "servo curves: knots {}, the spacing whose fit best predicts each fitted pose left out (leave-one-out mean error: {})",
+        k.chosen,
+        trials.join(", ")
+    ))
+}
+
 /// One option's fit as `lrmcal identify` prints it: counts, selection,
 /// convergence, removed parameters, every estimate and the outliers.
 pub fn option_details(o: &OptionReport) -> String {
@@ -91,6 +151,9 @@ pub fn option_details(o: &OptionReport) -> String {
             .unwrap_or("(held at its bound)".into());
         format!("  {:<11} {:+.6e} {std}", p.name, p.error)
     }));
+    if let Some(line) = knots(o) {
+        lines.push(format!("  {line}"));
+    }
     if let Some(line) = weak(o) {
         lines.push(format!("  {line}"));
     }

@@ -204,7 +204,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let bar = Bar::new();
     let mut results = Vec::new();
     for option in args.option.options() {
-        let blocks = CandidateBlocks::build(&inputs.nominal, option, &measured, &[load])?;
+        let blocks = CandidateBlocks::build_for(
+            &inputs.nominal,
+            option,
+            &measured,
+            &[load],
+            settings.choice.poses(),
+        )?;
         // The measured poses must identify what positions can reveal on this arm at all.
         check_structure(&nominal, &blocks.identifiability, load)?;
         if !args.no_register {
