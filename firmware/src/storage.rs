@@ -54,7 +54,9 @@ const MAGIC: [u8; 4] = *b"LRMC";
 /// calibration (not with a damaged one) until one is pushed again.
 /// 2: the payload of protocol 2 (servo curves of 2 to 9 knots).
 /// 3: the payload of protocol 3 (each joint's backlash).
-const FORMAT: u32 = 3;
+/// 4: the payload of protocol 4 (the option elasto-kinematic-servo, which
+/// firmware of layout 3 cannot decode).
+const FORMAT: u32 = 4;
 const HEADER_LEN: usize = 24;
 /// Where the payload starts: one flash page after the header.
 pub const PAYLOAD_OFFSET: usize = 256;
@@ -400,10 +402,10 @@ mod tests {
         let mut s = Storage::new(&mut flash);
         s.load();
         s.store(&encoded(1)).unwrap();
-        // The same record as firmware of layout 1 would have written it.
+        // The same record as firmware of the previous layout would have written it.
         let mut header = [0u8; HEADER_LEN];
         flash.read(0, 0, &mut header).unwrap();
-        header[4..8].copy_from_slice(&1u32.to_le_bytes());
+        header[4..8].copy_from_slice(&(FORMAT - 1).to_le_bytes());
         let crc = crc32(&header[..20]);
         header[20..24].copy_from_slice(&crc.to_le_bytes());
         flash.erase(0).unwrap();

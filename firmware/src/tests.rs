@@ -646,14 +646,18 @@ fn bootloader_request_is_handed_to_the_binary_once() {
 #[test]
 fn old_or_new_hosts_get_a_version_error_under_the_boards_version() {
     let mut h = Harness::boot(SimFlash::new());
-    let mut buf = [0u8; MAX_FRAME];
-    let n = frame::encode_with_version(9, 44, &Request::Status, &mut buf).unwrap();
-    let mut out = [0u8; MAX_FRAME];
-    let m = h.dev.handle_frame(&buf[..n], &mut out);
-    assert_eq!(
-        frame::decode::<Response>(&out[..m]),
-        Ok((44, Response::Error(WireError::VersionMismatch)))
-    );
+    // The previous protocol (an lrmcal not yet updated) and a future one.
+    for theirs in [frame::PROTOCOL_VERSION - 1, 9] {
+        let mut buf = [0u8; MAX_FRAME];
+        let n = frame::encode_with_version(theirs, 44, &Request::Status, &mut buf).unwrap();
+        let mut out = [0u8; MAX_FRAME];
+        let m = h.dev.handle_frame(&buf[..n], &mut out);
+        assert_eq!(
+            frame::decode::<Response>(&out[..m]),
+            Ok((44, Response::Error(WireError::VersionMismatch))),
+            "protocol {theirs}"
+        );
+    }
 }
 
 #[test]

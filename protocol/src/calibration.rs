@@ -18,25 +18,41 @@ use serde::{Deserialize, Serialize};
 /// three-knot servo curves and about 1,570 with nine-knot ones.
 pub const MAX_CALIBRATION_LEN: usize = 2048;
 
-/// Which parameters the calibration identified (the three model options of `docs/METHOD.md`).
+/// Which parameters the calibration identified: the paper's three model
+/// options and ours (`docs/METHOD.md`, "Model options").
 ///
 /// The host's files write it by [`ModelOption::name`] (serde's kebab-case
-/// names); postcard encodes the variant's index, so the names are not on the wire.
+/// names); postcard encodes the variant's index, so the names are not on the
+/// wire. New variants go after the existing ones, so the indices of the old
+/// ones stay what they were.
+///
+/// The board stores the option the calibration was identified with and shows
+/// it in `status`; it compensates every option the same way, from the
+/// calibrated arm the payload carries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelOption {
     /// Geometric and elastic parameters (28 in the paper).
     ElastoKinematic,
-    /// Geometric parameters only (21).
+    /// Geometric parameters only (21 in the paper).
     Kinematic,
     /// Compliances only (7).
     Elastic,
+    /// Ours: the paper's geometric and elastic parameters, plus each servo's
+    /// curve between its tuned points (knot offsets), each joint's backlash
+    /// (the width of its play) and each spring's softening.
+    ElastoKinematicServo,
 }
 
 impl ModelOption {
-    /// Every option, in the order the paper's table lists them (worst model first).
-    pub const ALL: [ModelOption; 3] = [Self::Kinematic, Self::Elastic, Self::ElastoKinematic];
+    /// Every option, worst model first: the paper's table order, then ours.
+    pub const ALL: [ModelOption; 4] = [
+        Self::Kinematic,
+        Self::Elastic,
+        Self::ElastoKinematic,
+        Self::ElastoKinematicServo,
+    ];
 
     /// The name used on the command line and in calibration files.
     pub fn name(self) -> &'static str {
@@ -44,6 +60,7 @@ impl ModelOption {
             Self::ElastoKinematic => "elasto-kinematic",
             Self::Kinematic => "kinematic",
             Self::Elastic => "elastic",
+            Self::ElastoKinematicServo => "elasto-kinematic-servo",
         }
     }
 
@@ -208,10 +225,30 @@ mod tests {
     #[test]
     fn option_names_round_trip_in_table_order() {
         let names = ModelOption::ALL.map(ModelOption::name);
-        assert_eq!(names, ["kinematic", "elastic", "elasto-kinematic"]);
+        assert_eq!(
+            names,
+            [
+                "kinematic",
+                "elastic",
+                "elasto-kinematic",
+                "elasto-kinematic-servo"
+            ]
+        );
         for o in ModelOption::ALL {
             assert_eq!(ModelOption::from_name(o.name()), Some(o));
         }
         assert_eq!(ModelOption::from_name("rigid"), None);
+    }
+
+    #[test]
+    fn postcard_indices_of_the_paper_options_are_those_of_protocol_3() {
+        let index = |o: ModelOption| {
+            let mut buf = [0u8; 1];
+            postcard::to_slice(&o, &mut buf).unwrap()[0]
+        };
+        assert_eq!(index(ModelOption::ElastoKinematic), 0);
+        assert_eq!(index(ModelOption::Kinematic), 1);
+        assert_eq!(index(ModelOption::Elastic), 2);
+        assert_eq!(index(ModelOption::ElastoKinematicServo), 3);
     }
 }

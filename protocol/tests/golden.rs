@@ -105,6 +105,10 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
     };
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let cal = calibration.encode(&mut buf).unwrap().to_vec();
+    let options: Vec<u8> = ModelOption::ALL
+        .iter()
+        .flat_map(|o| postcard::to_slice(o, &mut [0u8; 1]).unwrap().to_vec())
+        .collect();
     vec![
         ("request hello", frame_of(1, &Request::Hello)),
         ("request status", frame_of(2, &Request::Status)),
@@ -185,6 +189,7 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
             frame_of(9, &Response::Error(WireError::CalibrationCrc)),
         ),
         ("calibration payload", cal),
+        ("model options, table order", options),
     ]
 }
 

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use firmware::sim::{MockBus, SimFlash};
 use firmware::{Config, Device};
-use host::commands::{compensation, detach, move_, payload, pull, push};
+use host::commands::{compensation, detach, move_, payload, pull, push, status};
 use host::device::DeviceArgs;
 use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
 use protocol::frame::{Feed, MAX_FRAME};
@@ -112,7 +112,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
-        option: host::calib::ModelOption::ElastoKinematic,
+        option: host::calib::ModelOption::ElastoKinematicServo,
         nominal,
         arm,
         parameters: vec![],
@@ -189,6 +189,13 @@ fn device_commands_drive_a_board_on_a_socket() {
     let want = [10.0f32, 20.0, -30.0, 0.0, 40.0, 0.0].map(f32::to_radians);
     assert_eq!(s.nominal_rad, want);
     assert!(s.pulses_us.iter().all(|&p| (500..=2500).contains(&p)));
+    // The board keeps the option the file names, ours, and `status` shows it.
+    assert_eq!(
+        s.calibration.map(|c| c.option),
+        Some(protocol::ModelOption::ElastoKinematicServo)
+    );
+    let shown = status::render(&s);
+    assert!(shown.contains("(elasto-kinematic-servo)"), "{shown}");
     drop(client);
 
     let out = dir.path().join("pulled.json");
@@ -199,7 +206,7 @@ fn device_commands_drive_a_board_on_a_socket() {
     .unwrap();
     let pulled: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
-    assert_eq!(pulled["option"], "elasto-kinematic");
+    assert_eq!(pulled["option"], "elasto-kinematic-servo");
     assert_eq!(
         pulled["calibrated"]["joints"][0]["servo"]["pulses_us"][1],
         1630.0

@@ -209,6 +209,39 @@ fn push_for_a_named_target_sends_its_tool_point() {
     assert!(e.contains("`m7`") && e.contains("m0, m1"), "{e}");
 }
 
+/// Ours, the default option, travels and is stored as itself: the payload
+/// encodes and decodes it, `status` reports it after a reboot, and `pull`
+/// hands it back. Its id differs from the same arms' elasto-kinematic one.
+#[test]
+fn an_elasto_kinematic_servo_calibration_keeps_its_option_on_the_board() {
+    let file = CalibrationFile {
+        option: ModelOption::ElastoKinematicServo,
+        ..calibration_file()
+    };
+    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    assert_eq!(payload.option, ModelOption::ElastoKinematicServo);
+    let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+    let decoded = protocol::Calibration::decode(payload.encode(&mut buf).unwrap()).unwrap();
+    assert_eq!(decoded, payload);
+    let paper = calibration::payload(&calibration_file(), [0.0; 6]).unwrap();
+    assert_eq!(paper.option, ModelOption::ElastoKinematic);
+    assert_ne!(payload.id, paper.id);
+
+    let mut c = client(Board::new(SimFlash::new()));
+    c.hello().unwrap();
+    assert_eq!(
+        c.push_calibration(&payload, |_, _| ()).unwrap().option,
+        ModelOption::ElastoKinematicServo
+    );
+    c.link_mut().reboot();
+    let info = c.status().unwrap().calibration.unwrap();
+    assert_eq!(
+        (info.id, info.option),
+        (payload.id, ModelOption::ElastoKinematicServo)
+    );
+    assert_eq!(c.pull_calibration().unwrap(), payload);
+}
+
 #[test]
 fn push_store_reboot_status_move() {
     let file = calibration_file();
@@ -388,20 +421,26 @@ fn a_board_of_another_protocol_version_is_named_clearly() {
 
 #[test]
 fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
-    // A board of protocol 1 refuses every frame of ours under its own version.
-    let err = hello_to_a_board_of(1, &protocol::Response::Error(WireError::VersionMismatch));
-    assert!(
-        matches!(err, ClientError::Comms(CommsError::Version { board: 1 })),
-        "{err:?}"
-    );
-    let msg = err.to_string();
-    assert!(
-        msg.contains(&format!(
-            "the board speaks protocol 1, this lrmcal speaks {}: reflash the firmware",
-            protocol::PROTOCOL_VERSION
-        )),
-        "{msg}"
-    );
+    // A board of protocol 1, or of the previous one, refuses every frame of
+    // ours under its own version.
+    for board in [1, protocol::PROTOCOL_VERSION - 1] {
+        let err = hello_to_a_board_of(
+            board,
+            &protocol::Response::Error(WireError::VersionMismatch),
+        );
+        assert!(
+            matches!(err, ClientError::Comms(CommsError::Version { board: b }) if b == board),
+            "{err:?}"
+        );
+        let msg = err.to_string();
+        assert!(
+            msg.contains(&format!(
+                "the board speaks protocol {board}, this lrmcal speaks {}: reflash the firmware",
+                protocol::PROTOCOL_VERSION
+            )),
+            "{msg}"
+        );
+    }
 }
 
 #[test]

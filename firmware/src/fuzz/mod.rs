@@ -101,8 +101,9 @@ pub struct Upload {
 /// What every case shares: the calibrations to upload, and flashes holding them.
 #[derive(Clone, Debug)]
 pub struct Fixtures {
-    /// Three valid calibrations (plain, with tight limits, with curves that
-    /// ask for pulses outside the safe range) and one the board must refuse.
+    /// Three valid calibrations (plain, with tight limits and our model
+    /// option, with curves that ask for pulses outside the safe range and the
+    /// kinematic option) and one the board must refuse.
     pub uploads: Vec<Upload>,
     /// A flash holding each valid upload (by index), written by the storage itself.
     flashes: Vec<Option<SimFlash>>,
@@ -119,6 +120,7 @@ impl Fixtures {
     pub fn new() -> Self {
         let plain = test_calibration(21);
         let mut tight = test_calibration(22);
+        tight.option = ModelOption::ElastoKinematicServo;
         tight.calibrated.joints[0].limits = [-0.6, 0.5];
         tight.calibrated.joints[2].limits = [-1.2, 0.9];
         for j in &mut tight.calibrated.joints {

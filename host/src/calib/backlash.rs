@@ -57,7 +57,7 @@ pub fn with_widths(
     kept: &[ParamKey],
     measurements: &[Measurement],
 ) -> Result<Vec<ParamKey>, CalibError> {
-    if !option.fits_backlash() {
+    if !super::option::fits_backlash(option) {
         return Ok(kept.to_vec());
     }
     let samples = nominal.samples(measurements)?;

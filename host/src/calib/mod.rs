@@ -60,9 +60,9 @@ mod testing;
 pub mod tool_only;
 pub mod validate;
 
-pub use crate::io::model_option::ModelOption;
 pub use error::CalibError;
 pub use params::{ParamKey, ParamVector};
+pub use protocol::ModelOption;
 pub use targets::Rig;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.

@@ -1,5 +1,6 @@
-//! The parameters each model option may fit: the paper's three and ours (the
-//! option itself is `crate::io::model_option::ModelOption`).
+//! The parameters each model option may fit: the paper's three and ours
+//! (the option itself is [`protocol::ModelOption`], re-exported as
+//! `calib::ModelOption`), and which option is the default.
 
 use super::ModelOption;
 use super::params::ParamKey;
@@ -9,6 +10,17 @@ use model::{Arm, ParamId};
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
 /// positioning figure calls its calibration "ours".
 pub const DEFAULT: ModelOption = ModelOption::ElastoKinematicServo;
+
+/// Whether `option` fits the servo curves' knot offsets (`calib::servo_knots`)
+/// and the springs' softenings ([`refresh_candidates`]): ours only.
+pub fn fits_servo_curves(option: ModelOption) -> bool {
+    option == ModelOption::ElastoKinematicServo
+}
+
+/// Whether `option` fits the joints' backlash widths (`calib::backlash`): ours only.
+pub fn fits_backlash(option: ModelOption) -> bool {
+    option == ModelOption::ElastoKinematicServo
+}
 
 /// Candidate parameters of `option` before the identifiability analysis: all
 /// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
@@ -48,8 +60,7 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
         ModelOption::Kinematic => geometric.collect(),
         ModelOption::Elastic => compliances.collect(),
     };
-    let knots = option
-        .fits_servo_curves()
+    let knots = fits_servo_curves(option)
         .then(|| servo_knots::keys(arm, spacing))
         .into_iter()
         .flatten();
@@ -63,7 +74,7 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
 /// zero: only at the estimate can the analysis and the fit's deviations
 /// tell whether the poses determine it.
 pub fn refresh_candidates(option: ModelOption) -> Vec<ParamKey> {
-    if !option.fits_servo_curves() {
+    if !fits_servo_curves(option) {
         return Vec::new();
     }
     (0..=model::JOINTS as u8)

@@ -29,7 +29,7 @@ use model::params::ParamKind;
 
 use super::targets::Rig;
 
-use crate::io::model_option::{
+use crate::io::param_names::{
     backlash_from_name, backlash_name, servo_knot_from_name, servo_knot_name,
 };
 

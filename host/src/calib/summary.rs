@@ -189,7 +189,7 @@ pub fn backlash(o: &OptionReport) -> Vec<String> {
         .parameters
         .iter()
         .filter_map(|p| {
-            let joint = crate::io::model_option::backlash_from_name(&p.name)? + 1;
+            let joint = crate::io::param_names::backlash_from_name(&p.name)? + 1;
             let deg = p.value.to_degrees();
             if p.value >= super::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
                 Some(format!(

@@ -17,7 +17,7 @@ use crate::calib::export::calibration_file;
 use crate::calib::identify::IdentifyOptions;
 use crate::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
 use crate::calib::report::Report;
-use crate::calib::{CalibError, ModelOption, plots, summary};
+use crate::calib::{CalibError, ModelOption, option, plots, summary};
 use crate::commands::helpers::Bar;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
@@ -177,12 +177,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         other_load_kg: Some(PAPER_LOAD_KG),
         ..settings.clone()
     };
-    let reverse = calibrate_option(&inputs, ModelOption::DEFAULT, &unloaded, &bar)?;
+    let reverse = calibrate_option(&inputs, option::DEFAULT, &unloaded, &bar)?;
     let ek = results
         .iter()
-        .find(|r| r.option() == ModelOption::DEFAULT)
+        .find(|r| r.option() == option::DEFAULT)
         .ok_or_else(|| CalibError::Empty {
-            what: format!("run the {} option", ModelOption::DEFAULT),
+            what: format!("run the {} option", option::DEFAULT),
         })?;
     let grid_errors = results
         .iter()
@@ -220,7 +220,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         // The paper's model and ours, from fewer poses.
         let swept: Vec<&OptionResult> = results
             .iter()
-            .filter(|r| [ModelOption::ElastoKinematic, ModelOption::DEFAULT].contains(&r.option()))
+            .filter(|r| [ModelOption::ElastoKinematic, option::DEFAULT].contains(&r.option()))
             .collect();
         report.error_vs_poses = error_vs_poses(
             &inputs,
@@ -292,7 +292,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
         print!("{}", summary::error_table(&report.error_vs_poses));
     }
-    if let Some(ek) = forward.iter().find(|o| o.option == ModelOption::DEFAULT) {
+    if let Some(ek) = forward.iter().find(|o| o.option == option::DEFAULT) {
         println!("\n{}", summary::identifiable(ek));
         if let Some(line) = summary::knots(ek) {
             println!("{line}");

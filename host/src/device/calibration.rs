@@ -14,7 +14,7 @@ pub fn payload(
 ) -> Result<Calibration, CalibrationFault> {
     identified(Calibration {
         id: 0,
-        option: file.option.wire(),
+        option: file.option,
         nominal: file.nominal.map(|x| x as f32),
         calibrated: file.arm.map(|x| x as f32),
         home_rad,

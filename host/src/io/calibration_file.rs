@@ -20,8 +20,9 @@
 
 use std::path::Path;
 
-use crate::io::model_option::{ModelOption, backlash_from_name, servo_knot_from_name};
+use crate::io::param_names::{backlash_from_name, servo_knot_from_name};
 use model::{Arm, Frame, ParamId, ServoCurve};
+use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};
@@ -498,6 +499,21 @@ mod tests {
         assert!(err.contains("cal.json") && err.contains("j3.a"), "{err}");
     }
 
+    /// Every option reads by its name: ours, `elasto-kinematic-servo`, the
+    /// default of every lrmcal that wrote calibration files, too.
+    #[test]
+    fn every_option_reads_by_its_name() {
+        let json = sample_file().to_json();
+        for o in ModelOption::ALL {
+            let text = json.replacen(
+                "\"option\": \"elastic\"",
+                &format!("\"option\": \"{}\"", o.name()),
+                1,
+            );
+            assert_eq!(CalibrationFile::parse(&text).unwrap().option, o);
+        }
+    }
+
     /// Each refusal names the key (and the line, where the JSON text has one).
     #[test]
     fn rejects_other_schemas_versions_and_bad_values() {
@@ -527,7 +543,10 @@ mod tests {
         assert!(e.contains("key `nominal.base_softening`"), "{e}");
         let e = refused(&json.replacen("\"elastic\"", "\"rigid\"", 1));
         assert!(
-            e.contains("key `option`") && e.contains("rigid") && e.contains("line 4"),
+            e.contains("key `option`")
+                && e.contains("rigid")
+                && e.contains("line 4")
+                && e.contains("elasto-kinematic or elasto-kinematic-servo"),
             "{e}"
         );
         let e = refused(&json.replacen("\"mean_m\"", "\"mean_mm\"", 1));

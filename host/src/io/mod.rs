@@ -18,6 +18,7 @@ mod csv_table;
 pub mod json;
 pub mod measurements;
 pub mod model_option;
+pub mod param_names;
 pub mod pose_list;
 pub mod predictions;
 pub mod urdf;
