@@ -8,7 +8,9 @@
 //! - the pool `plan --levels 5` (5^6 = 15,625 grid poses, filtered by limits
 //!   and collisions): the candidates' analysis (Jacobian, rank analysis,
 //!   column scale), DETMAX for 60 poses (8 starts) and the fit of those 60
-//!   poses, and their sum, for the paper's model and for ours;
+//!   poses as the pipeline makes it (backlash widths, refresh, and for ours
+//!   the knot spacing's choice), and their sum, for the paper's model and
+//!   for ours;
 //! - the whole `lrmcal demo` (the release binary, default arguments).
 //!
 //! Run: `cargo bench -p host --bench speed` (the README's performance
@@ -23,8 +25,8 @@ use std::time::{Duration, Instant};
 use host::calib::detmax::{DetmaxOptions, detmax};
 use host::calib::identify::IdentifyOptions;
 use host::calib::jacobian::{jacobian, tool_points};
+use host::calib::knot_choice;
 use host::calib::pipeline::CandidateBlocks;
-use host::calib::refresh::identify_refreshed;
 use host::calib::{ModelOption, ParamKey, Rig, Sample};
 use host::dataset::Pose;
 use host::plan::{Levels, PlanConfig, candidates};
@@ -180,7 +182,7 @@ fn pool(nominal: &model::Arm<f64>) {
             let measured = truth.measure(&poses, &[LOAD]).expect("measure");
             let start = Instant::now();
             black_box(
-                identify_refreshed(
+                knot_choice::fit(
                     &rig,
                     option,
                     &blocks.identifiability.kept,
