@@ -434,6 +434,60 @@ mod tests {
         );
     }
 
+    /// Each option and size gets a point: the run's own size is the run,
+    /// another size a calibration of its own, a size too small for the
+    /// parameters a failure that says so; every one is reported as progress.
+    #[test]
+    fn error_sweep_calibrates_each_size_or_says_why_not() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let settings = elastic_settings();
+        let r = calibrate_option(&inputs, ModelOption::Elastic, &settings, &Silent).unwrap();
+        let count = Count::default();
+        // No candidate is off the grid here: the off-grid set is some of the measurements.
+        let points = error_vs_poses(
+            &inputs,
+            &[&r],
+            &settings,
+            &[1, 6, 10],
+            usize::MAX,
+            &all[..5],
+            &count,
+        )
+        .unwrap();
+        let sizes: Vec<usize> = points.iter().map(|p| p.poses).collect();
+        assert_eq!(sizes, [1, 6, 10]);
+        let too_few = &points[0];
+        assert!(
+            too_few.errors.is_none() && too_few.knots.is_none(),
+            "{too_few:?}"
+        );
+        assert!(
+            too_few
+                .failure
+                .as_ref()
+                .is_some_and(|f| f.contains("1 poses")),
+            "{too_few:?}"
+        );
+        for p in &points[1..] {
+            let e = p.errors.as_ref().expect("calibrated");
+            // Exact data: every calibration that can be made predicts exactly.
+            assert!(e.grid.mean_m < 1e-6 && e.off_grid.mean_m < 1e-6, "{p:?}");
+            assert_eq!((p.option, p.failure.as_ref()), (ModelOption::Elastic, None));
+        }
+        // The run's own size is the run itself.
+        assert_eq!(
+            points[2].errors.as_ref().unwrap().grid,
+            grid_and_off_grid(&inputs, &r, usize::MAX, &all[..5])
+                .unwrap()
+                .grid
+        );
+        assert_eq!(
+            (count.steps.get(), count.announced.get(), count.done.get()),
+            (1, 3, 3)
+        );
+    }
+
     /// On exact data any full-rank random set identifies the arm exactly, and
     /// DETMAX's O1 is at least the random sets' median.
     #[test]

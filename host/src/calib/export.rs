@@ -128,19 +128,10 @@ pub fn registered_calibration_file(
     nominal: &Arm<f64>,
     result: &OptionResult,
 ) -> CalibrationFile {
-    let load = result.identify_load_kg;
-    let mut cal = calibration_file(
+    let mut cal = result_calibration_file(
         &registration.arm_in_measurement_frame(nominal),
         &registration.identified_in_measurement_frame(nominal, &result.identified),
-        &result.held(),
-        result.pose_ids(),
-        vec![load],
-        result.identified.fit_residual,
-        result.validation.as_ref().map(|v| ValidationSummary {
-            load_kg: load,
-            before: v.before,
-            after: v.after,
-        }),
+        result,
     );
     let per_target = result
         .validation
@@ -151,6 +142,30 @@ pub fn registered_calibration_file(
         target.validation_after = Some(after);
     }
     cal.with_registration(registration.record(registered))
+}
+
+/// The calibration file of `result`'s run: `identified` (its identification,
+/// in the frame of `nominal`) with the parameters it held, the poses and
+/// load it used and its validation.
+pub fn result_calibration_file(
+    nominal: &Arm<f64>,
+    identified: &Identified,
+    result: &OptionResult,
+) -> CalibrationFile {
+    let load = result.identify_load_kg;
+    calibration_file(
+        nominal,
+        identified,
+        &result.held(),
+        result.pose_ids(),
+        vec![load],
+        result.identified.fit_residual,
+        result.validation.as_ref().map(|v| ValidationSummary {
+            load_kg: load,
+            before: v.before,
+            after: v.after,
+        }),
+    )
 }
 
 #[cfg(test)]

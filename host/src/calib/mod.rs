@@ -21,6 +21,7 @@
 //! | [`checks`] | measurements that cannot be right, poses that are not candidates |
 //! | [`targets`] | several measured targets per pose: one arm, a tool point each |
 //! | [`pipeline`] | select → identify → validate for one option |
+//! | [`study`] | the demo's study of one arm: every option, both cross-load directions, the experiments |
 //! | [`experiments`] | DETMAX against random selections, O1 and the error against the number of poses |
 //! | [`export`] | the results as the file formats of `crate::io` hold them (calibration file) |
 //! | [`report`] | the machine-readable report, schema header included |
@@ -53,6 +54,7 @@ pub mod refresh;
 pub mod registration;
 pub mod report;
 pub mod servo_knots;
+pub mod study;
 pub mod summary;
 pub mod targets;
 #[cfg(test)]

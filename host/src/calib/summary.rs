@@ -2,9 +2,12 @@
 //! and `lrmcal demo` print, rendered from the report, so the terminal and
 //! `report.json` always tell the same story.
 
+use super::CalibError;
 use super::experiments::{ErrorPoint, GridErrors, RandomBaseline};
+use super::option::DEFAULT;
 use super::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
+use super::study::Study;
 use crate::io::calibration_file::TargetTool;
 use model::Arm;
 
@@ -96,6 +99,9 @@ pub fn error_table(points: &[ErrorPoint]) -> String {
         }
         s.push('\n');
     }
+    if points.iter().any(|p| p.errors.is_none()) {
+        s.push_str("  -: too few poses for the option's parameters, or its fit failed (report.json says which)\n");
+    }
     s
 }
 
@@ -115,6 +121,49 @@ pub fn knots(o: &OptionReport) -> Option<String> {
         k.chosen,
         trials.join(", ")
     ))
+}
+
+/// What `lrmcal demo` prints of its study (`off_grid` poses off the grid):
+/// the paper-style table with the cross-load check both ways, the grid and
+/// off-grid errors, the error against the number of poses, and for our
+/// option what it identified, its knot spacing, its selection against
+/// random ones and its outliers.
+pub fn study(study: &Study, off_grid: usize) -> Result<String, CalibError> {
+    let load = study.report.identify_load_kg;
+    let ours = study.result(DEFAULT)?;
+    let mut s = format!(
+        "\nValidation on the {} poses not selected, {load} kg load (mean 3D error):\n",
+        ours.held_out()?.before.count,
+    );
+    let (forward, reversed) = study.report.options.split_at(study.results.len());
+    s.push_str(&table(forward));
+    if let Some(line) = reversed.first().and_then(cross_load) {
+        s.push_str(&format!("{line}\n"));
+    }
+    s.push_str(&format!(
+        "\nOn the grid (its poses not selected) and off it ({off_grid} random poses), {load} kg (mean 3D error):\n"
+    ));
+    s.push_str(&grid_table(&study.grid_errors));
+    if !study.report.error_vs_poses.is_empty() {
+        s.push_str(&format!(
+            "\nAgainst the number of poses fitted (DETMAX), {load} kg (mean 3D error):\n"
+        ));
+        s.push_str(&error_table(&study.report.error_vs_poses));
+    }
+    if let Some(o) = forward.iter().find(|o| o.option == DEFAULT) {
+        s.push_str(&format!("\n{}\n", identifiable(o)));
+        if let Some(line) = knots(o) {
+            s.push_str(&format!("{line}\n"));
+        }
+        s.push_str(&format!("{}\n", selection(o)));
+        if let Some(b) = &study.report.random_baseline {
+            s.push_str(&format!("{}\n", random_baseline(b)));
+        }
+        for x in &o.fit.outliers {
+            s.push_str(&format!("{}\n", outlier(x)));
+        }
+    }
+    Ok(s)
 }
 
 /// One option's fit as `lrmcal identify` prints it: counts, selection,

@@ -2,27 +2,24 @@
 //! own: plan the candidates (the grid and random poses off it), simulate a
 //! true arm measured under no load and 66.3 g, select N poses per option with
 //! DETMAX, identify, validate on the rest and on poses off the grid, check
-//! across loads, compare with random selections, and write the calibrations,
-//! the report and the plots to one folder.
+//! across loads, compare with random selections and with fewer poses
+//! (`calib::study`), drive the simulated arm through the board's
+//! compensation, and write the calibrations, the report and the plots to
+//! one folder.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use crate::calib::detmax::DetmaxOptions;
-use crate::calib::experiments::{
-    ERROR_SIZES, GridErrors, O1_SIZES, error_vs_poses, grid_and_off_grid, o1_vs_poses,
-    random_baseline,
-};
-use crate::calib::export::calibration_file;
+use crate::calib::export::result_calibration_file;
 use crate::calib::identify::IdentifyOptions;
-use crate::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
-use crate::calib::report::Report;
-use crate::calib::{CalibError, ModelOption, option, plots, summary};
+use crate::calib::pipeline::{Choice, Inputs, RunSettings};
+use crate::calib::study::{StudySettings, study};
+use crate::calib::{plots, summary};
 use crate::commands::helpers::Bar;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::ValidationSummary;
 use crate::io::measurements;
 use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
 use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
@@ -149,169 +146,65 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
 
     let inputs = Inputs::new(&nominal, &poses, &all);
-    let settings = RunSettings {
-        identify_load_kg: PAPER_LOAD_KG,
-        other_load_kg: Some(0.0),
-        choice: Choice::Detmax(DetmaxOptions {
-            n: args.poses,
-            starts: args.starts,
-            ..Default::default()
-        }),
-        identify: IdentifyOptions {
-            robust: !args.no_robust,
-            ..Default::default()
-        },
-    };
-    let bar = Bar::new();
-    let results = ModelOption::ALL
-        .iter()
-        .map(|&option| {
-            let r = calibrate_option(&inputs, option, &settings, &bar)?;
-            r.held_out()?;
-            Ok(r)
-        })
-        .collect::<Result<Vec<OptionResult>, Error>>()?;
-    // The other direction of the cross-load check: fit without load, validate with it.
-    let unloaded = RunSettings {
-        identify_load_kg: 0.0,
-        other_load_kg: Some(PAPER_LOAD_KG),
-        ..settings.clone()
-    };
-    let reverse = calibrate_option(&inputs, option::DEFAULT, &unloaded, &bar)?;
-    let ek = results
-        .iter()
-        .find(|r| r.option() == option::DEFAULT)
-        .ok_or_else(|| CalibError::Empty {
-            what: format!("run the {} option", option::DEFAULT),
-        })?;
-    let grid_errors = results
-        .iter()
-        .map(|r| grid_and_off_grid(&inputs, r, plan.grid_size, &off_grid))
-        .collect::<Result<Vec<GridErrors>, CalibError>>()?;
-
-    let mut report = Report::new(
-        loaded.origin.clone(),
-        poses.len(),
-        PAPER_LOAD_KG,
-        serde_json::json!({
-            "source": "simulated",
-            "seed": args.seed,
-            "loads_kg": loads,
-            "config": config,
-        }),
-        results.iter().chain([&reverse]),
-    );
-    // The paper's comparison, on its model: a random set cannot determine
-    // ours at all (its fits fail after long searches).
-    let paper = results
-        .iter()
-        .find(|r| r.option() == ModelOption::ElastoKinematic);
-    if let (true, Some(paper)) = (args.compare_random > 0, paper) {
-        report.random_baseline = Some(random_baseline(
-            &inputs,
-            paper,
-            args.compare_random,
-            &settings.identify,
-            &bar,
-        )?);
-    }
-    report.o1_vs_poses = o1_vs_poses(&results, &O1_SIZES, &bar)?;
-    if args.error_sweep {
-        // The paper's model and ours, from fewer poses.
-        let swept: Vec<&OptionResult> = results
-            .iter()
-            .filter(|r| [ModelOption::ElastoKinematic, option::DEFAULT].contains(&r.option()))
-            .collect();
-        report.error_vs_poses = error_vs_poses(
-            &inputs,
-            &swept,
-            &settings,
-            &ERROR_SIZES,
-            plan.grid_size,
-            &off_grid,
-            &bar,
-        )?;
-    }
-
-    let mut files = Vec::with_capacity(results.len());
-    for r in &results {
-        let validation = r.held_out()?;
-        let file = calibration_file(
-            &nominal,
-            &r.identified,
-            &r.held(),
-            r.pose_ids(),
-            vec![r.identify_load_kg],
-            r.identified.fit_residual,
-            Some(ValidationSummary {
-                load_kg: r.identify_load_kg,
-                before: validation.before,
-                after: validation.after,
+    let settings = StudySettings {
+        run: RunSettings {
+            identify_load_kg: PAPER_LOAD_KG,
+            other_load_kg: Some(0.0),
+            choice: Choice::Detmax(DetmaxOptions {
+                n: args.poses,
+                starts: args.starts,
+                ..Default::default()
             }),
-        );
+            identify: IdentifyOptions {
+                robust: !args.no_robust,
+                ..Default::default()
+            },
+        },
+        compare_random: args.compare_random,
+        error_sweep: args.error_sweep,
+    };
+    let measured = serde_json::json!({
+        "source": "simulated",
+        "seed": args.seed,
+        "loads_kg": loads,
+        "config": config,
+    });
+    let study = study(
+        &inputs,
+        plan.grid_size,
+        &off_grid,
+        &settings,
+        (loaded.origin.clone(), measured),
+        &Bar::new(),
+    )?;
+    let mut files = Vec::with_capacity(study.results.len());
+    for r in &study.results {
+        let file = result_calibration_file(&nominal, &r.identified, r);
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &file.to_json())?;
         files.push((r.option(), file));
     }
-    write_text(&args.out.join("report.json"), &report.to_json())?;
+    write_text(&args.out.join("report.json"), &study.report.to_json())?;
     let mut plot_files = plots::demo_figures(
         &args.out,
-        &results,
-        &report.o1_vs_poses,
-        &report.error_vs_poses,
+        &study.results,
+        &study.report.o1_vs_poses,
+        &study.report.error_vs_poses,
     )?;
-    let positioning = if args.targets > 0 {
+    print!("{}", summary::study(&study, off_grid.len())?);
+    if args.targets > 0 {
         let calibrations: Vec<_> = files.iter().map(|(o, f)| (*o, f)).collect();
         let targets =
             positioning::targets(&nominal, args.targets, args.seed, &PlanConfig::default())?;
         let boards = positioning::demo_boards(&calibrations)?;
         let rows = positioning::compare(&truth, &targets, &boards, PAPER_LOAD_KG)?;
         plot_files.extend(positioning::plot(&args.out, &rows, PAPER_LOAD_KG)?);
-        Some(rows)
-    } else {
-        None
-    };
-
-    println!(
-        "\nValidation on the {} poses not selected, {PAPER_LOAD_KG} kg load (mean 3D error):",
-        ek.held_out()?.before.count,
-    );
-    let (forward, reversed) = report.options.split_at(results.len());
-    print!("{}", summary::table(forward));
-    if let Some(line) = reversed.first().and_then(summary::cross_load) {
-        println!("{line}");
-    }
-    println!(
-        "\nOn the grid (its poses not selected) and off it ({} random poses), {PAPER_LOAD_KG} kg (mean 3D error):",
-        off_grid.len()
-    );
-    print!("{}", summary::grid_table(&grid_errors));
-    if !report.error_vs_poses.is_empty() {
-        println!(
-            "\nAgainst the number of poses fitted (DETMAX), {PAPER_LOAD_KG} kg (mean 3D error):"
-        );
-        print!("{}", summary::error_table(&report.error_vs_poses));
-    }
-    if let Some(ek) = forward.iter().find(|o| o.option == option::DEFAULT) {
-        println!("\n{}", summary::identifiable(ek));
-        if let Some(line) = summary::knots(ek) {
-            println!("{line}");
-        }
-        println!("{}", summary::selection(ek));
-        if let Some(b) = &report.random_baseline {
-            println!("{}", summary::random_baseline(b));
-        }
-        for o in &ek.fit.outliers {
-            println!("{}", summary::outlier(o));
-        }
-    }
-    if let Some(rows) = &positioning {
         println!(
             "\nPositioning error at the tool through the board, {} random targets with {PAPER_LOAD_KG} kg \
              (mm; nominal IK as `move --xyz`, the firmware's servo frames, the true arm):",
             args.targets
         );
-        print!("{}", positioning::table(rows));
+        print!("{}", positioning::table(&rows));
     }
     println!(
         "\nwrote {} (calibration-*.json, report.json, measurements.csv, off-grid.csv, truth.json, {} plots) in {:.1} s",
