@@ -57,10 +57,11 @@ impl CandidateBlocks {
 
     /// The analysis for the finest knot spacing whose parameters `poses` of
     /// the candidates can determine (an option without knots has one):
-    /// [`CandidateBlocks::build`], then coarser grids while the kept
-    /// parameters need more poses ([`CandidateBlocks::fewest_poses`]) or,
-    /// when all the candidates are to be fitted, leave some of what the
-    /// arm's structure identifies undetermined
+    /// [`CandidateBlocks::build`], then coarser grids while a selection of
+    /// `poses` is not made for the kept parameters
+    /// ([`CandidateBlocks::selects_for`]) or, when all the candidates are
+    /// to be fitted, they leave some of what the arm's structure identifies
+    /// undetermined
     /// (`identifiability::check_structure`, under the first load). The
     /// coarsest grid's when none will do: the callers' checks then say why.
     pub fn build_for(
