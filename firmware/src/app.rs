@@ -25,7 +25,8 @@ use protocol::{
 };
 
 use crate::compensator::Compensator;
-use crate::motion::{MotionLimits, Profile};
+use crate::float::ordered;
+use crate::motion::{self, MotionLimits, Profile};
 use crate::servo::{self, PreparedCurve, pulse_for};
 use crate::storage::Storage;
 use crate::{CHANNELS, Config, FlashStorage, ServoBus};
@@ -318,7 +319,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         };
         // Fade the correction towards the wanted one at a bounded rate; a limp
         // arm starts again from none.
-        let dt_s = now_us.saturating_sub(self.last_frame_us).min(100_000) as f32 * 1e-6;
+        let dt_s = motion::seconds(now_us.saturating_sub(self.last_frame_us).min(100_000));
         self.last_frame_us = now_us;
         let step = self.config.max_correction_rate_rad_s * dt_s;
         let mut settling = false;
@@ -406,12 +407,31 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
 }
 
 /// `delta.clamp(-step, step)` and whether it had to be cut (`delta.abs() >
-/// step`), for `step >= 0`: one float comparison where those make four,
-/// each a call on the Cortex-M0+.
+/// step`), for `delta` not NaN and `step >= 0`: one comparison, on the
+/// bits, where those make four float comparisons, each a call on the
+/// Cortex-M0+.
 fn bounded(delta: f32, step: f32) -> (f32, bool) {
-    if delta.abs() > step {
+    if ordered(delta.abs()) > ordered(step) {
         (step.copysign(delta), true)
     } else {
         (delta, false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bounded;
+
+    #[test]
+    fn the_bound_is_clamp_and_says_when_it_cut() {
+        let steps = [0.0f32, 1e-30, 1e-3, 0.01, 1.0, f32::INFINITY];
+        for step in steps {
+            for delta in crate::float::tests::specials() {
+                let (change, cut) = bounded(delta, step);
+                let clamped = delta.clamp(-step, step);
+                assert_eq!(change.to_bits(), clamped.to_bits(), "{delta:e} by {step:e}");
+                assert_eq!(cut, delta.abs() > step, "{delta:e} by {step:e}");
+            }
+        }
     }
 }
