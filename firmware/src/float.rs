@@ -16,6 +16,7 @@
 /// a negative float is its magnitude's bits negated. A few instructions and
 /// an integer comparison, where a float comparison is a call of 27 to 50
 /// cycles on the Cortex-M0+.
+#[inline]
 pub fn ordered(x: f32) -> i32 {
     let bits = x.to_bits() as i32;
     let magnitude = bits & i32::MAX;
@@ -23,6 +24,7 @@ pub fn ordered(x: f32) -> i32 {
 }
 
 /// `x.is_nan()` on the bits (`is_nan` compares `x` with itself: a call on the Cortex-M0+).
+#[inline]
 pub fn is_nan(x: f32) -> bool {
     x.to_bits() & 0x7fff_ffff > 0x7f80_0000
 }
@@ -31,6 +33,7 @@ pub fn is_nan(x: f32) -> bool {
 /// NaN and `lo <= hi`: two integer comparisons ([`ordered`]), where
 /// `f32::clamp` makes three float comparisons (it checks `lo <= hi` first)
 /// and the test for a change two more.
+#[inline]
 pub fn clamp(x: f32, [lo, hi]: [f32; 2]) -> (f32, bool) {
     let key = ordered(x);
     if key < ordered(lo) {
@@ -51,6 +54,7 @@ pub fn clamp(x: f32, [lo, hi]: [f32; 2]) -> (f32, bool) {
 /// half of the integer part's lowest bit to `m` and shifting the fraction
 /// bits out rounds it half up. Below 0.5 it rounds to 0, from 65535.5 on
 /// it saturates.
+#[inline]
 pub fn round_u16(x: f32) -> u16 {
     let bits = x.to_bits();
     let exponent = ((bits >> 23) & 0xff) as i32 - 127;
