@@ -26,7 +26,7 @@ use protocol::{
 
 use crate::compensator::Compensator;
 use crate::float::ordered;
-use crate::motion::{self, MotionLimits, Profile};
+use crate::motion::{MotionLimits, Profile};
 use crate::servo::{self, PreparedCurve, pulse_for};
 use crate::storage::Storage;
 use crate::{CHANNELS, Config, FlashStorage, ServoBus};
@@ -319,7 +319,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         };
         // Fade the correction towards the wanted one at a bounded rate; a limp
         // arm starts again from none.
-        let dt_s = motion::seconds(now_us.saturating_sub(self.last_frame_us).min(100_000));
+        // At most 100 ms: a 32-bit conversion (the same float as a 64-bit
+        // one, for half its cycles on the Cortex-M0+).
+        let dt_us = now_us.saturating_sub(self.last_frame_us).min(100_000) as u32;
+        let dt_s = dt_us as f32 * 1e-6;
         self.last_frame_us = now_us;
         let step = self.config.max_correction_rate_rad_s * dt_s;
         let mut settling = false;

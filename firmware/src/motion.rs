@@ -125,7 +125,7 @@ impl Profile {
 
     /// Where every joint is at `now_us`, and whether the move is over.
     pub fn at(&self, now_us: u64) -> ([f32; CHANNELS], bool) {
-        let t = seconds(now_us.saturating_sub(self.t0_us));
+        let t = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
         // Times are never NaN.
         if ordered(t) >= ordered(self.duration_s) {
             return (self.end, true);
@@ -163,17 +163,6 @@ impl Profile {
         // `area` is at least half the duration, which is not 0 here.
         clamp(x / area, [0.0, 1.0]).0
     }
-}
-
-/// `us as f32 * 1e-6`, µs to s: through a 32-bit conversion when `us` fits
-/// (the same float, both round the same integer to nearest), which costs
-/// half the 64-bit one's cycles on the Cortex-M0+.
-pub(crate) fn seconds(us: u64) -> f32 {
-    let whole = match u32::try_from(us) {
-        Ok(us) => us as f32,
-        Err(_) => us as f32,
-    };
-    whole * 1e-6
 }
 
 #[cfg(test)]
@@ -283,27 +272,6 @@ mod tests {
         let p =
             Profile::plan([0.0; 6], [1.5; 6], 0, Timing::DurationMs(10), LIMITS, 600.0).unwrap();
         assert!((p.duration_s() - (1.0 + 1.5 / 4.0)).abs() < 1e-5);
-    }
-
-    #[test]
-    fn seconds_are_the_64_bit_conversion_bit_for_bit() {
-        let mut us = 1u64;
-        while us < u64::MAX / 3 {
-            for x in [us - 1, us, us + 1, us * 3 / 2] {
-                assert_eq!(seconds(x).to_bits(), (x as f32 * 1e-6).to_bits(), "{x}");
-            }
-            us *= 2;
-        }
-        for x in [
-            0,
-            20_000,
-            100_000,
-            u64::from(u32::MAX),
-            u64::from(u32::MAX) + 1,
-            u64::MAX,
-        ] {
-            assert_eq!(seconds(x).to_bits(), (x as f32 * 1e-6).to_bits(), "{x}");
-        }
     }
 
     #[test]
