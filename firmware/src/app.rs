@@ -25,6 +25,7 @@ use protocol::{
 };
 
 use crate::compensator::Compensator;
+use crate::float::ordered;
 use crate::motion::{MotionLimits, Profile};
 use crate::servo::{self, PreparedCurve, pulse_for};
 use crate::storage::Storage;
@@ -58,6 +59,9 @@ pub(crate) struct Active {
     pub compensator: Compensator,
     /// The calibrated servo curves, ready for the servo frame.
     pub curves: [PreparedCurve; CHANNELS],
+    /// The joint ranges in force: the calibration's, cut to the hard range
+    /// (worked out once, not per servo frame), rad.
+    pub limits: [[f32; 2]; CHANNELS],
     /// Each joint's backlash offset arriving rising and falling, rad (worked
     /// out once: the servo frame only picks one).
     pub play_offsets: [[f32; 2]; CHANNELS],
@@ -134,6 +138,8 @@ pub struct Device<B, F> {
     pub(crate) last_frame_us: u64,
     /// The servo curve without a calibration, ready for the servo frame.
     pub(crate) uncalibrated: PreparedCurve,
+    /// The config's safe pulse range as floats, µs (converted once, not per servo frame).
+    pub(crate) pulse_range_us: [f32; 2],
 }
 
 impl<B: ServoBus, F: FlashStorage> Device<B, F> {
@@ -166,6 +172,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             applied_play: [0.0; CHANNELS],
             last_frame_us: now_us,
             uncalibrated: PreparedCurve::new(config.uncalibrated_curve),
+            pulse_range_us: config.pulse_range_us.map(f32::from),
         };
         device.faults.set(Faults::STORAGE_DAMAGED, report.damaged);
         if let Some(loaded) = report.loaded {
@@ -226,6 +233,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 .calibrated
                 .joints
                 .map(|j| PreparedCurve::new(j.servo)),
+            limits: servo::joint_limits(
+                Some(&calibration.calibrated),
+                c.hard_limits_rad,
+                c.default_limits_rad,
+            ),
             play_offsets: calibration.calibrated.joints.map(|j| {
                 [Approach::Rising, Approach::Falling]
                     .map(|way| backlash::command_for(0.0, j.backlash, way))
@@ -262,14 +274,12 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             .map_or([0.0; CHANNELS], |a| a.calibration.home_rad)
     }
 
-    /// Joint ranges in force, rad.
+    /// Joint ranges in force, rad ([`servo::joint_limits`]).
     pub(crate) fn limits(&self) -> [[f32; 2]; CHANNELS] {
-        let arm = self.active.as_ref().map(|a| &a.calibration.calibrated);
-        servo::joint_limits(
-            arm,
-            self.config.hard_limits_rad,
-            self.config.default_limits_rad,
-        )
+        match &self.active {
+            Some(a) => a.limits,
+            None => [self.config.default_limits_rad; CHANNELS],
+        }
     }
 
     /// The servo curve in force on `channel`: the calibration's, or the data-sheet curve.
@@ -309,7 +319,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         };
         // Fade the correction towards the wanted one at a bounded rate; a limp
         // arm starts again from none.
-        let dt_s = now_us.saturating_sub(self.last_frame_us).min(100_000) as f32 * 1e-6;
+        // At most 100 ms: a 32-bit conversion (the same float as a 64-bit
+        // one, for half its cycles on the Cortex-M0+).
+        let dt_us = now_us.saturating_sub(self.last_frame_us).min(100_000) as u32;
+        let dt_s = dt_us as f32 * 1e-6;
         self.last_frame_us = now_us;
         let step = self.config.max_correction_rate_rad_s * dt_s;
         let mut settling = false;
@@ -322,8 +335,9 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             let delta = target - self.applied_correction[i];
             // A non-finite wish leaves the correction where it is.
             if delta.is_finite() {
-                self.applied_correction[i] += delta.clamp(-step, step);
-                settling |= delta.abs() > step;
+                let (change, capped) = bounded(delta, step);
+                self.applied_correction[i] += change;
+                settling |= capped;
             }
             q_nominal[i] + self.applied_correction[i]
         });
@@ -338,21 +352,24 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 (Some(o), Channel::Held(_), Approach::Falling) => o[i][1],
                 _ => 0.0,
             };
-            let delta = offset - self.applied_play[i];
-            // Holding on the same side, nothing changes: the frame's usual case.
-            if delta != 0.0 {
-                self.applied_play[i] += delta.clamp(-step, step);
-                settling |= delta.abs() > step;
+            // Holding on the same side, nothing changes: the frame's usual
+            // case. (Both are finite: their difference is 0 only if they are equal.)
+            if offset != self.applied_play[i] {
+                let (change, capped) = bounded(offset - self.applied_play[i], step);
+                self.applied_play[i] += change;
+                settling |= capped;
             }
             command[i] + self.applied_play[i]
         });
-        // One Newton step per frame: after a move the last steps still change the command.
-        let converging = wanted
-            .iter()
-            .zip(&self.wanted)
-            .any(|(now, before)| (now - before).abs() > SETTLED_RAD);
+        // One Newton step per frame: after a move the last steps still change
+        // the command (while it moves, the motion keeps the board busy anyway).
+        // An unchanged command (a settled solve's) needs no float arithmetic.
+        let converging = done
+            && wanted.iter().zip(&self.wanted).any(|(now, before)| {
+                now.to_bits() != before.to_bits() && (now - before).abs() > SETTLED_RAD
+            });
         self.wanted = wanted;
-        self.settling = settling || (done && converging);
+        self.settling = settling || converging;
         let fell_back = driven
             && mode != CompensationMode::Off
             && self
@@ -372,7 +389,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                         curves.map_or(&self.uncalibrated, |c| &c[i]),
                         command[i],
                         limits[i],
-                        self.config.pulse_range_us,
+                        self.pulse_range_us,
                     ) {
                         Some(p) => {
                             if p.clamped {
@@ -388,6 +405,36 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 }
             };
             self.bus.set_pulse(i, pulse);
+        }
+    }
+}
+
+/// `delta.clamp(-step, step)` and whether it had to be cut (`delta.abs() >
+/// step`), for `delta` not NaN and `step >= 0`: one comparison, on the
+/// bits, where those make four float comparisons, each a call on the
+/// Cortex-M0+.
+fn bounded(delta: f32, step: f32) -> (f32, bool) {
+    if ordered(delta.abs()) > ordered(step) {
+        (step.copysign(delta), true)
+    } else {
+        (delta, false)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::bounded;
+
+    #[test]
+    fn the_bound_is_clamp_and_says_when_it_cut() {
+        let steps = [0.0f32, 1e-30, 1e-3, 0.01, 1.0, f32::INFINITY];
+        for step in steps {
+            for delta in crate::float::tests::specials() {
+                let (change, cut) = bounded(delta, step);
+                let clamped = delta.clamp(-step, step);
+                assert_eq!(change.to_bits(), clamped.to_bits(), "{delta:e} by {step:e}");
+                assert_eq!(cut, delta.abs() > step, "{delta:e} by {step:e}");
+            }
         }
     }
 }

@@ -223,27 +223,28 @@ impl Compensator {
         };
         let (qa, beta) = self.guess(q_nominal);
         let tolerance = self.options.tolerance_m;
+        // Looked at in place from here on: an evaluation is 300 bytes, each
+        // move of it a copy on the board.
         let evaluated = self
             .calibrated
-            .evaluate(qa, beta, &target, payload_kg, tolerance)
-            .ok()
-            .filter(|e| {
-                e.state
-                    .q
-                    .iter()
-                    .zip(q_nominal)
-                    .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
-            });
+            .evaluate(qa, beta, &target, payload_kg, tolerance);
+        let within = |e: &Evaluation<f32>| {
+            e.state
+                .q
+                .iter()
+                .zip(q_nominal)
+                .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
+        };
         // The accepted state's own error at this frame's target: a step must not do worse.
         let anchor_error = self
             .accepted
             .as_ref()
             .map(|a| a.evaluation.error_m_at(&(target - a.target)));
         let better = |e: f32| anchor_error.is_none_or(|a| e <= a + tolerance);
-        match evaluated {
-            Some(evaluation) if better(evaluation.state.error_m) => {
-                let state = evaluation.state;
-                let slope = self.calibrated.slope(&evaluation);
+        match &evaluated {
+            Ok(evaluation) if within(evaluation) && better(evaluation.state.error_m) => {
+                let state = &evaluation.state;
+                let slope = self.calibrated.slope(evaluation);
                 self.rejections = 0;
                 self.steps = self.steps.saturating_add(1);
                 self.report = CompensationReport {
@@ -263,18 +264,20 @@ impl Compensator {
                 // correction changes by the solve's own steps.
                 let previous = self
                     .accepted
+                    .as_ref()
                     .filter(|a| a.q_nominal != *q_nominal)
                     .map(|a| a.correction);
-                self.take_step(&evaluation, &slope, target, q_nominal, previous);
+                self.take_step(evaluation, &slope, target, q_nominal, previous);
                 state.q
             }
             _ => {
                 self.rejections = (self.rejections + 1).min(MAX_REJECTIONS);
                 // Retry from the accepted state, seen from this frame's target.
-                match self.accepted {
+                match &self.accepted {
                     Some(a) => {
-                        let anchor = a.evaluation.retarget(&(target - a.target));
-                        self.take_step(&anchor, &a.slope, target, q_nominal, None);
+                        let (anchor, slope) =
+                            (a.evaluation.retarget(&(target - a.target)), a.slope);
+                        self.take_step(&anchor, &slope, target, q_nominal, None);
                     }
                     None => self.next = None,
                 }
@@ -324,13 +327,27 @@ impl Compensator {
             Some(p) => core::array::from_fn(|i| correction[i] - p[i]),
             None => [0.0; CHANNELS],
         };
-        self.accepted = Some(Accepted {
-            evaluation: *evaluation,
-            slope: *slope,
-            target,
-            q_nominal: *q_nominal,
-            correction,
-        });
+        // Overwritten field by field while there is one (every frame of a
+        // solve): built and moved in whole, its 500 bytes would be copied
+        // twice more on the board.
+        match &mut self.accepted {
+            Some(a) => {
+                a.evaluation = *evaluation;
+                a.slope = *slope;
+                a.target = target;
+                a.q_nominal = *q_nominal;
+                a.correction = correction;
+            }
+            None => {
+                self.accepted = Some(Accepted {
+                    evaluation: *evaluation,
+                    slope: *slope,
+                    target,
+                    q_nominal: *q_nominal,
+                    correction,
+                });
+            }
+        }
         self.next = Some(Next {
             qa,
             beta,

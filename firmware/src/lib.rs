@@ -20,6 +20,7 @@
 //! | [`compensator`] | one Newton step of compensation per servo frame, with fallback |
 //! | [`storage`] | two flash slots with sequence number and CRC |
 //! | [`config`] | limits and tuning with their defaults |
+//! | `float` | float comparisons and rounding on the bits, where a float comparison would be a call |
 //! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+ (common case in Thumb assembly), linked in place of the compiler's on the MCU |
 //! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
 //! | `fuzz` | generated cases played against the device on those doubles, with the invariants checked (feature `sim`) |
@@ -35,6 +36,7 @@ pub mod app;
 pub mod compensator;
 pub mod config;
 mod dispatch;
+mod float;
 #[cfg(any(test, feature = "sim"))]
 pub mod fuzz;
 mod handlers;

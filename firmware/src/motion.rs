@@ -8,6 +8,7 @@
 //! move by the same fraction of their way at every instant.
 
 use crate::CHANNELS;
+use crate::float::{clamp, ordered};
 use protocol::Timing;
 
 /// Speed and acceleration limits of every joint.
@@ -29,26 +30,49 @@ pub enum PlanError {
 }
 
 /// One planned move from `start` to `end`, starting at `t0_us`.
+///
+/// What the servo frame's [`Profile::at`] needs and only changes per move
+/// (each joint's way, the trapezoid's area) is worked out once, here, and
+/// it compares times on their bits (`crate::float`): on the Cortex-M0+ a
+/// float subtraction or comparison is a call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Profile {
     start: [f32; CHANNELS],
     end: [f32; CHANNELS],
+    /// `end - start`, per joint.
+    way: [f32; CHANNELS],
     t0_us: u64,
     /// Total duration, s.
     duration_s: f32,
     /// Acceleration (and deceleration) phase, s.
     ramp_s: f32,
+    /// `duration_s - ramp_s`: the area of the unit trapezoid with ramps
+    /// `ramp_s` and top `duration_s - 2 ramp_s`, and when its top ends.
+    area_s: f32,
 }
 
 impl Profile {
     /// Standing still at `q`.
     pub fn hold(q: [f32; CHANNELS]) -> Self {
+        Self::new(q, q, 0, 0.0, 0.0)
+    }
+
+    /// The move from `start` to `end` over `duration_s` from `t0_us`, with ramps of `ramp_s`.
+    fn new(
+        start: [f32; CHANNELS],
+        end: [f32; CHANNELS],
+        t0_us: u64,
+        duration_s: f32,
+        ramp_s: f32,
+    ) -> Self {
         Self {
-            start: q,
-            end: q,
-            t0_us: 0,
-            duration_s: 0.0,
-            ramp_s: 0.0,
+            start,
+            end,
+            way: core::array::from_fn(|i| end[i] - start[i]),
+            t0_us,
+            duration_s,
+            ramp_s,
+            area_s: duration_s - ramp_s,
         }
     }
 
@@ -91,34 +115,27 @@ impl Profile {
             return Err(PlanError::OutOfRange);
         }
         if way == 0.0 || duration_s == 0.0 {
-            return Ok(Self {
-                t0_us,
-                ..Self::hold(end)
-            });
+            return Ok(Self::new(end, end, t0_us, 0.0, 0.0));
         }
         let disc = (a * a * duration_s * duration_s - 4.0 * a * way).max(0.0);
         let peak = (a * duration_s - libm::sqrtf(disc)) / 2.0;
         let ramp_s = (peak / a).min(duration_s / 2.0);
-        Ok(Self {
-            start,
-            end,
-            t0_us,
-            duration_s,
-            ramp_s,
-        })
+        Ok(Self::new(start, end, t0_us, duration_s, ramp_s))
     }
 
     /// Where every joint is at `now_us`, and whether the move is over.
     pub fn at(&self, now_us: u64) -> ([f32; CHANNELS], bool) {
         let t = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
-        if t >= self.duration_s {
+        // Times are never NaN.
+        if ordered(t) >= ordered(self.duration_s) {
             return (self.end, true);
         }
         let s = self.fraction(t);
-        (
-            core::array::from_fn(|i| self.start[i] + (self.end[i] - self.start[i]) * s),
-            false,
-        )
+        let mut q = self.start;
+        for (q, way) in q.iter_mut().zip(&self.way) {
+            *q += way * s;
+        }
+        (q, false)
     }
 
     /// Where the move ends.
@@ -133,18 +150,18 @@ impl Profile {
 
     /// Fraction of the way done after `t` s: a trapezoidal speed, normalised.
     fn fraction(&self, t: f32) -> f32 {
-        let (big_t, r) = (self.duration_s, self.ramp_s);
-        // Area of the unit trapezoid with ramps r and top (T − 2r): T − r.
-        let area = big_t - r;
-        let x = if t < r {
+        let (big_t, r, area) = (self.duration_s, self.ramp_s, self.area_s);
+        // The top of the trapezoid ends at `big_t - r`, which is `area`.
+        let x = if ordered(t) < ordered(r) {
             0.5 * t * t / r
-        } else if t <= big_t - r {
+        } else if ordered(t) <= ordered(area) {
             0.5 * r + (t - r)
         } else {
             let left = big_t - t;
             area - 0.5 * left * left / r
         };
-        (x / area).clamp(0.0, 1.0)
+        // `area` is at least half the duration, which is not 0 here.
+        clamp(x / area, [0.0, 1.0]).0
     }
 }
 

@@ -6,11 +6,20 @@
 //! to rounding. Its cost per channel and servo frame is a binary search over
 //! at most seven inner knots, a subtraction, a multiplication and an
 //! addition: the segments' slopes are worked out once ([`PreparedCurve`]).
+//!
+//! Everything else [`pulse_for`] needs is worked out once too, not per
+//! frame: the joint limits in force (per calibration, [`joint_limits`]) and
+//! the safe pulse range as floats. On the Cortex-M0+ every float
+//! comparison and conversion is a call (27 to 50 cycles a comparison), so
+//! the segment search and the clamps compare the floats' bits as integers
+//! (`crate::float`: every value there is finite), and the pulse is rounded
+//! on its bits too.
 
 use model::ServoCurve;
-use model::servo::Slopes;
+use model::servo::{MAX_KNOTS, Slopes};
 
 use crate::CHANNELS;
+use crate::float::{clamp, is_nan, ordered, round_u16};
 
 /// The six PWM outputs.
 pub trait ServoBus {
@@ -25,20 +34,40 @@ pub struct PreparedCurve {
     /// The curve.
     pub curve: ServoCurve<f32>,
     slopes: Slopes<f32>,
+    /// The inner knots' angles as ordered integers (`crate::float::ordered`), the curve's
+    /// `knot_count() - 2` first: the segment search without float comparisons.
+    inner: [i32; MAX_KNOTS - 2],
 }
 
 impl PreparedCurve {
     /// Works out `curve`'s slopes (once per calibration, not per frame).
     pub fn new(curve: ServoCurve<f32>) -> Self {
+        let mut inner = [0; MAX_KNOTS - 2];
+        let knots = curve.angles_rad();
+        for (key, &angle) in inner.iter_mut().zip(&knots[1..knots.len() - 1]) {
+            *key = ordered(angle);
+        }
         Self {
             slopes: curve.slopes(),
             curve,
+            inner,
         }
     }
 
     /// Pulse (µs) for a joint angle (rad): [`ServoCurve::pulse_us`] bit for bit.
+    ///
+    /// The segment is [`ServoCurve::segment_of`]'s, found on the integers;
+    /// `model` evaluates it.
     pub fn pulse_us(&self, angle: f32) -> f32 {
-        self.curve.pulse_us_with(&self.slopes, angle)
+        let segment = if is_nan(angle) {
+            // Where `segment_of` puts NaN (the pulse is NaN on any segment).
+            0
+        } else {
+            let key = ordered(angle);
+            let inner = &self.inner[..self.curve.knot_count() - 2];
+            inner.partition_point(|&knot| knot <= key)
+        };
+        self.curve.pulse_on(&self.slopes, segment, angle)
     }
 }
 
@@ -52,29 +81,28 @@ pub struct Pulse {
 }
 
 /// The pulse for `angle_rad` on a servo with `curve`: the angle is clamped to
-/// `limits_rad`, the pulse to `pulse_range_us`. `None` for a non-finite angle
-/// (the caller keeps the previous pulse).
+/// `limits_rad`, the pulse to `pulse_range_us` (the safe range as floats,
+/// within `0..=u16::MAX`). `None` for a non-finite angle (the caller keeps
+/// the previous pulse). Both ranges must be ordered (`lo <= hi`), as
+/// [`joint_limits`] and the config's pulse range are.
 pub fn pulse_for(
     curve: &PreparedCurve,
     angle_rad: f32,
     limits_rad: [f32; 2],
-    pulse_range_us: [u16; 2],
+    pulse_range_us: [f32; 2],
 ) -> Option<Pulse> {
     if !angle_rad.is_finite() {
         return None;
     }
-    let angle = angle_rad.clamp(limits_rad[0], limits_rad[1]);
+    let (angle, angle_clamped) = clamp(angle_rad, limits_rad);
     let raw = curve.pulse_us(angle);
     if !raw.is_finite() {
         return None;
     }
-    let [lo, hi] = pulse_range_us.map(f32::from);
-    let us = raw.clamp(lo, hi);
-    // Round to the PWM's 1 µs resolution; the clamp keeps it inside u16.
-    let rounded = libm::roundf(us) as u16;
+    let (us, pulse_clamped) = clamp(raw, pulse_range_us);
     Some(Pulse {
-        us: rounded,
-        clamped: angle != angle_rad || us != raw,
+        us: round_u16(us),
+        clamped: angle_clamped || pulse_clamped,
     })
 }
 
@@ -101,7 +129,7 @@ pub fn joint_limits(
 mod tests {
     use super::*;
 
-    const RANGE: [u16; 2] = [500, 2500];
+    const RANGE: [f32; 2] = [500.0, 2500.0];
     const LIMITS: [f32; 2] = [-1.7453293, 1.7453293];
 
     #[test]
@@ -186,6 +214,50 @@ mod tests {
             joint_limits(None, [-2.0, 2.0], [-1.0, 1.0]),
             [[-1.0, 1.0]; 6]
         );
+    }
+
+    #[test]
+    fn prepared_curves_give_the_model_pulses_bit_for_bit() {
+        let d = |x: f32| x.to_radians();
+        let mut curves: Vec<ServoCurve<f32>> = (0..CHANNELS).map(crate::sim::test_curve).collect();
+        curves.push(ServoCurve::nominal());
+        curves.push(ServoCurve::new(&[d(-100.0), d(100.0)], &[900.0, 2400.0]).unwrap());
+        // Knots on both sides of zero and at -0.0, falling pulses.
+        curves.push(
+            ServoCurve::new(
+                &[
+                    d(-120.0),
+                    d(-3.0),
+                    -0.0,
+                    d(2.0),
+                    d(40.0),
+                    d(80.0),
+                    d(90.0),
+                    d(95.0),
+                    d(130.0),
+                ],
+                &[
+                    2400.0, 1700.0, 1650.0, 1600.0, 1400.0, 1200.0, 1100.0, 1000.0, 700.0,
+                ],
+            )
+            .unwrap(),
+        );
+        for curve in curves {
+            let prepared = PreparedCurve::new(curve);
+            let mut angles = crate::float::tests::specials();
+            for &k in curve.angles_rad() {
+                angles.extend([k, k.next_up(), k.next_down(), -k]);
+            }
+            angles.extend((-3000..=3000).map(|i| i as f32 * 1e-3));
+            for a in angles {
+                assert_eq!(
+                    prepared.pulse_us(a).to_bits(),
+                    curve.pulse_us(a).to_bits(),
+                    "{a:e} on {curve:?}"
+                );
+            }
+            assert!(prepared.pulse_us(f32::NAN).is_nan());
+        }
     }
 
     fn protocol_free_arm() -> model::Arm<f32> {

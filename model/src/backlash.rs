@@ -92,14 +92,23 @@ impl<T: Real> ApproachTracker<T> {
     /// zero dead band this is [`ApproachTracker::visit`].
     pub fn follow(&mut self, q: &[T; JOINTS], dead_band: T) -> [Approach; JOINTS] {
         for ((&q, last), approach) in q.iter().zip(&mut self.last).zip(&mut self.approach) {
-            // How far the command went on the way the joint was going (negative: back).
+            // Further on the way the joint was going: compared, not
+            // subtracted (the usual case while moving; on the board a
+            // subtraction is a call).
             let onward = match approach {
-                Approach::Rising => q - *last,
-                Approach::Falling => *last - q,
+                Approach::Rising => q > *last,
+                Approach::Falling => q < *last,
             };
-            if onward > T::zero() {
+            if onward {
                 *last = q;
-            } else if onward < -dead_band {
+                continue;
+            }
+            // How far the command went back.
+            let back = match approach {
+                Approach::Rising => *last - q,
+                Approach::Falling => q - *last,
+            };
+            if back > dead_band {
                 *approach = approach.towards(*last, q);
                 *last = q;
             }
@@ -158,6 +167,55 @@ mod tests {
         for x in [0.3, 0.3, 0.1, 0.1, 0.2, -0.4, -0.4] {
             let q = [x, -x, 0.0, x, 1.0, x * x];
             assert_eq!(a.visit(&q), b.follow(&q, 0.0));
+        }
+    }
+
+    #[test]
+    fn following_compares_as_the_differences_would() {
+        // The rule as first written: the signed way onward, then the dead band.
+        fn by_differences(last: &mut f32, approach: &mut Approach, q: f32, dead_band: f32) {
+            let onward = match approach {
+                Rising => q - *last,
+                Falling => *last - q,
+            };
+            if onward > 0.0 {
+                *last = q;
+            } else if onward < -dead_band {
+                *approach = approach.towards(*last, q);
+                *last = q;
+            }
+        }
+        let values = [
+            0.0f32,
+            -0.0,
+            1e-40,
+            -1e-40,
+            1e-3,
+            -1e-3,
+            0.5,
+            0.5000001,
+            -0.7,
+            f32::MAX,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        for dead_band in [0.0f32, 2e-3, 1e-40] {
+            for &a in &values {
+                for &b in &values {
+                    for start in [Rising, Falling] {
+                        let mut t = ApproachTracker::new([a; JOINTS]);
+                        t.approach = [start; JOINTS];
+                        let (mut last, mut way) = (a, start);
+                        for q in [b, a, b] {
+                            t.follow(&[q; JOINTS], dead_band);
+                            by_differences(&mut last, &mut way, q, dead_band);
+                            assert_eq!(t.approach[0], way, "{a} {b} {start:?} {dead_band}");
+                            assert_eq!(t.last[0].to_bits(), last.to_bits());
+                        }
+                    }
+                }
+            }
         }
     }
 

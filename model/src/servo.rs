@@ -113,9 +113,14 @@ impl core::fmt::Display for KnotCount {
     }
 }
 
-/// The slopes of a curve's segments, µs/rad ([`ServoCurve::slopes`]).
+/// The slopes of a curve's segments, µs/rad, and the knot each segment is
+/// evaluated from ([`ServoCurve::slopes`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Slopes<T>([T; MAX_KNOTS - 1]);
+pub struct Slopes<T> {
+    slopes: [T; MAX_KNOTS - 1],
+    /// The end of each segment nearer 0 rad (see the module docs).
+    anchors: [u8; MAX_KNOTS - 1],
+}
 
 /// Why a curve does not map angle to pulse one-to-one. Knots count from 0.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -288,13 +293,19 @@ impl<T: Real> ServoCurve<T> {
         (p[k + 1] - p[k]) / (a[k + 1] - a[k])
     }
 
-    /// Every segment's slope, worked out once for a curve evaluated often.
+    /// Every segment's slope and the knot it is evaluated from, worked out
+    /// once for a curve evaluated often.
     pub fn slopes(&self) -> Slopes<T> {
-        let mut out = [T::zero(); MAX_KNOTS - 1];
-        for (k, s) in out.iter_mut().enumerate().take(self.knot_count() - 1) {
-            *s = self.slope(k);
+        let mut out = Slopes {
+            slopes: [T::zero(); MAX_KNOTS - 1],
+            anchors: [0; MAX_KNOTS - 1],
+        };
+        for k in 0..self.knot_count() - 1 {
+            out.slopes[k] = self.slope(k);
+            // At most MAX_KNOTS - 1: fits a byte.
+            out.anchors[k] = self.segment(k).2 as u8;
         }
-        Slopes(out)
+        out
     }
 
     /// [`ServoCurve::pulse_us`], bit for bit, with the slopes of
@@ -302,14 +313,32 @@ impl<T: Real> ServoCurve<T> {
     /// times a servo frame. Slopes of another curve give a wrong pulse, never
     /// a panic.
     pub fn pulse_us_with(&self, slopes: &Slopes<T>, angle: T) -> T {
-        self.pulse_through(angle, |k| slopes.0[k])
+        self.pulse_on(slopes, self.segment_of(angle), angle)
+    }
+
+    /// The segment `angle` lies on, `k` for `[k, k + 1]`: the first one up
+    /// to the second knot, the last one from the last but one knot on (the
+    /// end segments go on beyond the outer knots), `0` for NaN. The number
+    /// of inner knots at or below `angle`.
+    pub fn segment_of(&self, angle: T) -> usize {
+        let inner = &self.angles[1..self.knot_count() - 1];
+        inner.partition_point(|&x| x <= angle)
+    }
+
+    /// [`ServoCurve::pulse_us_with`] for an `angle` on segment `k`, as
+    /// [`ServoCurve::segment_of`] finds it: for a caller that finds the
+    /// segment its own way. Another segment of the curve gives a point of
+    /// that segment's line; a `k` past the curve's last segment gives a
+    /// meaningless pulse, past the eighth a panic.
+    pub fn pulse_on(&self, slopes: &Slopes<T>, k: usize, angle: T) -> T {
+        let at = usize::from(slopes.anchors[k]);
+        self.pulses[at] + slopes.slopes[k] * (angle - self.angles[at])
     }
 
     /// The pulse at `angle` on its segment `k`, whose slope `slope(k)` gives.
     #[inline]
     fn pulse_through(&self, angle: T, slope: impl FnOnce(usize) -> T) -> T {
-        let inner = &self.angles[1..self.knot_count() - 1];
-        let (lo, _, at) = self.segment(inner.partition_point(|&x| x <= angle));
+        let (lo, _, at) = self.segment(self.segment_of(angle));
         self.pulses[at] + slope(lo) * (angle - self.angles[at])
     }
 

@@ -37,6 +37,11 @@ pub struct ServoPwm {
     /// `2k + 2` channel B. Kept whole (not split into outputs) because
     /// dropping a `Pwm` stops its slice.
     slices: [Pwm<'static>; CHANNELS / 2],
+    /// The compare value each output holds, once written: the register keeps
+    /// it, so a servo frame that leaves a pulse as it was (every channel of a
+    /// held pose) writes nothing (a write through the driver costs about 200
+    /// cycles).
+    compare: [Option<u16>; CHANNELS],
 }
 
 impl ServoPwm {
@@ -59,7 +64,10 @@ impl ServoPwm {
             Pwm::new_output_ab(r.slice2, r.s3, r.s4, config.clone()),
             Pwm::new_output_ab(r.slice3, r.s5, r.s6, config),
         ];
-        Self { slices }
+        Self {
+            slices,
+            compare: [None; CHANNELS],
+        }
     }
 }
 
@@ -68,17 +76,25 @@ impl ServoBus for ServoPwm {
     /// `None` holds the output low (limp). Widths are saturated to the period:
     /// the library already keeps them in the safe pulse range.
     fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>) {
-        let Some(slice) = self.slices.get_mut(channel / 2) else {
+        let (Some(slice), Some(held)) = (
+            self.slices.get_mut(channel / 2),
+            self.compare.get_mut(channel),
+        ) else {
             defmt::warn!("no servo channel {}", channel);
             return;
         };
+        let compare = pulse_us.unwrap_or(0).min(PERIOD_US - 1);
+        if *held == Some(compare) {
+            return;
+        }
         let (a, b) = slice.split_by_ref();
         let output = if channel.is_multiple_of(2) { a } else { b };
-        let compare = pulse_us.unwrap_or(0).min(PERIOD_US - 1);
         // Both channels exist (`new_output_ab`), and the compare value is at
         // most TOP, the largest duty accepted: this cannot fail.
-        if let Some(Err(e)) = output.map(|mut o| o.set_duty_cycle(compare)) {
-            defmt::warn!("servo {}: {}", channel + 1, defmt::Debug2Format(&e));
+        match output.map(|mut o| o.set_duty_cycle(compare)) {
+            Some(Ok(())) => *held = Some(compare),
+            Some(Err(e)) => defmt::warn!("servo {}: {}", channel + 1, defmt::Debug2Format(&e)),
+            None => {}
         }
     }
 }

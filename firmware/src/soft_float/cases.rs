@@ -47,7 +47,7 @@ pub fn edge_pairs() -> Vec<(u32, u32)> {
 pub type Family = (&'static str, fn(&mut StdRng) -> (u32, u32));
 
 /// The random families, each aimed at some paths of the routines.
-pub const FAMILIES: [Family; 4] = [
+pub const FAMILIES: [Family; 5] = [
     // Uniformly random bits: every class, mostly far-apart exponents.
     ("random bits", |rng| (rng.random(), rng.random())),
     // Nearby exponents, where additions carry and subtractions cancel.
@@ -74,6 +74,16 @@ pub const FAMILIES: [Family; 4] = [
         };
         let mut pick = || (rng.random::<u32>() & 0x807f_ffff) | (rng.random_range(low..high) << 23);
         (pick(), pick())
+    }),
+    // A zero and anything, either way round (x ± 0 has a path of its own).
+    ("a zero operand", |rng| {
+        let x: u32 = rng.random();
+        let zero = u32::from(rng.random::<bool>()) << 31;
+        if rng.random::<bool>() {
+            (x, zero)
+        } else {
+            (zero, x)
+        }
     }),
 ];
 

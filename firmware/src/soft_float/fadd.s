@@ -3,12 +3,14 @@
 @
 @ The common case only: normal operands, the larger of exponent field 32 to
 @ 253, so that neither a carry out of the sum nor a cancelling difference can
-@ leave the normal range. Anything else (zero, subnormal, infinite or NaN
-@ operands, results near the ends of the range) goes on in Rust,
-@ `soft_float_add` (add.rs), with the operands untouched but ordered by
-@ magnitude (which changes only which NaN comes back). The emulator test
-@ `tests/tests/emulator_soft_float.rs` checks the two together bit for bit
-@ against the host's FPU.
+@ leave the normal range; and a zero with a finite operand (x ± 0 is x, and
+@ ±0 ± 0 is −0 only when both are −0), which the model's matrices and the
+@ servo curves' knot at 0 rad give a hundred times a servo frame. Anything
+@ else (subnormal, infinite or NaN operands, results near the ends of the
+@ range) goes on in Rust, `soft_float_add` (add.rs), with the operands
+@ untouched but ordered by magnitude (which changes only which NaN comes
+@ back). The emulator test `tests/tests/emulator_soft_float.rs` checks the
+@ two together bit for bit against the host's FPU.
 @
 @ The significands get 7 guard bits below them (leading bit at 30), the
 @ smaller one's shifted-out bits leave a sticky bit, and a difference is a
@@ -42,7 +44,7 @@ __aeabi_fadd:
     lsls r3, r1, #1
 1:  lsrs r2, r2, #24            @ e: exponent field of the larger
     lsrs r3, r3, #24
-    beq .Lfadd_careful          @ the smaller is zero or subnormal
+    beq .Lfadd_small            @ the smaller is zero or subnormal
     subs r3, r2, r3             @ d: the exponents' difference
     subs r2, #32
     cmp r2, #221
@@ -120,6 +122,15 @@ __aeabi_fadd:
     pop {r4, r5, r6}            @ +0 when rounding to nearest
     bx lr
 .Lfadd_larger:
+    bx lr
+.Lfadd_small:
+    lsls r3, r1, #1
+    bne .Lfadd_careful          @ the smaller is subnormal
+    cmp r2, #255
+    beq .Lfadd_careful          @ the larger is infinite or NaN
+    lsls r3, r0, #1
+    bne .Lfadd_larger           @ x ± 0 = x, the larger (normal or subnormal)
+    ands r0, r1                 @ ±0 ± 0: −0 only if both are
     bx lr
 .Lfadd_careful:
     ldr r2, =soft_float_add

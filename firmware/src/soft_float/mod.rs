@@ -11,8 +11,11 @@
 //! The common case (normal operands, a result far from the ends of the
 //! range) is Thumb assembly: 51 to 70 cycles per call. The same in Rust
 //! took 94 to 128: the compiler spills to the stack, short of low registers
-//! with `r7` kept as the frame pointer. Everything else is Rust, which the
-//! assembly hands the operands to.
+//! with `r7` kept as the frame pointer. Adding or subtracting a zero, which
+//! the model's matrices and the servo curves' knots at 0 rad do about 120
+//! times a moving servo frame, takes the assembly 18 to 23 cycles (it went
+//! on to Rust, 60). Everything else is Rust, which the assembly hands the
+//! operands to.
 //!
 //! | file | what it holds |
 //! |---|---|
