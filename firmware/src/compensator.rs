@@ -83,13 +83,14 @@ pub struct Compensator {
     /// nominal arm is rigid (its target then needs no deflection solve).
     rigid_nominal_base: Option<IsometryMatrix3<f32>>,
     options: CompensationOptions<f32>,
-    max_correction_rad: f32,
+    /// How far a joint may be corrected: the calibration's, cut to the board's cap, rad.
+    max_correction_rad: [f32; CHANNELS],
     accepted: Option<Accepted>,
     next: Option<Next>,
     rejections: u32,
     /// Slow steps in a row while holding still.
     slow_steps: u32,
-    /// Steps since the solve last started from the nominal targets.
+    /// Steps since the current move started or the solve last started afresh.
     steps: u32,
     /// Inputs of the last frame that solved.
     last_inputs: Option<Inputs>,
@@ -102,11 +103,12 @@ pub struct Compensator {
 }
 
 impl Compensator {
-    /// Prepares both arms of `calibration` for evaluation.
+    /// Prepares both arms of `calibration` for evaluation; no joint is
+    /// corrected by more than the calibration's largest correction or `cap_rad`.
     pub fn new(
         calibration: &Calibration,
         options: CompensationOptions<f32>,
-        max_correction_rad: f32,
+        cap_rad: f32,
     ) -> Self {
         let (nominal, calibrated) = (calibration.nominal.chain(), calibration.calibrated.chain());
         Self {
@@ -116,7 +118,7 @@ impl Compensator {
                 .is_rigid()
                 .then(|| calibrated.base.inverse() * nominal.base),
             options,
-            max_correction_rad,
+            max_correction_rad: calibration.max_correction_rad.map(|m| m.min(cap_rad)),
             accepted: None,
             next: None,
             rejections: 0,
@@ -138,6 +140,11 @@ impl Compensator {
     /// Whether the last frame commanded the fallback instead of a solution.
     pub fn fell_back(&self) -> bool {
         self.fell_back
+    }
+
+    /// A new move starts: `status` counts the solve's steps from here.
+    pub fn start_move(&mut self) {
+        self.steps = 0;
     }
 
     /// Forgets the solve and the last correction (after a mode change or a detach).
@@ -233,7 +240,8 @@ impl Compensator {
                 .q
                 .iter()
                 .zip(q_nominal)
-                .all(|(q, n)| (q - n).abs() <= self.max_correction_rad)
+                .zip(&self.max_correction_rad)
+                .all(|((q, n), max)| (q - n).abs() <= *max)
         };
         // The accepted state's own error at this frame's target: a step must not do worse.
         let anchor_error = self

@@ -24,8 +24,10 @@ pub struct Config {
     pub max_duration_ms: u32,
     /// Heaviest payload accepted, kg.
     pub max_payload_kg: f32,
-    /// A compensation that moves any joint further than this from its nominal
-    /// angle is treated as failed, rad.
+    /// The board's cap on the calibration's largest corrections
+    /// (`Calibration::max_correction_rad`): a compensation that moves a joint
+    /// further than the smaller of the two from its nominal angle is treated
+    /// as failed, rad.
     pub max_correction_rad: f32,
     /// How fast the correction on the servos may change, rad/s: switching
     /// compensation on or off, a new payload or a new calibration fade in
@@ -38,7 +40,7 @@ pub struct Config {
 
 impl Default for Config {
     /// 500–2500 µs, the data-sheet servo curve, ±150° hard and ±100° default limits, 1.5 rad/s, 4 rad/s²,
-    /// 0.5 kg, 0.35 rad largest correction changing at most 0.5 rad/s,
+    /// 0.5 kg, corrections capped at 60° (`protocol::calibration::MAX_CORRECTION_RAD`) changing at most 0.5 rad/s,
     /// 5 µm tolerance.
     fn default() -> Self {
         Self {
@@ -55,7 +57,7 @@ impl Default for Config {
             max_accel_rad_s2: 4.0,
             max_duration_ms: 600_000,
             max_payload_kg: 0.5,
-            max_correction_rad: 0.35,
+            max_correction_rad: protocol::calibration::MAX_CORRECTION_RAD,
             max_correction_rate_rad_s: 0.5,
             // f32 carries ~0.05 µm at arm scale and the deflection solve stops at
             // ~4e-6 rad, so a few µm is the tightest tolerance f32 reaches reliably.

@@ -106,6 +106,9 @@ pub(crate) fn move_to<B: ServoBus, F: FlashStorage>(
     d.position = start;
     d.motion = profile;
     d.moving = true;
+    if let Some(a) = d.active.as_mut() {
+        a.compensator.start_move();
+    }
     Ok(Response::Done)
 }
 

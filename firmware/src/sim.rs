@@ -167,6 +167,8 @@ pub fn test_calibration(id: u32) -> Calibration {
         nominal,
         calibrated,
         home_rad: [0.0, 0.3, -0.3, 0.0, 0.5, 0.0],
+        // 20° per joint: far beyond the corrections this calibration asks for.
+        max_correction_rad: [0.35; CHANNELS],
     }
 }
 

@@ -56,7 +56,7 @@ const MAGIC: [u8; 4] = *b"LRMC";
 /// 3: the payload of protocol 3 (each joint's backlash).
 /// 4: the payload of protocol 4 (the option elasto-kinematic-servo, which
 /// firmware of layout 3 cannot decode).
-const FORMAT: u32 = 4;
+const FORMAT: u32 = 5;
 const HEADER_LEN: usize = 24;
 /// Where the payload starts: one flash page after the header.
 pub const PAYLOAD_OFFSET: usize = 256;

@@ -24,7 +24,8 @@ use std::time::{Duration, Instant};
 
 use host::calib::detmax::{DetmaxOptions, detmax};
 use host::calib::identify::IdentifyOptions;
-use host::calib::jacobian::{jacobian, tool_points};
+use host::calib::jacobian::jacobian;
+use host::calib::targets::tool_points;
 use host::calib::knot_choice;
 use host::calib::pipeline::CandidateBlocks;
 use host::calib::{ModelOption, ParamKey, Rig, Sample};

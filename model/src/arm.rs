@@ -9,16 +9,6 @@ use crate::{Real, ServoCurve};
 /// Number of joints of the arm.
 pub const JOINTS: usize = 6;
 
-/// Torque up to which a stiffening spring must still yield, Nm: a softening
-/// `s < 0` makes `1 + s |tau|` vanish at `|tau| = 1/|s|`, so it is accepted
-/// only down to `-1 / SPRING_TORQUE_LIMIT_NM`. Ten times the stall torque of
-/// the strongest hobby servos (about 1 Nm), far beyond any torque the arm's
-/// own weight and payload put on a joint that can hold them.
-pub const SPRING_TORQUE_LIMIT_NM: f64 = 10.0;
-
-/// The lowest softening a spring may have, 1/Nm (see [`SPRING_TORQUE_LIMIT_NM`]).
-pub const MIN_SOFTENING_PER_NM: f64 = -1.0 / SPRING_TORQUE_LIMIT_NM;
-
 /// A rigid frame: `Trans(xyz) * Rz(yaw) * Ry(pitch) * Rx(roll)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Frame<T> {
@@ -79,8 +69,8 @@ pub struct Joint<T> {
     pub backlash: T,
     /// How the joint's compliance grows with its torque, 1/Nm: it yields
     /// `compliance (1 + softening |tau|)` rad per Nm at torque `tau`
-    /// (negative: it stiffens, down to [`MIN_SOFTENING_PER_NM`]; see
-    /// [`crate::elastic`]). 0, a linear spring, in files written before it existed.
+    /// (negative: it stiffens; [`crate::bounds`] says how far either way;
+    /// see [`crate::elastic`]). 0, a linear spring, in files written before it existed.
     #[serde(default = "crate::zero")]
     pub softening: T,
 }
@@ -105,6 +95,11 @@ pub struct Arm<T> {
     pub tool: Frame<T>,
     /// Payload centre of mass in the tool frame, m.
     pub payload_com: [T; 3],
+    /// The heaviest payload the arm is rated to carry at the tool, kg: the
+    /// bounds of its springs ([`crate::bounds`]) hold up to it. 0 in files
+    /// written before it existed.
+    #[serde(default = "crate::zero")]
+    pub rated_payload_kg: T,
     /// The six joints, base to tip.
     pub joints: [Joint<T>; JOINTS],
 }
@@ -124,6 +119,7 @@ impl<T: Real> Arm<T> {
             base_softening: f(self.base_softening),
             tool: frame(&self.tool),
             payload_com: v3(self.payload_com),
+            rated_payload_kg: f(self.rated_payload_kg),
             joints: self.joints.map(|j| Joint {
                 theta: f(j.theta),
                 d: f(j.d),
@@ -159,16 +155,6 @@ impl<T: Real> Arm<T> {
             let [lo, hi] = self.joints[i].limits;
             q[i].clamp(lo, hi)
         })
-    }
-
-    /// The first spring whose softening is not finite or below
-    /// [`MIN_SOFTENING_PER_NM`] (its compliance would vanish or turn negative
-    /// under a torque the arm can meet): 0 the base's, 1..=6 the joints'.
-    pub fn softening_fault(&self) -> Option<usize> {
-        let min: T = crate::real(MIN_SOFTENING_PER_NM);
-        core::iter::once(self.base_softening)
-            .chain(self.joints.iter().map(|j| j.softening))
-            .position(|s| !(s.is_finite() && s >= min))
     }
 
     /// Whether every number in the arm is finite (no NaN, no infinity).

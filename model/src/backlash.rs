@@ -14,12 +14,6 @@
 
 use crate::{JOINTS, Real, real};
 
-/// The widest play a calibration may carry, rad (5°). A hobby servo's dead
-/// band and horn play add up to a degree or two; a wider fitted play means
-/// a loose joint or a bad fit, and compensating it would throw the joint by
-/// half of it at every reversal.
-pub const MAX_WIDTH_RAD: f64 = 5.0 * core::f64::consts::PI / 180.0;
-
 /// The way a joint last moved to reach where it stands.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Approach {

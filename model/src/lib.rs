@@ -12,6 +12,8 @@
 //! | [`statics`] | tool point and gravity torques in one sweep through the links' frames |
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
+//! | [`bounds`] | the physical range of every bounded quantity, derived from the arm |
+//! | [`command`] | what a command does: the joint angles an arm stands at, its servo curves and play taken up |
 //! | [`backlash`] | play in a joint's drive: where a joint settles, given the way it arrived |
 //! | [`servo`] | the piecewise-linear servo curve through up to 9 knots (angle -> pulse) |
 //! | [`trig`] | the f32 sine and cosine of the joint angles, fast without an FPU |
@@ -27,6 +29,8 @@ extern crate std;
 
 pub mod arm;
 pub mod backlash;
+pub mod bounds;
+pub mod command;
 pub mod compensation;
 pub mod elastic;
 pub mod kinematics;

@@ -50,6 +50,7 @@ pub fn planar_arm<T: Real>() -> Arm<T> {
             rpy: [T::zero(); 3],
         },
         payload_com: [T::zero(); 3],
+        rated_payload_kg: T::zero(),
         joints: [
             joint(0.0, 0.05, 0.2, 0.0, 0.0, 0.1, [-0.1, 0.0, 0.0]),
             joint(0.0, 0.0, 0.15, 0.0, 0.0, 0.1, [-0.07, 0.0, 0.0]),
@@ -75,6 +76,7 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
             rpy: [T::zero(); 3],
         },
         payload_com: [T::zero(); 3],
+        rated_payload_kg: T::zero(),
         joints: [
             joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
             joint(h, 0.0, 0.17, 0.0, 0.12, 0.12, [-0.085, 0.0, 0.01]),

@@ -10,13 +10,18 @@
 //! front; the board applies it only after the commit finds every byte, the
 //! CRC and [`Calibration::check`] in order.
 
+use model::bounds::{Bounds, Quantity};
 use model::servo::CurveFault;
 use model::{Arm, JOINTS};
 use serde::{Deserialize, Serialize};
 
-/// Largest encoded calibration, bytes: two `Arm<f32>` are about 830 with
-/// three-knot servo curves and about 1,570 with nine-knot ones.
+/// Largest encoded calibration, bytes: two `Arm<f32>` are about 840 with
+/// three-knot servo curves and about 1,600 with nine-knot ones.
 pub const MAX_CALIBRATION_LEN: usize = 2048;
+
+/// The largest correction any calibration may allow a joint, rad (60°): the
+/// board never commands a joint further than this from its nominal target.
+pub const MAX_CORRECTION_RAD: f32 = core::f32::consts::FRAC_PI_3;
 
 /// Which parameters the calibration identified: the paper's three model
 /// options and ours (`docs/METHOD.md`, "Model options").
@@ -89,6 +94,12 @@ pub struct Calibration {
     pub calibrated: Arm<f32>,
     /// The pose `motion/home` goes to, nominal joint angles, rad.
     pub home_rad: [f32; JOINTS],
+    /// How far the compensation may move each joint from its nominal
+    /// target, rad: the host works it out from the calibration (the largest
+    /// correction its model asks for within the limits, with a margin); a
+    /// solve that asks for more is treated as failed. At most
+    /// [`MAX_CORRECTION_RAD`].
+    pub max_correction_rad: [f32; JOINTS],
 }
 
 /// What makes a calibration unusable.
@@ -108,22 +119,24 @@ pub enum CalibrationFault {
         /// What is wrong with it, and at which knot.
         fault: CurveFault,
     },
-    /// A compliance or mass is negative.
+    /// A mass or the rated payload is negative.
     Negative,
-    /// Joint `joint`'s backlash (full width of its play) is negative or wider
-    /// than [`model::backlash::MAX_WIDTH_RAD`].
-    Backlash {
-        /// Joint index.
-        joint: u8,
+    /// A compliance, softening or play of the nominal or the calibrated arm
+    /// is outside its physical range ([`model::bounds`], worked out from the
+    /// nominal arm).
+    Bound {
+        /// The quantity, named as the calibration file names it.
+        quantity: Quantity,
+        /// Whether it is the calibrated arm's (else the nominal's).
+        calibrated: bool,
     },
     /// The home pose is outside the joint limits.
     Home,
-    /// A spring stiffens too fast (softening below
-    /// [`model::arm::MIN_SOFTENING_PER_NM`]): its compliance would vanish
-    /// under a torque the arm can meet.
-    Softening {
-        /// Spring: 0 the base's, 1..=6 the joints'.
-        spring: u8,
+    /// Joint `joint`'s largest correction is not a finite angle in
+    /// `(0, MAX_CORRECTION_RAD]`.
+    Correction {
+        /// Joint index.
+        joint: u8,
     },
 }
 
@@ -139,18 +152,22 @@ impl core::fmt::Display for CalibrationFault {
                 "joint {}: the servo curve does not map angle to pulse one-to-one (monotonic): {fault}",
                 joint + 1
             ),
-            Self::Negative => f.write_str("a compliance or mass is negative"),
-            Self::Backlash { joint } => write!(
+            Self::Negative => f.write_str("a mass or the rated payload is negative"),
+            Self::Bound {
+                quantity,
+                calibrated,
+            } => write!(
                 f,
-                "joint {}: the backlash (full width of the play) is negative or wider than {:.0}°",
-                joint + 1,
-                model::backlash::MAX_WIDTH_RAD.to_degrees()
+                "`{quantity}` of the {} arm is outside its physical range (see the bounds in \
+                 docs/METHOD.md)",
+                if *calibrated { "calibrated" } else { "nominal" }
             ),
             Self::Home => f.write_str("the home pose is outside the joint limits"),
-            Self::Softening { spring } => write!(
+            Self::Correction { joint } => write!(
                 f,
-                "spring {spring} (0 the base, 1-6 the joints): softening below {} 1/Nm",
-                model::arm::MIN_SOFTENING_PER_NM
+                "joint {}: the largest correction is not an angle above 0 and up to {:.0}°",
+                joint + 1,
+                MAX_CORRECTION_RAD.to_degrees()
             ),
         }
     }
@@ -166,18 +183,15 @@ impl Calibration {
         {
             return Err(CalibrationFault::NotFinite);
         }
-        for arm in [&self.nominal, &self.calibrated] {
-            if arm.base_compliance < 0.0
-                || arm
-                    .joints
-                    .iter()
-                    .any(|j| j.compliance < 0.0 || j.mass < 0.0)
-            {
+        let bounds = Bounds::of(&self.nominal);
+        for (arm, calibrated) in [(&self.nominal, false), (&self.calibrated, true)] {
+            if arm.rated_payload_kg < 0.0 || arm.joints.iter().any(|j| j.mass < 0.0) {
                 return Err(CalibrationFault::Negative);
             }
-            if let Some(spring) = arm.softening_fault() {
-                return Err(CalibrationFault::Softening {
-                    spring: spring as u8,
+            if let Err(v) = bounds.check(arm) {
+                return Err(CalibrationFault::Bound {
+                    quantity: v.quantity,
+                    calibrated,
                 });
             }
         }
@@ -189,11 +203,13 @@ impl Calibration {
             j.servo
                 .check()
                 .map_err(|fault| CalibrationFault::ServoCurve { joint, fault })?;
-            // The board offsets every command by half the play: a negative or
-            // very wide one would throw the joint the wrong way or far.
-            if !(0.0..=model::backlash::MAX_WIDTH_RAD).contains(&f64::from(j.backlash)) {
-                return Err(CalibrationFault::Backlash { joint });
-            }
+        }
+        if let Some(joint) = self
+            .max_correction_rad
+            .iter()
+            .position(|m| !(m.is_finite() && *m > 0.0 && *m <= MAX_CORRECTION_RAD))
+        {
+            return Err(CalibrationFault::Correction { joint: joint as u8 });
         }
         if !self.calibrated.within_limits(&self.home_rad) {
             return Err(CalibrationFault::Home);

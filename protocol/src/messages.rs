@@ -208,8 +208,9 @@ pub struct CalibrationInfo {
 pub struct CompensationReport {
     /// Whether the last servo frame's command reached the tolerance.
     pub converged: bool,
-    /// Solver steps (one per servo frame) since the solve last started from
-    /// the nominal targets, at most 255.
+    /// Solver steps (one per servo frame) since the current move started (or
+    /// since the solve last started afresh from the nominal targets, if later),
+    /// at most 255.
     pub iterations: u8,
     /// The last command's remaining tool-point error, µm (evaluated, not predicted).
     pub error_um: f32,

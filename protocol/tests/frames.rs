@@ -4,6 +4,7 @@
 use proptest::prelude::*;
 use protocol::frame::{self, Feed, FrameError, FrameReader, MAX_FRAME};
 use protocol::{Calibration, Request, Response, Timing, WireError};
+use model::bounds::{Bounds, Quantity};
 
 fn frame_of(seq: u16, msg: &Request) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
@@ -105,6 +106,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         base_softening: 0.0,
         tool: model::Frame::identity(),
         payload_com: [0.0; 3],
+        rated_payload_kg: 0.2,
         joints: [model::Joint {
             theta: 0.0,
             d: 0.1,
@@ -125,6 +127,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         nominal: arm,
         calibrated: arm,
         home_rad: [0.0; 6],
+        max_correction_rad: [0.3; 6],
     };
     assert_eq!(good.check(), Ok(()));
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
@@ -191,44 +194,69 @@ fn calibration_rejects_what_the_board_cannot_run() {
     home.home_rad[0] = 1.5;
     assert_eq!(home.check(), Err(protocol::CalibrationFault::Home));
     let mut negative = good;
-    negative.calibrated.joints[1].compliance = -0.01;
+    negative.calibrated.joints[1].mass = -0.01;
     assert_eq!(negative.check(), Err(protocol::CalibrationFault::Negative));
+    negative = good;
+    negative.nominal.rated_payload_kg = -0.1;
+    assert_eq!(negative.check(), Err(protocol::CalibrationFault::Negative));
+    // Compliances, softenings and plays within the bounds worked out from
+    // the nominal arm (`model::bounds`), in either arm; outside, refused whole,
+    // naming the quantity as the calibration file does.
+    let bounds = Bounds::of(&good.nominal);
+    let refused = |c: &Calibration, quantity, calibrated| {
+        let fault = c.check().unwrap_err();
+        assert_eq!(
+            fault,
+            protocol::CalibrationFault::Bound {
+                quantity,
+                calibrated
+            }
+        );
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        let bytes = c.encode(&mut buf).unwrap().to_vec();
+        assert_eq!(Calibration::decode(&bytes), None, "the board refuses it whole");
+        fault.to_string()
+    };
+    let mut bent = good;
+    bent.calibrated.joints[1].compliance = -0.01;
+    let msg = refused(&bent, Quantity::Compliance { spring: 2 }, true);
+    assert!(msg.contains("`k2`") && msg.contains("calibrated"), "{msg}");
+    let ceiling = bounds.range(Quantity::Compliance { spring: 2 }).max;
+    bent.calibrated.joints[1].compliance = ceiling * 0.99;
+    assert_eq!(bent.check(), Ok(()));
+    bent.calibrated.joints[1].compliance = ceiling * 1.01;
+    refused(&bent, Quantity::Compliance { spring: 2 }, true);
     // Backlash: up to 5° full width is a worn hobby servo; beyond, or negative, is refused whole.
     let mut play = good;
     play.calibrated.joints[4].backlash = 4.9f32.to_radians();
     assert_eq!(play.check(), Ok(()));
     for width in [5.1f32.to_radians(), -0.001] {
         play.calibrated.joints[4].backlash = width;
-        let fault = play.check().unwrap_err();
-        assert_eq!(fault, protocol::CalibrationFault::Backlash { joint: 4 });
-        let msg = fault.to_string();
-        assert!(msg.contains("joint 5") && msg.contains("5°"), "{msg}");
-        let bytes = play.encode(&mut buf).unwrap().to_vec();
-        assert_eq!(
-            Calibration::decode(&bytes),
-            None,
-            "the board refuses it whole"
-        );
+        let msg = refused(&play, Quantity::Backlash { joint: 4 }, true);
+        assert!(msg.contains("j5.backlash"), "{msg}");
     }
     play.calibrated.joints[4].backlash = f32::INFINITY;
     assert_eq!(play.check(), Err(protocol::CalibrationFault::NotFinite));
-    // Softening springs are fine; one that stiffens so fast it would stop
-    // yielding under 10 Nm is refused, naming the spring.
+    // A spring may soften or stiffen, as far as the arm's largest torque allows.
     let mut soft = good;
-    soft.calibrated.base_softening = 0.4;
-    soft.calibrated.joints[2].softening = -0.1;
+    let floor = bounds.range(Quantity::Softening { spring: 3 }).min;
+    soft.calibrated.base_softening = 0.5 * bounds.range(Quantity::Softening { spring: 0 }).max;
+    soft.calibrated.joints[2].softening = floor * 0.99;
     assert_eq!(soft.check(), Ok(()));
-    soft.calibrated.joints[2].softening = -0.11;
-    assert_eq!(
-        soft.check(),
-        Err(protocol::CalibrationFault::Softening { spring: 3 })
-    );
+    soft.calibrated.joints[2].softening = floor * 1.01;
+    refused(&soft, Quantity::Softening { spring: 3 }, true);
     soft.calibrated.joints[2].softening = 0.0;
     soft.nominal.base_softening = -1.0;
-    assert_eq!(
-        soft.check(),
-        Err(protocol::CalibrationFault::Softening { spring: 0 })
-    );
+    refused(&soft, Quantity::Softening { spring: 0 }, false);
+    // Each joint's largest correction: an angle above 0 up to the protocol's cap.
+    for bad in [0.0, -0.1, f32::NAN, protocol::calibration::MAX_CORRECTION_RAD * 1.01] {
+        let mut c = good;
+        c.max_correction_rad[3] = bad;
+        assert_eq!(
+            c.check(),
+            Err(protocol::CalibrationFault::Correction { joint: 3 })
+        );
+    }
 }
 
 proptest! {

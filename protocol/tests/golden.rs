@@ -61,6 +61,7 @@ pub fn fixed_arm() -> Arm<f32> {
             rpy: [0.0; 3],
         },
         payload_com: [0.0; 3],
+        rated_payload_kg: 0.1,
         joints: core::array::from_fn(joint),
     }
 }
@@ -102,6 +103,7 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
         nominal: fixed_arm(),
         calibrated: fixed_arm(),
         home_rad: [0.0; 6],
+        max_correction_rad: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
     };
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let cal = calibration.encode(&mut buf).unwrap().to_vec();

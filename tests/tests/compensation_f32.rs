@@ -40,6 +40,7 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
         home_rad: [0.0; 6],
+        max_correction_rad: host::device::calibration::max_corrections(&nominal, &calibrated),
     })
     .unwrap();
     // The host's f64 model of what was sent (the board gets f32 numbers).

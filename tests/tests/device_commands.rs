@@ -572,6 +572,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
         nominal: longer.map(|x| x as f32),
         calibrated: longer.map(|x| x as f32),
         home_rad: [0.0; 6],
+        max_correction_rad: host::device::calibration::max_corrections(&longer, &longer),
     };
     let mut client = board.args().connect().unwrap();
     client.push_calibration(&calibration, |_, _| {}).unwrap();
@@ -624,6 +625,7 @@ fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
         nominal: arm,
         calibrated: arm,
         home_rad: [0.0; 6],
+        max_correction_rad: [0.35; 6],
     };
     assert_eq!(
         move_::board_limits(Some(&calibration)),

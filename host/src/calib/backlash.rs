@@ -33,10 +33,10 @@ use model::backlash::Approach;
 /// measurements of the joint disagree with each other or its gears are worn.
 pub const PLAUSIBLE_MAX_RAD: f64 = 0.052_359_877_559_829_88;
 
-/// Widest play the fit may give a joint, rad: the board's widest
-/// (`model::backlash::MAX_WIDTH_RAD`, 5°) less what rounding to the board's
-/// f32 could add.
-pub const FIT_MAX_RAD: f64 = model::backlash::MAX_WIDTH_RAD * (1.0 - 1e-6);
+/// Widest play the fit gives a joint, rad: the widest the bounds allow
+/// (`model::bounds::MAX_BACKLASH_RAD`, 5°), kept inside by the fit's margin.
+pub const FIT_MAX_RAD: f64 =
+    model::bounds::MAX_BACKLASH_RAD * (1.0 - model::bounds::FIT_MARGIN);
 
 /// Fewest fitted poses at which a joint must have arrived each way before
 /// its width is fitted.

@@ -4,8 +4,10 @@
 
 use model::Arm;
 
-use super::jacobian::tool_points;
-use super::{CalibError, Sample};
+use nalgebra::Vector3;
+
+use super::targets::tool_points;
+use super::{CalibError, Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 
 /// A measured point farther than this from the nominal model's prediction is
@@ -22,33 +24,74 @@ pub fn check_plausible(
     let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
     let predicted = tool_points(&(*nominal).into(), &samples)?;
     for (m, p) in measurements.iter().zip(&predicted) {
-        let bad = |problem: String| CalibError::BadMeasurement {
-            pose: m.pose.id,
-            load_kg: m.load_kg,
-            file: file.into(),
-            problem,
+        implausible(m, p, file, "the nominal arm puts the tool", "")?;
+    }
+    Ok(())
+}
+
+/// Refuses measurements to validate `calibrated` on when more than half of
+/// them are farther than [`IMPLAUSIBLE_M`] from where it puts their
+/// targets (a wrong unit, arm or frame, said with the first of them); a
+/// few far ones are left to the validation, which names them as outliers.
+pub fn check_plausible_calibrated(
+    calibrated: &Rig,
+    measurements: &[Measurement],
+    file: &str,
+) -> Result<(), CalibError> {
+    let predicted = tool_points(calibrated, &calibrated.samples(measurements)?)?;
+    let far: Vec<(&Measurement, &Vector3<f64>)> = measurements
+        .iter()
+        .zip(&predicted)
+        .filter(|(m, p)| !((m.position - *p).norm() <= IMPLAUSIBLE_M))
+        .collect();
+    if 2 * far.len() <= measurements.len() {
+        return Ok(());
+    }
+    let (m, p) = far[0];
+    let share = format!(
+        "; {} of the {} measurements are that far: is it the arm, the unit and the frame the \
+         calibration was made for?",
+        far.len(),
+        measurements.len()
+    );
+    implausible(m, p, file, "the calibrated arm puts its target", &share)
+}
+
+/// Refuses `m` when its position is not finite or farther than
+/// [`IMPLAUSIBLE_M`] from `p`, where `whose` (words) puts it; `more` ends the message.
+fn implausible(
+    m: &Measurement,
+    p: &Vector3<f64>,
+    file: &str,
+    whose: &str,
+    more: &str,
+) -> Result<(), CalibError> {
+    let bad = |problem: String| CalibError::BadMeasurement {
+        pose: m.pose.id,
+        load_kg: m.load_kg,
+        file: file.into(),
+        problem,
+    };
+    if !m.position.iter().all(|v| v.is_finite()) {
+        return Err(bad("the position is not a finite number".into()));
+    }
+    let miss = (m.position - p).norm();
+    if miss > IMPLAUSIBLE_M {
+        let hint = if m.position.norm() < 2e-3 && p.norm() > 0.02 {
+            "; the values look like metres where millimetres are expected"
+        } else if m.position.norm() > 100.0 * p.norm().max(1e-3) {
+            "; the values look a thousand times too large (micrometres?)"
+        } else {
+            ""
         };
-        if !m.position.iter().all(|v| v.is_finite()) {
-            return Err(bad("the position is not a finite number".into()));
-        }
-        let miss = (m.position - p).norm();
-        if miss > IMPLAUSIBLE_M {
-            let hint = if m.position.norm() < 2e-3 && p.norm() > 0.02 {
-                "; the values look like metres where millimetres are expected"
-            } else if m.position.norm() > 100.0 * p.norm().max(1e-3) {
-                "; the values look a thousand times too large (micrometres?)"
-            } else {
-                ""
-            };
-            return Err(bad(format!(
-                "it is {:.0} mm from where the nominal arm puts the tool ({:.1}, {:.1}, {:.1}) mm; expected within {:.0} mm{hint}",
-                miss * 1e3,
-                p.x * 1e3,
-                p.y * 1e3,
-                p.z * 1e3,
-                IMPLAUSIBLE_M * 1e3
-            )));
-        }
+        return Err(bad(format!(
+            "it is {:.0} mm from where {whose} ({:.1}, {:.1}, {:.1}) mm; expected within {:.0} mm{hint}{more}",
+            miss * 1e3,
+            p.x * 1e3,
+            p.y * 1e3,
+            p.z * 1e3,
+            IMPLAUSIBLE_M * 1e3
+        )));
     }
     Ok(())
 }

@@ -26,7 +26,8 @@ impl From<&Estimate> for FittedParam {
     }
 }
 
-/// The calibration file of an identification from `nominal`: `removed` are
+/// The calibration file of an identification from `nominal` (its rated
+/// payload the one the fit's bounds held up to, the identified arm's): `removed` are
 /// the candidates held at nominal as unidentifiable, `poses_used` and `loads_kg`
 /// the measurements fitted, `fit_residual` the error on them. Targets are
 /// listed when the measurements named them, without their held-out error
@@ -44,7 +45,10 @@ pub fn calibration_file(
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
         option: identified.option,
-        nominal: *nominal,
+        nominal: Arm {
+            rated_payload_kg: identified.rig.arm.rated_payload_kg,
+            ..*nominal
+        },
         arm: identified.rig.arm,
         parameters: identified.estimates.iter().map(FittedParam::from).collect(),
         at_bound: identified
@@ -92,6 +96,16 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
         rig
     };
     (rig(file.nominal), rig(file.arm))
+}
+
+/// What an arm source's arm means: a calibration file's corrected rig
+/// ([`rigs_of`]: its servo curves say where the nominal curves' pulses go,
+/// its targets' tool points), or a nominal arm, commanded through its own curves.
+pub fn rig_of(loaded: &crate::io::arm_source::LoadedArm) -> Rig {
+    match &loaded.calibration {
+        Some(file) => rigs_of(file).1,
+        None => Rig::from(loaded.arm),
+    }
 }
 
 /// Every target of `identified` with its tool point, fit residual and

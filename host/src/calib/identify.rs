@@ -4,27 +4,24 @@
 //! over the free parameters of a [`ParamVector`]), *active set* (bounds),
 //! *reweight* (Huber), *covariance* and *outliers*.
 //!
-//! **Bounded parameters (non-negative compliances), by an active set.** The
-//! fit runs unconstrained over the free parameters (a negative compliance is
-//! only a number to the model, so the solver never sees a kink). If it ends
-//! with some value below its bound, those parameters are fixed at exactly the
-//! bound and the fit is repeated from there; a fixed one is released again
-//! when the gradient says that moving it off the bound would lower the cost
-//! (the KKT multiplier has the wrong sign). This ends with every bounded
-//! parameter either free and inside its bound or fixed at it with a
-//! non-negative multiplier: the constrained optimum. Should the round budget
-//! run out first, what is still outside is fixed at its bound, so the
-//! identified arm is always physical.
-//!
-//! **A physical range for compliances.** Above zero, a compliance is bounded
-//! by [`MAX_SAG_RAD`] divided by the largest gravity torque the fitted poses
-//! put on its joint (at the nominal arm): a joint that would sag further than
-//! that is not a spring that holds a pose. The bound scales with the arm's
-//! torques, so it is as loose for a light wrist (0.08 Nm: up to 6 rad/Nm) as
-//! for a UR10's shoulder (300 Nm: 1.7e-3 rad/Nm); it also keeps the
-//! deflection's fixed-point iteration well inside where it converges, so the
-//! identified arm can be evaluated. The active set treats it like the lower
-//! bound.
+//! **Bounded parameters, by an active set.** Compliances, softenings and
+//! play widths have physical ranges (`model::bounds`: worked out from the
+//! nominal arm, its rated payload included, the very ranges every reader of
+//! the calibration file and the board check), kept inside by
+//! `model::bounds::FIT_MARGIN`. The fit runs unconstrained over the free
+//! parameters (a value outside is only a number to the model, so the solver
+//! never sees a kink). If it ends with some value outside its range, those
+//! parameters are fixed at exactly the bound and the fit is repeated from
+//! there; a fixed one is released again when the gradient says that moving
+//! it off the bound would lower the cost (the KKT multiplier has the wrong
+//! sign). This ends with every bounded parameter either free and inside its
+//! range or fixed at a bound with a non-negative multiplier: the constrained
+//! optimum. Should the round budget run out first, what is still outside is
+//! fixed at its bound, so the identified arm is always physical, and no
+//! reader refuses the file it goes into. The compliance's ceiling
+//! (`model::bounds::MAX_SAG_RAD` over the largest torque) also keeps the
+//! deflection's fixed-point iteration well inside where it converges, so
+//! the identified arm can be evaluated.
 //!
 //! **Failed steps.** Parameters the data barely determine let a trial step of
 //! LM go far, e.g. to a compliance whose deflection no longer converges.
@@ -62,10 +59,12 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationRe
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
+use model::bounds::Bounds;
 use model::params::ParamKind;
 
 use super::identifiability::check_full_rank;
-use super::jacobian::{jacobian, tool_points};
+use super::jacobian::jacobian;
+use super::targets::tool_points;
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::servo_knots;
@@ -79,10 +78,6 @@ pub const HUBER_K: f64 = 3.0;
 pub const OUTLIER_K: f64 = 4.5;
 /// Median of the norm of a 3D standard Gaussian vector.
 const CHI3_MEDIAN: f64 = 1.5382;
-/// Largest sag, rad, a compliance may give its joint under the largest
-/// gravity torque of the fitted poses: 0.5 rad (29°). Scaled by each joint's
-/// torque, so it suits a hobby arm and an industrial one alike.
-pub const MAX_SAG_RAD: f64 = 0.5;
 /// A free length or angle is weak when one standard deviation of it moves the
 /// tool point by more than this fraction of the arm's reach (1 %: 4 mm on
 /// the bundled arm, 14 mm on a UR10-sized one).
@@ -210,8 +205,8 @@ struct FitData<'a> {
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
-    /// Each compliance's physical ceiling over these samples ([`MAX_SAG_RAD`]).
-    ceilings: Vec<(ParamKey, f64)>,
+    /// The physical bounds of the nominal arm's calibration.
+    bounds: Bounds<f64>,
 }
 
 impl<'a> FitData<'a> {
@@ -221,24 +216,18 @@ impl<'a> FitData<'a> {
         measurements: &[Measurement],
     ) -> Result<Self, CalibError> {
         let samples = nominal.samples(measurements)?;
-        let ceilings = compliance_ceilings(&nominal.arm, &samples);
         Ok(Self {
             nominal,
             option,
             samples,
             measured: measurements.iter().map(|m| m.position).collect(),
-            ceilings,
+            bounds: Bounds::of(&nominal.arm),
         })
     }
 
-    /// The smallest and largest physical value of `key`'s quantity, if bounded.
+    /// The smallest and largest value the fit may give `key`'s quantity, if bounded.
     fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
-        let ceiling = self
-            .ceilings
-            .iter()
-            .find(|(k, _)| *k == key)
-            .map(|(_, c)| *c);
-        (key.lower_bound(), ceiling.or(key.upper_bound()))
+        key.fit_range(&self.bounds)
     }
 
     /// Norms of the 3D residuals of `arm` against the measurements, m.
@@ -286,30 +275,6 @@ impl<'a> FitData<'a> {
             reason,
         }
     }
-}
-
-/// The largest gravity torque each joint (and the base) carries over
-/// `samples` at the nominal arm's commanded angles, turned into the
-/// compliance ceiling `MAX_SAG_RAD / torque`; a joint that never carries a
-/// torque gets none (its compliance has no effect).
-fn compliance_ceilings(nominal: &model::Arm<f64>, samples: &[Sample]) -> Vec<(ParamKey, f64)> {
-    let chain = nominal.chain();
-    let mut joints = [0.0f64; model::JOINTS];
-    let mut base = 0.0f64;
-    for s in samples {
-        let t = chain.gravity_torques(&s.q, 0.0, s.load_kg);
-        for (m, t) in joints.iter_mut().zip(t.joints) {
-            *m = m.max(t.abs());
-        }
-        base = base.max(t.base.abs());
-    }
-    (0..=model::JOINTS)
-        .filter_map(|i| {
-            let torque = if i == 0 { base } else { joints[i - 1] };
-            let key = ParamKey::from_name(&format!("k{i}"))?;
-            (torque > 0.0 && torque.is_finite()).then(|| (key, MAX_SAG_RAD / torque))
-        })
-        .collect()
 }
 
 /// The LM problem over the free parameters; the fixed ones stay where they are.
@@ -1014,25 +979,23 @@ mod tests {
         assert!(loo.is_infinite() || loo > 1e6, "{loo}");
     }
 
-    /// The ceiling of each compliance is MAX_SAG_RAD over the largest torque
-    /// its joint carries in the samples; a value above it is outside.
+    /// The fit's range of each bounded parameter is the arm's physical one
+    /// (`model::bounds`), just inside; a value above it is outside.
     #[test]
-    fn compliance_ceilings_scale_with_the_torques() {
+    fn fit_ranges_are_the_arms_bounds_just_inside() {
         let nominal = Rig::from(rigid_nominal());
         let meas = measure(&nominal.arm, &small_samples(12));
         let data = fit_data(&nominal, &meas);
-        let chain = nominal.arm.chain();
+        let bounds = Bounds::of(&nominal.arm);
         let k3 = key("k3");
-        let torque = data
-            .samples
-            .iter()
-            .map(|s| chain.gravity_torques(&s.q, 0.0, s.load_kg).joints[2].abs())
-            .fold(0.0, f64::max);
         let (lo, hi) = data.bounds(k3);
         assert_eq!(lo, Some(0.0));
-        assert!((hi.unwrap() - MAX_SAG_RAD / torque).abs() < 1e-12 * hi.unwrap());
-        // k1 carries no torque on the level base: no ceiling.
-        assert_eq!(data.bounds(key("k1")).1, None);
+        let ceiling = model::bounds::MAX_SAG_RAD / bounds.torque_nm(3);
+        assert!(hi.unwrap() < ceiling && hi.unwrap() > ceiling * (1.0 - 1e-4));
+        let (s_lo, s_hi) = data.bounds(ParamKey::Softening { spring: 2 });
+        assert!(s_lo.unwrap() > -0.5 / bounds.torque_nm(2) && s_lo.unwrap() < 0.0);
+        assert!(s_hi.unwrap() < 1.0 / bounds.torque_nm(2));
+        assert_eq!(data.bounds(key("j2.d")), (None, None));
         let mut params = ParamVector::new(elastic_keys()).unwrap();
         params.set(k3, 2.0 * hi.unwrap()).unwrap();
         let arm = params.apply(&nominal);

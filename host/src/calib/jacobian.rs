@@ -45,6 +45,7 @@ use rayon::prelude::*;
 use super::joint_columns;
 use super::params::ParamKey;
 use super::servo_knots::fit_start;
+use super::targets::{chain_of, deflection_error, target_chains};
 use super::{CalibError, Rig, Sample};
 
 /// The deflected state's seven coordinates: the six joint angles, then the base tilt.
@@ -55,59 +56,6 @@ const PARALLEL_CHUNK: usize = 1024;
 
 /// Bodies that carry weight: links 1..6, then the payload (index 7).
 const PAYLOAD: usize = JOINTS + 1;
-
-/// Measured (deflected) points of `rig` for every sample, each of its
-/// sample's target, with the joints where the sample's command drives them
-/// ([`Rig::standing_angles`]), world frame, m.
-pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
-    let chains = target_chains(rig);
-    let opts = SolverOptions::default();
-    samples
-        .iter()
-        .map(|s| {
-            chain_of(&chains, s)?
-                .tool_point(&rig.standing_angles(s), s.load_kg, &opts)
-                .map_err(|e| deflection_error(s, e.to_string()))
-        })
-        .collect()
-}
-
-/// One chain per target: they differ in the tool point only, which the
-/// deflection does not depend on.
-fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
-    (0..rig.targets.len())
-        .map(|t| {
-            let mut chain = rig.chain();
-            chain.tool_point = rig.tool_point(t).unwrap_or(chain.tool_point);
-            chain
-        })
-        .collect()
-}
-
-/// The chain of `sample`'s target.
-fn chain_of<'a>(
-    chains: &'a [model::Chain<f64>],
-    sample: &Sample,
-) -> Result<&'a model::Chain<f64>, CalibError> {
-    chains.get(sample.target).ok_or_else(|| {
-        deflection_error(
-            sample,
-            format!(
-                "the calibration has {} targets, not a target {}",
-                chains.len(),
-                sample.target
-            ),
-        )
-    })
-}
-
-fn deflection_error(sample: &Sample, message: String) -> CalibError {
-    CalibError::Deflection {
-        pose: sample.id,
-        load_kg: sample.load_kg,
-        message,
-    }
-}
 
 /// The exact slopes of the measured points of a set of samples.
 #[derive(Clone, Debug, PartialEq)]
@@ -487,7 +435,7 @@ mod tests {
             DMatrix::from_iterator(
                 3 * samples.len(),
                 1,
-                tool_points(&r, samples)
+                r.tool_points(samples)
                     .unwrap()
                     .iter()
                     .flat_map(|p| p.iter().copied()),
@@ -631,7 +579,7 @@ mod tests {
                 let shifted = |by: f64| {
                     let mut moved = *sample;
                     moved.q[joint] += by;
-                    tool_points(&rig, &[moved]).unwrap()[0]
+                    rig.tool_points(&[moved]).unwrap()[0]
                 };
                 let reference = (shifted(h) - shifted(-h)) / (2.0 * h);
                 let exact = s.joints[k].column(joint);

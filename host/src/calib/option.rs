@@ -112,7 +112,7 @@ mod tests {
         assert!(
             candidates(ModelOption::Elastic, &arm, FINEST)
                 .iter()
-                .all(|k| k.lower_bound() == Some(0.0))
+                .all(|k| matches!(k.quantity(), Some(model::bounds::Quantity::Compliance { .. })))
         );
         assert_eq!(
             candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..7],

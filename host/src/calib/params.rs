@@ -25,6 +25,7 @@ use std::collections::BTreeMap;
 use std::fmt;
 
 use model::ParamId;
+use model::bounds::{Bounds, FIT_MARGIN, Quantity};
 use model::params::ParamKind;
 
 use super::targets::Rig;
@@ -163,26 +164,31 @@ impl ParamKey {
         }
     }
 
-    /// The smallest physical value of the quantity (not of its correction), if bounded.
-    pub fn lower_bound(self) -> Option<f64> {
+    /// The arm's bounded quantity ([`model::bounds`]) this key corrects, if it is one.
+    pub fn quantity(self) -> Option<Quantity> {
         match self {
-            // A spring may soften or stiffen.
-            Self::Softening { .. } => None,
-            // No play is narrower than none.
-            Self::Backlash { .. } => Some(0.0),
-            // A negative compliance would mean the arm bends against gravity.
-            _ if self.kind() == ParamKind::Compliance => Some(0.0),
+            Self::Arm(id) if id.kind() == ParamKind::Compliance => {
+                // k0 is the base's spring, k1..k6 the joints'.
+                let spring = id.name().strip_prefix('k')?.parse::<u8>().ok()?;
+                Some(Quantity::Compliance { spring })
+            }
+            Self::Softening { spring } => Some(Quantity::Softening { spring }),
+            Self::Backlash { joint } => Some(Quantity::Backlash { joint }),
             _ => None,
         }
     }
 
-    /// The largest value of the quantity the board accepts, if bounded
-    /// (a compliance's ceiling depends on the poses: `calib::identify`).
-    pub fn upper_bound(self) -> Option<f64> {
-        match self {
-            Self::Backlash { .. } => Some(super::backlash::FIT_MAX_RAD),
-            _ => None,
-        }
+    /// The smallest and largest value the fit may give the quantity (not its
+    /// correction): its physical range in `bounds`, kept inside by
+    /// [`model::bounds::FIT_MARGIN`] so that the board's single-precision
+    /// check passes too; `None` where it is unbounded.
+    pub fn fit_range(self, bounds: &Bounds<f64>) -> (Option<f64>, Option<f64>) {
+        let Some(quantity) = self.quantity() else {
+            return (None, None);
+        };
+        let range = bounds.range(quantity).inner(FIT_MARGIN);
+        let finite = |x: f64| (x.abs() < f64::MAX / 2.0).then_some(x);
+        (finite(range.min), finite(range.max))
     }
 
     /// The current value of the quantity in `rig`.
@@ -446,22 +452,31 @@ mod tests {
             let k = ParamKey::from(id);
             assert_eq!(ParamKey::from_name(&k.name()), Some(k));
             assert_eq!(k.kind(), id.kind());
-            assert_eq!(k.lower_bound().is_some(), !id.is_geometric());
+            assert_eq!(k.quantity().is_some(), !id.is_geometric());
         }
         assert_eq!(ParamKey::from_name("j7.d"), None);
         let knot = ParamKey::ServoKnot { joint: 2, knot: 4 };
         assert_eq!(knot.name(), "j3.servo[5]");
         assert_eq!(ParamKey::from_name("j3.servo[5]"), Some(knot));
         assert_eq!(knot.kind(), ParamKind::Angle);
-        assert_eq!(knot.lower_bound(), None);
-        assert_eq!(knot.upper_bound(), None);
+        let bounds = Bounds::of(&rigid_nominal());
+        assert_eq!(knot.fit_range(&bounds), (None, None));
         let play = ParamKey::Backlash { joint: 5 };
-        assert_eq!(play.lower_bound(), Some(0.0));
+        let (lo, hi) = play.fit_range(&bounds);
+        assert_eq!(lo, Some(0.0));
         // The widest play the fit may reach survives the board's f32 check.
-        let widest = f64::from(play.upper_bound().unwrap() as f32);
+        let widest = f64::from(hi.unwrap() as f32);
         assert!(
-            widest <= model::backlash::MAX_WIDTH_RAD
-                && widest > 0.99 * model::backlash::MAX_WIDTH_RAD
+            widest <= model::bounds::MAX_BACKLASH_RAD
+                && widest > 0.99 * model::bounds::MAX_BACKLASH_RAD
+        );
+        assert_eq!(
+            ParamKey::from_name("k0").unwrap().quantity(),
+            Some(Quantity::Compliance { spring: 0 })
+        );
+        assert_eq!(
+            ParamKey::from_name("k4").unwrap().quantity(),
+            Some(Quantity::Compliance { spring: 4 })
         );
         // A knot counts on the finest grid: on a 9-knot curve it is the
         // curve's own, on a 5-knot one every second of them.

@@ -364,14 +364,19 @@ pub struct Inputs<'a> {
 }
 
 impl<'a> Inputs<'a> {
-    /// Indexes `measurements` of `candidates` for `nominal`.
+    /// Indexes `measurements` of `candidates` for `nominal`, whose rated
+    /// payload is raised to the heaviest load measured ([`rated_for`]).
     pub fn new(
         nominal: &Arm<f64>,
         candidates: &'a [Pose],
         measurements: &'a [Measurement],
     ) -> Self {
+        let nominal = Arm {
+            rated_payload_kg: rated_for(nominal, measurements),
+            ..*nominal
+        };
         Self {
-            nominal: Rig::new(*nominal, Targets::of(measurements)),
+            nominal: Rig::new(nominal, Targets::of(measurements)),
             candidates,
             measurements: MeasurementIndex::new(measurements),
         }
@@ -386,6 +391,17 @@ impl<'a> Inputs<'a> {
             .filter(|id| !chosen.contains(id))
             .collect()
     }
+}
+
+/// The rated payload of a calibration of `nominal` from `measurements`, kg:
+/// the arm's own, or the heaviest load measured if that is more. The bounds
+/// of the springs (`model::bounds`) hold up to it: a calibration is made for
+/// at least the loads it was measured under.
+pub fn rated_for(nominal: &Arm<f64>, measurements: &[Measurement]) -> f64 {
+    measurements
+        .iter()
+        .map(|m| m.load_kg)
+        .fold(nominal.rated_payload_kg, f64::max)
 }
 
 /// How one option is calibrated.

@@ -9,7 +9,7 @@
 //! fixed: knot `k` of the calibrated curve says which angle the pulse `p_k`
 //! really reaches. A measurement commanded through the arm file's curve sent
 //! the pulse `c_file(q)`, so the joint really stood at `c_fit⁻¹(c_file(q))`
-//! ([`reached`]); when the file's knots are among the grid's (the default 3
+//! (`model::command::reached`); when the file's knots are among the grid's (the default 3
 //! are among every grid's, servo-tune's 5 among those every 25° and 50°)
 //! this is exactly `q + δ(q)` with `δ` piecewise linear through the knot
 //! offsets. The calibrated curve is then the file the
@@ -228,24 +228,6 @@ pub fn fit_start(nominal: &Rig, keys: &[ParamKey]) -> Rig {
         start.arm = on_grid(&nominal.arm, spacing);
     }
     start
-}
-
-/// The joint angles the servos of `arm` (whose curves map the angles they
-/// really reach to pulses) drive to when commanded `q` through the curves
-/// `sent`, rad. A joint whose two curves are the same drives to `q` exactly.
-pub fn reached(
-    sent: &[ServoCurve<f64>; JOINTS],
-    arm: &Arm<f64>,
-    q: &[f64; JOINTS],
-) -> [f64; JOINTS] {
-    std::array::from_fn(|j| {
-        let own = &arm.joints[j].servo;
-        if sent[j] == *own {
-            q[j]
-        } else {
-            own.angle(sent[j].pulse_us(q[j]))
-        }
-    })
 }
 
 /// d(reached angle of `joint`)/d(angle of `knot`) at commanded angle `q`:

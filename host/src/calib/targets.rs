@@ -12,12 +12,17 @@
 //! hangs where it hangs), so a target's point is the deflected frame 6 times
 //! its tool point.
 //!
+//! **What a calibration means** is [`Rig::evaluate`]: a commanded pose, its
+//! load and the way each joint arrived in, the joint angles the arm stands
+//! at, its deflected state and the tool point out. The fit, its validation,
+//! `predict`, `validate` and the simulator's comparisons all go through it.
+//!
 //! A target's three coordinates are fixed by its own measurements only: with
 //! fewer than [`MIN_TARGET_POSES`] poses the fit would have as many unknowns
 //! as equations for it and nothing would check them, so such a file is
 //! refused ([`Targets::check_poses`]).
 
-use model::{Arm, JOINTS, ServoCurve};
+use model::{Arm, Deflection, JOINTS, ServoCurve, SolverOptions};
 use nalgebra::Vector3;
 
 use super::params::ParamKey;
@@ -39,8 +44,20 @@ pub struct Rig {
     pub targets: Targets,
     /// The servo curves the measurements were commanded through (the
     /// nominal arm's); where the arm's own curves differ, a command stands
-    /// elsewhere (`calib::servo_knots::reached`).
+    /// elsewhere (`model::command::reached`).
     pub command_curves: [ServoCurve<f64>; JOINTS],
+}
+
+/// A commanded pose evaluated: where the rig stands and where its target goes.
+#[derive(Clone, Copy, Debug)]
+pub struct Evaluated {
+    /// The joint angles the arm stands at before it deflects, rad
+    /// ([`Rig::standing_angles`]).
+    pub standing: [f64; JOINTS],
+    /// Its deflected state under the load (deflected angles, base tilt).
+    pub deflection: Deflection<f64>,
+    /// Where the sample's target goes, world frame, m.
+    pub tool_m: Vector3<f64>,
 }
 
 impl From<Arm<f64>> for Rig {
@@ -73,10 +90,37 @@ impl Rig {
     /// its servos drive the command sent through [`Rig::command_curves`],
     /// short of it or beyond by half the play the way each joint arrived.
     pub fn standing_angles(&self, sample: &Sample) -> [f64; JOINTS] {
-        let reached = super::servo_knots::reached(&self.command_curves, &self.arm, &sample.q);
-        std::array::from_fn(|j| {
-            model::backlash::settled(reached[j], self.arm.joints[j].backlash, sample.approach[j])
-        })
+        model::command::standing(&self.arm, &self.command_curves, &sample.q, &sample.approach)
+    }
+
+    /// What the calibration means for `sample` (module docs): the joint
+    /// angles the arm stands at, its deflected state and where the sample's
+    /// target goes.
+    pub fn evaluate(&self, sample: &Sample) -> Result<Evaluated, CalibError> {
+        let chains = target_chains(self);
+        evaluate_on(self, chain_of(&chains, sample)?, sample)
+    }
+
+    /// The tool points of [`Rig::evaluate`] for every sample (each its own
+    /// target's), world frame, m: the fit's residuals and every comparison
+    /// with measurements come from here.
+    pub fn tool_points(&self, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+        let chains = target_chains(self);
+        samples
+            .iter()
+            .map(|s| Ok(evaluate_on(self, chain_of(&chains, s)?, s)?.tool_m))
+            .collect()
+    }
+
+    /// The same rig with no play: a joint whose approach is unknown is
+    /// taken to stand at the middle of its play, its command (the error is
+    /// then at most half the play, either way).
+    pub fn without_play(&self) -> Self {
+        let mut rig = self.clone();
+        for j in &mut rig.arm.joints {
+            j.backlash = 0.0;
+        }
+        rig
     }
 
     /// Tool point of target `t` in frame 6, m, if the rig has it.
@@ -118,6 +162,66 @@ impl Rig {
                 })
             })
             .collect()
+    }
+}
+
+/// [`Rig::evaluate`] with the chain of the sample's target.
+fn evaluate_on(
+    rig: &Rig,
+    chain: &model::Chain<f64>,
+    sample: &Sample,
+) -> Result<Evaluated, CalibError> {
+    let standing = rig.standing_angles(sample);
+    let deflection = chain
+        .deflect(&standing, sample.load_kg, &SolverOptions::default())
+        .map_err(|e| deflection_error(sample, e.to_string()))?;
+    Ok(Evaluated {
+        standing,
+        tool_m: deflection.tool_point(),
+        deflection,
+    })
+}
+
+/// The points of [`Rig::tool_points`], the calibration's meaning for each sample.
+pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+    rig.tool_points(samples)
+}
+
+/// One chain per target: they differ in the tool point only, which the
+/// deflection does not depend on.
+pub(super) fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
+    (0..rig.targets.len())
+        .map(|t| {
+            let mut chain = rig.chain();
+            chain.tool_point = rig.tool_point(t).unwrap_or(chain.tool_point);
+            chain
+        })
+        .collect()
+}
+
+/// The chain of `sample`'s target.
+pub(super) fn chain_of<'a>(
+    chains: &'a [model::Chain<f64>],
+    sample: &Sample,
+) -> Result<&'a model::Chain<f64>, CalibError> {
+    chains.get(sample.target).ok_or_else(|| {
+        deflection_error(
+            sample,
+            format!(
+                "the calibration has {} targets, not a target {}",
+                chains.len(),
+                sample.target
+            ),
+        )
+    })
+}
+
+/// The error of a sample whose deflection cannot be solved.
+pub(super) fn deflection_error(sample: &Sample, message: String) -> CalibError {
+    CalibError::Deflection {
+        pose: sample.id,
+        load_kg: sample.load_kg,
+        message,
     }
 }
 

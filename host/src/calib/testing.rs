@@ -8,7 +8,7 @@ use rand::{SeedableRng, rngs::StdRng};
 
 use super::detmax::DetmaxOptions;
 use super::identify::IdentifyOptions;
-use super::jacobian::tool_points;
+use super::targets::tool_points;
 use super::params::{ParamKey, ParamVector};
 use super::pipeline::{Choice, RunSettings};
 use super::{Rig, Sample};

@@ -4,7 +4,7 @@
 //! (named by the fit's outlier rule, [`super::identify::outlier_indices`]).
 
 use super::identify::outlier_indices;
-use super::jacobian::tool_points;
+use super::targets::tool_points;
 use super::{CalibError, Rig};
 use crate::dataset::Measurement;
 

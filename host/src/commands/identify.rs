@@ -203,21 +203,38 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let inputs = Inputs::new(&nominal, &measured, &all);
     let bar = Bar::new();
     let mut results = Vec::new();
-    for option in args.option.options() {
-        let blocks = CandidateBlocks::build_for(
-            &inputs.nominal,
-            option,
-            &measured,
-            &[load],
-            settings.choice.poses(),
-        )?;
-        // The measured poses must identify what positions can reveal on this arm at all.
-        check_structure(&nominal, &blocks.identifiability, load)?;
-        if !args.no_register {
-            let params = blocks.identifiability.kept.len();
-            check_registered_count(settings.choice.poses(), params, option)?;
+    let mut first_error = None;
+    let options = args.option.options();
+    for &option in &options {
+        let result = (|| -> Result<_, Error> {
+            let blocks = CandidateBlocks::build_for(
+                &inputs.nominal,
+                option,
+                &measured,
+                &[load],
+                settings.choice.poses(),
+            )?;
+            // The measured poses must identify what positions can reveal on this arm at all.
+            check_structure(&nominal, &blocks.identifiability, load)?;
+            if !args.no_register {
+                let params = blocks.identifiability.kept.len();
+                check_registered_count(settings.choice.poses(), params, option)?;
+            }
+            Ok(calibrate_blocks(&inputs, blocks, &settings, &bar)?)
+        })();
+        match result {
+            Ok(r) => results.push(r),
+            // With every option asked for, one the measurements cannot
+            // determine is said and skipped; the others are still fitted.
+            Err(e) if options.len() > 1 => {
+                eprintln!("{option}: not fitted: {e}");
+                first_error.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
         }
-        results.push(calibrate_blocks(&inputs, blocks, &settings, &bar)?);
+    }
+    if let (true, Some(e)) = (results.is_empty(), first_error) {
+        return Err(e);
     }
 
     let report = Report::new(

@@ -1,17 +1,29 @@
 //! `lrmcal predict`: where an arm (nominal or calibrated) puts its tool point
-//! for each pose of a list, elastic deflection under the load included, and
-//! the joints' backlash with the poses visited in the list's order.
+//! for each pose of a list: what the calibration means
+//! (`calib::targets::Rig::evaluate`, the same evaluation `identify` and
+//! `validate` use), servo curves, play and elastic deflection under the load
+//! included.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use model::backlash::settled;
-use model::{JOINTS, SolverOptions};
-
+use crate::calib::Sample;
+use crate::calib::export::rig_of;
 use crate::dataset::{Prediction, approaches};
 use crate::error::Error;
 use crate::io::arm_source::ArmSource;
 use crate::io::{pose_list, predictions};
+
+/// How the way each joint arrived at a pose is known.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ApproachRule {
+    /// The rows are the order the poses were visited in (as `measure`
+    /// writes them): each joint arrives the way its command last moved.
+    Order,
+    /// Unknown: each joint stands at the middle of its play (its command),
+    /// off by at most half the play either way.
+    Middle,
+}
 
 /// Predict tool positions for a pose list.
 #[derive(Debug, clap::Args)]
@@ -23,7 +35,13 @@ The pose list is any CSV with the columns pose,q1_deg..q6_deg (and optionally lo
 pose list, a measurement file; other columns are ignored. A pose outside the arm's joint \
 limits is refused with the line, joint and limit, unless --allow-outside-limits. The output has \
 pose,x_mm,y_mm,z_mm: the tool point in the world frame of the deflected arm, as a \
-tracker would measure it.")]
+tracker would measure it.\n\n\
+A calibration's servo curves say where the pulses of the nominal arm's curves really take each \
+joint (the commands of its measurements), and a joint with play stands short of or beyond its \
+command by half the play, the way it arrived: the rows are taken as the order the poses are \
+visited in, from the all-zero pose (--approach order, what `measure` writes and `validate` \
+assumes). When that order is not known, --approach middle puts every joint at the middle of its \
+play instead.")]
 pub struct Args {
     /// The arm: a bundled arm's name, an arm description `.toml` file, or a
     /// calibration `.json` file from `lrmcal identify` or `lrmcal demo` (its calibrated arm).
@@ -39,6 +57,10 @@ pub struct Args {
     /// Payload at the tool for every pose, kg [default: the list's `load_kg`, else 0].
     #[arg(long, value_name = "KG", value_parser = parse_load)]
     pub load_kg: Option<f64>,
+    /// How each joint's approach (the side of its play) is known: `order`,
+    /// the rows are the visiting order; `middle`, unknown (the middle of the play).
+    #[arg(long, value_enum, default_value_t = ApproachRule::Order)]
+    pub approach: ApproachRule,
     /// Where to write the predictions CSV [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -60,16 +82,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
     {
         eprintln!("warning: {warning}");
     }
-    let chain = arm.arm.chain();
-    let options = SolverOptions::default();
+    let rig = match args.approach {
+        ApproachRule::Order => rig_of(&arm),
+        ApproachRule::Middle => rig_of(&arm).without_play(),
+    };
     let mut out = Vec::with_capacity(rows.len());
     // A prediction file holds one position per pose id: the same pose listed
     // under several loads needs one load for all (`--load-kg`).
     let mut load_of = HashMap::new();
-    // The poses are visited in the file's order: a joint with play stands
-    // short of or beyond its command by half the play, the way it arrived.
+    // The poses are visited in the file's order.
     let ways = approaches(rows.iter().map(|l| &l.row.pose.q));
-    for (row, way) in rows.iter().map(|l| &l.row).zip(ways) {
+    for (row, approach) in rows.iter().map(|l| &l.row).zip(ways) {
         let id = row.pose.id;
         let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
         match load_of.insert(id, load_kg) {
@@ -82,15 +105,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             Some(_) => continue,
             None => {}
         }
-        let q: [f64; JOINTS] =
-            std::array::from_fn(|j| settled(row.pose.q[j], arm.arm.joints[j].backlash, way[j]));
-        let position = chain
-            .tool_point(&q, load_kg, &options)
-            .map_err(|reason| Error::Model {
-                pose: id,
-                load_kg,
-                reason,
-            })?;
+        let sample = Sample {
+            id,
+            q: row.pose.q,
+            load_kg,
+            target: 0,
+            approach,
+        };
+        let position = rig.evaluate(&sample)?.tool_m;
         out.push(Prediction { pose: id, position });
     }
     match &args.out {

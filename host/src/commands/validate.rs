@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::calib::checks::check_plausible;
+use crate::calib::checks::check_plausible_calibrated;
 use crate::calib::export::rigs_of;
 use crate::calib::report::ValidationOutlier;
 use crate::calib::summary;
@@ -20,7 +20,9 @@ lrmcal validate --calibration cal/calibration-elasto-kinematic-servo.json --meas
 lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated), and names the measurements whose error \
-after calibration is far beyond the others'. With --arm, the calibration must have been \
+after calibration is far beyond the others' (a measurement far from where the calibrated \
+arm puts the tool is one of them; the file is refused only when most are, which means a wrong \
+unit, arm or frame). With --arm, the calibration must have been \
 identified from that arm (its base aside when `identify` registered it). A calibration \
 registered by `identify` holds both arms in the tracker's frame, so the measurements are \
 taken in that frame as they are.")]
@@ -45,13 +47,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let rows = measurements::read(&args.measurements)?;
     let file = args.measurements.display().to_string();
     let (nominal, calibrated) = rigs_of(&cal);
-    // The nominal arm knows where the first target is; the others are the fit's.
-    let first: Vec<_> = rows
-        .iter()
-        .filter(|m| calibrated.targets.index(m.target) == Some(0))
-        .copied()
-        .collect();
-    check_plausible(&cal.nominal, &first, &file)?;
+    // Far from the calibrated arm is a validation outlier; most of them far,
+    // a wrong unit, arm or frame.
+    check_plausible_calibrated(&calibrated, &rows, &file)?;
     println!(
         "{} calibration {} on {file}:",
         cal.option.name(),

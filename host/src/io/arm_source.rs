@@ -46,6 +46,10 @@ pub struct LoadedArm {
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
     pub collision: CollisionSpec,
+    /// The calibration file it came from, if it did: what its arm means
+    /// (the servo curves its commands go through, its targets) is the
+    /// engine's to work out from it.
+    pub calibration: Option<CalibrationFile>,
 }
 
 impl FromStr for ArmSource {
@@ -92,19 +96,19 @@ impl ArmSource {
     /// checked there); it names no arm, so the name says which model option
     /// calibrated it.
     pub fn load(&self) -> Result<LoadedArm, Error> {
-        let (name, arm, collision) = match self {
+        let (name, arm, collision, calibration) = match self {
             Self::Bundled(name) => {
                 let d = bundled(name)?;
-                (d.name, d.arm, d.collision)
+                (d.name, d.arm, d.collision, None)
             }
             Self::Description(path) => {
                 let d = arm_toml::read(path)?;
-                (d.name, d.arm, d.collision)
+                (d.name, d.arm, d.collision, None)
             }
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
                 let name = format!("calibrated, {} model", file.option.name());
-                (name, file.arm, CollisionSpec::default())
+                (name, file.arm, CollisionSpec::default(), Some(file))
             }
         };
         Ok(LoadedArm {
@@ -112,6 +116,7 @@ impl ArmSource {
             name,
             arm,
             collision,
+            calibration,
         })
     }
 }

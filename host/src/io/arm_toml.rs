@@ -166,6 +166,8 @@ struct RawFrame {
 #[serde(deny_unknown_fields)]
 struct RawPayload {
     com: Spanned<[f64; 3]>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    rated_kg: Option<Spanned<f64>>,
 }
 
 #[derive(Debug, Deserialize, Serialize)]
@@ -742,8 +744,29 @@ impl RawArm {
             base_softening: 0.0,
             tool: c.frame("tool", &self.tool.xyz, &self.tool.rpy)?,
             payload_com: c.finite_array("payload.com", &self.payload.com)?,
+            rated_payload_kg: match &self.payload.rated_kg {
+                Some(kg) => c.non_negative("payload.rated_kg", kg, "a payload >= 0 kg")?,
+                None => 0.0,
+            },
             joints: joints.try_into().expect("length checked above"),
         };
+        // The nominal compliances within the physical bounds (`model::bounds`).
+        let bounds = model::bounds::Bounds::of(&arm);
+        if let Err(v) = bounds.check(&arm) {
+            let key = crate::io::bounds::key("", v.quantity, true);
+            let span = match v.quantity {
+                model::bounds::Quantity::Compliance { spring: 0 } => self.base.compliance.span(),
+                model::bounds::Quantity::Compliance { spring } => {
+                    raw_joints[usize::from(spring) - 1].compliance.span()
+                }
+                _ => self.joint.span(),
+            };
+            return Err(c.fail(
+                &key,
+                span,
+                crate::io::bounds::problem(&v, &bounds, arm.rated_payload_kg),
+            ));
+        }
         let joint_names = std::array::from_fn(|i| raw_joints[i].name.clone());
         let collision = c.collision(self.collision.as_ref(), &self.body)?;
         // Names, links and pairs are only known on the arm: place the bodies once to check them.
@@ -773,6 +796,7 @@ impl RawArm {
             },
             payload: RawPayload {
                 com: unspanned(a.payload_com),
+                rated_kg: (a.rated_payload_kg != 0.0).then(|| unspanned(a.rated_payload_kg)),
             },
             joint: unspanned(
                 a.joints

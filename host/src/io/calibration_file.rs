@@ -16,7 +16,11 @@
 //! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
 //! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
 //! Version 3 adds [`CalibrationFile::registration`]; files of versions 1
-//! and 2 read without one.
+//! and 2 read without one. Version 4 gives the arms their rated payload
+//! (`rated_payload_kg`, the load the physical bounds of `model::bounds` hold
+//! up to; files of earlier versions read with 0) and means the servo curves
+//! for every reader: a calibrated curve says where the nominal curve's pulse
+//! really goes (`model::command`).
 
 use std::path::Path;
 
@@ -31,7 +35,7 @@ use crate::error::{Error, InputError, Location, Problem};
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
 /// Version of the schema this build writes (and the newest it reads).
-pub const SCHEMA_VERSION: u32 = 3;
+pub const SCHEMA_VERSION: u32 = 4;
 /// The oldest version this build reads.
 pub const OLDEST_SCHEMA_VERSION: u32 = 1;
 
@@ -255,57 +259,24 @@ impl CalibrationFile {
             OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
             |version, value| match version {
                 1 => upgrade_servo_curves(value),
-                // Version 2 lacks only the registration, which reads as none.
+                // Version 2 lacks only the registration, which reads as none;
+                // versions before 4 the rated payload, which reads as 0.
                 _ => Ok(()),
             },
         )?;
+        // Both arms within the physical bounds worked out from the nominal
+        // arm (`model::bounds`): the same the fit keeps and the board checks.
+        if !(file.nominal.rated_payload_kg.is_finite() && file.nominal.rated_payload_kg >= 0.0) {
+            return Err(InputError::new(
+                Location::key(None, "nominal.rated_payload_kg"),
+                Problem::OutOfRange {
+                    expected: "a payload >= 0 kg",
+                    found: file.nominal.rated_payload_kg.to_string(),
+                },
+            ));
+        }
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
-            let compliances = arm.joints.iter().map(|j| j.compliance);
-            let negative = compliances
-                .enumerate()
-                .map(|(i, k)| (format!("{which}.joints[{}].compliance", i + 1), k))
-                .chain([(format!("{which}.base_compliance"), arm.base_compliance)])
-                .find(|(_, k)| *k < 0.0);
-            if let Some((key, k)) = negative {
-                return Err(InputError::new(
-                    Location::key(None, key),
-                    Problem::OutOfRange {
-                        expected: "a compliance >= 0 rad/Nm",
-                        found: k.to_string(),
-                    },
-                ));
-            }
-            let play = arm
-                .joints
-                .iter()
-                .enumerate()
-                .find(|(_, j)| !(j.backlash.is_finite() && j.backlash >= 0.0));
-            if let Some((i, j)) = play {
-                return Err(InputError::new(
-                    Location::key(None, format!("{which}.joints[{}].backlash", i + 1)),
-                    Problem::OutOfRange {
-                        expected: "a backlash width >= 0 rad",
-                        found: j.backlash.to_string(),
-                    },
-                ));
-            }
-            if let Some(spring) = arm.softening_fault() {
-                let (key, s) = match spring {
-                    0 => (format!("{which}.base_softening"), arm.base_softening),
-                    j => (
-                        format!("{which}.joints[{j}].softening"),
-                        arm.joints[j - 1].softening,
-                    ),
-                };
-                return Err(InputError::new(
-                    Location::key(None, key),
-                    Problem::OutOfRange {
-                        expected: "a finite softening >= -0.1 1/Nm (a spring that stiffens \
-                                   so fast would stop yielding below 10 Nm)",
-                        found: s.to_string(),
-                    },
-                ));
-            }
+            super::bounds::check(&file.nominal, arm, which, None, false)?;
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);

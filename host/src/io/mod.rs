@@ -13,6 +13,7 @@
 pub mod arm_source;
 pub mod arm_toml;
 pub mod atomic;
+pub mod bounds;
 pub mod calibration_file;
 mod csv_table;
 pub mod json;
