@@ -475,8 +475,9 @@ fn a_curve_that_turns_back_is_refused_whole_and_the_old_calibration_stays() {
 }
 
 /// A softening calibration is stored and used; one whose spring stiffens so
-/// fast it would stop yielding under the arm's torques (below
-/// `model::arm::MIN_SOFTENING_PER_NM`), or is not finite, is refused whole.
+/// fast it would stop yielding under the arm's largest torque (below its
+/// floor in `model::bounds`, worked out on the board from the nominal arm),
+/// or is not finite, is refused whole.
 #[test]
 fn a_spring_that_stiffens_too_fast_is_refused_whole() {
     let mut h = Harness::boot(SimFlash::new());
@@ -489,7 +490,16 @@ fn a_spring_that_stiffens_too_fast_is_refused_whole() {
     let Response::CalibrationStored(first) = h.push(&soft) else {
         panic!("a softening calibration is valid")
     };
-    for bad in [-0.2, f32::NAN] {
+    let floor = model::bounds::Bounds::of(&soft.nominal)
+        .range(model::bounds::Quantity::Softening { spring: 2 })
+        .min;
+    let mut stiff = test_calibration(3);
+    stiff.calibrated.joints[1].softening = 0.99 * floor;
+    assert!(matches!(h.push(&stiff), Response::CalibrationStored(_)));
+    let Response::CalibrationStored(first) = h.push(&soft) else {
+        panic!("a softening calibration is valid")
+    };
+    for bad in [1.01 * floor, f32::NAN] {
         let mut stiff = test_calibration(2);
         stiff.calibrated.joints[1].softening = bad;
         assert_eq!(
