@@ -75,7 +75,7 @@ pub fn calibration_file(
 /// tool points (the nominal arm with the fitted ones: it has no idea where
 /// they are). A file without targets is its arms alone. Both rigs are
 /// commanded through the nominal arm's servo curves, as its measurements
-/// were.
+/// were, and bounded by the nominal arm's bounds.
 pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
     let names: Vec<TargetName> = file
         .targets
@@ -86,6 +86,7 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
     let rig = |arm: Arm<f64>| {
         let mut rig = Rig::from(arm);
         rig.command_curves = command_curves;
+        rig.bounds = model::bounds::Bounds::of(&file.nominal);
         if !file.targets.is_empty() && names.len() == file.targets.len() {
             rig.targets = Targets::named_as(&names);
             rig.tools = file.targets[1..]

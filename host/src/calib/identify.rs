@@ -221,7 +221,7 @@ impl<'a> FitData<'a> {
             option,
             samples,
             measured: measurements.iter().map(|m| m.position).collect(),
-            bounds: Bounds::of(&nominal.arm),
+            bounds: nominal.bounds,
         })
     }
 
@@ -986,7 +986,8 @@ mod tests {
         let nominal = Rig::from(rigid_nominal());
         let meas = measure(&nominal.arm, &small_samples(12));
         let data = fit_data(&nominal, &meas);
-        let bounds = Bounds::of(&nominal.arm);
+        let bounds = nominal.bounds;
+        assert_eq!(bounds, Bounds::of(&nominal.arm));
         let k3 = key("k3");
         let (lo, hi) = data.bounds(k3);
         assert_eq!(lo, Some(0.0));

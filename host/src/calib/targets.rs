@@ -22,6 +22,7 @@
 //! as equations for it and nothing would check them, so such a file is
 //! refused ([`Targets::check_poses`]).
 
+use model::bounds::Bounds;
 use model::{Arm, Deflection, JOINTS, ServoCurve, SolverOptions};
 use nalgebra::Vector3;
 
@@ -46,6 +47,9 @@ pub struct Rig {
     /// nominal arm's); where the arm's own curves differ, a command stands
     /// elsewhere (`model::command::reached`).
     pub command_curves: [ServoCurve<f64>; JOINTS],
+    /// The physical bounds of its parameters: those of the nominal arm the
+    /// rig was first made from, whatever the fit changes after.
+    pub bounds: Bounds<f64>,
 }
 
 /// A commanded pose evaluated: where the rig stands and where its target goes.
@@ -78,6 +82,7 @@ impl Rig {
             tools: vec![start; targets.len().saturating_sub(1)],
             targets,
             command_curves: arm.joints.map(|j| j.servo),
+            bounds: Bounds::of(&arm),
         }
     }
 

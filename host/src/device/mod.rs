@@ -1,12 +1,14 @@
 //! Talking to the board: the serial (or TCP) link, the typed client with one
-//! method per endpoint of the `protocol` table, and the conversion of a
-//! calibration file into the payload the board stores.
+//! method per endpoint of the `protocol` table, the conversion of a
+//! calibration file into the payload the board stores, and what a board
+//! holding a calibration will command (`commanded`).
 //!
 //! Data flow: `lrmcal <device command>` → [`DeviceArgs::connect`] →
 //! [`Client`] → `protocol` frames → [`Link`] → board.
 
 pub mod calibration;
 pub mod client;
+pub mod commanded;
 pub mod link;
 
 use std::time::Duration;

@@ -171,6 +171,16 @@ pub enum IkError {
         /// The pose nearest the start, rad.
         q: [f64; JOINTS],
     },
+    /// Every clear pose found that reaches the target within the limits was
+    /// refused by the caller's test (`solve_position_admitted`).
+    Refused {
+        /// Why the nearest one was refused.
+        reason: String,
+        /// That pose, rad.
+        q: [f64; JOINTS],
+        /// How many clear poses were tried.
+        tried: usize,
+    },
 }
 
 impl fmt::Display for IkError {
@@ -232,6 +242,12 @@ impl fmt::Display for IkError {
                     degrees(q)
                 )
             }
+            Self::Refused { reason, q, tried } => write!(
+                f,
+                "none of the {tried} clear poses found that reach it can be commanded: at the \
+                 nearest ({} deg), {reason}",
+                degrees(q)
+            ),
         }
     }
 }
@@ -268,6 +284,20 @@ pub fn solve_position(
     target_m: &Vector3<f64>,
     start_q: &[f64; JOINTS],
     options: &IkOptions,
+) -> Result<IkSolution, IkError> {
+    solve_position_admitted(arm, target_m, start_q, options, &|_| Ok(()))
+}
+
+/// [`solve_position`] among the poses `admit` accepts (`Err` says why
+/// not, e.g. the board's compensation would take a joint beyond its range):
+/// the nearest clear pose it accepts, or [`IkError::Refused`] with the
+/// nearest clear one's reason when it accepts none.
+pub fn solve_position_admitted(
+    arm: &Arm<f64>,
+    target_m: &Vector3<f64>,
+    start_q: &[f64; JOINTS],
+    options: &IkOptions,
+    admit: &dyn Fn(&[f64; JOINTS]) -> Result<(), String>,
 ) -> Result<IkSolution, IkError> {
     check(arm, target_m, start_q, options)?;
     let distance_m = (target_m - arm.base.isometry().translation.vector).norm();
@@ -316,6 +346,8 @@ pub fn solve_position(
     candidates
         .sort_by(|a, b| joint_distance(&a.q, start_q).total_cmp(&joint_distance(&b.q, start_q)));
     let mut contacts = Vec::new();
+    let mut refused: Option<(String, [f64; JOINTS])> = None;
+    let mut tried = 0;
     for c in &candidates {
         let contact = options
             .collisions
@@ -323,16 +355,27 @@ pub fn solve_position(
             .and_then(|config| config.contact(&chain.frames(&c.q, 0.0)));
         match contact {
             None => {
-                return Ok(IkSolution {
-                    q: c.q,
-                    tool_m: chain.rigid_tool_point(&c.q),
-                    error_m: c.error_m,
-                    distance_rad: joint_distance(&c.q, start_q),
-                });
+                tried += 1;
+                match admit(&c.q) {
+                    Ok(()) => {
+                        return Ok(IkSolution {
+                            q: c.q,
+                            tool_m: chain.rigid_tool_point(&c.q),
+                            error_m: c.error_m,
+                            distance_rad: joint_distance(&c.q, start_q),
+                        });
+                    }
+                    Err(reason) => {
+                        refused.get_or_insert((reason, c.q));
+                    }
+                }
             }
             Some(contact) if !contacts.contains(&contact) => contacts.push(contact),
             Some(_) => {}
         }
+    }
+    if let Some((reason, q)) = refused {
+        return Err(IkError::Refused { reason, q, tried });
     }
     if let Some(nearest) = candidates.first() {
         return Err(IkError::Colliding {

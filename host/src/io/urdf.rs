@@ -119,13 +119,17 @@ Frames (ROS-Industrial names, REP 199):
 Joint positions are lrmcal's commanded joint angles in radians (q1_deg..q6_deg of its
 pose files, converted): position 0 is q = 0 (the DH theta offsets are in the origins),
 so the same angles put tool_point where `lrmcal predict` puts the tool point of a
-rigid arm. Limits are the arm's; effort ({} N m) and velocity ({} rad/s) are not
-calibrated, but chosen when exporting.
+rigid arm without play whose servo curves are the nominal ones. Limits are the arm's;
+effort ({} N m) and velocity ({} rad/s) are not calibrated, but chosen when exporting.
 
 What URDF cannot hold, so this file leaves out:
   - the joint and base compliances: the arm's sag under gravity and payload
     (`lrmcal predict` with a load gives the sagging tool point);
-  - the servo curves (commanded angle -> pulse width) and the payload's centre of mass;
+  - the servo curves (commanded angle -> pulse width): a calibrated curve moves where
+    each command really takes its joint;
+  - the play in each joint's drive (backlash): a joint stands half of it short of or
+    beyond its command, the way it arrived;
+  - the payload's centre of mass;
   - link masses and centres of mass (a URDF inertial also needs inertia tensors,
     which lrmcal does not know).
 On the board, `lrmcal compensation elastic` cancels the sag: the tool point then goes
