@@ -341,17 +341,15 @@ mod tests {
         let spring = Spring::Stiffening { per_nm: c };
         let (d, solved) = spring_deflection(arm, q, load, spring).unwrap();
         let tau = arm.chain().gravity_torques(&d.qa, d.beta, load);
-        for i in 0..JOINTS {
-            let k = arm.joints[i].compliance;
-            let yielded = k * tau.joints[i] / (1.0 + c * tau.joints[i].abs());
+        for (i, (joint, tau)) in arm.joints.iter().zip(tau.joints).enumerate() {
+            let k = joint.compliance / (1.0 + c * tau.abs());
+            let moved = d.qa[i] - q[i];
             assert!(
-                (d.qa[i] - q[i] - yielded).abs() < 1e-12,
-                "joint {i}: {} vs {yielded}",
-                d.qa[i] - q[i]
+                (moved - k * tau).abs() < 1e-12,
+                "joint {i}: {moved} vs {}",
+                k * tau
             );
-            assert!(
-                (solved.joints[i].compliance - k / (1.0 + c * tau.joints[i].abs())).abs() < 1e-12
-            );
+            assert!((solved.joints[i].compliance - k).abs() < 1e-12, "joint {i}");
         }
         let k0 = arm.base_compliance;
         let beta = k0 * tau.base / (1.0 + c * tau.base.abs());
