@@ -97,9 +97,11 @@ pub struct SimArgs {
     /// shape is --servo-error-shape's), degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().servo_error_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub servo_error_deg: f64,
-    /// Shape of each servo's angle error.
-    #[arg(long, value_name = "SHAPE", value_enum, default_value_t = ServoShape::SineCubic)]
-    pub servo_error_shape: ServoShape,
+    /// Shape of each servo's angle error: sine-cubic (a bow and one slow wave,
+    /// period 120-240°) or harmonics (the wave with its 2nd and 3rd
+    /// harmonics, periods down to 40°: a potentiometer track's nonlinearity).
+    #[arg(long, value_name = "SHAPE", default_value = "sine-cubic", value_parser = servo_shape())]
+    pub servo_error_shape: ServoErrorShape,
     /// Full width of each joint's direction-dependent play, degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().backlash_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub backlash_deg: f64,
@@ -121,25 +123,6 @@ pub struct SimArgs {
     pub model_only: bool,
 }
 
-/// `--servo-error-shape`: the simulator's [`ServoErrorShape`]s by name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ServoShape {
-    /// A bow (cubic) and one slow wave (period 120-240°) per servo.
-    SineCubic,
-    /// The slow wave with its 2nd and 3rd harmonics (periods down to 40°):
-    /// a potentiometer track's nonlinearity.
-    Harmonics,
-}
-
-impl From<ServoShape> for ServoErrorShape {
-    fn from(shape: ServoShape) -> Self {
-        match shape {
-            ServoShape::SineCubic => Self::SineCubic,
-            ServoShape::Harmonics => Self::Harmonics,
-        }
-    }
-}
-
 impl SimArgs {
     /// The simulator configuration these flags describe for `nominal` (SI
     /// units); what they leave out is [`SimConfig::scaled_to`] `nominal`.
@@ -155,7 +138,7 @@ impl SimArgs {
                 .map_or(scaled.joint_compliance, |r| r.0),
             base_compliance: self.base_compliance.map_or(scaled.base_compliance, |r| r.0),
             servo_error_rad: self.servo_error_deg.to_radians(),
-            servo_error_shape: self.servo_error_shape.into(),
+            servo_error_shape: self.servo_error_shape,
             backlash_rad: self.backlash_deg.to_radians(),
             // Stiffening springs replace the softening ones (one form at a time).
             softening_per_nm: match self.stiffening_per_nm {
@@ -195,6 +178,18 @@ fn non_negative(text: &str) -> Result<f64, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("expected a finite number >= 0, found `{text}`")),
     }
+}
+
+/// `--servo-error-shape`: the simulator's [`ServoErrorShape`]s by name.
+fn servo_shape() -> impl clap::builder::TypedValueParser<Value = ServoErrorShape> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(["sine-cubic", "harmonics"]).map(|name| {
+        if name == "harmonics" {
+            ServoErrorShape::Harmonics
+        } else {
+            ServoErrorShape::SineCubic
+        }
+    })
 }
 
 fn parse_load(text: &str) -> Result<f64, String> {
