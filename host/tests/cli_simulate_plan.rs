@@ -11,7 +11,7 @@ use std::process::Output;
 use host::dataset::Measurement;
 use host::io::{arm_source::ArmSource, measurements, pose_list};
 use host::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
-use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
+use host::sim::{DEFAULT_SEED, ServoErrorShape, SimConfig, TrueArm};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -196,6 +196,92 @@ fn simulate_model_only_measures_the_model_of_the_true_arm() {
     );
 }
 
+/// The second test arm (`tests/data/desk_arm.toml`): its limits hold the
+/// whole grid, the floor drops some poses, and `simulate` measures it with
+/// stiffening springs and the harmonic servo error exactly as the library
+/// draws and solves them, the bundled arm's defaults scaled to it.
+#[test]
+fn simulate_the_second_arm_with_stiffening_springs_and_harmonics() {
+    let dir = tempfile::tempdir().unwrap();
+    let arm_file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/desk_arm.toml");
+    let arm = path(&arm_file);
+    let candidates = dir.path().join("candidates.csv");
+    let run = lrmcal(&["plan", "--arm", arm, "--out", path(&candidates)]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let text = stderr(&run);
+    assert!(text.contains("joint limits:         0"), "{text}");
+    let poses: Vec<_> = pose_list::read(&candidates)
+        .unwrap()
+        .into_iter()
+        .map(|r| r.pose)
+        .collect();
+    assert!(poses.len() > 300 + DEFAULT_RANDOM_POSES, "{}", poses.len());
+
+    let (m, n, t) = (
+        dir.path().join("m.csv"),
+        dir.path().join("n.csv"),
+        dir.path().join("t.json"),
+    );
+    let run = lrmcal(&[
+        "simulate",
+        "--arm",
+        arm,
+        "--poses",
+        path(&candidates),
+        "--loads",
+        "0.0663",
+        "--seed",
+        "4",
+        "--stiffening-per-nm",
+        "0.4",
+        "--servo-error-shape",
+        "harmonics",
+        "--out",
+        path(&m),
+        "--noise-free",
+        path(&n),
+        "--truth",
+        path(&t),
+    ]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let nominal = host::io::arm_toml::read(&arm_file).unwrap().arm;
+    let config = SimConfig {
+        softening_per_nm: 0.0,
+        stiffening_per_nm: 0.4,
+        servo_error_shape: ServoErrorShape::Harmonics,
+        ..SimConfig::default().scaled_to(&nominal)
+    };
+    let expected = TrueArm::draw(&nominal, 4, &config)
+        .unwrap()
+        .simulate(&poses, &[0.0663])
+        .unwrap()
+        .noise_free;
+    let written = measurements::read(&n).unwrap();
+    assert_eq!(written.len(), expected.len());
+    for (w, e) in written.iter().zip(&expected) {
+        assert_eq!(w.pose.id, e.pose.id);
+        // The file's resolution is 1 nm.
+        assert!(
+            (w.position - e.position).norm() < 2e-9,
+            "pose {}",
+            w.pose.id
+        );
+    }
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&t).unwrap()).unwrap();
+    assert_eq!(truth["config"]["stiffening_per_nm"], 0.4);
+    assert_eq!(truth["config"]["softening_per_nm"], 0.0);
+    assert_eq!(truth["config"]["servo_error_shape"], "harmonics");
+    assert_eq!(
+        truth["servo_errors"][2]["harmonics"]
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
+    assert_eq!(truth["servo_errors"][2]["cubic_rad"], 0.0);
+}
+
 #[test]
 fn simulate_follows_a_pose_list_and_its_loads() {
     let dir = tempfile::tempdir().unwrap();
@@ -260,6 +346,25 @@ fn simulate_rejects_bad_input_clearly() {
             vec!["simulate", "--model-only", "--noise-mm", "0.1"],
             "cannot be used with",
         ),
+        (vec!["simulate", "--stiffening-per-nm", "-0.2"], ">= 0"),
+        (
+            vec![
+                "simulate",
+                "--stiffening-per-nm",
+                "0.2",
+                "--softening-per-nm",
+                "0.1",
+            ],
+            "cannot be used with",
+        ),
+        (
+            vec!["simulate", "--model-only", "--stiffening-per-nm", "0.2"],
+            "cannot be used with",
+        ),
+        (
+            vec!["simulate", "--servo-error-shape", "kink"],
+            "sine-cubic, harmonics",
+        ),
     ] {
         let run = lrmcal(&args);
         assert_eq!(run.status.code(), Some(2), "{args:?}: {}", stderr(&run));
@@ -287,6 +392,10 @@ fn help_teaches() {
     for (command, needles) in [
         ("plan", ["--levels", "capsules", "Examples:"]),
         ("simulate", ["--model-only", "truth file", "Examples:"]),
+        (
+            "simulate",
+            ["--stiffening-per-nm", "--servo-error-shape", "harmonics"],
+        ),
     ] {
         let run = lrmcal(&["help", command]);
         assert!(run.status.success());
@@ -306,6 +415,7 @@ fn help_teaches() {
     let [base_lo, base_hi] = d.base_compliance;
     assert!(
         text.contains("[default: 0.2]")
+            && text.contains("[default: sine-cubic]")
             && text.contains(&format!("[default: {lo},{hi} on the bundled arm"))
             && text.contains(&format!("[default: {base_lo},{base_hi} on the bundled arm"))
             && text.contains(&format!(

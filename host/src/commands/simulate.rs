@@ -9,7 +9,7 @@ use crate::error::Error;
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
 use crate::io::{measurements, pose_list};
 use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
-use crate::sim::{DEFAULT_SEED, Pass, SimConfig, TrueArm};
+use crate::sim::{DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm};
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
 const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
@@ -20,7 +20,10 @@ const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
     after_help = "The \"true\" arm is drawn (seeded) around the nominal one: errors on every \
 DH, base and tool parameter, joint and base compliances, and \
 effects the calibration model does not contain (a smooth servo angle error, direction-dependent \
-play, stiffness that softens with load, tracker noise), each switchable.\n\n\
+play, stiffness that softens with load, tracker noise), each switchable. The softening is the \
+form the calibration model fits; --stiffening-per-nm gives springs that stiffen with load in a \
+form it does not contain, and --servo-error-shape harmonics a servo error with sharper \
+features between the tuned points.\n\n\
 Every pose is measured under every load. Per load the poses are visited in the order of the \
 list, starting from home (all joints at 0), and each joint's play depends on the direction it \
 last moved in. The same seed and settings give byte-identical files.\n\n\
@@ -31,7 +34,8 @@ Examples:\n  \
 lrmcal simulate --out measurements.csv --truth truth.json\n  \
 lrmcal simulate --poses selection.csv --loads 0.0663 --seed 7 --out m.csv\n  \
 lrmcal simulate --model-only --out exact.csv      # the paper's model exactly, no noise\n  \
-lrmcal simulate --noise-mm 0.5 --backlash-deg 0 --out m.csv\n\n\
+lrmcal simulate --noise-mm 0.5 --backlash-deg 0 --out m.csv\n  \
+lrmcal simulate --stiffening-per-nm 0.4 --servo-error-shape harmonics --out m.csv\n\n\
 Without --poses the candidates of `lrmcal plan` (its defaults) are measured. The truth file \
 (JSON, SI units) holds the true arm and the 43 errors by name (`j3.d`, `base.pitch`, `k2`, ...); \
 --noise-free writes the same rows as --out without tracker noise. On stderr: the mean distance \
@@ -89,9 +93,15 @@ pub struct SimArgs {
     /// [default: 0.01,0.03 on the bundled arm, scaled to another arm's torques].
     #[arg(long, value_name = "LO,HI")]
     pub base_compliance: Option<Range>,
-    /// Servo angle error that is not piecewise-linear (sine + cubic per servo), degrees.
+    /// Servo angle error that is not piecewise-linear (its amplitude; the
+    /// shape is --servo-error-shape's), degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().servo_error_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub servo_error_deg: f64,
+    /// Shape of each servo's angle error: sine-cubic (a bow and one slow wave,
+    /// period 120-240°) or harmonics (the wave with its 2nd and 3rd
+    /// harmonics, periods down to 40°: a potentiometer track's nonlinearity).
+    #[arg(long, value_name = "SHAPE", default_value = "sine-cubic", value_parser = servo_shape())]
+    pub servo_error_shape: ServoErrorShape,
     /// Full width of each joint's direction-dependent play, degrees.
     #[arg(long, value_name = "DEG", default_value_t = deg(SimConfig::default().backlash_rad), allow_negative_numbers = true, value_parser = non_negative)]
     pub backlash_deg: f64,
@@ -99,12 +109,17 @@ pub struct SimArgs {
     /// [default: 0.3 on the bundled arm, scaled to another arm's torques].
     #[arg(long, value_name = "S", allow_negative_numbers = true, value_parser = non_negative)]
     pub softening_per_nm: Option<f64>,
+    /// Stiffening springs instead of softening ones: compliance k becomes
+    /// k / (1 + c |torque|), c in 1/Nm, on every joint and the base (a form
+    /// the calibration model does not contain) [default: off].
+    #[arg(long, value_name = "C", allow_negative_numbers = true, value_parser = non_negative, conflicts_with = "softening_per_nm")]
+    pub stiffening_per_nm: Option<f64>,
     /// Sigma of the tracker noise on each axis, mm.
     #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().noise_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub noise_mm: f64,
     /// Switch off servo error, play, softening and noise: measurements are then
     /// exactly the calibration model's prediction for the true arm.
-    #[arg(long, conflicts_with_all = ["servo_error_deg", "backlash_deg", "softening_per_nm", "noise_mm"])]
+    #[arg(long, conflicts_with_all = ["servo_error_deg", "servo_error_shape", "backlash_deg", "softening_per_nm", "stiffening_per_nm", "noise_mm"])]
     pub model_only: bool,
 }
 
@@ -123,8 +138,14 @@ impl SimArgs {
                 .map_or(scaled.joint_compliance, |r| r.0),
             base_compliance: self.base_compliance.map_or(scaled.base_compliance, |r| r.0),
             servo_error_rad: self.servo_error_deg.to_radians(),
+            servo_error_shape: self.servo_error_shape,
             backlash_rad: self.backlash_deg.to_radians(),
-            softening_per_nm: self.softening_per_nm.unwrap_or(scaled.softening_per_nm),
+            // Stiffening springs replace the softening ones (one form at a time).
+            softening_per_nm: match self.stiffening_per_nm {
+                Some(_) => 0.0,
+                None => self.softening_per_nm.unwrap_or(scaled.softening_per_nm),
+            },
+            stiffening_per_nm: self.stiffening_per_nm.unwrap_or(scaled.stiffening_per_nm),
             noise_sigma_m: self.noise_mm * 1e-3,
         };
         if self.model_only {
@@ -132,6 +153,7 @@ impl SimArgs {
                 servo_error_rad: 0.0,
                 backlash_rad: 0.0,
                 softening_per_nm: 0.0,
+                stiffening_per_nm: 0.0,
                 noise_sigma_m: 0.0,
                 ..config
             }
@@ -156,6 +178,18 @@ fn non_negative(text: &str) -> Result<f64, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("expected a finite number >= 0, found `{text}`")),
     }
+}
+
+/// `--servo-error-shape`: the simulator's [`ServoErrorShape`]s by name.
+fn servo_shape() -> impl clap::builder::TypedValueParser<Value = ServoErrorShape> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(["sine-cubic", "harmonics"]).map(|name| {
+        if name == "harmonics" {
+            ServoErrorShape::Harmonics
+        } else {
+            ServoErrorShape::SineCubic
+        }
+    })
 }
 
 fn parse_load(text: &str) -> Result<f64, String> {

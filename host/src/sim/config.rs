@@ -4,16 +4,21 @@
 //! The compliance defaults are a printed arm's, in rad/Nm; an arm with a
 //! thousand times the torques would fold over under them. So the defaults
 //! are meant at the bundled arm's torques and [`SimConfig::scaled_to`] carries
-//! them to another arm: each compliance range (and the softening, also per
-//! Nm) is divided by the ratio of that arm's largest gravity torque to the
-//! bundled arm's, so the drawn arm sags by the same angles under its own
-//! weight. For the bundled arm the ratio is exactly 1 and the draws are
-//! unchanged.
+//! them to another arm: each compliance range (and the softening and the
+//! stiffening, also per Nm) is divided by the ratio of that arm's largest
+//! gravity torque to the bundled arm's, so the drawn arm sags by the same
+//! angles under its own weight. For the bundled arm the ratio is exactly 1
+//! and the draws are unchanged.
+//!
+//! The fields added after the first release (`stiffening_per_nm`,
+//! `servo_error_shape`) are left out of the serialised form while they hold
+//! their defaults, so a truth file or report of the default simulator reads
+//! as it always did.
 
 use model::Arm;
 use serde::{Deserialize, Serialize};
 
-use super::SimError;
+use super::{ServoErrorShape, SimError, Spring};
 
 /// How far the simulated "true" arm strays from the nominal one, and which
 /// effects the calibration model does not contain are switched on.
@@ -49,11 +54,18 @@ pub struct SimConfig {
     /// the largest and its share of the range the smallest. Scaled like the
     /// joints', by the base's torque.
     pub base_compliance: [f64; 2],
-    /// Servo angle error that is not piecewise-linear, rad: each servo gets
-    /// `e(q) = A (u sin(w q + phi) + v (q / 100°)³)` with `u` in 0.5..1,
-    /// `v` in -0.5..0.5, `w` in 1.5..3 and `phi` drawn per servo, `A` this
-    /// value. Default 1° (errors of up to about 1.5°). 0 switches it off.
+    /// Servo angle error that is not piecewise-linear, rad: the amplitude `A`
+    /// of the shape [`SimConfig::servo_error_shape`] draws for each servo
+    /// (the default shape: `e(q) = A (u sin(w q + phi) + v (q / 100°)³)` with
+    /// `u` in 0.5..1, `v` in -0.5..0.5, `w` in 1.5..3 and `phi` drawn per
+    /// servo). Default 1° (errors of up to about 1.5°). 0 switches it off.
     pub servo_error_rad: f64,
+    /// The shape of the servo angle error ([`ServoErrorShape`]): the default
+    /// sine and cubic, or a sine with its second and third harmonics (a
+    /// potentiometer track's nonlinearity). Absent in a serialised
+    /// configuration: the default.
+    #[serde(default, skip_serializing_if = "ServoErrorShape::is_default")]
+    pub servo_error_shape: ServoErrorShape,
     /// Full width of the direction-dependent play of each joint, rad: a joint
     /// that reached its pose moving up stops half a width short, moving down
     /// half a width beyond (per-servo widths drawn in 0.5..1.5 × this). See
@@ -64,8 +76,23 @@ pub struct SimConfig {
     /// Softening of the stiffness with load, 1/Nm: the true compliance is
     /// `k (1 + s |tau|)` at torque `tau`. Default 0.3 (30 % more compliant at
     /// 1 Nm), scaled like the joints' compliances. 0 switches it off (linear
-    /// compliance, as in the model).
+    /// compliance, as in the model). This is the very form the calibration
+    /// model fits (`model::Joint::softening`); [`SimConfig::stiffening_per_nm`]
+    /// is one it does not contain. At most one of the two may be above 0.
     pub softening_per_nm: f64,
+    /// Stiffening of the springs with load, 1/Nm: the true compliance is
+    /// `k / (1 + c |tau|)` at torque `tau` (every joint's and the base's),
+    /// so a spring yields `k tau / (1 + c |tau|)` rad: a drive whose gear
+    /// mesh and horn stiffen as the load takes up their play and more of
+    /// them carries it. The compliance falls with the torque but never
+    /// reaches zero, the yield grows with the torque and never exceeds
+    /// `k / c` ([`Spring::Stiffening`]); the model's `k (1 + s |tau|)` with
+    /// `s < 0` is another curve, one that stops yielding at `|tau| = 1/|s|`.
+    /// Default 0 (off); 0.3 makes a spring 30 % stiffer at 1 Nm. Scaled like
+    /// the softening. Must be 0 while `softening_per_nm` is above 0 (one
+    /// spring form at a time). Absent in a serialised configuration: 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub stiffening_per_nm: f64,
     /// Standard deviation of the tracker's Gaussian noise on each axis, m.
     /// Default 0.2 mm. 0 switches it off.
     pub noise_sigma_m: f64,
@@ -81,11 +108,18 @@ impl Default for SimConfig {
             joint_compliance: [0.08, 0.2],
             base_compliance: [0.01, 0.03],
             servo_error_rad: 1f64.to_radians(),
+            servo_error_shape: ServoErrorShape::SineCubic,
             backlash_rad: 0.5f64.to_radians(),
             softening_per_nm: 0.3,
+            stiffening_per_nm: 0.0,
             noise_sigma_m: 0.2e-3,
         }
     }
+}
+
+/// Whether a setting is exactly 0 (left out of the serialised form).
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }
 
 impl SimConfig {
@@ -97,14 +131,30 @@ impl SimConfig {
             servo_error_rad: 0.0,
             backlash_rad: 0.0,
             softening_per_nm: 0.0,
+            stiffening_per_nm: 0.0,
             noise_sigma_m: 0.0,
             ..Self::default()
         }
     }
 
+    /// The true springs' form: stiffening, softening or linear (both 0).
+    pub fn spring(&self) -> Spring {
+        if self.stiffening_per_nm > 0.0 {
+            Spring::Stiffening {
+                per_nm: self.stiffening_per_nm,
+            }
+        } else if self.softening_per_nm > 0.0 {
+            Spring::Softening {
+                per_nm: self.softening_per_nm,
+            }
+        } else {
+            Spring::Linear
+        }
+    }
+
     /// This configuration, taken as meant for the bundled arm, carried to
-    /// `nominal` (module docs): the joint compliance ranges and the softening
-    /// times the bundled arm's largest joint gravity torque over `nominal`'s,
+    /// `nominal` (module docs): the joint compliance ranges, the softening and
+    /// the stiffening times the bundled arm's largest joint gravity torque over `nominal`'s,
     /// the base compliance range likewise with the base's torque
     /// ([`crate::scale`]). An arm that carries no torque keeps the values.
     pub fn scaled_to(self, nominal: &Arm<f64>) -> Self {
@@ -113,12 +163,14 @@ impl SimConfig {
             joint_compliance: self.joint_compliance.map(|k| k * joint),
             base_compliance: self.base_compliance.map(|k| k * base),
             softening_per_nm: self.softening_per_nm * joint,
+            stiffening_per_nm: self.stiffening_per_nm * joint,
             ..self
         }
     }
 
-    /// Checks that every magnitude is finite and non-negative and every range
-    /// is an ordered pair of positive numbers.
+    /// Checks that every magnitude is finite and non-negative, every range
+    /// is an ordered pair of positive numbers, and at most one spring form
+    /// (softening or stiffening) is switched on.
     pub fn validate(&self) -> Result<(), SimError> {
         let non_negative = [
             ("dh_length_sigma_m", self.dh_length_sigma_m),
@@ -128,6 +180,7 @@ impl SimConfig {
             ("servo_error_rad", self.servo_error_rad),
             ("backlash_rad", self.backlash_rad),
             ("softening_per_nm", self.softening_per_nm),
+            ("stiffening_per_nm", self.stiffening_per_nm),
             ("noise_sigma_m", self.noise_sigma_m),
         ];
         for (field, value) in non_negative {
@@ -150,6 +203,13 @@ impl SimConfig {
                     found: format!("[{lo}, {hi}]"),
                 });
             }
+        }
+        if self.softening_per_nm > 0.0 && self.stiffening_per_nm > 0.0 {
+            return Err(SimError::Config {
+                field: "stiffening_per_nm",
+                expected: "0 while softening_per_nm is above 0 (one spring form at a time), 1/Nm",
+                found: self.stiffening_per_nm.to_string(),
+            });
         }
         Ok(())
     }
@@ -181,5 +241,71 @@ mod tests {
         assert!((s.softening_per_nm * big - d.softening_per_nm * small).abs() < 1e-12);
         assert_eq!(s.noise_sigma_m, d.noise_sigma_m);
         s.validate().unwrap();
+        let stiff = SimConfig {
+            softening_per_nm: 0.0,
+            stiffening_per_nm: 0.4,
+            ..d
+        }
+        .scaled_to(&ur10);
+        assert!((stiff.stiffening_per_nm * big - 0.4 * small).abs() < 1e-12);
+        assert_eq!(
+            stiff.spring(),
+            Spring::Stiffening {
+                per_nm: stiff.stiffening_per_nm
+            }
+        );
+    }
+
+    /// The fields added later stay out of the serialised default, so files
+    /// written by the default simulator read as before; given, they are
+    /// written and read back.
+    #[test]
+    fn new_fields_are_serialised_only_when_set() {
+        let d = SimConfig::default();
+        let text = serde_json::to_string(&d).unwrap();
+        assert!(
+            !text.contains("stiffening") && !text.contains("shape"),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<SimConfig>(&text).unwrap(), d);
+        let set = SimConfig {
+            softening_per_nm: 0.0,
+            stiffening_per_nm: 0.3,
+            servo_error_shape: ServoErrorShape::Harmonics,
+            ..d
+        };
+        let text = serde_json::to_string(&set).unwrap();
+        assert!(
+            text.contains("\"stiffening_per_nm\":0.3")
+                && text.contains("\"servo_error_shape\":\"harmonics\""),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<SimConfig>(&text).unwrap(), set);
+    }
+
+    #[test]
+    fn one_spring_form_at_a_time() {
+        let d = SimConfig::default();
+        assert_eq!(d.spring(), Spring::Softening { per_nm: 0.3 });
+        assert_eq!(SimConfig::model_only().spring(), Spring::Linear);
+        let both = SimConfig {
+            stiffening_per_nm: 0.2,
+            ..d
+        };
+        let err = both.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("stiffening_per_nm") && err.contains("softening_per_nm"),
+            "{err}"
+        );
+        let negative = SimConfig {
+            softening_per_nm: 0.0,
+            stiffening_per_nm: -0.2,
+            ..d
+        };
+        let err = negative.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("stiffening_per_nm") && err.contains(">= 0"),
+            "{err}"
+        );
     }
 }

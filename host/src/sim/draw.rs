@@ -9,7 +9,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
-use super::{ServoError, SimConfig, SimError};
+use super::{Harmonic, ServoError, ServoErrorShape, SimConfig, SimError};
 
 /// RNG stream of the arm draw; the tracker noise uses [`NOISE_STREAM`].
 const DRAW_STREAM: u64 = 0;
@@ -73,7 +73,7 @@ impl TrueArm {
             }
         });
 
-        let servo_errors = core::array::from_fn(|_| {
+        let mut servo_errors: [ServoError; JOINTS] = core::array::from_fn(|_| {
             let (u, v, w, phase): (f64, f64, f64, f64) =
                 (rng.random(), rng.random(), rng.random(), rng.random());
             let amplitude = config.servo_error_rad;
@@ -82,12 +82,28 @@ impl TrueArm {
                 omega: 1.5 + 1.5 * w,
                 phase_rad: std::f64::consts::TAU * phase,
                 cubic_rad: amplitude * (v - 0.5),
+                harmonics: [Harmonic::default(); 2],
             }
         });
         let backlash_half_rad = core::array::from_fn(|_| {
             let u: f64 = rng.random();
             0.5 * config.backlash_rad * (0.5 + u)
         });
+        // Drawn last, so everything drawn before them is what it always was.
+        for servo in &mut servo_errors {
+            let (u2, u3, phase2, phase3): (f64, f64, f64, f64) =
+                (rng.random(), rng.random(), rng.random(), rng.random());
+            if config.servo_error_shape == ServoErrorShape::Harmonics {
+                // The n-th harmonic at (0.5..1) A / n, in place of the cubic.
+                let amplitude = config.servo_error_rad;
+                servo.cubic_rad = 0.0;
+                servo.harmonics =
+                    [(2.0, u2, phase2), (3.0, u3, phase3)].map(|(n, u, phase)| Harmonic {
+                        amplitude_rad: amplitude * (0.5 + 0.5 * u) / n,
+                        phase_rad: std::f64::consts::TAU * phase,
+                    });
+            }
+        }
 
         let ids: Vec<ParamId> = ParamId::all().collect();
         let arm = nominal.with_errors(&ids, &errors);
@@ -145,6 +161,34 @@ mod tests {
                 .all(|s| s.sine_rad == 0.0 && s.cubic_rad == 0.0)
         );
         assert!(without.backlash_half_rad.iter().all(|&b| b == 0.0));
+    }
+
+    #[test]
+    fn the_harmonic_shape_keeps_the_arm_the_sine_and_the_play() {
+        let nominal = bundled_arm();
+        let sine_cubic = TrueArm::draw(&nominal, 3, &SimConfig::default()).unwrap();
+        let config = SimConfig {
+            servo_error_shape: ServoErrorShape::Harmonics,
+            ..SimConfig::default()
+        };
+        let harmonics = TrueArm::draw(&nominal, 3, &config).unwrap();
+        assert_eq!(sine_cubic.arm, harmonics.arm);
+        assert_eq!(sine_cubic.backlash_half_rad, harmonics.backlash_half_rad);
+        let amplitude = config.servo_error_rad;
+        for (a, b) in sine_cubic.servo_errors.iter().zip(&harmonics.servo_errors) {
+            assert_eq!(
+                (a.sine_rad, a.omega, a.phase_rad),
+                (b.sine_rad, b.omega, b.phase_rad)
+            );
+            assert!(a.harmonics.iter().all(|h| h.amplitude_rad == 0.0));
+            assert_eq!(b.cubic_rad, 0.0);
+            for (h, n) in b.harmonics.iter().zip([2.0, 3.0]) {
+                assert!(
+                    (0.5 * amplitude / n..=amplitude / n).contains(&h.amplitude_rad),
+                    "{h:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -7,8 +7,8 @@
 //! identification uses on a measurement file. A commanded angle `q` becomes
 //! the angle the servo really drives to, `q + e(q) - s b` (smooth servo
 //! error `e`, half play `b`, `s = ±1` rising or falling); the model of the
-//! true arm deflects that under gravity (with softened compliances if
-//! switched on); the tracker adds Gaussian noise.
+//! true arm deflects that under gravity (with springs that soften or
+//! stiffen if switched on); the tracker adds Gaussian noise.
 
 use std::collections::HashSet;
 
@@ -19,7 +19,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use super::draw::NOISE_STREAM;
-use super::{SimError, TrueArm, softened_deflection};
+use super::{SimError, Spring, TrueArm, spring_deflection};
 use crate::dataset::{Measurement, Pose, approaches};
 use model::backlash::{Approach, settled};
 
@@ -46,20 +46,22 @@ impl TrueArm {
     }
 
     /// The true tool point, world frame, m, when the servos drive to `driven` (rad)
-    /// under `load_kg`; no tracker noise. With softening off this is exactly
-    /// the model's prediction for the true arm.
+    /// under `load_kg`; no tracker noise. With linear springs (softening and
+    /// stiffening off) this is exactly the model's prediction for the true arm.
     pub fn tool_point(
         &self,
         driven: &[f64; JOINTS],
         load_kg: f64,
     ) -> Result<Vector3<f64>, model::DeflectionError> {
-        if self.config.softening_per_nm > 0.0 {
-            softened_deflection(&self.arm, driven, load_kg, self.config.softening_per_nm)
-                .map(|(d, _)| d.tool_point())
-        } else {
-            self.arm
-                .chain()
-                .tool_point(driven, load_kg, &SolverOptions::default())
+        match self.config.spring() {
+            Spring::Linear => {
+                self.arm
+                    .chain()
+                    .tool_point(driven, load_kg, &SolverOptions::default())
+            }
+            spring => {
+                spring_deflection(&self.arm, driven, load_kg, spring).map(|(d, _)| d.tool_point())
+            }
         }
     }
 

@@ -10,16 +10,19 @@
 //! tool, compliances), applied with [`model::ParamId`] and
 //! [`model::Arm::with_errors`], and every position is computed by the
 //! `model` crate. On top, each switchable (see [`SimConfig`]), it has what
-//! the method's model does not: a smooth servo angle error, direction-dependent
-//! play, a stiffness that softens with load, and tracker noise. With all four
-//! off ([`SimConfig::model_only`]) a measurement is exactly the model's
+//! the method's model does not: a smooth servo angle error (of one of two
+//! shapes, [`ServoErrorShape`]), direction-dependent play, springs whose
+//! stiffness changes with load ([`Spring`]: softening by default, in the
+//! form the calibration model fits, or stiffening in a form it does not
+//! contain), and tracker noise. With all four off
+//! ([`SimConfig::model_only`]) a measurement is exactly the model's
 //! prediction for the true arm.
 //!
 //! | module | what it holds |
 //! |---|---|
 //! | `config` | [`SimConfig`]: error sizes, effect switches and their defaults |
 //! | `draw` | [`TrueArm::draw`]: the seeded true arm |
-//! | `effects` | servo error, softening stiffness |
+//! | `effects` | servo error, springs that soften or stiffen |
 //! | `measure` | [`TrueArm::simulate`] / [`TrueArm::measure`] |
 //! | [`positioning`] | the error at the tool when the board (the firmware library) drives the true arm |
 //! | `truth` | the truth file (JSON): true arm and the 43 errors by name |
@@ -33,7 +36,9 @@ mod truth;
 
 pub use config::SimConfig;
 pub use draw::TrueArm;
-pub use effects::{ServoError, softened_deflection};
+pub use effects::{
+    Harmonic, ServoError, ServoErrorShape, Spring, softened_deflection, spring_deflection,
+};
 pub use measure::{Pass, Simulation};
 pub use truth::TRUTH_SCHEMA;
 
@@ -172,6 +177,21 @@ mod tests {
                 },
             ),
             (
+                "stiffening",
+                SimConfig {
+                    stiffening_per_nm: 0.3,
+                    ..off
+                },
+            ),
+            (
+                "servo error with harmonics",
+                SimConfig {
+                    servo_error_rad: on.servo_error_rad,
+                    servo_error_shape: ServoErrorShape::Harmonics,
+                    ..off
+                },
+            ),
+            (
                 "noise",
                 SimConfig {
                     noise_sigma_m: on.noise_sigma_m,
@@ -196,6 +216,39 @@ mod tests {
                 "{name}: mean change {mean_mm} mm"
             );
         }
+    }
+
+    /// The stiffening spring is solved exactly: each measurement without
+    /// noise is the tool point of the deflection that satisfies the
+    /// stiffening equation, and it sags less than the model's linear spring.
+    #[test]
+    fn stiffening_measurements_are_the_exact_stiffened_pose() {
+        let config = SimConfig {
+            stiffening_per_nm: 0.4,
+            ..SimConfig::model_only()
+        };
+        let truth = TrueArm::draw(&bundled_arm(), 6, &config).unwrap();
+        let linear = TrueArm::draw(&bundled_arm(), 6, &SimConfig::model_only()).unwrap();
+        let poses = grid_poses();
+        let sim = truth.simulate(&poses, &[0.0663]).unwrap();
+        let lin = linear.measure(&poses, &[0.0663]).unwrap();
+        let chain = truth.arm.chain();
+        let (mut sag_stiff, mut sag_linear) = (0.0, 0.0);
+        for (m, l) in sim.noise_free.iter().zip(&lin) {
+            let (d, solved) = spring_deflection(
+                &truth.arm,
+                &m.pose.q,
+                0.0663,
+                Spring::Stiffening { per_nm: 0.4 },
+            )
+            .unwrap();
+            assert_eq!(m.position, d.tool_point());
+            assert!(solved.chain().fixed_point_residual(&m.pose.q, 0.0663, &d) < 1e-12);
+            let rigid = chain.rigid_tool_point(&m.pose.q);
+            sag_stiff += (m.position - rigid).norm();
+            sag_linear += (l.position - rigid).norm();
+        }
+        assert!(sag_stiff < 0.95 * sag_linear, "{sag_stiff} vs {sag_linear}");
     }
 
     #[test]
