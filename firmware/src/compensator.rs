@@ -105,11 +105,7 @@ pub struct Compensator {
 impl Compensator {
     /// Prepares both arms of `calibration` for evaluation; no joint is
     /// corrected by more than the calibration's largest correction or `cap_rad`.
-    pub fn new(
-        calibration: &Calibration,
-        options: CompensationOptions<f32>,
-        cap_rad: f32,
-    ) -> Self {
+    pub fn new(calibration: &Calibration, options: CompensationOptions<f32>, cap_rad: f32) -> Self {
         let (nominal, calibrated) = (calibration.nominal.chain(), calibration.calibrated.chain());
         Self {
             nominal,

@@ -5,10 +5,10 @@
 use host::calib::detmax::DetmaxOptions;
 use host::calib::experiments::{grid_and_off_grid, outlier_trial, random_baseline};
 use host::calib::identify::{IdentifyOptions, identify};
-use host::calib::targets::tool_points;
 use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
 use host::calib::progress::Silent;
 use host::calib::report::IdentifiabilityReport;
+use host::calib::targets::tool_points;
 use host::calib::validate::validate;
 use host::calib::{ModelOption, ParamKey, ParamVector, Sample};
 use host::dataset::{FROM_HOME, Measurement, Pose};

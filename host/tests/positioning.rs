@@ -75,8 +75,10 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
     }
     boards.push((format!("{label} + play"), Some(played)));
 
-    let targets = positioning::targets(&nominal, 25, 7, &PlanConfig::default()).expect("targets");
-    let rows = positioning::compare(&truth, &targets, &boards, LOAD_KG).expect("positioning");
+    let targets = positioning::targets(&nominal, 25, 7, &PlanConfig::default(), &boards, LOAD_KG)
+        .expect("targets");
+    let rows =
+        positioning::compare(&truth, &targets.targets, &boards, LOAD_KG).expect("positioning");
     let mean_mm = |r: &Positioning| r.stats.mean_m * 1e3;
     let table = positioning::table(&rows);
     println!("{table}");
@@ -96,4 +98,10 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
     assert!(with_play < ours - 0.3, "{table}");
     // The table carries every board.
     assert_eq!(table.lines().count(), rows.len() + 1, "{table}");
+    // Each board was sent joint targets its compensation can command: no
+    // move ended with the compensation fallen back, nor a command clamped.
+    assert!(
+        rows.iter().all(|r| r.fell_back == 0 && r.clamped == 0),
+        "{table}"
+    );
 }

@@ -16,7 +16,11 @@ use crate::{Arm, JOINTS, Real, ServoCurve};
 
 /// The joint angles the servos of `arm` drive to when commanded `q` (rad)
 /// through the curves `sent`, rad.
-pub fn reached<T: Real>(arm: &Arm<T>, sent: &[ServoCurve<T>; JOINTS], q: &[T; JOINTS]) -> [T; JOINTS] {
+pub fn reached<T: Real>(
+    arm: &Arm<T>,
+    sent: &[ServoCurve<T>; JOINTS],
+    q: &[T; JOINTS],
+) -> [T; JOINTS] {
     core::array::from_fn(|j| {
         let own = &arm.joints[j].servo;
         if sent[j] == *own {
@@ -74,7 +78,11 @@ mod tests {
         arm.joints[3].servo = ServoCurve::new(&shifted, c.pulses_us()).unwrap();
         let q = [0.0, 0.0, 0.0, 50f64.to_radians(), 0.0, 0.0];
         let r = reached(&arm, &sent, &q);
-        assert!((r[3] - 51f64.to_radians()).abs() < 1e-12, "{}", r[3].to_degrees());
+        assert!(
+            (r[3] - 51f64.to_radians()).abs() < 1e-12,
+            "{}",
+            r[3].to_degrees()
+        );
         assert_eq!(r[0], 0.0);
     }
 }

@@ -1,10 +1,10 @@
 //! Frame rules: corruption is caught, versions are told apart, and no byte
 //! sequence makes the decoder or the stream reader panic.
 
+use model::bounds::{Bounds, Quantity};
 use proptest::prelude::*;
 use protocol::frame::{self, Feed, FrameError, FrameReader, MAX_FRAME};
 use protocol::{Calibration, Request, Response, Timing, WireError};
-use model::bounds::{Bounds, Quantity};
 
 fn frame_of(seq: u16, msg: &Request) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
@@ -214,7 +214,11 @@ fn calibration_rejects_what_the_board_cannot_run() {
         );
         let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
         let bytes = c.encode(&mut buf).unwrap().to_vec();
-        assert_eq!(Calibration::decode(&bytes), None, "the board refuses it whole");
+        assert_eq!(
+            Calibration::decode(&bytes),
+            None,
+            "the board refuses it whole"
+        );
         fault.to_string()
     };
     let mut bent = good;
@@ -249,7 +253,12 @@ fn calibration_rejects_what_the_board_cannot_run() {
     soft.nominal.base_softening = -1.0;
     refused(&soft, Quantity::Softening { spring: 0 }, false);
     // Each joint's largest correction: an angle above 0 up to the protocol's cap.
-    for bad in [0.0, -0.1, f32::NAN, protocol::calibration::MAX_CORRECTION_RAD * 1.01] {
+    for bad in [
+        0.0,
+        -0.1,
+        f32::NAN,
+        protocol::calibration::MAX_CORRECTION_RAD * 1.01,
+    ] {
         let mut c = good;
         c.max_correction_rad[3] = bad;
         assert_eq!(

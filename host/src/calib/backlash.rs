@@ -35,8 +35,7 @@ pub const PLAUSIBLE_MAX_RAD: f64 = 0.052_359_877_559_829_88;
 
 /// Widest play the fit gives a joint, rad: the widest the bounds allow
 /// (`model::bounds::MAX_BACKLASH_RAD`, 5°), kept inside by the fit's margin.
-pub const FIT_MAX_RAD: f64 =
-    model::bounds::MAX_BACKLASH_RAD * (1.0 - model::bounds::FIT_MARGIN);
+pub const FIT_MAX_RAD: f64 = model::bounds::MAX_BACKLASH_RAD * (1.0 - model::bounds::FIT_MARGIN);
 
 /// Fewest fitted poses at which a joint must have arrived each way before
 /// its width is fitted.

@@ -64,10 +64,10 @@ use model::params::ParamKind;
 
 use super::identifiability::check_full_rank;
 use super::jacobian::jacobian;
-use super::targets::tool_points;
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::servo_knots;
+use super::targets::tool_points;
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;

@@ -112,7 +112,10 @@ mod tests {
         assert!(
             candidates(ModelOption::Elastic, &arm, FINEST)
                 .iter()
-                .all(|k| matches!(k.quantity(), Some(model::bounds::Quantity::Compliance { .. })))
+                .all(|k| matches!(
+                    k.quantity(),
+                    Some(model::bounds::Quantity::Compliance { .. })
+                ))
         );
         assert_eq!(
             candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..7],

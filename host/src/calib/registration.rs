@@ -55,8 +55,8 @@ use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector
 
 use super::checks::IMPLAUSIBLE_M;
 use super::identify::{Estimate, Identified};
-use super::targets::tool_points;
 use super::params::ParamKey;
+use super::targets::tool_points;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
 use crate::io::calibration_file::RegistrationRecord;

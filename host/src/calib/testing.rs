@@ -8,9 +8,9 @@ use rand::{SeedableRng, rngs::StdRng};
 
 use super::detmax::DetmaxOptions;
 use super::identify::IdentifyOptions;
-use super::targets::tool_points;
 use super::params::{ParamKey, ParamVector};
 use super::pipeline::{Choice, RunSettings};
+use super::targets::tool_points;
 use super::{Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 

@@ -194,17 +194,32 @@ pub fn run(args: &Args) -> Result<(), Error> {
     print!("{}", summary::study(&study, off_grid.len())?);
     if args.targets > 0 {
         let calibrations: Vec<_> = files.iter().map(|(o, f)| (*o, f)).collect();
-        let targets =
-            positioning::targets(&nominal, args.targets, args.seed, &PlanConfig::default())?;
         let boards = positioning::demo_boards(&calibrations)?;
-        let rows = positioning::compare(&truth, &targets, &boards, PAPER_LOAD_KG)?;
+        let targets = positioning::targets(
+            &nominal,
+            args.targets,
+            args.seed,
+            &PlanConfig::default(),
+            &boards,
+            PAPER_LOAD_KG,
+        )?;
+        let rows = positioning::compare(&truth, &targets.targets, &boards, PAPER_LOAD_KG)?;
         plot_files.extend(positioning::plot(&args.out, &rows, PAPER_LOAD_KG)?);
         println!(
             "\nPositioning error at the tool through the board, {} random targets with {PAPER_LOAD_KG} kg \
-             (mm; nominal IK as `move --xyz`, the firmware's servo frames, the true arm):",
+             (mm; nominal IK as `move --xyz`, the firmware's servo frames, the true arm; clamped: \
+             targets on the way to which a command was clamped to a limit, fell back: targets \
+             whose move ended with the compensation fallen back or not converged):",
             args.targets
         );
         print!("{}", positioning::table(&rows));
+        if targets.left_out > 0 {
+            println!(
+                "({} random tool points left out: no nominal solution a calibrated board could \
+                 command within its joint ranges)",
+                targets.left_out
+            );
+        }
     }
     println!(
         "\nwrote {} (calibration-*.json, report.json, measurements.csv, off-grid.csv, truth.json, {} plots) in {:.1} s",

@@ -86,25 +86,29 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ApproachRule::Order => rig_of(&arm),
         ApproachRule::Middle => rig_of(&arm).without_play(),
     };
-    let mut out = Vec::with_capacity(rows.len());
+    let mut out: Vec<Prediction> = Vec::with_capacity(rows.len());
     // A prediction file holds one position per pose id: the same pose listed
-    // under several loads needs one load for all (`--load-kg`).
-    let mut load_of = HashMap::new();
+    // under several loads needs one load for all (`--load-kg`). Of its rows
+    // the one listed under that load counts (its place in the visiting
+    // order says how the joints arrived, as `validate` takes it), else the first.
+    let mut seen: HashMap<u32, (usize, f64, bool)> = HashMap::new();
     // The poses are visited in the file's order.
     let ways = approaches(rows.iter().map(|l| &l.row.pose.q));
     for (row, approach) in rows.iter().map(|l| &l.row).zip(ways) {
         let id = row.pose.id;
         let load_kg = args.load_kg.or(row.load_kg).unwrap_or(0.0);
-        match load_of.insert(id, load_kg) {
-            Some(previous) if previous != load_kg => {
+        let listed_under = args.load_kg.is_some() && row.load_kg == args.load_kg;
+        let slot = match seen.get(&id) {
+            Some(&(_, previous, _)) if previous != load_kg => {
                 return Err(Error::AmbiguousLoad {
                     path: args.poses.clone(),
                     pose: id,
                 });
             }
+            Some(&(k, _, matched)) if listed_under && !matched => Some(k),
             Some(_) => continue,
-            None => {}
-        }
+            None => None,
+        };
         let sample = Sample {
             id,
             q: row.pose.q,
@@ -112,8 +116,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
             target: 0,
             approach,
         };
-        let position = rig.evaluate(&sample)?.tool_m;
-        out.push(Prediction { pose: id, position });
+        let prediction = Prediction {
+            pose: id,
+            position: rig.evaluate(&sample)?.tool_m,
+        };
+        match slot {
+            Some(k) => out[k] = prediction,
+            None => out.push(prediction),
+        }
+        let k = slot.unwrap_or(out.len() - 1);
+        seen.insert(id, (k, load_kg, listed_under));
     }
     match &args.out {
         Some(path) => {

@@ -13,12 +13,19 @@ use crate::io::calibration_file::CalibrationFile;
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]
 #[command(
+    // With --dry-run no board is needed.
+    mut_arg("port", |a| a.required(false).required_unless_present("dry_run")),
     after_help = "Examples:\n  lrmcal push calibration.json --port /dev/ttyACM0\n  \
-lrmcal push calibration.json --target marker2 --port /dev/ttyACM0\n\n\
+lrmcal push calibration.json --target marker2 --port /dev/ttyACM0\n  \
+lrmcal push calibration.json --dry-run\n\n\
 The board checks the whole calibration (length, CRC, finite values, limits, monotonic servo \
-curves) before it stores it in the flash slot not in use; if the transfer breaks off or the \
-check fails, it keeps the calibration it had. A calibration of several measured targets \
-compensates one of them: the first unless --target names another."
+curves, compliances, softenings and plays within the physical bounds of the nominal arm) before \
+it stores it in the flash slot not in use; if the transfer breaks off or the check fails, it \
+keeps the calibration it had. lrmcal makes the same check before connecting. The payload also \
+carries how far the board may correct each joint: the largest correction the calibration asks \
+for within the joint limits, with a margin. A calibration of several measured targets \
+compensates one of them: the first unless --target names another. --dry-run prepares and checks \
+the payload and prints what would be sent, without a board."
 )]
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
@@ -30,9 +37,12 @@ pub struct Args {
     /// the nominal arm's would be) [default: the calibration's first].
     #[arg(long, value_name = "NAME")]
     pub target: Option<String>,
-    /// The board.
+    /// Prepare and check the payload and print what would be sent, without a board.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// The board (not needed with --dry-run).
     #[command(flatten)]
-    pub device: DeviceArgs,
+    pub device: Option<DeviceArgs>,
 }
 
 /// Runs `lrmcal push`.
@@ -66,7 +76,23 @@ pub fn run(args: &Args) -> Result<(), Error> {
         what: format!("prepare `{}` for the board", args.calibration.display()),
         reason: calibration::explain(fault, &file.arm),
     })?;
-    let mut client = args.device.connect()?;
+    let Some(device) = args.device.as_ref().filter(|_| !args.dry_run) else {
+        let bounds: Vec<String> = payload
+            .max_correction_rad
+            .iter()
+            .map(|m| format!("{:.1}", m.to_degrees()))
+            .collect();
+        println!(
+            "calibration {:08x} ({}) checked: the board would accept it (not sent: --dry-run)\n\
+             largest correction per joint, deg: {}\nrated payload: {} kg",
+            payload.id,
+            payload.option.name(),
+            bounds.join(" "),
+            file.nominal.rated_payload_kg
+        );
+        return Ok(());
+    };
+    let mut client = device.connect()?;
     let bar = ProgressBar::new(0).with_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {bytes}/{total_bytes}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),

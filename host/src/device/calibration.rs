@@ -95,9 +95,7 @@ pub fn explain(fault: CalibrationFault, arm: &Arm<f64>) -> String {
     if let CalibrationFault::Bound { quantity, .. } = fault
         && let Some(value) = quantity.value(arm)
     {
-        return format!(
-            "{fault}: found {value}; not sent, the board keeps the calibration it has"
-        );
+        return format!("{fault}: found {value}; not sent, the board keeps the calibration it has");
     }
     let CalibrationFault::ServoCurve { joint, .. } = fault else {
         return fault.to_string();

@@ -3,11 +3,18 @@
 //! the simulated true arm executing the pulses.
 //!
 //! ```text
-//! nominal Arm + seed --targets--> tool points + nominal joint targets (ik, as `move --xyz`)
+//! nominal Arm + seed + boards --targets--> tool points + each board's nominal joint targets (ik, as `move --xyz`)
 //! targets + calibration (or none) --firmware Device, 20 ms frames--> pulses
 //! pulses --TrueServos (true curve, servo error, play)--> true joint angles
 //!        --TrueArm::tool_point (true geometry, stiffness, payload)--> where the tool went
 //! ```
+//!
+//! Each board gets the nominal joint targets `move --xyz` would send it: of
+//! the nominal solutions for the tool point, the nearest one its
+//! calibration's compensation can command within the joint ranges and its
+//! largest corrections ([`crate::device::commanded`]). A random tool point
+//! that some board cannot reach so is left out (and counted): every board
+//! is judged on the same targets.
 //!
 //! The board is the firmware library itself ([`firmware::Device`]) on an
 //! in-memory servo bus and flash: the calibration goes in through the same
@@ -27,12 +34,13 @@ use firmware::{CHANNELS, Config, Device, FlashStorage, ServoBus};
 use model::{Arm, JOINTS};
 use nalgebra::Vector3;
 use protocol::frame::{self, MAX_FRAME};
-use protocol::{Calibration, CompensationMode, Request, Response, Timing, WireError};
+use protocol::{Calibration, CompensationMode, Faults, Request, Response, Timing, WireError};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::TrueArm;
 use crate::calib::{CalibError, ModelOption, option, plots};
+use crate::device::commanded::Commanded;
 use crate::ik::{self, IkError, IkOptions};
 use crate::io::calibration_file::{CalibrationFile, ErrorStats};
 use crate::plan::PlanConfig;
@@ -112,25 +120,41 @@ pub enum PositioningError {
     },
 }
 
-/// One target: a tool point and the nominal joint targets that reach it.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// One target: a tool point and each board's nominal joint targets for it.
+#[derive(Clone, Debug, PartialEq)]
 pub struct Target {
     /// Where the tool is asked to go, world frame, m.
     pub point_m: Vector3<f64>,
-    /// The nominal arm's joint targets for it, nearest the previous target's, rad.
-    pub q: [f64; JOINTS],
+    /// The nominal arm's joint targets for it, one per board (in the order
+    /// of the boards), each nearest that board's previous target's, rad.
+    pub q: Vec<[f64; JOINTS]>,
+}
+
+/// The targets of a comparison, and how many random tool points were left
+/// out because a board could not command any solution for them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Targets {
+    /// The targets, in visiting order.
+    pub targets: Vec<Target>,
+    /// Random tool points left out: some board's compensation could not
+    /// reach them within its joint ranges and largest corrections.
+    pub left_out: usize,
 }
 
 /// `count` random tool points the nominal arm reaches clear of collisions
 /// within the joint ranges the board accepts without a calibration, each
-/// with its nominal joint targets solved as `lrmcal move --xyz` solves them:
-/// nearest the pose of the target before (home, all zero, for the first).
+/// with every board's nominal joint targets solved as `lrmcal move --xyz`
+/// solves them on that board: nearest the pose of the board's target before
+/// (home, all zero, for the first) among those its compensation (for
+/// `payload_kg`) can command.
 pub fn targets(
     nominal: &Arm<f64>,
     count: usize,
     seed: u64,
     collisions: &PlanConfig,
-) -> Result<Vec<Target>, PositioningError> {
+    boards: &[(String, Option<Calibration>)],
+    payload_kg: f64,
+) -> Result<Targets, PositioningError> {
     let config = Config::default();
     let board =
         firmware::servo::joint_limits(None, config.hard_limits_rad, config.default_limits_rad);
@@ -146,9 +170,17 @@ pub fn targets(
         collisions: Some(collisions.clone()),
         ..IkOptions::default()
     };
+    let commanded: Vec<Option<Commanded>> = boards
+        .iter()
+        .map(|(_, c)| {
+            c.as_ref()
+                .map(|c| Commanded::new(c, CompensationMode::Full, payload_kg))
+        })
+        .collect();
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut found = Vec::with_capacity(count);
-    let mut from = [0.0; JOINTS];
+    let mut left_out = 0;
+    let mut from = vec![[0.0; JOINTS]; boards.len().max(1)];
     let tries = count * SAMPLES_PER_TARGET;
     for _ in 0..tries {
         if found.len() == count {
@@ -162,18 +194,30 @@ pub fn targets(
             continue;
         }
         let point_m = chain.rigid_tool_point(&q);
-        let solution = ik::solve_position(&arm, &point_m, &from, &options).map_err(|source| {
-            PositioningError::Ik {
-                index: found.len(),
-                target_mm: (point_m * 1e3).into(),
-                source,
+        let mut solved = Vec::with_capacity(from.len());
+        for (b, start) in from.iter().enumerate() {
+            let admit = |q: &[f64; JOINTS]| match commanded.get(b).and_then(Option::as_ref) {
+                Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
+                None => Ok(()),
+            };
+            match ik::solve_position_admitted(&arm, &point_m, start, &options, &admit) {
+                Ok(solution) => solved.push(solution.q),
+                Err(IkError::Refused { .. }) => break,
+                Err(source) => {
+                    return Err(PositioningError::Ik {
+                        index: found.len(),
+                        target_mm: (point_m * 1e3).into(),
+                        source,
+                    });
+                }
             }
-        })?;
-        from = solution.q;
-        found.push(Target {
-            point_m,
-            q: solution.q,
-        });
+        }
+        if solved.len() < from.len() {
+            left_out += 1;
+            continue;
+        }
+        from.clone_from(&solved);
+        found.push(Target { point_m, q: solved });
     }
     if found.len() < count {
         return Err(PositioningError::Targets {
@@ -182,7 +226,10 @@ pub fn targets(
             tries,
         });
     }
-    Ok(found)
+    Ok(Targets {
+        targets: found,
+        left_out,
+    })
 }
 
 /// The pulses on the board's outputs, as the last servo frame left them.
@@ -320,10 +367,11 @@ impl Board {
         self.request(&Request::CalibrationCommit).map(drop)
     }
 
-    /// Whether the servos still move (a motion, or a correction fading in).
-    fn moving(&mut self) -> Result<bool, PositioningError> {
+    /// The board's status: whether the servos still move (a motion, or a
+    /// correction fading in), what it clamped since the last read, its fallbacks.
+    fn status(&mut self) -> Result<protocol::Status, PositioningError> {
         match self.request(&Request::Status)? {
-            Response::Status(status) => Ok(status.moving),
+            Response::Status(status) => Ok(status),
             other => Err(PositioningError::Unexpected {
                 request: "status/get",
                 answer: format!("{other:?}"),
@@ -372,33 +420,66 @@ impl<'a> TrueServos<'a> {
     }
 }
 
-/// The distance, m, between each target and where the true arm's tool went
-/// when a board holding `calibration` (or none) drove it there with
-/// `payload_kg` at the tool, the targets visited in order from home.
+/// One board's run over the targets.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Run {
+    /// The distance between each target and where the true arm's tool went, m.
+    pub errors_m: Vec<f64>,
+    /// Targets on the way to which the board clamped a command to a joint
+    /// or pulse limit.
+    pub clamped: usize,
+    /// Targets whose move ended with the compensation fallen back to the
+    /// last good correction or not converged (a calibrated board only).
+    pub fell_back: usize,
+    /// Servo frames over the whole run whose compensation step was not taken
+    /// (worse than the last accepted state, or beyond the largest
+    /// correction) and fell back for that frame: the solve's own damping
+    /// on the way, which the board retries the next frame.
+    pub fallback_frames: u32,
+}
+
+/// How a board holding `calibration` (or none) drove the true arm to the
+/// targets with `payload_kg` at the tool, each target's joint targets the
+/// board's own (`board`, its index in the targets' lists), visited in order from home.
 pub fn errors(
     truth: &TrueArm,
     targets: &[Target],
+    board_index: usize,
     calibration: Option<&Calibration>,
     payload_kg: f64,
-) -> Result<Vec<f64>, PositioningError> {
+) -> Result<Run, PositioningError> {
     let mut board = Board::new(calibration, payload_kg)?;
     let mut servos = TrueServos::new(truth);
     let mut errors = Vec::with_capacity(targets.len());
+    let mut clamped = 0;
+    let mut fell_back = 0;
+    let mut fallback_frames = 0;
     for (index, target) in targets.iter().enumerate() {
+        let q = target.q.get(board_index).copied().unwrap_or_default();
         board.request(&Request::Move {
-            targets_rad: target.q.map(|q| q as f32),
+            targets_rad: q.map(|q| q as f32),
             timing: Timing::DurationMs(0),
         })?;
         let mut frames = 0;
-        loop {
+        let mut clamped_here = false;
+        let status = loop {
             servos.drive(&board.frame());
             frames += 1;
-            if !board.moving()? {
-                break;
+            let status = board.status()?;
+            clamped_here |= status.faults.contains(Faults::LIMIT_CLAMPED);
+            if !status.moving {
+                break status;
             }
             if frames >= MAX_FRAMES {
                 return Err(PositioningError::NotSettled { index });
             }
+        };
+        clamped += usize::from(clamped_here);
+        if calibration.is_some() {
+            fallback_frames = status.compensation.fallbacks;
+            let ended_back = status.faults.contains(Faults::COMPENSATION_FALLBACK)
+                || !status.compensation.converged;
+            fell_back += usize::from(ended_back);
         }
         // A move drives every joint: each has its angle now.
         let driven = servos.joints.map(|q| q.unwrap_or_default());
@@ -407,7 +488,12 @@ pub fn errors(
             .map_err(|reason| PositioningError::Model { index, reason })?;
         errors.push((point - target.point_m).norm());
     }
-    Ok(errors)
+    Ok(Run {
+        errors_m: errors,
+        clamped,
+        fell_back,
+        fallback_frames,
+    })
 }
 
 /// One board's positioning errors.
@@ -419,9 +505,16 @@ pub struct Positioning {
     pub errors_m: Vec<f64>,
     /// Their statistics.
     pub stats: ErrorStats,
+    /// Targets on the way to which a command was clamped to a limit.
+    pub clamped: usize,
+    /// Targets whose move ended with the compensation fallen back or not converged.
+    pub fell_back: usize,
+    /// Servo frames whose compensation step fell back on the way ([`Run`]).
+    pub fallback_frames: u32,
 }
 
-/// [`errors`] for each labelled board (`None`: no calibration) over the same targets.
+/// [`errors`] for each labelled board (`None`: no calibration) over the same
+/// targets (solved for these boards, in this order, by [`targets`]).
 pub fn compare(
     truth: &TrueArm,
     targets: &[Target],
@@ -430,12 +523,16 @@ pub fn compare(
 ) -> Result<Vec<Positioning>, PositioningError> {
     boards
         .iter()
-        .map(|(label, calibration)| {
-            let errors_m = errors(truth, targets, calibration.as_ref(), payload_kg)?;
+        .enumerate()
+        .map(|(b, (label, calibration))| {
+            let run = errors(truth, targets, b, calibration.as_ref(), payload_kg)?;
             Ok(Positioning {
                 label: label.clone(),
-                stats: ErrorStats::of(&errors_m),
-                errors_m,
+                stats: ErrorStats::of(&run.errors_m),
+                errors_m: run.errors_m,
+                clamped: run.clamped,
+                fell_back: run.fell_back,
+                fallback_frames: run.fallback_frames,
             })
         })
         .collect()
@@ -493,22 +590,25 @@ pub fn plot(
     )
 }
 
-/// The comparison as a table, mm.
+/// The comparison as a table, mm, with each board's targets reached with a
+/// clamped command or a fallen-back compensation.
 pub fn table(rows: &[Positioning]) -> String {
     let width = rows.iter().map(|r| r.label.len()).max().unwrap_or(0).max(5);
     let mut text = format!(
-        "{:width$}  {:>8}  {:>8}  {:>8}  {:>8}\n",
-        "board", "mean", "median", "95th", "max"
+        "{:width$}  {:>8}  {:>8}  {:>8}  {:>8}  {:>7}  {:>9}\n",
+        "board", "mean", "median", "95th", "max", "clamped", "fell back"
     );
     for r in rows {
         let s = &r.stats;
         text += &format!(
-            "{:width$}  {:>8.2}  {:>8.2}  {:>8.2}  {:>8.2}\n",
+            "{:width$}  {:>8.2}  {:>8.2}  {:>8.2}  {:>8.2}  {:>7}  {:>9}\n",
             r.label,
             s.mean_m * 1e3,
             s.median_m * 1e3,
             s.p95_m * 1e3,
-            s.max_m * 1e3
+            s.max_m * 1e3,
+            r.clamped,
+            r.fell_back
         );
     }
     text
@@ -520,25 +620,67 @@ mod tests {
     use crate::sim::SimConfig;
     use crate::sim::test_support::bundled_arm;
 
+    /// The uncalibrated board, alone.
+    fn uncalibrated() -> Vec<(String, Option<Calibration>)> {
+        vec![("uncalibrated".to_owned(), None)]
+    }
+
     #[test]
     fn targets_are_reached_by_their_joint_targets_clear_and_in_the_boards_range() {
         let nominal = bundled_arm();
         let collisions = PlanConfig::default();
-        let t = targets(&nominal, 6, 3, &collisions).unwrap();
-        assert_eq!(t.len(), 6);
+        let t = targets(&nominal, 6, 3, &collisions, &uncalibrated(), 0.0).unwrap();
+        assert_eq!((t.targets.len(), t.left_out), (6, 0));
         let chain = nominal.chain();
-        for target in &t {
-            assert!((chain.rigid_tool_point(&target.q) - target.point_m).norm() < 1e-8);
-            assert!(collisions.contact(&chain.frames(&target.q, 0.0)).is_none());
-            assert!(target.q.iter().all(|q| q.abs() <= 100f64.to_radians()));
+        for target in &t.targets {
+            let q = target.q[0];
+            assert!((chain.rigid_tool_point(&q) - target.point_m).norm() < 1e-8);
+            assert!(collisions.contact(&chain.frames(&q, 0.0)).is_none());
+            assert!(q.iter().all(|q| q.abs() <= 100f64.to_radians()));
         }
-        assert_eq!(t, targets(&nominal, 6, 3, &collisions).unwrap());
+        assert_eq!(
+            t,
+            targets(&nominal, 6, 3, &collisions, &uncalibrated(), 0.0).unwrap()
+        );
+    }
+
+    /// A calibrated board gets joint targets its compensation commands
+    /// within the ranges; the uncalibrated one, the nearest as before.
+    #[test]
+    fn each_board_gets_targets_its_compensation_can_command() {
+        let nominal = bundled_arm();
+        let mut calibrated = nominal;
+        calibrated.joints[1].compliance = 0.15;
+        calibrated.joints[2].theta += 0.05;
+        let calibration = crate::device::calibration::identified(Calibration {
+            id: 0,
+            option: ModelOption::ElastoKinematic,
+            nominal: nominal.map(|x| x as f32),
+            calibrated: calibrated.map(|x| x as f32),
+            home_rad: [0.0; JOINTS],
+            max_correction_rad: crate::device::calibration::max_corrections(&nominal, &calibrated),
+        })
+        .unwrap();
+        let mut boards = uncalibrated();
+        boards.push(("sagging".to_owned(), Some(calibration)));
+        let t = targets(&nominal, 8, 4, &PlanConfig::default(), &boards, 0.0663).unwrap();
+        let board = Commanded::new(&calibration, CompensationMode::Full, 0.0663);
+        let chain = nominal.chain();
+        for target in &t.targets {
+            assert_eq!(target.q.len(), 2);
+            for q in &target.q {
+                assert!((chain.rigid_tool_point(q) - target.point_m).norm() < 1e-8);
+            }
+            assert!(board.command(&target.q[1]).is_ok());
+        }
     }
 
     #[test]
     fn a_perfect_arm_goes_where_the_board_sends_it_and_play_moves_it() {
         let nominal = bundled_arm();
-        let t = targets(&nominal, 4, 5, &PlanConfig::default()).unwrap();
+        let t = targets(&nominal, 4, 5, &PlanConfig::default(), &uncalibrated(), 0.0)
+            .unwrap()
+            .targets;
         // The nominal arm itself, rigid, without play: only the 1 µs pulse step is left.
         let mut exact = TrueArm::draw(&nominal, 2, &SimConfig::model_only()).unwrap();
         exact.arm = nominal;
@@ -546,13 +688,17 @@ mod tests {
             j.compliance = 0.0;
         }
         exact.arm.base_compliance = 0.0;
-        let e = errors(&exact, &t, None, 0.0).unwrap();
-        assert!(e.iter().all(|&e| e < 2e-3), "{e:?}");
+        let e = errors(&exact, &t, 0, None, 0.0).unwrap();
+        assert!(e.errors_m.iter().all(|&e| e < 2e-3), "{e:?}");
+        assert_eq!((e.clamped, e.fell_back, e.fallback_frames), (0, 0, 0));
         // Play of a few degrees, uncompensated, throws the tool by millimetres.
         exact.backlash_half_rad = [1.5f64.to_radians(); JOINTS];
-        let played = errors(&exact, &t, None, 0.0).unwrap();
+        let played = errors(&exact, &t, 0, None, 0.0).unwrap();
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-        assert!(mean(&played) > mean(&e) + 2e-3, "{played:?} vs {e:?}");
+        assert!(
+            mean(&played.errors_m) > mean(&e.errors_m) + 2e-3,
+            "{played:?} vs {e:?}"
+        );
     }
 
     #[test]
@@ -561,6 +707,9 @@ mod tests {
             label: "ours".into(),
             errors_m: vec![1e-3, 3e-3],
             stats: ErrorStats::of(&[1e-3, 3e-3]),
+            clamped: 1,
+            fell_back: 0,
+            fallback_frames: 3,
         };
         let text = table(&[row]);
         assert!(text.contains("mean") && text.contains("95th"), "{text}");
