@@ -17,6 +17,7 @@ use csv::{ReaderBuilder, StringRecord, Trim};
 
 use crate::dataset::TargetName;
 use crate::error::{InputError, Location, Problem};
+use crate::io::record_line;
 
 /// Columns starting with this are ignored by every reader.
 pub const NOTE_PREFIX: &str = "note_";
@@ -168,6 +169,7 @@ pub fn for_each_row(
     schema: &Schema,
     mut each: impl FnMut(&Row<'_>) -> Result<(), InputError>,
 ) -> Result<usize, InputError> {
+    let text = crate::io::lf_line_ends(text.strip_prefix('\u{feff}').unwrap_or(text));
     let mut reader = ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(Trim::All)
@@ -175,12 +177,12 @@ pub fn for_each_row(
         .flexible(true)
         .from_reader(text.as_bytes());
     let header_record = reader.headers().map_err(csv_error)?.clone();
-    let header_line = header_record.position().map_or(1, |p| p.line());
+    let header_line = record_line(&text, header_record.position(), Some(b'#')).max(1);
     let header = check_header(&header_record, header_line, schema)?;
     let mut record = StringRecord::new();
     let mut rows = 0;
     while reader.read_record(&mut record).map_err(csv_error)? {
-        let line = record.position().map_or(0, |p| p.line());
+        let line = record_line(&text, record.position(), Some(b'#'));
         if record.len() != header.width {
             return Err(InputError::new(
                 Location::line(line),
