@@ -59,6 +59,8 @@ impl Schema {
 /// A parsed header: column name -> position.
 struct Header {
     index: HashMap<&'static str, usize>,
+    /// The columns the schema ignores ([`Extra::Ignore`]), by name.
+    ignored: HashMap<String, usize>,
     width: usize,
 }
 
@@ -84,6 +86,13 @@ impl Row<'_> {
     /// The text of `column`, if the file has it.
     pub fn text(&self, column: &'static str) -> Option<&str> {
         self.has(column).then(|| self.cell(column))
+    }
+
+    /// The text of a column the schema ignores (a pose list reading a
+    /// measurement file's `target`), if the file has it.
+    pub fn ignored_text(&self, column: &str) -> Option<&str> {
+        let &i = self.header.ignored.get(column)?;
+        self.record.get(i)
     }
 
     fn cell(&self, column: &'static str) -> &str {
@@ -211,6 +220,7 @@ pub fn for_each_row(
 fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Header, InputError> {
     let at = |column: &str| Location::column(line, column);
     let mut index = HashMap::new();
+    let mut ignored = HashMap::new();
     for (i, name) in record.iter().enumerate() {
         if name.starts_with(NOTE_PREFIX) {
             continue;
@@ -238,6 +248,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
                             },
                         ));
                     }
+                    ignored.entry(name.to_owned()).or_insert(i);
                     continue;
                 }
             }
@@ -266,6 +277,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
     }
     Ok(Header {
         index,
+        ignored,
         width: record.len(),
     })
 }
