@@ -13,9 +13,13 @@ use crate::io::calibration_file::CalibrationFile;
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]
 #[command(
+    // With --dry-run no board is needed.
+    mut_arg("port", |a| a.required(false).required_unless_present("dry_run")),
     after_help = "Examples:\n  lrmcal push calibration.json --port /dev/ttyACM0\n  \
-lrmcal push calibration.json --target marker2 --port /dev/ttyACM0\n\n\
-The board checks the whole calibration (length, CRC, finite values, limits, monotonic servo \
+lrmcal push calibration.json --target marker2 --port /dev/ttyACM0\n  \
+lrmcal push calibration.json --dry-run\n\n\
+Before connecting, the calibration is checked as the board will check it; --dry-run stops \
+there, printing the id `lrmcal status` would show, without a board. The board checks the whole calibration (length, CRC, finite values, limits, monotonic servo \
 curves) before it stores it in the flash slot not in use; if the transfer breaks off or the \
 check fails, it keeps the calibration it had. A calibration of several measured targets \
 compensates one of them: the first unless --target names another."
@@ -30,9 +34,13 @@ pub struct Args {
     /// the nominal arm's would be) [default: the calibration's first].
     #[arg(long, value_name = "NAME")]
     pub target: Option<String>,
-    /// The board.
+    /// Check the calibration and build what the board would receive, without
+    /// a board: nothing is sent.
+    #[arg(long)]
+    pub dry_run: bool,
+    /// The board (not needed with --dry-run).
     #[command(flatten)]
-    pub device: DeviceArgs,
+    pub device: Option<DeviceArgs>,
 }
 
 /// Runs `lrmcal push`.
@@ -66,7 +74,16 @@ pub fn run(args: &Args) -> Result<(), Error> {
         what: format!("prepare `{}` for the board", args.calibration.display()),
         reason: calibration::explain(fault, &file.arm),
     })?;
-    let mut client = args.device.connect()?;
+    let Some(device) = args.device.as_ref().filter(|_| !args.dry_run) else {
+        println!(
+            "calibration {:08x} ({}) of `{}` checked: the board would accept it (dry run, nothing sent)",
+            payload.id,
+            payload.option.name(),
+            args.calibration.display()
+        );
+        return Ok(());
+    };
+    let mut client = device.connect()?;
     let bar = ProgressBar::new(0).with_style(
         ProgressStyle::with_template("{msg} [{bar:30}] {bytes}/{total_bytes}")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
