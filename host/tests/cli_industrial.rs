@@ -193,6 +193,14 @@ fn an_arm_without_servo_tables_is_calibrated_but_never_sent_to_the_board() {
         msg.contains("joint 1 has no servo curve") && msg.contains("`servo` table"),
         "{msg}"
     );
+    // --dry-run makes the same checks without a board.
+    let run = lrmcal(&["push", s(&file), "--dry-run"]);
+    assert_eq!(run.status.code(), Some(3), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("joint 1 has no servo curve"),
+        "{}",
+        stderr(&run)
+    );
     let run = lrmcal(&[&["servo-tune", "3", "--arm", s(&arm)][..], &port].concat());
     assert_eq!(run.status.code(), Some(3), "{}", stderr(&run));
     let msg = stderr(&run);

@@ -79,6 +79,53 @@ fn line_numbers_count_comment_lines() {
     assert_names(&err, 6, Some("q3_deg"), &["abc"]);
 }
 
+/// Every line error of a CSV file, with its line ends turned to `ends`.
+fn errors_with_line_ends(lf: &str, ends: &str) -> Vec<String> {
+    let text = lf.replace('\n', ends);
+    let mut out = vec![measurement_err(&text).to_string()];
+    out.push(pose_list::parse(&text).unwrap_err().to_string());
+    out.push(predictions::parse(&text).unwrap_err().to_string());
+    out
+}
+
+#[test]
+fn crlf_and_lone_cr_line_ends_name_the_same_lines_as_lf() {
+    // A comment, a blank line, then errors a few rows down: each reader's
+    // message must name the same line (and the line of an earlier row) with
+    // every kind of line end.
+    let cases = [
+        // A cell that is not a number, on line 6.
+        format!("# session\n{HEADER}\n\n{ROW_A}\n{ROW_B}\n19,0,1,2,x,4,5,6,1,2,3\n"),
+        // A pose repeated under the same load: line 6, first on line 4.
+        format!("# session\n{HEADER}\n\n{ROW_A}\n{ROW_B}\n{ROW_A}\n"),
+        // A row one cell short, on line 5.
+        format!("{HEADER}\n# a\n{ROW_A}\n\n18,0,1,2,3\n"),
+    ];
+    for lf in &cases {
+        let expected = errors_with_line_ends(lf, "\n");
+        for ends in ["\r\n", "\r"] {
+            assert_eq!(
+                errors_with_line_ends(lf, ends),
+                expected,
+                "line ends {ends:?} of:\n{lf}"
+            );
+        }
+    }
+    let m = measurement_err(&cases[1]).to_string();
+    assert!(
+        m.starts_with("line 6, column `pose`") && m.contains("already appears on line 4"),
+        "{m}"
+    );
+    assert_names(&measurement_err(&cases[0]), 6, Some("q3_deg"), &["`x`"]);
+    assert_names(&measurement_err(&cases[2]), 5, None, &[]);
+    // The header's line too, after comments and an empty line.
+    let header = "# tracker\n\n# export\npose,load_kg\n1,0\n";
+    for ends in ["\n", "\r\n"] {
+        let e = measurement_err(&header.replace('\n', ends));
+        assert_names(&e, 4, Some("q1_deg"), &["missing"]);
+    }
+}
+
 #[test]
 fn missing_column_lists_the_expected_ones() {
     let text =

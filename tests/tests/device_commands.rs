@@ -152,7 +152,8 @@ fn device_commands_drive_a_board_on_a_socket() {
         calibration: cal.clone(),
         home_deg: None,
         target: None,
-        device: board.args(),
+        dry_run: false,
+        device: Some(board.args()),
     })
     .unwrap();
     payload::run(&payload::Args {
@@ -430,12 +431,23 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
         retries: 0,
     };
     let err = push::run(&push::Args {
+        calibration: path.clone(),
+        home_deg: None,
+        target: None,
+        dry_run: false,
+        device: Some(device),
+    })
+    .unwrap_err();
+    // --dry-run refuses it alike, without a board.
+    let dry = push::run(&push::Args {
         calibration: path,
         home_deg: None,
         target: None,
-        device,
+        dry_run: true,
+        device: None,
     })
     .unwrap_err();
+    assert_eq!(dry.report(), err.report());
     assert_eq!(err.exit_code(), 3);
     let report = err.report();
     assert!(
@@ -460,12 +472,23 @@ fn push_refuses_a_play_wider_than_a_few_degrees_naming_the_joint() {
         retries: 0,
     };
     let err = push::run(&push::Args {
+        calibration: path.clone(),
+        home_deg: None,
+        target: None,
+        dry_run: false,
+        device: Some(device),
+    })
+    .unwrap_err();
+    // --dry-run refuses it alike, without a board.
+    let dry = push::run(&push::Args {
         calibration: path,
         home_deg: None,
         target: None,
-        device,
+        dry_run: true,
+        device: None,
     })
     .unwrap_err();
+    assert_eq!(dry.report(), err.report());
     assert_eq!(err.exit_code(), 3);
     let report = err.report();
     assert!(

@@ -307,9 +307,15 @@ impl Targets {
         self.names.get(t).copied().flatten()
     }
 
-    /// Index of the target called `name`.
+    /// Index of the target called `name`. The unnamed target is the one
+    /// called [`UNNAMED`], as the calibration file writes it: a calibration
+    /// re-taught (`--tool-only`) from a file without a `target` column lists
+    /// its target as `tool`, and that file's rows are that target's.
     pub fn index(&self, name: Option<TargetName>) -> Option<usize> {
-        self.names.iter().position(|n| *n == name)
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .or_else(|| self.names.iter().position(|n| name_of(*n) == name_of(name)))
     }
 
     /// Refuses a set where some target is measured at fewer than
@@ -376,6 +382,14 @@ mod tests {
             (plain.names(), plain.named()),
             (vec![UNNAMED.to_string()], false)
         );
+        // The unnamed target is the one a calibration file lists as `tool`.
+        let listed = names(&[UNNAMED]);
+        assert_eq!(listed.index(None), Some(0));
+        assert_eq!(
+            Targets::single().index(TargetName::from(UNNAMED).ok()),
+            Some(0)
+        );
+        assert_eq!(names(&["b", "a"]).index(None), None);
         // Rows of a target the rig lacks are refused with the rig's names.
         let e = Rig::new(rigid_nominal(), names(&["b"]))
             .samples(&rows)

@@ -123,14 +123,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let loaded = args.arm.load()?;
     let nominal = loaded.arm;
     let file = args.measurements.display().to_string();
-    let all = measurements::read(&args.measurements)?;
-    if let Some(warning) = pose_list::check_file_within_limits(
+    // The file is read once: the limits are checked on the rows read, every
+    // target's included, each named by its line.
+    let listed = measurements::read_listed(&args.measurements)?;
+    if let Some(warning) = pose_list::check_within_limits(
         &nominal,
         &args.measurements,
+        &pose_list::of_measurements(&listed),
         args.allow_outside_limits,
     )? {
         eprintln!("warning: {warning}");
     }
+    let all = measurements::unlisted(&listed);
     if all.is_empty() {
         return Err(CalibError::Empty {
             what: format!("identify from {file}"),

@@ -37,7 +37,8 @@ pub struct Args {
     /// the nominal arm's would be) [default: the calibration's first].
     #[arg(long, value_name = "NAME")]
     pub target: Option<String>,
-    /// Prepare and check the payload and print what would be sent, without a board.
+    /// Check the calibration and build what the board would receive, without
+    /// a board: nothing is sent.
     #[arg(long)]
     pub dry_run: bool,
     /// The board (not needed with --dry-run).
@@ -83,10 +84,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
             .map(|m| format!("{:.1}", m.to_degrees()))
             .collect();
         println!(
-            "calibration {:08x} ({}) checked: the board would accept it (not sent: --dry-run)\n\
-             largest correction per joint, deg: {}\nrated payload: {} kg",
+            "calibration {:08x} ({}) of `{}` checked: the board would accept it (dry run, \
+             nothing sent)\nlargest correction per joint, deg: {}\nrated payload: {} kg",
             payload.id,
             payload.option.name(),
+            args.calibration.display(),
             bounds.join(" "),
             file.nominal.rated_payload_kg
         );

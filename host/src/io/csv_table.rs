@@ -17,6 +17,7 @@ use csv::{ReaderBuilder, StringRecord, Trim};
 
 use crate::dataset::TargetName;
 use crate::error::{InputError, Location, Problem};
+use crate::io::record_line;
 
 /// Columns starting with this are ignored by every reader.
 pub const NOTE_PREFIX: &str = "note_";
@@ -58,6 +59,8 @@ impl Schema {
 /// A parsed header: column name -> position.
 struct Header {
     index: HashMap<&'static str, usize>,
+    /// The columns the schema ignores ([`Extra::Ignore`]), by name.
+    ignored: HashMap<String, usize>,
     width: usize,
 }
 
@@ -83,6 +86,13 @@ impl Row<'_> {
     /// The text of `column`, if the file has it.
     pub fn text(&self, column: &'static str) -> Option<&str> {
         self.has(column).then(|| self.cell(column))
+    }
+
+    /// The text of a column the schema ignores (a pose list reading a
+    /// measurement file's `target`), if the file has it.
+    pub fn ignored_text(&self, column: &str) -> Option<&str> {
+        let &i = self.header.ignored.get(column)?;
+        self.record.get(i)
     }
 
     fn cell(&self, column: &'static str) -> &str {
@@ -168,6 +178,7 @@ pub fn for_each_row(
     schema: &Schema,
     mut each: impl FnMut(&Row<'_>) -> Result<(), InputError>,
 ) -> Result<usize, InputError> {
+    let text = crate::io::lf_line_ends(text.strip_prefix('\u{feff}').unwrap_or(text));
     let mut reader = ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(Trim::All)
@@ -175,12 +186,12 @@ pub fn for_each_row(
         .flexible(true)
         .from_reader(text.as_bytes());
     let header_record = reader.headers().map_err(csv_error)?.clone();
-    let header_line = header_record.position().map_or(1, |p| p.line());
+    let header_line = record_line(&text, header_record.position(), Some(b'#')).max(1);
     let header = check_header(&header_record, header_line, schema)?;
     let mut record = StringRecord::new();
     let mut rows = 0;
     while reader.read_record(&mut record).map_err(csv_error)? {
-        let line = record.position().map_or(0, |p| p.line());
+        let line = record_line(&text, record.position(), Some(b'#'));
         if record.len() != header.width {
             return Err(InputError::new(
                 Location::line(line),
@@ -209,6 +220,7 @@ pub fn for_each_row(
 fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Header, InputError> {
     let at = |column: &str| Location::column(line, column);
     let mut index = HashMap::new();
+    let mut ignored = HashMap::new();
     for (i, name) in record.iter().enumerate() {
         if name.starts_with(NOTE_PREFIX) {
             continue;
@@ -236,6 +248,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
                             },
                         ));
                     }
+                    ignored.entry(name.to_owned()).or_insert(i);
                     continue;
                 }
             }
@@ -264,6 +277,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
     }
     Ok(Header {
         index,
+        ignored,
         width: record.len(),
     })
 }

@@ -43,14 +43,41 @@ const SCHEMA: Schema = Schema {
     extra: Extra::Refuse,
 };
 
+/// A measurement and the line of the file it was read from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ListedMeasurement {
+    /// 1-based line in the file.
+    pub line: u64,
+    /// The row.
+    pub measurement: Measurement,
+}
+
 /// Reads a measurement file.
 pub fn read(path: &Path) -> Result<Vec<Measurement>, Error> {
     parse(&read_text(path)?).map_err(|e| e.in_file(path))
 }
 
+/// Reads a measurement file, keeping each row's line for later messages
+/// (the joint-limit check of its poses).
+pub fn read_listed(path: &Path) -> Result<Vec<ListedMeasurement>, Error> {
+    parse_listed(&read_text(path)?).map_err(|e| e.in_file(path))
+}
+
+/// The measurements of `listed`, in the file's order.
+pub fn unlisted(listed: &[ListedMeasurement]) -> Vec<Measurement> {
+    listed.iter().map(|l| l.measurement).collect()
+}
+
 /// Parses measurement CSV text (units converted to rad and m).
 pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
+    Ok(unlisted(&parse_listed(text)?))
+}
+
+/// Parses measurement CSV text (units converted to rad and m), with each
+/// row's line.
+pub fn parse_listed(text: &str) -> Result<Vec<ListedMeasurement>, InputError> {
     let mut out = Vec::new();
+    let mut lines = Vec::new();
     let mut book = PoseBook::default();
     let mut targets: Vec<TargetName> = Vec::new();
     for_each_row(text, &SCHEMA, |row| {
@@ -83,6 +110,7 @@ pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
             *v = row.number(column, "a position in mm")?;
         }
         book.record(row, id, &q, Some(load_kg), target)?;
+        lines.push(row.line);
         out.push(Measurement {
             pose: Pose { id, q },
             load_kg,
@@ -94,7 +122,11 @@ pub fn parse(text: &str) -> Result<Vec<Measurement>, InputError> {
     })?;
     // The rows are in the order the poses were visited (the format's contract).
     visiting_order(&mut out);
-    Ok(out)
+    Ok(lines
+        .into_iter()
+        .zip(out)
+        .map(|(line, measurement)| ListedMeasurement { line, measurement })
+        .collect())
 }
 
 /// Writes a measurement file atomically, with exactly the contract's header.

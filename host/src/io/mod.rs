@@ -63,6 +63,52 @@ pub(crate) fn read_text(path: &Path) -> Result<String, Error> {
     text_of(bytes).map_err(|e| e.in_file(path))
 }
 
+/// `text` with every line ended by `\n`: a `\r\n` (Windows) and a lone
+/// `\r` (old Mac) become `\n`.
+///
+/// The `csv` crate ends a record at either, but counts lines by `\n` only,
+/// and only once it reads on: before this, a CRLF file's errors named the
+/// line above the one at fault. CSV readers call it first, so that the same
+/// file with either line ends names the same lines.
+pub(crate) fn lf_line_ends(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.contains('\r') {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    std::borrow::Cow::Owned(text.replace("\r\n", "\n").replace('\r', "\n"))
+}
+
+/// The line a CSV record starts on, 1-based (0 if unknown).
+///
+/// The `csv` crate places a record where it began reading it: before the
+/// empty lines (and the `comment` lines, when the reader has a comment
+/// character) it skipped on the way, which its line count then names
+/// instead of the record's own line. `text` has `\n` line ends
+/// ([`lf_line_ends`]) and no byte order mark, so the position's byte is the
+/// start of a line of `text`.
+pub(crate) fn record_line(
+    text: &str,
+    position: Option<&csv::Position>,
+    comment: Option<u8>,
+) -> u64 {
+    let Some(position) = position else {
+        return 0;
+    };
+    let bytes = text.as_bytes();
+    let mut at = usize::try_from(position.byte()).unwrap_or(usize::MAX);
+    let mut line = position.line();
+    loop {
+        match bytes.get(at) {
+            Some(b'\n') => at += 1,
+            Some(&b) if Some(b) == comment => match bytes[at..].iter().position(|&b| b == b'\n') {
+                Some(end) => at += end + 1,
+                None => return line,
+            },
+            _ => return line,
+        }
+        line += 1;
+    }
+}
+
 /// The UTF-8 byte order mark.
 const BOM: &[u8] = "\u{feff}".as_bytes();
 

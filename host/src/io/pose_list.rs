@@ -14,6 +14,7 @@ use model::Arm;
 use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg};
+use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
 
 /// The columns of a pose list, in the order they are written (`load_kg` only if any row has one).
@@ -76,7 +77,9 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
         let q = row.joint_angles_rad()?;
         // A measurement file of several targets lists each pose once per
         // target: as a pose list it is its poses, each once.
-        let target = row.text("target").and_then(|t| TargetName::from(t).ok());
+        let target = row
+            .ignored_text(TARGET_COLUMN)
+            .and_then(|t| TargetName::from(t).ok());
         book.record(row, id, &q, load_kg, target)?;
         if target.is_some() && !listed.insert((id, load_kg.map(f64::to_bits))) {
             return Ok(());
@@ -153,15 +156,19 @@ pub fn check_within_limits(
     }
 }
 
-/// [`check_within_limits`] for any CSV file with the pose columns (a pose
-/// list, a measurement file): what a command that reads its poses in
-/// another form calls to check them.
-pub fn check_file_within_limits(
-    arm: &Arm<f64>,
-    path: &Path,
-    allow: bool,
-) -> Result<Option<String>, Error> {
-    check_within_limits(arm, path, &read_listed(path)?, allow)
+/// The rows of a measurement file as pose-list rows, one per measurement
+/// (every target's row, with its line), for [`check_within_limits`]: a
+/// command checks the measurements it has read, never the file again.
+pub fn of_measurements(rows: &[ListedMeasurement]) -> Vec<ListedPose> {
+    rows.iter()
+        .map(|l| ListedPose {
+            line: l.line,
+            row: PoseRow {
+                pose: l.measurement.pose,
+                load_kg: Some(l.measurement.load_kg),
+            },
+        })
+        .collect()
 }
 
 /// Writes a pose list atomically; the `load_kg` column is written when any row has a load.
@@ -281,7 +288,8 @@ mod tests {
              1,0,0,0,0,0,0,0,1,2,3\n2,0,0,0,0,0,0,200,1,2,3\n",
         )
         .unwrap();
-        let e = check_file_within_limits(&bundled_arm(), &path, false).unwrap_err();
+        let rows = of_measurements(&crate::io::measurements::read_listed(&path).unwrap());
+        let e = check_within_limits(&bundled_arm(), &path, &rows, false).unwrap_err();
         let msg = e.report();
         assert!(
             msg.contains("measured.csv")
@@ -289,5 +297,46 @@ mod tests {
                 && msg.contains("200°"),
             "{msg}"
         );
+    }
+
+    /// Several targets per pose: one row per (pose, load, target), sorted by
+    /// pose then target, as `docs/FORMATS.md` shows it.
+    const TARGETS: &str = "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm,target\n\
+                           0,0,0,0,0,0,0,0,1,2,3,T1\n\
+                           0,0,0,0,0,0,0,0,4,5,6,T2\n\
+                           1,0,0,0,0,0,0,200,1,2,3,T1\n\
+                           1,0,0,0,0,0,0,200,4,5,6,T2\n";
+
+    #[test]
+    fn a_measurement_file_of_several_targets_is_a_pose_list_of_its_poses() {
+        let rows = parse_listed(TARGETS).unwrap();
+        let listed: Vec<(u32, u64)> = rows.iter().map(|r| (r.row.pose.id, r.line)).collect();
+        assert_eq!(listed, [(0, 2), (1, 4)]);
+        // The same pose under one target twice is still refused.
+        let twice = TARGETS.replace(",T2\n1,", ",T1\n1,");
+        let e = parse(&twice).unwrap_err().to_string();
+        assert!(
+            e.contains("line 3") && e.contains("already appears on line 2"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn measurements_of_several_targets_are_checked_row_by_row() {
+        let listed = crate::io::measurements::parse_listed(TARGETS).unwrap();
+        let rows = of_measurements(&listed);
+        assert_eq!(rows.len(), 4);
+        let path = Path::new("all.csv");
+        let e = check_within_limits(&bundled_arm(), path, &rows, false).unwrap_err();
+        assert!(
+            e.report()
+                .contains("`all.csv`: line 4, column `q6_deg`: pose 1: 200°"),
+            "{}",
+            e.report()
+        );
+        let warning = check_within_limits(&bundled_arm(), path, &rows, true)
+            .unwrap()
+            .unwrap();
+        assert!(warning.starts_with("2 of the 4 rows"), "{warning}");
     }
 }

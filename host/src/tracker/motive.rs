@@ -96,13 +96,16 @@ fn error(location: Location, problem: impl Into<String>) -> TakeError {
     }
 }
 
-fn line_of(record: &StringRecord) -> u64 {
-    record.position().map_or(0, |p| p.line())
+fn line_of(text: &str, record: &StringRecord) -> u64 {
+    crate::io::record_line(text, record.position(), None)
 }
 
 /// Reads the track of `asset` from Motive CSV text.
 pub fn parse(text: &str, asset: Asset<'_>) -> Result<Take, TakeError> {
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    // Lines counted alike whatever the line ends.
+    let text = crate::io::lf_line_ends(text);
+    let line_of = |record: &StringRecord| line_of(&text, record);
     let mut records = ReaderBuilder::new()
         .has_headers(false)
         .flexible(true)
@@ -389,6 +392,17 @@ Frame,Time (Seconds),X,Y,Z,W,X,Y,Z,,X,Y,Z\n";
             e.starts_with("line 9, column `Time (Seconds)`: expected times in increasing"),
             "{e}"
         );
+        // The same lines with Windows line ends, and with a blank line
+        // before the rows (the csv reader places a row after one on the
+        // line above).
+        let windows = text("0,0.1,0,0,0,1,1,2,3\n1,0.0,0,0,0,1,1,2,3\n").replace('\n', "\r\n");
+        let e = err(&windows, Asset::RigidBody("Tool"));
+        assert!(e.starts_with("line 9, column `Time (Seconds)`"), "{e}");
+        let e = err(
+            &text("0,0.0,0,0,0,1,1,2,3,0,1,2,3\n\n1,0.1,0,0,0,1,1,x,3,0,1,2,3\n"),
+            Asset::RigidBody("Tool"),
+        );
+        assert!(e.starts_with("line 10, column `Tool Position Y`"), "{e}");
         let e = err(&text(""), Asset::RigidBody("Tool"));
         assert!(e.contains("found none"), "{e}");
         let e = err("Frame,Time\n0,0\n", Asset::RigidBody("Tool"));
