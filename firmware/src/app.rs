@@ -369,9 +369,17 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 now.to_bits() != before.to_bits() && (now - before).abs() > SETTLED_RAD
             });
         self.wanted = wanted;
-        self.settling = settling || converging;
-        let fell_back = driven
-            && mode != CompensationMode::Off
+        let compensating = driven && mode != CompensationMode::Off;
+        // A solve that has not ended (falling back and retrying, or started
+        // afresh) may still move the servos although its command stands.
+        let solving = compensating
+            && done
+            && self
+                .active
+                .as_ref()
+                .is_some_and(|a| !a.compensator.settled());
+        self.settling = settling || converging || solving;
+        let fell_back = compensating
             && self
                 .active
                 .as_ref()

@@ -24,9 +24,15 @@
 //! six failures in a row while the targets move start the solve afresh.
 //! A frame whose inputs (targets, mode, payload) equal the last converged
 //! frame's reuses its answer: the model is deterministic, so a holding arm
-//! costs no solve at all. Holding still at a target the solve cannot reach
-//! (three steps in a row gain less than 10 %, or six fail), the solve ends too,
-//! on its best command, reported as not converged.
+//! costs no solve at all. Holding still at a target the solve does not reach
+//! (three steps in a row gain less than 10 %, or six fail), the solve starts
+//! afresh from the nominal targets once: a solve that followed a move can
+//! end where the pull towards the nominal shape and the position fight each
+//! other (steps that trade a little position for shape, rejected again and
+//! again), which one started at the nominal targets does not meet; the
+//! correction on the servos changes at its bounded rate meanwhile. If that
+//! one stalls too, the solve ends on its best command, reported as not
+//! converged.
 
 use model::{Chain, CompensationOptions, Evaluation, Slope};
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
@@ -90,6 +96,8 @@ pub struct Compensator {
     rejections: u32,
     /// Slow steps in a row while holding still.
     slow_steps: u32,
+    /// Whether the solve has started afresh since the targets last changed.
+    fresh_while_holding: bool,
     /// Steps since the current move started or the solve last started afresh.
     steps: u32,
     /// Inputs of the last frame that solved.
@@ -119,6 +127,7 @@ impl Compensator {
             next: None,
             rejections: 0,
             slow_steps: 0,
+            fresh_while_holding: false,
             steps: 0,
             last_inputs: None,
             settled: None,
@@ -138,6 +147,12 @@ impl Compensator {
         self.fell_back
     }
 
+    /// Whether the solve for the last frame's inputs has ended (converged,
+    /// or stalled for good): until then its commands may still change.
+    pub fn settled(&self) -> bool {
+        self.settled.is_some()
+    }
+
     /// A new move starts: `status` counts the solve's steps from here.
     pub fn start_move(&mut self) {
         self.steps = 0;
@@ -146,6 +161,7 @@ impl Compensator {
     /// Forgets the solve and the last correction (after a mode change or a detach).
     pub fn reset(&mut self) {
         self.restart();
+        self.fresh_while_holding = false;
         self.last_inputs = None;
         self.settled = None;
         self.last_correction = [0.0; CHANNELS];
@@ -220,6 +236,9 @@ impl Compensator {
         }
         self.settled = None;
         let holding = self.last_inputs == Some(inputs);
+        if !holding {
+            self.fresh_while_holding = false;
+        }
         self.last_inputs = Some(inputs);
         let Some(target) = self.target(q_nominal, mode, payload_kg) else {
             return self.fall_back(q_nominal);
@@ -261,8 +280,12 @@ impl Compensator {
                 self.fell_back = false;
                 let slow = holding && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
                 self.slow_steps = if slow { self.slow_steps + 1 } else { 0 };
-                if state.converged || self.slow_steps >= STALLED_STEPS {
+                let stalled = self.slow_steps >= STALLED_STEPS;
+                if state.converged || (stalled && self.fresh_while_holding) {
                     self.settled = Some((inputs, state.q));
+                } else if stalled {
+                    self.start_afresh_while_holding();
+                    return state.q;
                 }
                 // A rate only between two frames of a move: holding, the
                 // correction changes by the solve's own steps.
@@ -287,8 +310,10 @@ impl Compensator {
                 }
                 let command = self.fall_back(q_nominal);
                 if self.rejections == MAX_REJECTIONS {
-                    if holding {
+                    if holding && self.fresh_while_holding {
                         self.settled = Some((inputs, command));
+                    } else if holding {
+                        self.start_afresh_while_holding();
                     } else {
                         // Lost while the targets move: start afresh from them.
                         self.restart();
@@ -297,6 +322,13 @@ impl Compensator {
                 command
             }
         }
+    }
+
+    /// Holding still, the solve starts afresh from the nominal targets, once
+    /// per target (module docs).
+    fn start_afresh_while_holding(&mut self) {
+        self.restart();
+        self.fresh_while_holding = true;
     }
 
     /// Forgets the solve: the next frame starts from the nominal targets.

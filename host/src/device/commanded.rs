@@ -8,6 +8,11 @@
 //! board can command without clamping or falling back.
 
 use model::{Chain, CompensationOptions, JOINTS};
+
+/// The share of a joint's largest correction a pose may use: the board's
+/// solve, one step per servo frame while the targets move, passes through
+/// states beyond the final one, and a state beyond the bound is not sent.
+pub const HEADROOM: f64 = 0.8;
 use protocol::{Calibration, CompensationMode};
 
 /// A board's calibration as its compensation sees it, in f64.
@@ -19,7 +24,7 @@ pub struct Commanded {
     limits: [[f64; 2]; JOINTS],
     /// Half of each joint's play: the board's offset in the way of motion, rad.
     half_play: [f64; JOINTS],
-    /// The calibration's largest corrections, cut to the board's cap, rad.
+    /// The calibration's largest corrections, cut to the board's cap, times [`HEADROOM`], rad.
     max_correction: [f64; JOINTS],
     mode: CompensationMode,
     payload_kg: f64,
@@ -42,7 +47,7 @@ pub enum Refusal {
         /// The range, rad.
         range_rad: [f64; 2],
     },
-    /// A joint's correction is beyond the calibration's largest.
+    /// A joint's correction is beyond the calibration's largest (less the headroom).
     TooLarge {
         /// The joint, 1-based.
         joint: usize,
@@ -80,7 +85,7 @@ impl std::fmt::Display for Refusal {
             } => write!(
                 f,
                 "the compensation would correct joint {joint} by {:.1}°, more than the \
-                 calibration's largest correction of {:.1}°",
+                 {:.1}° the calibration's largest correction leaves for a target",
                 correction_rad.to_degrees(),
                 max_rad.to_degrees()
             ),
@@ -108,7 +113,7 @@ impl Commanded {
                 .map(|j| 0.5 * f64::from(j.backlash)),
             max_correction: calibration
                 .max_correction_rad
-                .map(|m| f64::from(m.min(config.max_correction_rad))),
+                .map(|m| HEADROOM * f64::from(m.min(config.max_correction_rad))),
             mode,
             payload_kg,
         }

@@ -70,7 +70,12 @@ pub fn problem(violation: &Violation<f64>, bounds: &Bounds<f64>, rated_kg: f64) 
         Quantity::Backlash { .. } => (
             "a backlash width",
             "rad",
-            "no play is narrower than none, nor wider than the board compensates".to_string(),
+            format!(
+                "up to {:.0}°: no play is narrower than none, nor wider than the board \
+                 compensates; found {:.2}°",
+                model::bounds::MAX_BACKLASH_RAD.to_degrees(),
+                violation.value.to_degrees()
+            ),
         ),
     };
     Problem::OutsideBound {

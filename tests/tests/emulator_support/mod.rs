@@ -368,6 +368,7 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
         home_rad: [0.0; model::JOINTS],
+        max_correction_rad: host::device::calibration::max_corrections(&nominal, &calibrated),
     };
     calibration.check().expect("the test calibration is valid");
     calibration
