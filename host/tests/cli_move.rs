@@ -202,3 +202,74 @@ fn help_explains_cartesian_targets() {
         assert!(help.contains(needle), "`{needle}` missing from\n{help}");
     }
 }
+
+/// With `--calibration`, only poses the board holding it can command are
+/// sent: a calibration whose shoulder's zero is 10° off cannot command the
+/// nominal arm's nearest pose with the shoulder at its lower limit, so
+/// another is found, and the compensated commands stay within the limits; a
+/// point only such poses reach is refused naming the compensation.
+#[test]
+fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits() {
+    use host::device::commanded::Commanded;
+    use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+
+    let mut nominal = arm_source::bundled("lrm").unwrap().arm;
+    // The shoulder may not lean back past upright.
+    nominal.joints[1].limits[0] = 0.0;
+    let mut calibrated = nominal;
+    calibrated.joints[1].theta += 10f64.to_radians();
+    let file = CalibrationFile {
+        schema: SCHEMA.into(),
+        schema_version: SCHEMA_VERSION,
+        option: protocol::ModelOption::Kinematic,
+        nominal,
+        arm: calibrated,
+        parameters: vec![],
+        at_bound: vec![],
+        removed: vec![],
+        poses_used: vec![],
+        loads_kg: vec![0.0],
+        fit_residual: ErrorStats::of(&[]),
+        validation: None,
+        targets: vec![],
+        registration: None,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cal.json");
+    std::fs::write(&path, file.to_json()).unwrap();
+    let cal = path.to_str().unwrap();
+    // The upright shoulder's point: nominally at the shoulder's lower limit.
+    let pose = [0.0, 0.0, 40.0, 0.0, 30.0, 0.0];
+    let xyz = tool_point_mm(pose);
+    let plain = dry_run(&xyz, &[]);
+    assert!(plain.status.success(), "{}", stderr(&plain));
+    let with = dry_run(&xyz, &["--calibration", cal]);
+    assert!(with.status.success(), "{}", stderr(&with));
+    let q_deg = numbers_after(&stdout(&with), "joint targets, deg: ");
+    let q: [f64; JOINTS] = std::array::from_fn(|i| q_deg[i].to_radians());
+    let payload = host::device::calibration::payload(&file, [0.0; JOINTS]).unwrap();
+    let board = Commanded::new(&payload, protocol::CompensationMode::Full, 0.0);
+    let command = board.command(&q).expect("a pose the board can command");
+    assert!(command[1] >= 0.0, "{command:?}");
+    assert!(
+        (nominal.chain().rigid_tool_point(&q) * 1e3
+            - nalgebra::Vector3::from(xyz.clone().map(|c| c.parse::<f64>().unwrap())))
+        .norm()
+            < 1e-2,
+        "the printed angles (to 1e-4°) put the tool on the target"
+    );
+    // Without the calibration the nearest pose keeps the shoulder near
+    // upright, where the board holding it would have to command it below its limit.
+    let plain_q = numbers_after(&stdout(&plain), "joint targets, deg: ");
+    let plain_q: [f64; JOINTS] = std::array::from_fn(|i| plain_q[i].to_radians());
+    let refusal = board.command(&plain_q).unwrap_err().to_string();
+    assert!(refusal.contains("joint 2"), "{refusal}");
+    // Straight up only the upright shoulder reaches: refused, before anything moves.
+    let top = dry_run(&tool_point_mm([0.0; JOINTS]), &["--calibration", cal]);
+    assert_eq!(top.status.code(), Some(3), "{}", stdout(&top));
+    let message = stderr(&top);
+    assert!(
+        message.contains("can be commanded") && message.contains("joint 2"),
+        "{message}"
+    );
+}

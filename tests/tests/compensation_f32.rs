@@ -69,9 +69,13 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
             let solved = calibrated64.compensate(&q64, &target, payload.into(), None, &reference);
             let within = |c: &model::Compensation<f64>| {
                 c.converged
-                    && c.q.iter().zip(&q64).zip(&cal.max_correction_rad).all(|((a, b), m)| {
-                        (a - b).abs() <= f64::from(m.min(config.max_correction_rad))
-                    })
+                    && c.q
+                        .iter()
+                        .zip(&q64)
+                        .zip(&cal.max_correction_rad)
+                        .all(|((a, b), m)| {
+                            (a - b).abs() <= f64::from(m.min(config.max_correction_rad))
+                        })
             };
             if !solved.is_ok_and(|c| within(&c)) {
                 skipped += 1;

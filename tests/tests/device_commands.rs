@@ -172,6 +172,8 @@ fn device_commands_drive_a_board_on_a_socket() {
         dry_run: false,
         from_deg: None,
         arm: None,
+        calibration: None,
+        load_kg: 0.0,
         ground_z_mm: 0.0,
         no_ground: false,
         clearance_mm: 10.0,
@@ -509,7 +511,6 @@ fn push_refuses_a_play_wider_than_a_few_degrees_naming_the_joint() {
 fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
     use clap::Parser;
     use host::ik::{IkOptions, solve_position};
-    use model::Arm;
 
     let board = SocketBoard::start();
     let run = |xyz_m: [f64; 3]| {
@@ -540,13 +541,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
             .nominal_rad
     };
     // What the board accepts, as `move --xyz` must find it.
-    let within_board = |arm: &Arm<f64>, calibration: Option<&protocol::Calibration>| {
-        let mut arm = *arm;
-        for (j, [lo, hi]) in arm.joints.iter_mut().zip(move_::board_limits(calibration)) {
-            j.limits = [j.limits[0].max(lo.into()), j.limits[1].min(hi.into())];
-        }
-        arm
-    };
+    let within_board = move_::within_board;
 
     // No calibration: the bundled arm. From base yaw 95°, the target of base
     // yaw 103° is nearest at 103°, within the arm's ±105° but beyond the

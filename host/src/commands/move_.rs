@@ -6,21 +6,15 @@ use std::time::Duration;
 
 use model::{Arm, JOINTS};
 use nalgebra::Vector3;
-use protocol::{Calibration, Timing};
+use protocol::{Calibration, CompensationMode, Timing};
 
-use crate::device::{Client, DeviceArgs, Link};
+use crate::device::commanded::Commanded;
+use crate::device::{Client, DeviceArgs, Link, calibration};
 use crate::error::Error;
 use crate::ik::{self, IkOptions, IkSolution};
 use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
+use crate::io::calibration_file::CalibrationFile;
 use crate::plan::PlanConfig;
-
-/// The joint range a board without a calibration accepts, rad (the
-/// firmware's `Config::default().default_limits_rad`).
-pub const BOARD_DEFAULT_LIMITS_RAD: [f32; 2] = [-100f32.to_radians(), 100f32.to_radians()];
-
-/// The joint range a board accepts whatever its calibration says, rad (the
-/// firmware's `Config::default().hard_limits_rad`).
-pub const BOARD_HARD_LIMITS_RAD: [f32; 2] = [-150f32.to_radians(), 150f32.to_radians()];
 
 /// Move every joint to a nominal angle (degrees), all arriving together, or
 /// the tool point to a position (--xyz).
@@ -41,11 +35,16 @@ arm's inverse kinematics for the tool point: of all the joint angles that put it
 (a 6-joint arm has a three-dimensional family of them) it takes the one nearest the board's \
 current pose in joint space, within the joint limits the board enforces and clear of the \
 ground and of itself (the bodies and clearance of `lrmcal plan`), prints it and sends it as \
-an ordinary move; the board compensates it like any other. The nominal arm is the one of the \
-calibration on the board, or --arm when the board has none. A target out of reach, reachable \
-only beyond the joint limits, or only by colliding poses is refused with the distance, joints \
-or bodies at fault (exit code 3), before anything moves.\n\n\
---dry-run solves and prints without a board, from --from-deg (default all 0) on --arm."
+an ordinary move; the board compensates it like any other. With a calibration on the board, \
+only solutions whose compensated commands the board can send are taken: every joint within \
+its range (with half its play either way) and within four fifths of the calibration's largest \
+correction for it (worked out on the host with the board's compensation mode and payload). \
+The nominal arm is the one of the calibration on the board, or --arm when the board has none. \
+A target out of reach, reachable only beyond the joint limits, only by colliding poses or only \
+by poses the board's compensation cannot command is refused with the distance, joints or \
+bodies at fault (exit code 3), before anything moves.\n\n\
+--dry-run solves and prints without a board, from --from-deg (default all 0) on --arm, or on the \
+nominal arm of --calibration, whose compensation (full, with --load-kg) it then keeps to."
 )]
 pub struct Args {
     /// Six joint angles, degrees, base to tip.
@@ -83,8 +82,25 @@ pub struct Args {
     /// The nominal arm --xyz solves: a bundled arm's name or an arm
     /// description `.toml` file [default: the nominal arm of the board's
     /// calibration, else the bundled `lrm`].
-    #[arg(long, value_name = "NAME|FILE", requires = "xyz")]
+    #[arg(
+        long,
+        value_name = "NAME|FILE",
+        requires = "xyz",
+        conflicts_with = "calibration"
+    )]
     pub arm: Option<ArmSource>,
+    /// With --dry-run: solve as a board holding this calibration would be
+    /// sent (its nominal arm, its compensation's limits).
+    #[arg(long, value_name = "FILE", requires = "dry_run")]
+    pub calibration: Option<std::path::PathBuf>,
+    /// With --dry-run and --calibration: the payload the board compensates for, kg.
+    #[arg(
+        long,
+        value_name = "KG",
+        default_value_t = 0.0,
+        requires = "calibration"
+    )]
+    pub load_kg: f64,
     /// Height of the ground plane for --xyz, mm, world frame.
     #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::plan::finite)]
     pub ground_z_mm: f64,
@@ -125,20 +141,28 @@ pub fn timing(duration_ms: Option<u32>, speed_deg_s: Option<f64>) -> Timing {
 }
 
 /// The joint ranges a board accepts move targets in, rad: its calibration's
-/// limits cut to the hard range, or the default range without one (as the
-/// firmware decides them).
+/// limits cut to the hard range, or the default range without one, as the
+/// firmware decides them (its own function and configuration).
 pub fn board_limits(calibration: Option<&Calibration>) -> [[f32; 2]; JOINTS] {
-    std::array::from_fn(|i| match calibration {
-        Some(c) => {
-            let [lo, hi] = c.calibrated.joints[i].limits;
-            let [lo, hi] = [
-                lo.max(BOARD_HARD_LIMITS_RAD[0]),
-                hi.min(BOARD_HARD_LIMITS_RAD[1]),
-            ];
-            if lo <= hi { [lo, hi] } else { [hi, hi] }
-        }
-        None => BOARD_DEFAULT_LIMITS_RAD,
-    })
+    let config = firmware::Config::default();
+    firmware::servo::joint_limits(
+        calibration.map(|c| &c.calibrated),
+        config.hard_limits_rad,
+        config.default_limits_rad,
+    )
+}
+
+/// `arm` with its joint limits cut to the ranges the board accepts targets
+/// in (`calibration`'s, or a board's without one).
+pub fn within_board(arm: &Arm<f64>, calibration: Option<&Calibration>) -> Arm<f64> {
+    let mut arm = *arm;
+    for (joint, [lo, hi]) in arm.joints.iter_mut().zip(board_limits(calibration)) {
+        joint.limits = [
+            joint.limits[0].max(f64::from(lo)),
+            joint.limits[1].min(f64::from(hi)),
+        ];
+    }
+    arm
 }
 
 /// Runs `lrmcal move`.
@@ -158,12 +182,30 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
 /// `lrmcal move --xyz … --dry-run`: solve from --from-deg on --arm and print.
 fn dry_run(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
-    let (arm, origin) = nominal_arm(args.arm.as_ref())?;
     let start = match &args.from_deg {
         Some(deg) => numbers::<JOINTS>(deg, "--from-deg")?.map(f64::to_radians),
         None => [0.0; JOINTS],
     };
-    let solution = solve(args, &arm, target_mm, &start)?;
+    let solution = match &args.calibration {
+        Some(path) => {
+            let file = CalibrationFile::read(path)?;
+            let payload =
+                calibration::payload(&file, [0.0; JOINTS]).map_err(|fault| Error::DeviceInput {
+                    what: format!("use `{}` for --xyz", path.display()),
+                    reason: calibration::explain(fault, &file.arm),
+                })?;
+            let board = Commanded::new(&payload, CompensationMode::Full, args.load_kg);
+            let arm = within_board(&payload.nominal.map(f64::from), Some(&payload));
+            let origin = format!("nominal arm of `{}`", path.display());
+            let solution = solve(args, &arm, target_mm, &start, Some(&board))?;
+            (solution, origin)
+        }
+        None => {
+            let (arm, origin) = nominal_arm(args.arm.as_ref())?;
+            (solve(args, &arm, target_mm, &start, None)?, origin)
+        }
+    };
+    let (solution, origin) = solution;
     print!(
         "{}",
         report(&origin, "--from-deg", &start, target_mm, &solution)
@@ -180,7 +222,10 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
         Some(_) => Some(client.pull_calibration()?),
         None => None,
     };
-    let (mut arm, origin) = match &calibration {
+    let board_model = calibration
+        .as_ref()
+        .map(|c| Commanded::new(c, status.mode, f64::from(status.payload_kg)));
+    let (arm, origin) = match &calibration {
         Some(c) => {
             if let Some(source) = &args.arm {
                 eprintln!(
@@ -197,18 +242,9 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
         None => nominal_arm(args.arm.as_ref())?,
     };
     // The board refuses targets outside its ranges: keep the solution inside.
-    for (joint, [lo, hi]) in arm
-        .joints
-        .iter_mut()
-        .zip(board_limits(calibration.as_ref()))
-    {
-        joint.limits = [
-            joint.limits[0].max(f64::from(lo)),
-            joint.limits[1].min(f64::from(hi)),
-        ];
-    }
+    let arm = within_board(&arm, calibration.as_ref());
     let start = status.nominal_rad.map(f64::from);
-    let solution = solve(args, &arm, target_mm, &start)?;
+    let solution = solve(args, &arm, target_mm, &start, board_model.as_ref())?;
     print!(
         "{}",
         report(&origin, "the board's pose", &start, target_mm, &solution)
@@ -217,12 +253,14 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
     send(&mut client, solution.q.map(|q| q as f32), args)
 }
 
-/// Solves the target with the collision settings of the command line.
+/// Solves the target with the collision settings of the command line, among
+/// the poses `board` (the board's calibration, if it has one) can command.
 fn solve(
     args: &Args,
     arm: &Arm<f64>,
     target_mm: [f64; 3],
     start: &[f64; JOINTS],
+    board: Option<&Commanded>,
 ) -> Result<IkSolution, Error> {
     let options = IkOptions {
         collisions: Some(PlanConfig {
@@ -232,8 +270,18 @@ fn solve(
         }),
         ..IkOptions::default()
     };
-    ik::solve_position(arm, &(Vector3::from(target_mm) * 1e-3), start, &options)
-        .map_err(|source| Error::Ik { target_mm, source })
+    let admit = |q: &[f64; JOINTS]| match board {
+        Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
+        None => Ok(()),
+    };
+    ik::solve_position_admitted(
+        arm,
+        &(Vector3::from(target_mm) * 1e-3),
+        start,
+        &options,
+        &admit,
+    )
+    .map_err(|source| Error::Ik { target_mm, source })
 }
 
 /// Sends the targets and, unless --no-wait, waits until the arm stands still.
