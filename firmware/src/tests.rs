@@ -707,6 +707,47 @@ fn compensation_runs_every_frame_and_reports() {
     );
 }
 
+/// `status` counts the compensation's solver steps from the start of the
+/// current move, not since boot: after a long move and a short one, it
+/// shows the short one's steps.
+#[test]
+fn the_solver_steps_in_status_count_from_the_start_of_the_move() {
+    let mut h = Harness::boot(SimFlash::new());
+    h.push(&test_calibration(5));
+    h.request(&Request::SetPayload { mass_kg: 0.0663 });
+    h.request(&Request::Home {
+        timing: Timing::DurationMs(0),
+    });
+    h.frames(60);
+    h.request(&Request::SetCompensation {
+        mode: CompensationMode::Full,
+    });
+    h.frames(30);
+    // A long move: a step every frame while the targets move.
+    h.move_to([0.6, 0.8, -0.6, 0.4, 0.9, 0.2]);
+    let mut frames = 0;
+    while h.status().moving {
+        h.frames(1);
+        frames += 1;
+    }
+    let long = h.status().compensation;
+    assert!(long.converged && usize::from(long.iterations) >= frames / 2, "{long:?}, {frames} frames");
+    // A short one after it.
+    h.move_to([0.6, 0.8, -0.58, 0.4, 0.9, 0.2]);
+    let mut short_frames = 0;
+    while h.status().moving {
+        h.frames(1);
+        short_frames += 1;
+    }
+    let short = h.status().compensation;
+    assert!(short.converged, "{short:?}");
+    assert!(
+        usize::from(short.iterations) <= short_frames,
+        "{short:?} after {short_frames} frames (the long move took {} steps)",
+        long.iterations
+    );
+}
+
 #[test]
 fn switching_compensation_fades_the_correction_in_and_out() {
     let mut h = Harness::boot(SimFlash::new());

@@ -139,6 +139,131 @@ fn select_identify_validate_round_trip() {
     }
 }
 
+/// From poses that determine the paper's options but not ours (the grid
+/// alone, 15 poses: 45 coordinates for ours' 45 parameters and the base's
+/// place), `--option all` fits the paper's three and says why ours is not
+/// fitted, instead of fitting none.
+#[test]
+fn option_all_on_the_grid_fits_the_papers_options_and_says_why_not_ours() {
+    let dir = tempfile::tempdir().unwrap();
+    let cand = dir.path().join("grid.csv");
+    let meas = dir.path().join("m.csv");
+    let sel = dir.path().join("sel.csv");
+    assert!(
+        lrmcal(&["plan", "--random", "0", "--out", p(&cand)])
+            .status
+            .success()
+    );
+    let out = lrmcal(&[
+        "simulate",
+        "--poses",
+        p(&cand),
+        "--loads",
+        "0.0663",
+        "--out",
+        p(&meas),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let out = lrmcal(&[
+        "select",
+        "--candidates",
+        p(&cand),
+        "--option",
+        "elasto-kinematic",
+        "--n",
+        "15",
+        "--out",
+        p(&sel),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let cal = dir.path().join("cal");
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&meas),
+        "--poses",
+        p(&sel),
+        "--option",
+        "all",
+        "--out",
+        p(&cal),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    for option in ["kinematic", "elastic", "elasto-kinematic"] {
+        let file = cal.join(format!("calibration-{option}.json"));
+        assert!(CalibrationFile::read(&file).is_ok(), "{option}: {}", text(&out));
+    }
+    assert!(!cal.join("calibration-elasto-kinematic-servo.json").exists());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("elasto-kinematic-servo: not fitted: ") && stderr.contains("15 poses"),
+        "{stderr}"
+    );
+    // Asked for alone, ours is refused as before: exit code 3.
+    let alone = lrmcal(&[
+        "identify",
+        "--measurements",
+        p(&meas),
+        "--poses",
+        p(&sel),
+        "--out",
+        p(&cal),
+    ]);
+    assert_eq!(alone.status.code(), Some(3), "{}", text(&alone));
+}
+
+/// `validate` judges each measurement against the calibration: one far off
+/// (200 mm) is a validation outlier, not a refusal of the file; a file most
+/// of whose measurements are far off (here, in metres) is refused, with the
+/// hint.
+#[test]
+fn validate_names_a_far_measurement_and_refuses_a_file_in_the_wrong_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, meas) = simulated(dir.path());
+    let cal = dir.path().join("cal");
+    let out = lrmcal(&[
+        "identify",
+        "--measurements",
+        &meas,
+        "--load-kg",
+        "0.0663",
+        "--option",
+        "elasto-kinematic",
+        "--out",
+        p(&cal),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let file = cal.join("calibration-elasto-kinematic.json");
+    let mut rows = measurements::read(Path::new(&meas)).unwrap();
+    rows[7].position.x += 0.2;
+    let far = rows[7];
+    let moved = dir.path().join("far.csv");
+    measurements::write(&moved, &rows).unwrap();
+    let out = lrmcal(&["validate", "--calibration", p(&file), "--measurements", p(&moved)]);
+    assert!(out.status.success(), "{}", text(&out));
+    assert!(
+        text(&out).contains(&format!(
+            "validation outlier: pose {} ({} kg), error 2",
+            far.pose.id, far.load_kg
+        )),
+        "{}",
+        text(&out)
+    );
+    for m in &mut rows {
+        m.position /= 1000.0;
+    }
+    let metres = dir.path().join("metres.csv");
+    measurements::write(&metres, &rows).unwrap();
+    let out = lrmcal(&["validate", "--calibration", p(&file), "--measurements", p(&metres)]);
+    assert_eq!(out.status.code(), Some(3), "{}", text(&out));
+    let message = text(&out);
+    assert!(
+        message.contains("from where the calibrated arm puts its target")
+            && message.contains("look like metres"),
+        "{message}"
+    );
+}
+
 #[test]
 fn bad_inputs_are_named() {
     let dir = tempfile::tempdir().unwrap();
