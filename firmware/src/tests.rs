@@ -731,7 +731,10 @@ fn the_solver_steps_in_status_count_from_the_start_of_the_move() {
         frames += 1;
     }
     let long = h.status().compensation;
-    assert!(long.converged && usize::from(long.iterations) >= frames / 2, "{long:?}, {frames} frames");
+    assert!(
+        long.converged && usize::from(long.iterations) >= frames / 2,
+        "{long:?}, {frames} frames"
+    );
     // A short one after it.
     h.move_to([0.6, 0.8, -0.58, 0.4, 0.9, 0.2]);
     let mut short_frames = 0;

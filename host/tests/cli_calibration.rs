@@ -191,7 +191,11 @@ fn option_all_on_the_grid_fits_the_papers_options_and_says_why_not_ours() {
     assert!(out.status.success(), "{}", text(&out));
     for option in ["kinematic", "elastic", "elasto-kinematic"] {
         let file = cal.join(format!("calibration-{option}.json"));
-        assert!(CalibrationFile::read(&file).is_ok(), "{option}: {}", text(&out));
+        assert!(
+            CalibrationFile::read(&file).is_ok(),
+            "{option}: {}",
+            text(&out)
+        );
     }
     assert!(!cal.join("calibration-elasto-kinematic-servo.json").exists());
     let stderr = String::from_utf8_lossy(&out.stderr);
@@ -239,7 +243,13 @@ fn validate_names_a_far_measurement_and_refuses_a_file_in_the_wrong_unit() {
     let far = rows[7];
     let moved = dir.path().join("far.csv");
     measurements::write(&moved, &rows).unwrap();
-    let out = lrmcal(&["validate", "--calibration", p(&file), "--measurements", p(&moved)]);
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        p(&moved),
+    ]);
     assert!(out.status.success(), "{}", text(&out));
     assert!(
         text(&out).contains(&format!(
@@ -254,7 +264,13 @@ fn validate_names_a_far_measurement_and_refuses_a_file_in_the_wrong_unit() {
     }
     let metres = dir.path().join("metres.csv");
     measurements::write(&metres, &rows).unwrap();
-    let out = lrmcal(&["validate", "--calibration", p(&file), "--measurements", p(&metres)]);
+    let out = lrmcal(&[
+        "validate",
+        "--calibration",
+        p(&file),
+        "--measurements",
+        p(&metres),
+    ]);
     assert_eq!(out.status.code(), Some(3), "{}", text(&out));
     let message = text(&out);
     assert!(
