@@ -487,15 +487,19 @@ fn a_spring_that_stiffens_too_fast_is_refused_whole() {
         .joints
         .iter_mut()
         .for_each(|j| j.softening = 0.3);
-    let Response::CalibrationStored(first) = h.push(&soft) else {
-        panic!("a softening calibration is valid")
-    };
+    assert!(
+        matches!(h.push(&soft), Response::CalibrationStored(_)),
+        "a softening calibration is valid"
+    );
     let floor = model::bounds::Bounds::of(&soft.nominal)
         .range(model::bounds::Quantity::Softening { spring: 2 })
         .min;
     let mut stiff = test_calibration(3);
     stiff.calibrated.joints[1].softening = 0.99 * floor;
-    assert!(matches!(h.push(&stiff), Response::CalibrationStored(_)));
+    assert!(
+        matches!(h.push(&stiff), Response::CalibrationStored(_)),
+        "a spring that stiffens, just above its floor, is valid"
+    );
     let Response::CalibrationStored(first) = h.push(&soft) else {
         panic!("a softening calibration is valid")
     };

@@ -353,23 +353,6 @@ pub enum Problem {
         /// The value found.
         found: String,
     },
-    /// A compliance, softening or play outside its physical range
-    /// (`model::bounds`, worked out from the nominal arm).
-    #[error("expected {what} within [{min}, {max}] {unit} ({why}), found {found}")]
-    OutsideBound {
-        /// The quantity in words.
-        what: &'static str,
-        /// Smallest value allowed.
-        min: String,
-        /// Largest value allowed.
-        max: String,
-        /// Unit of the range.
-        unit: &'static str,
-        /// Why the range is what it is.
-        why: String,
-        /// The value found.
-        found: String,
-    },
     /// A value that is well-formed but does not fit the rest of the file
     /// (a body name that names no body, a body that spans a joint).
     #[error("{message}")]

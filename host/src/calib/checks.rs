@@ -4,6 +4,8 @@
 
 use model::Arm;
 
+use std::cmp::Ordering;
+
 use nalgebra::Vector3;
 
 use super::targets::tool_points;
@@ -42,7 +44,10 @@ pub fn check_plausible_calibrated(
     let far: Vec<(&Measurement, &Vector3<f64>)> = measurements
         .iter()
         .zip(&predicted)
-        .filter(|(m, p)| !((m.position - *p).norm() <= IMPLAUSIBLE_M))
+        // A non-finite position is far too.
+        .filter(|(m, p)| {
+            (m.position - *p).norm().partial_cmp(&IMPLAUSIBLE_M) != Some(Ordering::Less)
+        })
         .collect();
     if 2 * far.len() <= measurements.len() {
         return Ok(());

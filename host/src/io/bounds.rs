@@ -78,13 +78,13 @@ pub fn problem(violation: &Violation<f64>, bounds: &Bounds<f64>, rated_kg: f64) 
             ),
         ),
     };
-    Problem::OutsideBound {
-        what,
-        min: end(range.min),
-        max: end(range.max),
-        unit,
-        why,
-        found: violation.value.to_string(),
+    Problem::Invalid {
+        message: format!(
+            "expected {what} within [{}, {}] {unit} ({why}), found {}",
+            end(range.min),
+            end(range.max),
+            violation.value
+        ),
     }
 }
 
