@@ -3,6 +3,8 @@
 
 use std::path::PathBuf;
 
+use crate::calib::Sample;
+use crate::calib::export::rig_of;
 use crate::commands::helpers::write_text;
 use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
@@ -267,7 +269,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             .iter()
             .filter(|m| m.load_kg == *load_kg)
             .collect();
-        let mean_mm = mean_nominal_error_m(&arm.arm, &rows)? * 1e3;
+        let mean_mm = mean_model_error_m(&arm, &rows)? * 1e3;
         eprintln!(
             "  load {load_kg} kg: mean distance nominal model -> measurement {mean_mm:.2} mm over {} poses",
             rows.len()
@@ -320,19 +322,16 @@ fn passes(args: &Args, arm: &LoadedArm) -> Result<Vec<(f64, Vec<Pose>)>, Error> 
     }
 }
 
-/// Mean distance between the nominal model's prediction and the rows, m.
-fn mean_nominal_error_m(arm: &model::Arm<f64>, rows: &[&Measurement]) -> Result<f64, Error> {
-    let chain = arm.chain();
-    let mut sum = 0.0;
-    for m in rows {
-        let predicted = chain
-            .tool_point(&m.pose.q, m.load_kg, &model::SolverOptions::default())
-            .map_err(|reason| Error::Model {
-                pose: m.pose.id,
-                load_kg: m.load_kg,
-                reason,
-            })?;
-        sum += (predicted - m.position).norm();
-    }
+/// Mean distance between what the arm's model predicts for the rows (the
+/// one evaluation of a calibration, `Rig::evaluate`: a calibration file's
+/// servo curves and play included) and the rows, m.
+fn mean_model_error_m(arm: &LoadedArm, rows: &[&Measurement]) -> Result<f64, Error> {
+    let samples: Vec<Sample> = rows.iter().map(|m| Sample::from(*m)).collect();
+    let predicted = rig_of(arm).tool_points(&samples)?;
+    let sum: f64 = predicted
+        .iter()
+        .zip(rows)
+        .map(|(p, m)| (p - m.position).norm())
+        .sum();
     Ok(sum / rows.len().max(1) as f64)
 }
