@@ -1,4 +1,4 @@
-//! How fast the calibration engine is on the large pools issue 15 asks for,
+//! How fast the calibration engine is on large candidate pools,
 //! in plain figures (each the median of a few runs, wall clock, on every
 //! core the machine has):
 //!

@@ -1,5 +1,5 @@
 //! `lrmcal select`, `identify`, `validate` and `demo` run as a user runs them,
-//! and the bad inputs of issue 3: each a clear error naming the problem.
+//! and bad inputs: each a clear error naming the problem.
 
 mod common;
 

@@ -1,4 +1,4 @@
-//! Issue 14 items 1 and 2 on the bundled arm and the simulator: measurements
+//! Registration and the refreshed rank analysis on the bundled arm and the simulator: measurements
 //! seen from arbitrary tracker frames calibrate as well as in the arm's own
 //! frame; tool points anywhere near the last joint's axis are recovered; and
 //! the rank analysis refreshed at the estimate removes the structural error

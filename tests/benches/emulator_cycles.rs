@@ -16,7 +16,7 @@ use emulator_support::{EmulatedBoard, RawLink, test_calibration};
 use protocol::{CompensationMode, Request, Response, Timing};
 use serde_json::{Value, json};
 
-/// The budget of issue 4: 1 ms of the RP2040 at 125 MHz.
+/// The budget of a servo frame's compensation: 1 ms of the RP2040 at 125 MHz.
 const BUDGET_CYCLES: f64 = 125_000.0;
 /// The functions measured: (label, part of the mangled symbol name).
 const PROBES: [(&str, &str); 2] = [

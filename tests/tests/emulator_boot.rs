@@ -12,7 +12,7 @@ use emulator_support::{EmulatedBoard, RawLink, SERVO_PINS};
 use protocol::{PROTOCOL_VERSION, Request, Response};
 use serde_json::json;
 
-/// Servo pulse timing must match the host's computation to this (issue 5).
+/// Servo pulse timing must match the host's computation to this.
 const TOLERANCE_US: f64 = 1.0;
 /// One servo frame at 50 Hz.
 const FRAME_US: f64 = 20_000.0;

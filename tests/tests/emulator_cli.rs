@@ -16,7 +16,7 @@ use host::io::calibration_file::CalibrationFile;
 use protocol::CompensationMode;
 use serde_json::json;
 
-/// Servo pulse timing must match the host's computation to this (issue 5).
+/// Servo pulse timing must match the host's computation to this.
 const TOLERANCE_US: f64 = 1.0;
 
 /// Runs one `lrmcal` command line in this process, exactly as the binary would.

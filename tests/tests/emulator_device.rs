@@ -19,7 +19,7 @@ use host::device::{Client, DeviceArgs, Link};
 use model::JOINTS;
 use protocol::{CompensationMode, Faults, Timing};
 
-/// Servo pulse timing must match the host's computation to this (issue 5).
+/// Servo pulse timing must match the host's computation to this.
 const TOLERANCE_US: f64 = 1.0;
 /// The paper's payload, kg.
 const PAYLOAD_KG: f64 = 0.0663;

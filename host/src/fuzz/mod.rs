@@ -1,4 +1,4 @@
-//! Fuzzing the file parsers (issue 16): arm descriptions, measurement and
+//! Fuzzing the file parsers: arm descriptions, measurement and
 //! pose-list CSVs and calibration files, mutated from valid files and read
 //! through the same `read` functions the commands use.
 //!
