@@ -11,16 +11,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use firmware::sim::{MockBus, SimFlash};
-use firmware::{Config, Device};
 use host::commands::{compensation, detach, move_, payload, pull, push, status};
 use host::device::DeviceArgs;
+use host::device::memory::MemoryBoard;
 use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
-use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, FrameReader};
+use protocol::CompensationMode;
+use protocol::frame::MAX_FRAME;
 
-/// A board on a local socket: one connection at a time (each command opens
-/// its own), servo frames every 20 ms of wall time. Stops when dropped.
+/// A board on a local socket: the in-memory board behind a TCP bridge, one
+/// connection at a time (each command opens its own), servo frames every
+/// 20 ms of wall time. Stops when dropped.
 struct SocketBoard {
     port: String,
     stop: Arc<AtomicBool>,
@@ -36,9 +36,7 @@ impl SocketBoard {
         let stopped = stop.clone();
         let thread = std::thread::spawn(move || {
             let t0 = Instant::now();
-            let now_us = || t0.elapsed().as_micros() as u64;
-            let mut device = Device::new(MockBus::default(), SimFlash::new(), Config::default(), 0);
-            let mut next_frame = 0u64;
+            let mut board = MemoryBoard::default();
             // Bounded: a test that forgets to stop the board still ends.
             while !stopped.load(Ordering::Relaxed) && t0.elapsed() < Duration::from_secs(120) {
                 let Ok((mut stream, _)) = listener.accept() else {
@@ -48,12 +46,11 @@ impl SocketBoard {
                 stream
                     .set_read_timeout(Some(Duration::from_millis(2)))
                     .unwrap();
-                let mut reader = FrameReader::<MAX_FRAME>::new();
                 let mut buf = [0u8; 512];
                 loop {
-                    if now_us() >= next_frame {
-                        next_frame = now_us() + 20_000;
-                        device.servo_frame(now_us());
+                    // A servo frame for every 20 ms of wall time.
+                    while board.now_us() + 20_000 <= t0.elapsed().as_micros() as u64 {
+                        board.frame();
                     }
                     let n = match stream.read(&mut buf) {
                         Ok(0) => break,
@@ -65,14 +62,11 @@ impl SocketBoard {
                         }
                         Err(_) => break,
                     };
-                    for &b in &buf[..n] {
-                        if let Feed::Frame(f) = reader.feed(b) {
-                            let f = f.to_vec();
-                            let mut out = [0u8; MAX_FRAME];
-                            let m = device.handle_frame(&f, &mut out);
-                            if stream.write_all(&out[..m]).is_err() {
-                                break;
-                            }
+                    board.write_all(&buf[..n]).unwrap();
+                    let mut out = [0u8; MAX_FRAME];
+                    while let Ok(m) = board.read(&mut out) {
+                        if stream.write_all(&out[..m]).is_err() {
+                            break;
                         }
                     }
                 }
@@ -623,7 +617,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
 /// The ranges `move --xyz` keeps to are the ones the firmware enforces.
 #[test]
 fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
-    let config = Config::default();
+    let config = firmware::Config::default();
     let firmware = |calibration: Option<&protocol::Calibration>| {
         firmware::servo::joint_limits(
             calibration.map(|c| &c.calibrated),

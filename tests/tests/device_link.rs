@@ -3,117 +3,25 @@
 //! power: push → store → reboot → status → move, and the failure paths a
 //! user meets (unplugged mid-upload, power cut while writing, garbage).
 
-use std::collections::VecDeque;
-use std::io::{self, Read, Write};
+use std::io::Write;
 use std::time::Duration;
 
-use firmware::sim::{MockBus, SimFlash};
-use firmware::{Config, Device};
+use firmware::sim::SimFlash;
 use host::calib::ModelOption;
-use host::device::{Client, ClientError, CommsError, Link, calibration};
+use host::device::memory::MemoryBoard;
+use host::device::{Client, ClientError, CommsError, calibration};
 use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool};
 use model::{Arm, ParamId};
-use protocol::frame::{Feed, MAX_FRAME};
-use protocol::{CompensationMode, Faults, FrameReader, Timing, WireError};
+use protocol::frame::MAX_FRAME;
+use protocol::{CompensationMode, Faults, Timing, WireError};
 
-/// The board at the other end of a USB cable, run in-process. Every read by
+/// The board at the other end of a USB cable, run in-process: every read by
 /// the host lets 20 ms of board time pass (one servo frame).
-struct Board {
-    device: Option<Device<MockBus, SimFlash>>,
-    reader: FrameReader<MAX_FRAME>,
-    replies: VecDeque<u8>,
-    now_us: u64,
-    /// Bytes the host may still send before the cable is pulled.
-    cable_bytes: Option<usize>,
-    /// Replies to lose on the way back, by the request path that caused them.
-    lose_reply_to: Vec<&'static str>,
+fn board(flash: SimFlash) -> MemoryBoard {
+    MemoryBoard::new(flash).running()
 }
 
-impl Board {
-    fn new(flash: SimFlash) -> Self {
-        Self {
-            device: Some(Device::new(MockBus::default(), flash, Config::default(), 0)),
-            reader: FrameReader::new(),
-            replies: VecDeque::new(),
-            now_us: 0,
-            cable_bytes: None,
-            lose_reply_to: Vec::new(),
-        }
-    }
-
-    fn device(&mut self) -> &mut Device<MockBus, SimFlash> {
-        self.device.as_mut().expect("board is running")
-    }
-
-    /// Power off and on again, keeping the flash.
-    fn reboot(&mut self) {
-        let (_, mut flash) = self.device.take().expect("board is running").release();
-        flash.power_on();
-        self.now_us = 0;
-        self.replies.clear();
-        self.device = Some(Device::new(MockBus::default(), flash, Config::default(), 0));
-    }
-
-    fn unplugged() -> io::Error {
-        io::Error::new(io::ErrorKind::BrokenPipe, "device disconnected")
-    }
-}
-
-impl Write for Board {
-    fn write(&mut self, bytes: &[u8]) -> io::Result<usize> {
-        for &b in bytes {
-            if let Some(left) = &mut self.cable_bytes {
-                if *left == 0 {
-                    return Err(Self::unplugged());
-                }
-                *left -= 1;
-            }
-            if let Feed::Frame(f) = self.reader.feed(b) {
-                let f = f.to_vec();
-                let path = protocol::frame::decode::<protocol::Request>(&f).map(|(_, r)| r.path());
-                let mut out = [0u8; MAX_FRAME];
-                let n = self.device().handle_frame(&f, &mut out);
-                if let Some(i) = self.lose_reply_to.iter().position(|p| Ok(*p) == path) {
-                    self.lose_reply_to.remove(i);
-                } else {
-                    self.replies.extend(&out[..n]);
-                }
-            }
-        }
-        Ok(bytes.len())
-    }
-
-    fn flush(&mut self) -> io::Result<()> {
-        Ok(())
-    }
-}
-
-impl Read for Board {
-    fn read(&mut self, buf: &mut [u8]) -> io::Result<usize> {
-        if self.cable_bytes == Some(0) {
-            return Err(Self::unplugged());
-        }
-        self.now_us += 20_000;
-        let now = self.now_us;
-        self.device().servo_frame(now);
-        if self.replies.is_empty() {
-            return Err(io::ErrorKind::TimedOut.into());
-        }
-        let n = buf.len().min(self.replies.len());
-        for (slot, b) in buf.iter_mut().zip(self.replies.drain(..n)) {
-            *slot = b;
-        }
-        Ok(n)
-    }
-}
-
-impl Link for Board {
-    fn set_timeout(&mut self, _: Duration) -> io::Result<()> {
-        Ok(())
-    }
-}
-
-fn client(board: Board) -> Client<Board> {
+fn client(board: MemoryBoard) -> Client<MemoryBoard> {
     Client::new(board, Duration::from_millis(50), 2)
 }
 
@@ -195,7 +103,7 @@ fn push_for_a_named_target_sends_its_tool_point() {
     let payload = calibration::payload(&chosen, [0.0; 6]).unwrap();
     let first = calibration::payload(&file, [0.0; 6]).unwrap();
     assert_ne!(payload.id, first.id);
-    let mut c = client(Board::new(SimFlash::new()));
+    let mut c = client(board(SimFlash::new()));
     c.hello().unwrap();
     assert_eq!(
         c.push_calibration(&payload, |_, _| ()).unwrap().id,
@@ -227,7 +135,7 @@ fn an_elasto_kinematic_servo_calibration_keeps_its_option_on_the_board() {
     assert_eq!(paper.option, ModelOption::ElastoKinematic);
     assert_ne!(payload.id, paper.id);
 
-    let mut c = client(Board::new(SimFlash::new()));
+    let mut c = client(board(SimFlash::new()));
     c.hello().unwrap();
     assert_eq!(
         c.push_calibration(&payload, |_, _| ()).unwrap().option,
@@ -246,7 +154,7 @@ fn an_elasto_kinematic_servo_calibration_keeps_its_option_on_the_board() {
 fn push_store_reboot_status_move() {
     let file = calibration_file();
     let payload = calibration::payload(&file, [0.0; 6]).unwrap();
-    let mut c = client(Board::new(SimFlash::new()));
+    let mut c = client(board(SimFlash::new()));
 
     let info = c.hello().unwrap();
     assert_eq!(info.protocol, protocol::frame::PROTOCOL_VERSION);
@@ -326,10 +234,10 @@ fn unplugged_mid_upload_keeps_the_old_calibration_and_says_so() {
     let first = calibration::payload(&file, [0.0; 6]).unwrap();
     let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
     assert_ne!(first.id, second.id);
-    let mut c = client(Board::new(SimFlash::new()));
+    let mut c = client(board(SimFlash::new()));
     c.push_calibration(&first, |_, _| {}).unwrap();
 
-    c.link_mut().cable_bytes = Some(400);
+    c.link_mut().pull_cable_after(400);
     let err = c.push_calibration(&second, |_, _| {}).unwrap_err();
     assert!(
         matches!(err, ClientError::Comms(CommsError::Io { .. })),
@@ -337,7 +245,7 @@ fn unplugged_mid_upload_keeps_the_old_calibration_and_says_so() {
     );
     assert!(err.to_string().contains("unplugged"), "{err}");
 
-    c.link_mut().cable_bytes = None;
+    c.link_mut().reconnect_cable();
     c.link_mut().reboot();
     assert_eq!(
         c.status().unwrap().calibration.map(|i| i.id),
@@ -352,14 +260,14 @@ fn power_cut_while_writing_flash_keeps_the_old_calibration() {
     let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
     let mut flash = SimFlash::new();
     {
-        let mut c = client(Board::new(flash));
+        let mut c = client(board(flash));
         c.push_calibration(&first, |_, _| {}).unwrap();
-        flash = c.link_mut().device.take().unwrap().release().1;
+        flash = c.link_mut().power_off();
     }
     for cut in [0, 1, 500, 4095, 4096, 4200, 4700, 4900] {
         let mut f = flash.clone();
         f.cut_after(cut);
-        let mut c = client(Board::new(f));
+        let mut c = client(board(f));
         let err = c.push_calibration(&second, |_, _| {}).unwrap_err();
         assert!(
             matches!(
@@ -383,7 +291,7 @@ fn power_cut_while_writing_flash_keeps_the_old_calibration() {
 #[test]
 fn garbage_on_the_line_is_survived_and_the_next_request_works() {
     // No retries: the first attempt after the garbage must get through.
-    let mut c = Client::new(Board::new(SimFlash::new()), Duration::from_millis(50), 0);
+    let mut c = Client::new(board(SimFlash::new()), Duration::from_millis(50), 0);
     let mut rng_state = 0x1234_5678u32;
     let garbage: Vec<u8> = (0..5000)
         .map(|_| {
@@ -404,8 +312,8 @@ fn garbage_on_the_line_is_survived_and_the_next_request_works() {
 fn hello_to_a_board_of(version: u8, reply: &protocol::Response) -> ClientError {
     let mut out = [0u8; MAX_FRAME];
     let n = protocol::frame::encode_with_version(version, 1, reply, &mut out).unwrap();
-    let mut c = client(Board::new(SimFlash::new()));
-    c.link_mut().replies.extend(&out[..n]);
+    let mut c = client(board(SimFlash::new()));
+    c.link_mut().answer_with(&out[..n]);
     c.hello().unwrap_err()
 }
 
@@ -449,7 +357,7 @@ fn a_non_monotonic_curve_never_leaves_the_host() {
     let mut bad = calibration::payload(&file, [0.0; 6]).unwrap();
     let pulses = bad.calibrated.joints[4].servo.pulses_us_mut();
     pulses[3] = pulses[2] - 1.0;
-    let mut c = client(Board::new(SimFlash::new()));
+    let mut c = client(board(SimFlash::new()));
     let err = c.push_calibration(&bad, |_, _| {}).unwrap_err();
     assert!(
         matches!(
@@ -468,14 +376,16 @@ fn a_non_monotonic_curve_never_leaves_the_host() {
 fn lost_replies_are_retried_and_a_lost_commit_answer_is_recovered() {
     let file = calibration_file();
     let payload = calibration::payload(&file, [0.0; 6]).unwrap();
-    let mut c = client(Board::new(SimFlash::new()));
-    c.link_mut().lose_reply_to = vec!["status/get", "calib/chunk", "calib/chunk", "calib/commit"];
+    let mut c = client(board(SimFlash::new()));
+    for path in ["status/get", "calib/chunk", "calib/chunk", "calib/commit"] {
+        c.link_mut().lose_reply_to(path);
+    }
     assert!(c.status().unwrap().calibration.is_none(), "status retried");
     // Chunks are re-sent (harmless), and the commit's lost answer is
     // recovered from the status: the board did store it.
     let info = c.push_calibration(&payload, |_, _| {}).unwrap();
     assert_eq!(info.id, payload.id);
-    assert!(c.link_mut().lose_reply_to.is_empty());
+    assert_eq!(c.link_mut().replies_to_lose(), 0);
     c.link_mut().reboot();
     assert_eq!(
         c.status().unwrap().calibration.map(|i| i.id),
@@ -485,8 +395,10 @@ fn lost_replies_are_retried_and_a_lost_commit_answer_is_recovered() {
 
 #[test]
 fn a_silent_board_times_out_after_the_retries() {
-    let mut c = client(Board::new(SimFlash::new()));
-    c.link_mut().lose_reply_to = vec!["status/get"; 3];
+    let mut c = client(board(SimFlash::new()));
+    for _ in 0..3 {
+        c.link_mut().lose_reply_to("status/get");
+    }
     let err = c.status().unwrap_err();
     assert!(
         matches!(

@@ -1,7 +1,8 @@
 //! Talking to the board: the serial (or TCP) link, the typed client with one
 //! method per endpoint of the `protocol` table, the conversion of a
-//! calibration file into the payload the board stores, and what a board
-//! holding a calibration will command (`commanded`).
+//! calibration file into the payload the board stores, what a board
+//! holding a calibration will command (`commanded`), and a board in memory
+//! (`memory`: the firmware library behind a link) where no hardware is.
 //!
 //! Data flow: `lrmcal <device command>` → [`DeviceArgs::connect`] →
 //! [`Client`] → `protocol` frames → [`Link`] → board.
@@ -10,6 +11,7 @@ pub mod calibration;
 pub mod client;
 pub mod commanded;
 pub mod link;
+pub mod memory;
 
 use std::time::Duration;
 

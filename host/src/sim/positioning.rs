@@ -16,11 +16,12 @@
 //! that some board cannot reach so is left out (and counted): every board
 //! is judged on the same targets.
 //!
-//! The board is the firmware library itself ([`firmware::Device`]) on an
-//! in-memory servo bus and flash: the calibration goes in through the same
-//! `calib/*` requests `lrmcal push` sends, the targets through `motion/move`,
-//! and every servo frame's pulses come out, so motion, compensation and the
-//! play's offset run exactly as on the RP2040 (in f32).
+//! The board is the firmware library itself in memory
+//! ([`crate::device::memory::MemoryBoard`]), talked to through the client
+//! `lrmcal` talks to a real board with: the calibration goes in as
+//! `lrmcal push` sends it, the targets through `motion/move`, and every
+//! servo frame's pulses come out, so motion, compensation and the play's
+//! offset run exactly as on the RP2040 (in f32).
 //!
 //! The true arm turns pulses into angles as [`TrueArm::simulate`] turns
 //! commanded angles into them: the true servo curve (the arm file's) gives
@@ -30,17 +31,20 @@
 //! is `simulate`'s rule whenever a joint's command runs one way by more than
 //! the play, as it does between two measured poses.
 
-use firmware::{CHANNELS, Config, Device, FlashStorage, ServoBus};
+use std::time::Duration;
+
+use firmware::{CHANNELS, Config};
 use model::{Arm, JOINTS};
 use nalgebra::Vector3;
-use protocol::frame::{self, MAX_FRAME};
-use protocol::{Calibration, CompensationMode, Faults, Request, Response, Timing, WireError};
+use protocol::{Calibration, CompensationMode, Faults, Timing};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::TrueArm;
 use crate::calib::{CalibError, ModelOption, option, plots};
 use crate::device::commanded::Commanded;
+use crate::device::memory::MemoryBoard;
+use crate::device::{Client, ClientError};
 use crate::ik::{self, IkError, IkOptions};
 use crate::io::calibration_file::{CalibrationFile, ErrorStats};
 use crate::plan::PlanConfig;
@@ -50,13 +54,11 @@ pub const DEFAULT_TARGETS: usize = 100;
 
 /// Servo frames a move may take before the board counts as stuck: 60 s.
 const MAX_FRAMES: u32 = 3_000;
-/// The servo frame, µs (the firmware's 50 Hz).
-const FRAME_US: u64 = 20_000;
 /// Samples drawn per target wanted before giving up: most random poses are clear.
 const SAMPLES_PER_TARGET: usize = 50;
 
 /// Why the positioning error could not be measured.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum PositioningError {
     /// Too few clear, reachable targets were found.
@@ -88,22 +90,9 @@ pub enum PositioningError {
         /// What is wrong with it.
         fault: protocol::CalibrationFault,
     },
-    /// The board refused a request.
-    #[error("the board refused `{request}`: {error}")]
-    Board {
-        /// The request's path.
-        request: &'static str,
-        /// The board's answer.
-        error: WireError,
-    },
-    /// The board answered something the request does not expect.
-    #[error("the board answered `{request}` with {answer}")]
-    Unexpected {
-        /// The request's path.
-        request: &'static str,
-        /// The answer, debug-printed.
-        answer: String,
-    },
+    /// The board refused a request, or the exchange failed.
+    #[error("the board in memory: {0}")]
+    Board(#[source] Box<ClientError>),
     /// The arm was still moving after [`MAX_FRAMES`] servo frames.
     #[error("target {index}: the board still moves after {MAX_FRAMES} servo frames")]
     NotSettled {
@@ -118,6 +107,12 @@ pub enum PositioningError {
         /// The model's error.
         reason: model::DeflectionError,
     },
+}
+
+impl From<ClientError> for PositioningError {
+    fn from(e: ClientError) -> Self {
+        Self::Board(Box::new(e))
+    }
 }
 
 /// One target: a tool point and each board's nominal joint targets for it.
@@ -232,159 +227,21 @@ pub fn targets(
     })
 }
 
-/// The pulses on the board's outputs, as the last servo frame left them.
-#[derive(Clone, Copy, Debug, Default)]
-struct Outputs([Option<u16>; CHANNELS]);
-
-impl ServoBus for Outputs {
-    fn set_pulse(&mut self, channel: usize, pulse_us: Option<u16>) {
-        if let Some(slot) = self.0.get_mut(channel) {
-            *slot = pulse_us;
-        }
+/// A board in memory ([`MemoryBoard`]), talked to as `lrmcal` talks to one:
+/// holding `calibration` (sent as `lrmcal push` sends it), compensating fully
+/// for `payload_kg`; without one, a board that never had a calibration,
+/// compensation off.
+fn board(
+    calibration: Option<&Calibration>,
+    payload_kg: f64,
+) -> Result<Client<MemoryBoard>, PositioningError> {
+    let mut client = Client::new(MemoryBoard::default(), Duration::from_millis(1), 0);
+    if let Some(calibration) = calibration {
+        client.push_calibration(calibration, |_, _| {})?;
+        client.set_compensation(CompensationMode::Full)?;
     }
-}
-
-/// Two flash sectors in memory, enough for the board to store a calibration.
-#[derive(Clone, Debug)]
-struct MemoryFlash([Vec<u8>; 2]);
-
-/// A read or write past the end of a sector.
-#[derive(Clone, Copy, Debug)]
-struct OutOfSector;
-
-/// One RP2040 flash sector.
-const SECTOR: usize = 4096;
-
-impl FlashStorage for MemoryFlash {
-    type Error = OutOfSector;
-
-    fn slot_size(&self) -> usize {
-        SECTOR
-    }
-
-    fn read(&mut self, slot: u8, offset: usize, buf: &mut [u8]) -> Result<(), OutOfSector> {
-        let bytes = self.0.get(usize::from(slot)).ok_or(OutOfSector)?;
-        let src = bytes.get(offset..offset + buf.len()).ok_or(OutOfSector)?;
-        buf.copy_from_slice(src);
-        Ok(())
-    }
-
-    fn erase(&mut self, slot: u8) -> Result<(), OutOfSector> {
-        self.0
-            .get_mut(usize::from(slot))
-            .ok_or(OutOfSector)?
-            .fill(0xFF);
-        Ok(())
-    }
-
-    fn write(&mut self, slot: u8, offset: usize, data: &[u8]) -> Result<(), OutOfSector> {
-        let bytes = self.0.get_mut(usize::from(slot)).ok_or(OutOfSector)?;
-        let dst = bytes
-            .get_mut(offset..offset + data.len())
-            .ok_or(OutOfSector)?;
-        // NOR flash: programming only clears bits.
-        for (d, s) in dst.iter_mut().zip(data) {
-            *d &= s;
-        }
-        Ok(())
-    }
-}
-
-/// The firmware library on in-memory outputs and flash, with its clock.
-struct Board {
-    device: Device<Outputs, MemoryFlash>,
-    now_us: u64,
-    seq: u16,
-}
-
-impl Board {
-    /// A fresh board holding `calibration` (sent as `lrmcal push` sends it),
-    /// compensating fully for `payload_kg`; without one, a board that never
-    /// had a calibration, compensation off.
-    fn new(calibration: Option<&Calibration>, payload_kg: f64) -> Result<Self, PositioningError> {
-        let flash = MemoryFlash([vec![0xFF; SECTOR], vec![0xFF; SECTOR]]);
-        let mut board = Self {
-            device: Device::new(Outputs::default(), flash, Config::default(), 0),
-            now_us: 0,
-            seq: 0,
-        };
-        if let Some(calibration) = calibration {
-            board.push(calibration)?;
-            board.request(&Request::SetCompensation {
-                mode: CompensationMode::Full,
-            })?;
-        }
-        board.request(&Request::SetPayload {
-            mass_kg: payload_kg as f32,
-        })?;
-        Ok(board)
-    }
-
-    /// One request through the board's dispatcher, as its USB link delivers it.
-    fn request(&mut self, request: &Request) -> Result<Response, PositioningError> {
-        let path = request.path();
-        let unexpected = |answer: String| PositioningError::Unexpected {
-            request: path,
-            answer,
-        };
-        self.seq = self.seq.wrapping_add(1);
-        let mut frame = [0u8; MAX_FRAME];
-        let n = frame::encode(self.seq, request, &mut frame)
-            .map_err(|e| unexpected(format!("no frame: {e:?}")))?;
-        let mut reply = [0u8; MAX_FRAME];
-        let m = self.device.handle_frame(&frame[..n], &mut reply);
-        match frame::decode::<Response>(&reply[..m]) {
-            Ok((_, Response::Error(error))) => Err(PositioningError::Board {
-                request: path,
-                error,
-            }),
-            Ok((_, response)) => Ok(response),
-            Err(e) => Err(unexpected(format!("an unreadable frame ({e:?})"))),
-        }
-    }
-
-    /// Uploads and commits `calibration`: the board checks it whole before storing it.
-    fn push(&mut self, calibration: &Calibration) -> Result<(), PositioningError> {
-        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
-        let bytes = calibration
-            .encode(&mut buf)
-            .map_err(|e| PositioningError::Unexpected {
-                request: "calib/begin",
-                answer: format!("a calibration that does not encode: {e:?}"),
-            })?;
-        self.request(&Request::CalibrationBegin {
-            len_bytes: bytes.len() as u32,
-            crc: frame::crc32(bytes),
-        })?;
-        for (k, chunk) in bytes.chunks(protocol::CHUNK_LEN).enumerate() {
-            // `chunks` never yields more than CHUNK_LEN bytes: the copy always fits.
-            let data = heapless::Vec::from_slice(chunk).unwrap_or_default();
-            self.request(&Request::CalibrationChunk {
-                offset: (k * protocol::CHUNK_LEN) as u32,
-                data,
-            })?;
-        }
-        self.request(&Request::CalibrationCommit).map(drop)
-    }
-
-    /// The board's status: whether the servos still move (a motion, or a
-    /// correction fading in), what it clamped since the last read, its fallbacks.
-    fn status(&mut self) -> Result<protocol::Status, PositioningError> {
-        match self.request(&Request::Status)? {
-            Response::Status(status) => Ok(status),
-            other => Err(PositioningError::Unexpected {
-                request: "status/get",
-                answer: format!("{other:?}"),
-            }),
-        }
-    }
-
-    /// Runs one servo frame and returns the pulses it put out.
-    fn frame(&mut self) -> [Option<u16>; CHANNELS] {
-        self.now_us += FRAME_US;
-        self.device.servo_frame(self.now_us);
-        self.device.bus().0
-    }
+    client.set_payload(payload_kg as f32)?;
+    Ok(client)
 }
 
 /// The true arm's servos and joints following the pulses they are sent.
@@ -448,7 +305,7 @@ pub fn errors(
     calibration: Option<&Calibration>,
     payload_kg: f64,
 ) -> Result<Run, PositioningError> {
-    let mut board = Board::new(calibration, payload_kg)?;
+    let mut board = board(calibration, payload_kg)?;
     let mut servos = TrueServos::new(truth);
     let mut errors = Vec::with_capacity(targets.len());
     let mut clamped = 0;
@@ -456,14 +313,11 @@ pub fn errors(
     let mut fallback_frames = 0;
     for (index, target) in targets.iter().enumerate() {
         let q = target.q.get(board_index).copied().unwrap_or_default();
-        board.request(&Request::Move {
-            targets_rad: q.map(|q| q as f32),
-            timing: Timing::DurationMs(0),
-        })?;
+        board.move_to(q.map(|q| q as f32), Timing::DurationMs(0))?;
         let mut frames = 0;
         let mut clamped_here = false;
         let status = loop {
-            servos.drive(&board.frame());
+            servos.drive(&board.link_mut().frame());
             frames += 1;
             let status = board.status()?;
             clamped_here |= status.faults.contains(Faults::LIMIT_CLAMPED);
