@@ -264,18 +264,19 @@ impl CalibrationFile {
                 _ => Ok(()),
             },
         )?;
-        // Both arms within the physical bounds worked out from the nominal
-        // arm (`model::bounds`): the same the fit keeps and the board checks.
-        if !(file.nominal.rated_payload_kg.is_finite() && file.nominal.rated_payload_kg >= 0.0) {
-            return Err(InputError::new(
-                Location::key(None, "nominal.rated_payload_kg"),
-                Problem::OutOfRange {
-                    expected: "a payload >= 0 kg",
-                    found: file.nominal.rated_payload_kg.to_string(),
-                },
-            ));
-        }
+        // Both arms' rated payloads, and their compliances, softenings and
+        // plays within the physical bounds worked out from the nominal arm
+        // (`model::bounds`): what the fit keeps to and the board checks.
         for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
+            if !(arm.rated_payload_kg.is_finite() && arm.rated_payload_kg >= 0.0) {
+                return Err(InputError::new(
+                    Location::key(None, format!("{which}.rated_payload_kg")),
+                    Problem::OutOfRange {
+                        expected: "a payload >= 0 kg",
+                        found: arm.rated_payload_kg.to_string(),
+                    },
+                ));
+            }
             super::bounds::check(&file.nominal, arm, which, None, false)?;
         }
         for (i, p) in file.parameters.iter().enumerate() {
@@ -512,6 +513,14 @@ mod tests {
         );
         let e = refused(&json.replacen("\"base_softening\": 0.0", "\"base_softening\": -2.0", 2));
         assert!(e.contains("key `nominal.base_softening`"), "{e}");
+        // A negative rated payload, in either arm, as the board refuses it.
+        let mut negative = sample_file();
+        negative.arm.rated_payload_kg = -0.1;
+        let e = refused(&negative.to_json());
+        assert!(
+            e.contains("key `arm.rated_payload_kg`") && e.contains("-0.1"),
+            "{e}"
+        );
         let e = refused(&json.replacen("\"elastic\"", "\"rigid\"", 1));
         assert!(
             e.contains("key `option`")
