@@ -27,7 +27,6 @@ use host::calib::identify::IdentifyOptions;
 use host::calib::jacobian::jacobian;
 use host::calib::knot_choice;
 use host::calib::pipeline::CandidateBlocks;
-use host::calib::targets::tool_points;
 use host::calib::{ModelOption, ParamKey, Rig, Sample};
 use host::dataset::Pose;
 use host::plan::{Levels, PlanConfig, candidates};
@@ -66,7 +65,7 @@ fn central_differences(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Vec<f
         let at = |delta: f64| {
             let mut r = rig.clone();
             *id.slot(&mut r) += delta;
-            tool_points(&r, samples).expect("deflects")
+            r.tool_points(samples).expect("deflects")
         };
         let (up, down) = (at(h), at(-h));
         out.extend(

@@ -8,7 +8,6 @@ use host::calib::identify::{IdentifyOptions, identify};
 use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
 use host::calib::progress::Silent;
 use host::calib::report::IdentifiabilityReport;
-use host::calib::targets::tool_points;
 use host::calib::validate::validate;
 use host::calib::{ModelOption, ParamKey, ParamVector, Sample};
 use host::dataset::{FROM_HOME, Measurement, Pose};
@@ -56,7 +55,8 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
             })
         })
         .collect();
-    tool_points(&(*arm).into(), &samples)
+    host::calib::Rig::from(*arm)
+        .tool_points(&samples)
         .expect("model")
         .into_iter()
         .zip(&samples)

@@ -535,7 +535,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
             .nominal_rad
     };
     // What the board accepts, as `move --xyz` must find it.
-    let within_board = move_::within_board;
+    let within_board = host::device::commanded::within_board;
 
     // No calibration: the bundled arm. From base yaw 95°, the target of base
     // yaw 103° is nearest at 103°, within the arm's ±105° but beyond the
@@ -617,6 +617,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
 /// The ranges `move --xyz` keeps to are the ones the firmware enforces.
 #[test]
 fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
+    use host::device::commanded::board_limits;
     let config = firmware::Config::default();
     let firmware = |calibration: Option<&protocol::Calibration>| {
         firmware::servo::joint_limits(
@@ -625,7 +626,7 @@ fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
             config.default_limits_rad,
         )
     };
-    assert_eq!(move_::board_limits(None), firmware(None));
+    assert_eq!(board_limits(None), firmware(None));
     let mut arm = host::io::arm_source::bundled("lrm")
         .unwrap()
         .arm
@@ -641,7 +642,7 @@ fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
         max_correction_rad: [0.35; 6],
     };
     assert_eq!(
-        move_::board_limits(Some(&calibration)),
+        board_limits(Some(&calibration)),
         firmware(Some(&calibration))
     );
 }

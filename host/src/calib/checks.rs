@@ -8,7 +8,6 @@ use std::cmp::Ordering;
 
 use nalgebra::Vector3;
 
-use super::targets::tool_points;
 use super::{CalibError, Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 
@@ -24,7 +23,7 @@ pub fn check_plausible(
     file: &str,
 ) -> Result<(), CalibError> {
     let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
-    let predicted = tool_points(&(*nominal).into(), &samples)?;
+    let predicted = Rig::from(*nominal).tool_points(&samples)?;
     for (m, p) in measurements.iter().zip(&predicted) {
         implausible(m, p, file, "the nominal arm puts the tool", "")?;
     }
@@ -40,7 +39,7 @@ pub fn check_plausible_calibrated(
     measurements: &[Measurement],
     file: &str,
 ) -> Result<(), CalibError> {
-    let predicted = tool_points(calibrated, &calibrated.samples(measurements)?)?;
+    let predicted = calibrated.tool_points(&calibrated.samples(measurements)?)?;
     let far: Vec<(&Measurement, &Vector3<f64>)> = measurements
         .iter()
         .zip(&predicted)

@@ -59,7 +59,6 @@ use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationRe
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
-use model::bounds::Bounds;
 use model::params::ParamKind;
 
 use super::identifiability::check_full_rank;
@@ -67,7 +66,6 @@ use super::jacobian::jacobian;
 use super::observability::ColumnScale;
 use super::params::{ParamKey, ParamVector};
 use super::servo_knots;
-use super::targets::tool_points;
 use super::validate::ErrorStats;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
@@ -205,8 +203,6 @@ struct FitData<'a> {
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
-    /// The physical bounds of the nominal arm's calibration.
-    bounds: Bounds<f64>,
 }
 
 impl<'a> FitData<'a> {
@@ -221,13 +217,12 @@ impl<'a> FitData<'a> {
             option,
             samples,
             measured: measurements.iter().map(|m| m.position).collect(),
-            bounds: nominal.bounds,
         })
     }
 
     /// The smallest and largest value the fit may give `key`'s quantity, if bounded.
     fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
-        key.fit_range(&self.bounds)
+        key.fit_range(&self.nominal.bounds)
     }
 
     /// Norms of the 3D residuals of `arm` against the measurements, m.
@@ -237,7 +232,8 @@ impl<'a> FitData<'a> {
 
     /// The 3D residuals of `arm` against the measurements, m.
     fn residuals(&self, arm: &Rig) -> Result<Vec<Vector3<f64>>, CalibError> {
-        Ok(tool_points(arm, &self.samples)?
+        Ok(arm
+            .tool_points(&self.samples)?
             .iter()
             .zip(&self.measured)
             .map(|(p, m)| p - m)
@@ -246,7 +242,7 @@ impl<'a> FitData<'a> {
 
     /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
     fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
-        let points = tool_points(arm, &self.samples).ok()?;
+        let points = arm.tool_points(&self.samples).ok()?;
         let mut r = DVector::zeros(3 * points.len());
         for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
             r.fixed_rows_mut::<3>(3 * k)
@@ -987,7 +983,7 @@ mod tests {
         let meas = measure(&nominal.arm, &small_samples(12));
         let data = fit_data(&nominal, &meas);
         let bounds = nominal.bounds;
-        assert_eq!(bounds, Bounds::of(&nominal.arm));
+        assert_eq!(bounds, model::bounds::Bounds::of(&nominal.arm));
         let k3 = key("k3");
         let (lo, hi) = data.bounds(k3);
         assert_eq!(lo, Some(0.0));

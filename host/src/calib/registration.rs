@@ -56,7 +56,6 @@ use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector
 use super::checks::IMPLAUSIBLE_M;
 use super::identify::{Estimate, Identified};
 use super::params::ParamKey;
-use super::targets::tool_points;
 use super::{CalibError, ModelOption, Rig, Sample};
 use crate::dataset::Measurement;
 use crate::io::calibration_file::RegistrationRecord;
@@ -391,7 +390,7 @@ fn predicted(
 ) -> Result<Vec<Vector3<f64>>, CalibError> {
     let mut arm = *nominal;
     arm.gravity = gravity_arm.into();
-    tool_points(&Rig::from(arm), samples)
+    Rig::from(arm).tool_points(samples)
 }
 
 /// Frame 6's origin `o` and rotation `A` of each sample in `arm`'s world

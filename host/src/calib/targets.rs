@@ -102,8 +102,18 @@ impl Rig {
     /// angles the arm stands at, its deflected state and where the sample's
     /// target goes.
     pub fn evaluate(&self, sample: &Sample) -> Result<Evaluated, CalibError> {
-        let chains = target_chains(self);
-        evaluate_on(self, chain_of(&chains, sample)?, sample)
+        let chain = self
+            .target_chain(sample.target)
+            .ok_or_else(|| unknown_target(self.targets.len(), sample))?;
+        evaluate_on(self, &chain, sample)
+    }
+
+    /// The chain of target `t`: the arm's with that target's tool point (the
+    /// deflection does not depend on which target is measured).
+    fn target_chain(&self, t: usize) -> Option<model::Chain<f64>> {
+        let mut chain = self.chain();
+        chain.tool_point = self.tool_point(t)?;
+        Some(chain)
     }
 
     /// The tool points of [`Rig::evaluate`] for every sample (each its own
@@ -187,20 +197,10 @@ fn evaluate_on(
     })
 }
 
-/// The points of [`Rig::tool_points`], the calibration's meaning for each sample.
-pub fn tool_points(rig: &Rig, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
-    rig.tool_points(samples)
-}
-
-/// One chain per target: they differ in the tool point only, which the
-/// deflection does not depend on.
+/// One chain per target ([`Rig::target_chain`]), in target order.
 pub(super) fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
     (0..rig.targets.len())
-        .map(|t| {
-            let mut chain = rig.chain();
-            chain.tool_point = rig.tool_point(t).unwrap_or(chain.tool_point);
-            chain
-        })
+        .filter_map(|t| rig.target_chain(t))
         .collect()
 }
 
@@ -209,16 +209,20 @@ pub(super) fn chain_of<'a>(
     chains: &'a [model::Chain<f64>],
     sample: &Sample,
 ) -> Result<&'a model::Chain<f64>, CalibError> {
-    chains.get(sample.target).ok_or_else(|| {
-        deflection_error(
-            sample,
-            format!(
-                "the calibration has {} targets, not a target {}",
-                chains.len(),
-                sample.target
-            ),
-        )
-    })
+    chains
+        .get(sample.target)
+        .ok_or_else(|| unknown_target(chains.len(), sample))
+}
+
+/// The error of a sample of a target the calibration (of `targets` targets) lacks.
+fn unknown_target(targets: usize, sample: &Sample) -> CalibError {
+    deflection_error(
+        sample,
+        format!(
+            "the calibration has {targets} targets, not a target {}",
+            sample.target
+        ),
+    )
 }
 
 /// The error of a sample whose deflection cannot be solved.

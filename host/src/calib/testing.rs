@@ -10,7 +10,6 @@ use super::detmax::DetmaxOptions;
 use super::identify::IdentifyOptions;
 use super::params::{ParamKey, ParamVector};
 use super::pipeline::{Choice, RunSettings};
-use super::targets::tool_points;
 use super::{Rig, Sample};
 use crate::dataset::{Measurement, Pose};
 
@@ -71,7 +70,7 @@ pub fn measure(arm: &Arm<f64>, samples: &[Sample]) -> Vec<Measurement> {
 
 /// Exact measurements of `rig` at `samples`, each row naming its sample's target.
 pub fn measure_rig(rig: &Rig, samples: &[Sample]) -> Vec<Measurement> {
-    tool_points(rig, samples)
+    rig.tool_points(samples)
         .expect("the test arm deflects")
         .into_iter()
         .zip(samples)

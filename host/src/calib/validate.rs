@@ -4,7 +4,6 @@
 //! (named by the fit's outlier rule, [`super::identify::outlier_indices`]).
 
 use super::identify::outlier_indices;
-use super::targets::tool_points;
 use super::{CalibError, Rig};
 use crate::dataset::Measurement;
 
@@ -78,7 +77,8 @@ pub fn validate_per_load(
 /// one of its targets), m.
 pub fn error_norms(rig: &Rig, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
     let samples = rig.samples(measurements)?;
-    Ok(tool_points(rig, &samples)?
+    Ok(rig
+        .tool_points(&samples)?
         .iter()
         .zip(measurements)
         .map(|(p, m)| (p - m.position).norm())

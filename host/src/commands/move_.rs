@@ -6,9 +6,9 @@ use std::time::Duration;
 
 use model::{Arm, JOINTS};
 use nalgebra::Vector3;
-use protocol::{Calibration, CompensationMode, Timing};
+use protocol::{CompensationMode, Timing};
 
-use crate::device::commanded::Commanded;
+use crate::device::commanded::{Commanded, within_board};
 use crate::device::{Client, DeviceArgs, Link, calibration};
 use crate::error::Error;
 use crate::ik::{self, IkOptions, IkSolution};
@@ -140,31 +140,6 @@ pub fn timing(duration_ms: Option<u32>, speed_deg_s: Option<f64>) -> Timing {
     }
 }
 
-/// The joint ranges a board accepts move targets in, rad: its calibration's
-/// limits cut to the hard range, or the default range without one, as the
-/// firmware decides them (its own function and configuration).
-pub fn board_limits(calibration: Option<&Calibration>) -> [[f32; 2]; JOINTS] {
-    let config = firmware::Config::default();
-    firmware::servo::joint_limits(
-        calibration.map(|c| &c.calibrated),
-        config.hard_limits_rad,
-        config.default_limits_rad,
-    )
-}
-
-/// `arm` with its joint limits cut to the ranges the board accepts targets
-/// in (`calibration`'s, or a board's without one).
-pub fn within_board(arm: &Arm<f64>, calibration: Option<&Calibration>) -> Arm<f64> {
-    let mut arm = *arm;
-    for (joint, [lo, hi]) in arm.joints.iter_mut().zip(board_limits(calibration)) {
-        joint.limits = [
-            joint.limits[0].max(f64::from(lo)),
-            joint.limits[1].min(f64::from(hi)),
-        ];
-    }
-    arm
-}
-
 /// Runs `lrmcal move`.
 pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(xyz) = &args.xyz {
@@ -186,7 +161,7 @@ fn dry_run(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
         Some(deg) => numbers::<JOINTS>(deg, "--from-deg")?.map(f64::to_radians),
         None => [0.0; JOINTS],
     };
-    let solution = match &args.calibration {
+    let (solution, origin) = match &args.calibration {
         Some(path) => {
             let file = CalibrationFile::read(path)?;
             let payload =
@@ -197,15 +172,13 @@ fn dry_run(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
             let board = Commanded::new(&payload, CompensationMode::Full, args.load_kg);
             let arm = within_board(&payload.nominal.map(f64::from), Some(&payload));
             let origin = format!("nominal arm of `{}`", path.display());
-            let solution = solve(args, &arm, target_mm, &start, Some(&board))?;
-            (solution, origin)
+            (solve(args, &arm, target_mm, &start, Some(&board))?, origin)
         }
         None => {
             let (arm, origin) = nominal_arm(args.arm.as_ref())?;
             (solve(args, &arm, target_mm, &start, None)?, origin)
         }
     };
-    let (solution, origin) = solution;
     print!(
         "{}",
         report(&origin, "--from-deg", &start, target_mm, &solution)

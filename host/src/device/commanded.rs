@@ -7,13 +7,38 @@
 //! positioning choose, among the nominal solutions for a tool point, one the
 //! board can command without clamping or falling back.
 
-use model::{Chain, CompensationOptions, JOINTS};
+use model::{Arm, Chain, CompensationOptions, JOINTS};
+use protocol::{Calibration, CompensationMode};
 
 /// The share of a joint's largest correction a pose may use: the board's
 /// solve, one step per servo frame while the targets move, passes through
 /// states beyond the final one, and a state beyond the bound is not sent.
 pub const HEADROOM: f64 = 0.8;
-use protocol::{Calibration, CompensationMode};
+
+/// The joint ranges a board accepts move targets in, rad: its calibration's
+/// limits cut to the hard range, or the default range without one, as the
+/// firmware decides them (its own function and configuration).
+pub fn board_limits(calibration: Option<&Calibration>) -> [[f32; 2]; JOINTS] {
+    let config = firmware::Config::default();
+    firmware::servo::joint_limits(
+        calibration.map(|c| &c.calibrated),
+        config.hard_limits_rad,
+        config.default_limits_rad,
+    )
+}
+
+/// `arm` with its joint limits cut to the ranges the board accepts targets
+/// in (`calibration`'s, or a board's without one).
+pub fn within_board(arm: &Arm<f64>, calibration: Option<&Calibration>) -> Arm<f64> {
+    let mut arm = *arm;
+    for (joint, [lo, hi]) in arm.joints.iter_mut().zip(board_limits(calibration)) {
+        joint.limits = [
+            joint.limits[0].max(f64::from(lo)),
+            joint.limits[1].min(f64::from(hi)),
+        ];
+    }
+    arm
+}
 
 /// A board's calibration as its compensation sees it, in f64.
 #[derive(Clone, Debug)]
@@ -98,11 +123,7 @@ impl Commanded {
     /// `payload_kg`, with the firmware's own joint ranges and correction cap.
     pub fn new(calibration: &Calibration, mode: CompensationMode, payload_kg: f64) -> Self {
         let config = firmware::Config::default();
-        let limits = firmware::servo::joint_limits(
-            Some(&calibration.calibrated),
-            config.hard_limits_rad,
-            config.default_limits_rad,
-        );
+        let limits = board_limits(Some(calibration));
         Self {
             nominal: calibration.nominal.map(f64::from).chain(),
             calibrated: calibration.calibrated.map(f64::from).chain(),
