@@ -22,15 +22,16 @@ use std::hint::black_box;
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use host::calib::detmax::{DetmaxOptions, detmax};
-use host::calib::identify::IdentifyOptions;
-use host::calib::jacobian::jacobian;
-use host::calib::knot_choice;
-use host::calib::pipeline::CandidateBlocks;
-use host::calib::{ModelOption, ParamKey, Rig, Sample};
-use host::dataset::Pose;
-use host::plan::{Levels, PlanConfig, candidates};
-use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
+use lrmcal_core::dataset::Pose;
+use lrmcal_engine::calib::detmax::{DetmaxOptions, detmax};
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::jacobian::jacobian;
+use lrmcal_engine::calib::knot_choice;
+use lrmcal_engine::calib::params::Key as _;
+use lrmcal_engine::calib::pipeline::CandidateBlocks;
+use lrmcal_engine::calib::{ModelOption, ParamKey, Rig, Sample};
+use lrmcal_engine::plan::{Levels, PlanConfig, candidates};
+use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 use model::params::ParamKind;
 
 const LOAD: f64 = 0.0663;
@@ -84,7 +85,7 @@ fn main() {
         .filter(|a| !a.starts_with('-'))
         .collect();
     let run = |part: &str| named.is_empty() || named.iter().any(|n| n == part);
-    let nominal = host::io::arm_source::bundled("lrm")
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
     if run("jacobian") {
@@ -114,7 +115,7 @@ fn jacobian_per_pose(nominal: &model::Arm<f64>) {
             q: p.q,
             load_kg: LOAD,
             target: 0,
-            approach: host::dataset::FROM_HOME,
+            approach: lrmcal_core::dataset::FROM_HOME,
         })
         .collect();
     let mut compliant = nominal;
@@ -163,7 +164,10 @@ fn pool(nominal: &model::Arm<f64>) {
         n: 60,
         ..DetmaxOptions::default()
     };
-    for option in [ModelOption::ElastoKinematic, host::calib::option::DEFAULT] {
+    for option in [
+        ModelOption::ElastoKinematic,
+        lrmcal_engine::calib::option::DEFAULT,
+    ] {
         let runs = 3;
         let mut rows: Vec<[Duration; 3]> = Vec::new();
         for _ in 0..runs {
@@ -174,7 +178,7 @@ fn pool(nominal: &model::Arm<f64>) {
             let design = detmax(
                 &blocks.blocks,
                 &detmax_options,
-                &host::calib::progress::Silent,
+                &lrmcal_engine::calib::progress::Silent,
             )
             .expect("detmax");
             let selected = start.elapsed();

@@ -6,17 +6,17 @@
 //!
 //! `cargo run --release -p host --example outliers`
 
-use host::calib::ModelOption;
-use host::calib::detmax::DetmaxOptions;
-use host::calib::experiments::outlier_trial;
-use host::calib::identify::IdentifyOptions;
-use host::calib::pipeline::{Choice, Inputs, RunSettings};
-use host::plan::{PlanConfig, candidates};
-use host::sim::{SimConfig, TrueArm};
+use lrmcal_engine::calib::ModelOption;
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::experiments::outlier_trial;
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::sim::{SimConfig, TrueArm};
 use nalgebra::Vector3;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let nominal = host::io::arm_source::bundled("lrm")?.arm;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm")?.arm;
     let poses = candidates(&nominal, &PlanConfig::default())?.kept;
     let load = 0.0663;
     println!("seed | clean: plain robust | 3 x +20 mm: plain robust (named) | mm, held-out mean");

@@ -1,21 +1,15 @@
 //! `lrmcal`: calibrate a low-cost arm from 3D tool positions.
 //!
-//! The binary is a thin shell over [`main_impl`]; each subcommand lives in its
-//! own file under [`commands`], file formats under [`io`].
+//! The command line, the top floor of the host side: each subcommand lives in
+//! its own file under [`commands`] and only parses its arguments, reads files
+//! (`lrmcal_core`), calls the engine (`lrmcal_engine`) and writes and prints
+//! the results. The binary is a thin shell over [`main_impl`].
 
-pub mod calib;
 pub mod cli;
 pub mod commands;
-pub mod dataset;
-pub mod device;
 pub mod error;
 pub mod fuzz;
-pub mod ik;
-pub mod io;
-pub mod plan;
-pub mod scale;
-pub mod sim;
-pub mod tracker;
+pub mod plots;
 
 pub use cli::main_impl;
 pub use error::Error;

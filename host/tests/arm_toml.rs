@@ -3,8 +3,8 @@
 //! file, the key path and the line, and says what was expected.
 
 use host::error::InputError;
-use host::io::arm_source::{self, ArmSource};
-use host::io::arm_toml;
+use lrmcal_core::io::arm_source::{self, ArmSource};
+use lrmcal_core::io::arm_toml;
 
 const FIXTURE: &str = include_str!("data/arm.toml");
 
@@ -99,7 +99,7 @@ fn file_errors_name_the_file() {
 
     let missing = dir.path().join("absent.toml");
     let err = arm_toml::read(&missing).unwrap_err();
-    assert_eq!(err.exit_code(), host::error::exit_codes::FILE_ACCESS);
+    assert!(err.is_access());
     assert!(err.report().contains("absent.toml"));
 }
 
@@ -405,7 +405,8 @@ box = { frame = "tool", min = [-0.02, -0.02, -0.01], max = [0.02, 0.02, 0.03] }
 
 #[test]
 fn a_collision_description_parses_round_trips_and_reaches_the_planner() {
-    use host::plan::{Floor, FrameRef, PlanConfig, ShapeSpec, candidates};
+    use lrmcal_core::collision::{Floor, FrameRef, ShapeSpec};
+    use lrmcal_engine::plan::{PlanConfig, candidates};
     let d = arm_toml::parse(&with_collision(BODIES)).unwrap();
     let c = &d.collision;
     assert_eq!(c.clearance_m, Some(0.02));

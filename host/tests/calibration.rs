@@ -2,17 +2,17 @@
 //! the consistency check (exact data in, exact parameters out), the demo's
 //! claims on the seeds where each holds, and DETMAX against random selection.
 
-use host::calib::detmax::DetmaxOptions;
-use host::calib::experiments::{grid_and_off_grid, outlier_trial, random_baseline};
-use host::calib::identify::{IdentifyOptions, identify};
-use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
-use host::calib::progress::Silent;
-use host::calib::report::IdentifiabilityReport;
-use host::calib::validate::validate;
-use host::calib::{ModelOption, ParamKey, ParamVector, Sample};
-use host::dataset::{FROM_HOME, Measurement, Pose};
-use host::plan::{PlanConfig, candidates};
-use host::sim::{DEFAULT_SEED, SimConfig, TrueArm};
+use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::experiments::{grid_and_off_grid, outlier_trial, random_baseline};
+use lrmcal_engine::calib::identify::{IdentifyOptions, identify};
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::report::IdentifiabilityReport;
+use lrmcal_engine::calib::validate::validate;
+use lrmcal_engine::calib::{ModelOption, ParamKey, ParamVector, Sample};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 use model::Arm;
 
 const LOAD: f64 = 0.0663;
@@ -31,7 +31,7 @@ fn settings(load: f64, other: Option<f64>, starts: usize) -> RunSettings {
 }
 
 fn bundled() -> Arm<f64> {
-    host::io::arm_source::bundled("lrm")
+    lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm
 }
@@ -55,7 +55,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
             })
         })
         .collect();
-    host::calib::Rig::from(*arm)
+    lrmcal_engine::calib::Rig::from(*arm)
         .tool_points(&samples)
         .expect("model")
         .into_iter()
@@ -96,7 +96,7 @@ fn exact_data_gives_exact_parameters() {
             }
         }
         // Servo knots are corrections of the curves on their grid.
-        let start = host::calib::servo_knots::fit_start(&nominal.into(), &kept);
+        let start = lrmcal_engine::calib::servo_knots::fit_start(&nominal.into(), &kept);
         let true_arm = truth.apply(&start).arm;
         let all = exact_measurements(&true_arm, &poses, &[0.0, LOAD]);
         let inputs = Inputs::new(&nominal, &poses, &all);
@@ -274,7 +274,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     let nominal = bundled();
     let poses = candidate_poses(&nominal);
     let name = |n: &str| ParamKey::from_name(n).expect("parameter name");
-    let a = host::calib::identifiability::analyse(
+    let a = lrmcal_engine::calib::identifiability::analyse(
         &nominal,
         ModelOption::ElastoKinematic,
         &poses
@@ -319,7 +319,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     for r in &a.removed {
         assert!(r.residual < 1e-6, "{}: residual {}", r.id, r.residual);
     }
-    let kin = host::calib::identifiability::analyse(
+    let kin = lrmcal_engine::calib::identifiability::analyse(
         &nominal,
         ModelOption::Kinematic,
         &poses
@@ -370,8 +370,8 @@ fn a_soft_light_wrist_is_fitted_and_its_weak_compliances_named() {
             let std = e.std.expect("a weak parameter is free");
             assert!(std > e.value, "{option} {}: {} ± {std}", e.id, e.value);
         }
-        let report = host::calib::report::OptionReport::from(&r);
-        let line = host::calib::summary::weak(&report).expect("weak line");
+        let report = lrmcal_engine::calib::report::OptionReport::from(&r);
+        let line = lrmcal_engine::calib::summary::weak(&report).expect("weak line");
         assert!(line.contains(&format!("{} = ", weak[0].id)), "{line}");
         assert!(r.held_out().expect("validation").reduction_pct > 50.0);
     }
@@ -429,11 +429,11 @@ struct OffGridFigures {
 fn off_grid_figures(seed: u64) -> OffGridFigures {
     let nominal = bundled();
     let config = PlanConfig {
-        random: host::plan::DEFAULT_RANDOM_POSES,
+        random: lrmcal_engine::plan::DEFAULT_RANDOM_POSES,
         ..PlanConfig::default()
     };
     let plan = candidates(&nominal, &config).expect("plan");
-    let off_grid_poses = host::plan::random_candidates(
+    let off_grid_poses = lrmcal_engine::plan::random_candidates(
         &nominal,
         &PlanConfig::default(),
         host::commands::demo::OFF_GRID_POSES,
@@ -495,10 +495,10 @@ off_grid_claims! {
 /// selected for it (seed 1, the demo's candidates).
 #[test]
 fn the_knot_spacing_follows_the_number_of_poses() {
-    use host::calib::servo_knots::KnotSpacing;
+    use lrmcal_engine::calib::servo_knots::KnotSpacing;
     let nominal = bundled();
     let config = PlanConfig {
-        random: host::plan::DEFAULT_RANDOM_POSES,
+        random: lrmcal_engine::plan::DEFAULT_RANDOM_POSES,
         ..PlanConfig::default()
     };
     let poses = candidates(&nominal, &config).expect("plan").kept;

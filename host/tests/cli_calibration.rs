@@ -7,9 +7,9 @@ use common::{default_calibration_file, lrmcal, p, text};
 
 use std::path::Path;
 
-use host::dataset::Measurement;
-use host::io::calibration_file::CalibrationFile;
-use host::io::measurements;
+use lrmcal_core::dataset::Measurement;
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::measurements;
 
 /// Plans candidates and simulates both loads on them into `dir`.
 fn simulated(dir: &Path) -> (String, String) {
@@ -130,7 +130,7 @@ fn select_identify_validate_round_trip() {
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
         let warned = stderr.contains(&format!(
             "warning: {}: ",
-            host::calib::option::DEFAULT.name()
+            lrmcal_engine::calib::option::DEFAULT.name()
         )) && stderr.contains(&format!(
             "measurements of {} are far off the others (poses {fitted} (",
             p(&moved)
@@ -436,7 +436,7 @@ fn bad_inputs_are_named() {
     let same = dir.path().join("same.csv");
     let copies: Vec<Measurement> = (1..=12)
         .map(|id| Measurement {
-            pose: host::dataset::Pose { id, ..rows[0].pose },
+            pose: lrmcal_core::dataset::Pose { id, ..rows[0].pose },
             ..rows[0]
         })
         .collect();
@@ -488,12 +488,12 @@ fn validate_refuses_a_calibration_of_another_arm() {
     ]);
     assert!(out.status.success(), "{}", text(&out));
     let other = dir.path().join("other.toml");
-    let arm_text = host::io::arm_source::BUNDLED[0]
+    let arm_text = lrmcal_core::io::arm_source::BUNDLED[0]
         .1
         .replacen("d = 0.09", "d = 0.10", 1);
     assert_ne!(
         arm_text,
-        host::io::arm_source::BUNDLED[0].1,
+        lrmcal_core::io::arm_source::BUNDLED[0].1,
         "the bundled arm has a d = 0.09 line"
     );
     std::fs::write(&other, arm_text).unwrap();

@@ -12,8 +12,8 @@ use std::collections::HashSet;
 use std::path::Path;
 use std::process::Output;
 
-use host::io::calibration_file::SCHEMA_VERSION;
-use host::io::{arm_source, predictions};
+use lrmcal_core::io::calibration_file::SCHEMA_VERSION;
+use lrmcal_core::io::{arm_source, predictions};
 use model::testing::{ErrorSizes, random_errors};
 use model::{Arm, JOINTS, ParamId};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};

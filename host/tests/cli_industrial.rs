@@ -10,7 +10,7 @@ use common::lrmcal;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use host::io::{arm_toml, pose_list, predictions};
+use lrmcal_core::io::{arm_toml, pose_list, predictions};
 use serde_json::Value;
 
 fn stderr(out: &Output) -> String {

@@ -7,7 +7,7 @@
 
 use std::process::{Command, Output};
 
-use host::io::arm_source;
+use lrmcal_core::io::arm_source;
 use model::JOINTS;
 
 fn lrmcal(args: &[&str]) -> Output {
@@ -210,8 +210,8 @@ fn help_explains_cartesian_targets() {
 /// point only such poses reach is refused naming the compensation.
 #[test]
 fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits() {
-    use host::device::commanded::Commanded;
-    use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+    use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+    use lrmcal_engine::device::commanded::Commanded;
 
     let mut nominal = arm_source::bundled("lrm").unwrap().arm;
     // The shoulder may not lean back past upright.
@@ -247,7 +247,7 @@ fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits()
     assert!(with.status.success(), "{}", stderr(&with));
     let q_deg = numbers_after(&stdout(&with), "joint targets, deg: ");
     let q: [f64; JOINTS] = std::array::from_fn(|i| q_deg[i].to_radians());
-    let payload = host::device::calibration::payload(&file, [0.0; JOINTS]).unwrap();
+    let payload = lrmcal_engine::device::calibration::payload(&file, [0.0; JOINTS]).unwrap();
     let board = Commanded::new(&payload, protocol::CompensationMode::Full, 0.0);
     let command = board.command(&q).expect("a pose the board can command");
     assert!(command[1] >= 0.0, "{command:?}");

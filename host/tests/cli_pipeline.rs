@@ -12,9 +12,9 @@ use common::{default_calibration_file, lrmcal};
 use std::collections::{BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
-use host::dataset::{Measurement, PoseRow};
 use host::error::exit_codes;
-use host::io::{measurements, pose_list, predictions};
+use lrmcal_core::dataset::{Measurement, PoseRow};
+use lrmcal_core::io::{measurements, pose_list, predictions};
 use serde_json::Value;
 
 /// The paper's payload, kg.
@@ -194,9 +194,12 @@ fn plan_simulate_identify_validate_predict() {
     assert_eq!(cal_json["schema"], "lrmcal-calibration");
     assert_eq!(
         cal_json["schema_version"],
-        host::io::calibration_file::SCHEMA_VERSION
+        lrmcal_core::io::calibration_file::SCHEMA_VERSION
     );
-    assert_eq!(cal_json["option"], host::calib::option::DEFAULT.name());
+    assert_eq!(
+        cal_json["option"],
+        lrmcal_engine::calib::option::DEFAULT.name()
+    );
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);
     let used: BTreeSet<u32> = cal_json["poses_used"]
@@ -280,9 +283,9 @@ fn plan_simulate_identify_validate_predict() {
 
 /// A valid calibration file of the bundled arm, made through the library.
 fn calibration_json() -> String {
-    use host::calib::ModelOption;
-    use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
-    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+    use lrmcal_engine::calib::ModelOption;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let mut arm = nominal;
     arm.joints[1].compliance = 0.1;
     CalibrationFile {
@@ -336,7 +339,7 @@ fn bad_inputs_give_the_documented_exit_codes() {
         calibration_json().replace(
             &format!(
                 "\"schema_version\": {}",
-                host::io::calibration_file::SCHEMA_VERSION
+                lrmcal_core::io::calibration_file::SCHEMA_VERSION
             ),
             "\"schema_version\": 99",
         ),

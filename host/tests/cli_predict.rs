@@ -9,7 +9,7 @@ use common::lrmcal;
 use std::path::Path;
 use std::process::Output;
 
-use host::io::{arm_toml, predictions};
+use lrmcal_core::io::{arm_toml, predictions};
 
 fn fixture() -> String {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -72,7 +72,7 @@ fn bundled_arm_is_the_default_and_stdout_the_default_output() {
     assert!(run.status.success(), "{}", stderr(&run));
     let text = String::from_utf8(run.stdout).unwrap();
     let rows = predictions::parse(&text).unwrap();
-    let arm = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let arm = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let expected = arm
         .chain()
         .tool_point(&[0.0; 6], 0.0, &model::SolverOptions::default())

@@ -9,9 +9,9 @@ use common::{default_calibration_file, lrmcal, p, text};
 use std::path::Path;
 use std::process::Output;
 
-use host::dataset::Measurement;
-use host::io::calibration_file::CalibrationFile;
-use host::io::measurements;
+use lrmcal_core::dataset::Measurement;
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::measurements;
 use nalgebra::{Rotation3, Vector3};
 
 /// Simulated measurements of the bundled arm (one load) rewritten by `edit`

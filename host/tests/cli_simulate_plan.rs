@@ -8,10 +8,10 @@ use common::lrmcal;
 use std::path::Path;
 use std::process::Output;
 
-use host::dataset::Measurement;
-use host::io::{arm_source::ArmSource, measurements, pose_list};
-use host::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
-use host::sim::{DEFAULT_SEED, ServoErrorShape, SimConfig, TrueArm};
+use lrmcal_core::dataset::Measurement;
+use lrmcal_core::io::{arm_source::ArmSource, measurements, pose_list};
+use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
+use lrmcal_engine::sim::{DEFAULT_SEED, ServoErrorShape, SimConfig, TrueArm};
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
@@ -244,7 +244,7 @@ fn simulate_the_second_arm_with_stiffening_springs_and_harmonics() {
         path(&t),
     ]);
     assert!(run.status.success(), "{}", stderr(&run));
-    let nominal = host::io::arm_toml::read(&arm_file).unwrap().arm;
+    let nominal = lrmcal_core::io::arm_toml::read(&arm_file).unwrap().arm;
     let config = SimConfig {
         softening_per_nm: 0.0,
         stiffening_per_nm: 0.4,

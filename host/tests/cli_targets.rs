@@ -10,8 +10,8 @@ use common::{lrmcal, p, text};
 
 use std::path::{Path, PathBuf};
 
-use host::io::calibration_file::CalibrationFile;
-use host::io::predictions;
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::predictions;
 
 /// The bundled arm's tool point line, and the second target's place (m,
 /// flange frame): 3 cm, -1 cm and 2 cm off the first.

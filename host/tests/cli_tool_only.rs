@@ -7,7 +7,7 @@ use common::{default_calibration_file, lrmcal};
 
 use std::path::Path;
 
-use host::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::calibration_file::CalibrationFile;
 
 fn s(p: &Path) -> &str {
     p.to_str().expect("a UTF-8 temporary path")
@@ -61,7 +61,7 @@ fn a_tool_change_re_teaches_the_tool_point_and_keeps_the_arm() {
     // The same arm (same seed: the same drawn errors) with a new tool,
     // measured at eight poses only.
     let bundled =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("arms/lrm.toml"))
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("core/arms/lrm.toml"))
             .unwrap();
     assert!(bundled.contains(OLD_TOOL));
     let [dx, dy, dz] = NEW_TOOL_OFFSET;

@@ -12,10 +12,10 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use common::{lrmcal, p, text};
-use host::io::calibration_file::CalibrationFile;
-use host::io::{arm_toml, measurements, pose_list, predictions};
-use host::plan::{PlanConfig, candidates};
-use host::tracker::{dtrack, motive};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::{arm_toml, measurements, pose_list, predictions};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::tracker::{dtrack, motive};
 
 const FORMATS: &str = include_str!("../../docs/FORMATS.md");
 
@@ -198,7 +198,7 @@ fn the_arm_example_is_the_bundled_arm() {
         .find(|(k, _)| *k == "arm")
         .expect("an arm example");
     let example = arm_toml::parse(&text).unwrap();
-    let bundled = host::io::arm_source::bundled("lrm").unwrap();
+    let bundled = lrmcal_core::io::arm_source::bundled("lrm").unwrap();
     assert_eq!(example.arm, bundled.arm);
     assert_eq!(example.joint_names, bundled.joint_names);
 }

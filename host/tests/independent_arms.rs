@@ -34,8 +34,8 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
-use host::dataset::PoseRow;
-use host::io::{measurements, pose_list, predictions};
+use lrmcal_core::dataset::PoseRow;
+use lrmcal_core::io::{measurements, pose_list, predictions};
 
 /// The paper's payload, kg.
 const LOAD_KG: f64 = 0.0663;

@@ -7,16 +7,16 @@
 //! and the board accept it, and the board's compensated commands put the
 //! tool point where the nominal arm's would be, within its tolerance.
 
-use host::calib::detmax::DetmaxOptions;
-use host::calib::export::{result_calibration_file, rigs_of};
-use host::calib::identify::IdentifyOptions;
-use host::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
-use host::calib::progress::Silent;
-use host::calib::validate::validate;
-use host::calib::{Sample, option};
-use host::io::calibration_file::CalibrationFile;
-use host::plan::{PlanConfig, candidates};
-use host::sim::{ServoErrorShape, SimConfig, TrueArm};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::export::{result_calibration_file, rigs_of};
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::validate::validate;
+use lrmcal_engine::calib::{Sample, option};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::sim::{ServoErrorShape, SimConfig, TrueArm};
 use model::backlash::Approach;
 use model::{JOINTS, SolverOptions};
 use protocol::CompensationMode;
@@ -64,7 +64,7 @@ fn cases() -> Vec<Case> {
 
 #[test]
 fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
-    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let poses = candidates(&nominal, &PlanConfig::default()).unwrap().kept;
     for case in cases() {
         let truth = TrueArm::draw(&nominal, case.seed, &case.config).unwrap();
@@ -119,11 +119,14 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
         // servo frame by servo frame, in f32) puts the calibrated arm's tool
         // point where the nominal arm's is, to within its 5 µm tolerance
         // (plus the single precision of the arms it was sent).
-        let payload = host::device::calibration::payload(&read, [0.0; JOINTS])
+        let payload = lrmcal_engine::device::calibration::payload(&read, [0.0; JOINTS])
             .unwrap_or_else(|f| panic!("{name}: the board refuses it: {f}"));
         let config = firmware::Config::default();
-        let board =
-            host::device::commanded::Commanded::new(&payload, CompensationMode::Full, LOAD_KG);
+        let board = lrmcal_engine::device::commanded::Commanded::new(
+            &payload,
+            CompensationMode::Full,
+            LOAD_KG,
+        );
         // On the board the calibrated servo curves make the pulses: a joint
         // stands at its command (its play aside, which the board offsets).
         let mut standing = calibrated.without_play();

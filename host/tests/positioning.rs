@@ -4,21 +4,21 @@
 //! arm. The calibrated board must put the tool far nearer the targets than
 //! an uncalibrated one, and nearer still when it knows the play.
 
-use host::calib::detmax::DetmaxOptions;
-use host::calib::export::calibration_file;
-use host::calib::identify::IdentifyOptions;
-use host::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
-use host::calib::progress::Silent;
-use host::calib::{ModelOption, option};
-use host::plan::{PlanConfig, candidates};
-use host::sim::positioning::{self, Positioning};
-use host::sim::{SimConfig, TrueArm};
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::export::calibration_file;
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::{ModelOption, option};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::sim::positioning::{self, Positioning};
+use lrmcal_engine::sim::{SimConfig, TrueArm};
 
 const LOAD_KG: f64 = 0.0663;
 
 #[test]
 fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
-    let nominal = host::io::arm_source::bundled("lrm")
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
     let poses = candidates(&nominal, &PlanConfig::default())

@@ -24,7 +24,7 @@ use common::lrmcal;
 
 use std::path::{Path, PathBuf};
 
-use host::io::predictions;
+use lrmcal_core::io::predictions;
 
 /// The joint columns of the data set, base to tip.
 const JOINTS: [&str; 6] = [

@@ -4,16 +4,17 @@
 //! the rank analysis refreshed at the estimate removes the structural error
 //! the paper's reduction leaves.
 
-use host::calib::detmax::DetmaxOptions;
-use host::calib::identify::IdentifyOptions;
-use host::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
-use host::calib::progress::Silent;
-use host::calib::registration::{Gravity, Registration, register};
-use host::calib::validate::validate;
-use host::calib::{ModelOption, ParamKey, Rig};
-use host::dataset::{Measurement, Pose};
-use host::plan::{PlanConfig, candidates};
-use host::sim::{SimConfig, TrueArm};
+use lrmcal_core::dataset::{Measurement, Pose};
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::params::Key as _;
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::registration::{Gravity, Registration, register};
+use lrmcal_engine::calib::validate::validate;
+use lrmcal_engine::calib::{ModelOption, ParamKey, Rig};
+use lrmcal_engine::plan::{PlanConfig, candidates};
+use lrmcal_engine::sim::{SimConfig, TrueArm};
 use model::{Arm, Frame};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
@@ -21,7 +22,7 @@ use rand::{Rng, SeedableRng, rngs::StdRng};
 const LOAD: f64 = 0.0663;
 
 fn bundled() -> Arm<f64> {
-    host::io::arm_source::bundled("lrm")
+    lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm
 }

@@ -4,13 +4,13 @@
 
 use std::collections::BTreeSet;
 
-use host::calib::ModelOption;
-use host::calib::detmax::{DetmaxOptions, detmax};
-use host::calib::pipeline::{CandidateBlocks, Choice, Selection};
-use host::calib::progress::Silent;
-use host::dataset::{Pose, PoseRow};
-use host::io::pose_list;
-use host::plan::{PlanConfig, candidates};
+use lrmcal_core::dataset::{Pose, PoseRow};
+use lrmcal_core::io::pose_list;
+use lrmcal_engine::calib::ModelOption;
+use lrmcal_engine::calib::detmax::{DetmaxOptions, detmax};
+use lrmcal_engine::calib::pipeline::{CandidateBlocks, Choice, Selection};
+use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::plan::{PlanConfig, candidates};
 use rand::seq::SliceRandom;
 use rand::{SeedableRng, rngs::StdRng};
 
@@ -21,7 +21,7 @@ fn key(pose: &Pose) -> [u64; 6] {
 
 /// The bundled arm's candidate file as `lrmcal plan` writes it, as text.
 fn candidate_file() -> (model::Arm<f64>, String) {
-    let arm = host::io::arm_source::bundled("lrm")
+    let arm = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
     let kept = candidates(&arm, &PlanConfig::default())

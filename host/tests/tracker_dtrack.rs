@@ -10,8 +10,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::Duration;
 
-use host::tracker::listen::Listener;
-use host::tracker::{SettleOptions, StreamProblem, Target, TrackerError};
+use lrmcal_engine::tracker::listen::Listener;
+use lrmcal_engine::tracker::{SettleOptions, StreamProblem, Target, TrackerError};
 use nalgebra::Vector3;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -184,8 +184,8 @@ fn silence_and_foreign_datagrams_are_told_apart() {
     let err = l
         .read(Target::Body(1), OPTIONS, Duration::from_millis(300))
         .unwrap_err();
-    assert_eq!(err.exit_code(), 6);
     let text = err.to_string();
+    assert_eq!(host::Error::from(err).exit_code(), 6);
     assert!(
         text.contains("no DTrack frame for 0.3 s (none since listening began)"),
         "{text}"

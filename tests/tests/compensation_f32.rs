@@ -19,7 +19,7 @@ const FRAMES_FROM_REST: usize = 20;
 
 #[test]
 fn board_compensation_reaches_nominal_targets_within_50_um() {
-    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let mut rng = StdRng::seed_from_u64(2024);
     let ids: Vec<ParamId> = ParamId::all().collect();
     let errors = random_errors(&mut rng, &ErrorSizes::CALIBRATED);
@@ -34,13 +34,16 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
     {
         j.softening = s;
     }
-    let cal = host::device::calibration::identified(Calibration {
+    let cal = lrmcal_engine::device::calibration::identified(Calibration {
         id: 0,
         option: ModelOption::ElastoKinematic,
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
         home_rad: [0.0; 6],
-        max_correction_rad: host::device::calibration::max_corrections(&nominal, &calibrated),
+        max_correction_rad: lrmcal_engine::device::calibration::max_corrections(
+            &nominal,
+            &calibrated,
+        ),
     })
     .unwrap();
     // The host's f64 model of what was sent (the board gets f32 numbers).

@@ -11,10 +11,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
+use host::commands::device_args::DeviceArgs;
 use host::commands::{compensation, detach, move_, payload, pull, push, status};
-use host::device::DeviceArgs;
-use host::device::memory::MemoryBoard;
-use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION};
+use lrmcal_engine::device::memory::MemoryBoard;
 use protocol::CompensationMode;
 use protocol::frame::MAX_FRAME;
 
@@ -98,7 +98,7 @@ impl Drop for SocketBoard {
 }
 
 fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
-    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let mut arm = nominal;
     arm.joints[1].theta += 0.01;
     arm.joints[2].compliance += 0.05;
@@ -106,7 +106,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
-        option: host::calib::ModelOption::ElastoKinematicServo,
+        option: lrmcal_engine::calib::ModelOption::ElastoKinematicServo,
         nominal,
         arm,
         parameters: vec![],
@@ -290,7 +290,7 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
         "{}",
         err.report()
     );
-    let rows = host::io::measurements::read(&out).unwrap();
+    let rows = lrmcal_core::io::measurements::read(&out).unwrap();
     assert_eq!(
         rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(),
         vec![1, 2]
@@ -300,7 +300,7 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
     // Run again: only pose 3 is measured (its line names it), rows 1 and 2 stay.
     std::fs::write(&tracker, "3 199 -29 179\n").unwrap();
     measure::run(&args(&tracker)).unwrap();
-    let rows = host::io::measurements::read(&out).unwrap();
+    let rows = lrmcal_core::io::measurements::read(&out).unwrap();
     assert_eq!(
         rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(),
         vec![1, 2, 3]
@@ -383,7 +383,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
     let run =
         std::thread::spawn(move || measure::run(&args).map_err(|e| (e.exit_code(), e.report())));
     let t0 = Instant::now();
-    while host::io::measurements::read(&out).map_or(true, |rows| rows.is_empty()) {
+    while lrmcal_core::io::measurements::read(&out).map_or(true, |rows| rows.is_empty()) {
         assert!(t0.elapsed() < Duration::from_secs(60), "no pose recorded");
         std::thread::sleep(Duration::from_millis(5));
     }
@@ -401,7 +401,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
         report.contains("the stream stopped: no frame for"),
         "{report}"
     );
-    let rows = host::io::measurements::read(&out).unwrap();
+    let rows = lrmcal_core::io::measurements::read(&out).unwrap();
     assert_eq!(rows.iter().map(|m| m.pose.id).collect::<Vec<_>>(), vec![1]);
     let p = rows[0].position * 1000.0;
     let error_mm = ((p.x - 212.41).powi(2) + (p.y + 35.02).powi(2) + (p.z - 188.77).powi(2)).sqrt();
@@ -504,7 +504,7 @@ fn push_refuses_a_play_wider_than_a_few_degrees_naming_the_joint() {
 #[test]
 fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
     use clap::Parser;
-    use host::ik::{IkOptions, solve_position};
+    use lrmcal_engine::ik::{IkOptions, solve_position};
 
     let board = SocketBoard::start();
     let run = |xyz_m: [f64; 3]| {
@@ -535,12 +535,12 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
             .nominal_rad
     };
     // What the board accepts, as `move --xyz` must find it.
-    let within_board = host::device::commanded::within_board;
+    let within_board = lrmcal_engine::device::commanded::within_board;
 
     // No calibration: the bundled arm. From base yaw 95°, the target of base
     // yaw 103° is nearest at 103°, within the arm's ±105° but beyond the
     // board's ±100°: another pose must be found.
-    let bundled = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let bundled = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let deg = |q: [f64; 6]| q.map(f64::to_radians);
     let start = deg([95.0, 30.0, 30.0, 0.0, 0.0, 0.0]);
     let mut client = board.args().connect().unwrap();
@@ -585,7 +585,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
         nominal: longer.map(|x| x as f32),
         calibrated: longer.map(|x| x as f32),
         home_rad: [0.0; 6],
-        max_correction_rad: host::device::calibration::max_corrections(&longer, &longer),
+        max_correction_rad: lrmcal_engine::device::calibration::max_corrections(&longer, &longer),
     };
     let mut client = board.args().connect().unwrap();
     client.push_calibration(&calibration, |_, _| {}).unwrap();
@@ -617,7 +617,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
 /// The ranges `move --xyz` keeps to are the ones the firmware enforces.
 #[test]
 fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
-    use host::device::commanded::board_limits;
+    use lrmcal_engine::device::commanded::board_limits;
     let config = firmware::Config::default();
     let firmware = |calibration: Option<&protocol::Calibration>| {
         firmware::servo::joint_limits(
@@ -627,7 +627,7 @@ fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
         )
     };
     assert_eq!(board_limits(None), firmware(None));
-    let mut arm = host::io::arm_source::bundled("lrm")
+    let mut arm = lrmcal_core::io::arm_source::bundled("lrm")
         .unwrap()
         .arm
         .map(|x| x as f32);

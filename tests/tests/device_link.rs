@@ -7,10 +7,12 @@ use std::io::Write;
 use std::time::Duration;
 
 use firmware::sim::SimFlash;
-use host::calib::ModelOption;
-use host::device::memory::MemoryBoard;
-use host::device::{Client, ClientError, CommsError, calibration};
-use host::io::calibration_file::{CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool};
+use lrmcal_core::io::calibration_file::{
+    CalibrationFile, ErrorStats, SCHEMA, SCHEMA_VERSION, TargetTool,
+};
+use lrmcal_engine::calib::ModelOption;
+use lrmcal_engine::device::memory::MemoryBoard;
+use lrmcal_engine::device::{Client, ClientError, CommsError, calibration};
 use model::{Arm, ParamId};
 use protocol::frame::MAX_FRAME;
 use protocol::{CompensationMode, Faults, Timing, WireError};
@@ -29,7 +31,7 @@ fn client(board: MemoryBoard) -> Client<MemoryBoard> {
 /// with millimetre/degree-level corrections and measured servo curves of 3
 /// to 9 knots.
 fn calibration_file() -> CalibrationFile {
-    let nominal = host::io::arm_source::bundled("lrm").unwrap().arm;
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let ids: Vec<ParamId> = ParamId::all().collect();
     let errors: Vec<f64> = ids
         .iter()

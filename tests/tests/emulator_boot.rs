@@ -19,7 +19,7 @@ const FRAME_US: f64 = 20_000.0;
 
 #[test]
 fn boots_limp_enumerates_and_attached_servos_pulse_at_home_at_50_hz() {
-    let arm = host::io::arm_source::bundled("lrm")
+    let arm = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
     let mut board = EmulatedBoard::start();

@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Parser;
 use emulator_support::{EmulatedBoard, ExpectedPulses, RawLink, SERVO_PINS, calibration_bytes};
-use host::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::calibration_file::CalibrationFile;
 use protocol::CompensationMode;
 use serde_json::json;
 
@@ -60,7 +60,7 @@ fn device_commands_drive_the_emulated_board() {
         path(&dir),
     ]);
     let file = dir.join("calibration-elasto-kinematic.json");
-    let payload = host::device::calibration::payload(
+    let payload = lrmcal_engine::device::calibration::payload(
         &CalibrationFile::read(&file).expect("the demo's calibration file"),
         [0.0; 6],
     )

@@ -15,7 +15,8 @@ use emulator_support::{
     EmulatedBoard, ExpectedPulses, RawLink, calibration_bytes, curve_pulses, expected_command,
     test_calibration,
 };
-use host::device::{Client, DeviceArgs, Link};
+use host::commands::device_args::DeviceArgs;
+use lrmcal_engine::device::{Client, Link};
 use model::JOINTS;
 use protocol::{CompensationMode, Faults, Timing};
 

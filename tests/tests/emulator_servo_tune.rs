@@ -67,8 +67,8 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
 
     let dir = tempfile::tempdir().expect("scratch folder");
     let arm = dir.path().join("arm.toml");
-    std::fs::copy(repo_root().join("host/arms/lrm.toml"), &arm).expect("copy the bundled arm");
-    let original = host::io::arm_toml::read(&arm).expect("the bundled arm file");
+    std::fs::copy(repo_root().join("host/core/arms/lrm.toml"), &arm).expect("copy the bundled arm");
+    let original = lrmcal_core::io::arm_toml::read(&arm).expect("the bundled arm file");
     let start_us = original.arm.joints[JOINT - 1].servo.pulse_us(0.0) as u16;
 
     let mut command = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"));
@@ -153,7 +153,7 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     // The arm file has the new curve for this joint and nothing else changed.
     let mut expected = original.clone();
     expected.arm.joints[JOINT - 1].servo = curve;
-    let rewritten = host::io::arm_toml::read(&arm).expect("the rewritten arm file");
+    let rewritten = lrmcal_core::io::arm_toml::read(&arm).expect("the rewritten arm file");
     assert_eq!(rewritten.arm, expected.arm, "the arm file after servo-tune");
 
     // The board uses a calibration with the new curve (single precision) and the rest as before.

@@ -2,7 +2,7 @@
 
 use protocol::CompensationMode;
 
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 
 /// What the board does with the nominal joint targets.

@@ -10,19 +10,21 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use crate::calib::detmax::DetmaxOptions;
-use crate::calib::export::result_calibration_file;
-use crate::calib::identify::IdentifyOptions;
-use crate::calib::pipeline::{Choice, Inputs, RunSettings};
-use crate::calib::study::{StudySettings, study};
-use crate::calib::{plots, summary};
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::export::result_calibration_file;
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::study::{StudySettings, study};
+use lrmcal_engine::calib::summary;
+
 use crate::commands::helpers::Bar;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::measurements;
-use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
-use crate::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
+use crate::plots;
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::measurements;
+use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
+use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm, positioning};
 
 /// The paper's payload, kg.
 const PAPER_LOAD_KG: f64 = 0.0663;
@@ -94,7 +96,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let started = Instant::now();
     let loaded = args.arm.load()?;
     let nominal = loaded.arm;
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
+    std::fs::create_dir_all(&args.out).map_err(|source| lrmcal_core::Error::Write {
         path: args.out.clone(),
         source,
     })?;
@@ -204,7 +206,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             PAPER_LOAD_KG,
         )?;
         let rows = positioning::compare(&truth, &targets.targets, &boards, PAPER_LOAD_KG)?;
-        plot_files.extend(positioning::plot(&args.out, &rows, PAPER_LOAD_KG)?);
+        plot_files.extend(plots::positioning(&args.out, &rows, PAPER_LOAD_KG)?);
         println!(
             "\nPositioning error at the tool through the board, {} random targets with {PAPER_LOAD_KG} kg \
              (mm; nominal IK as `move --xyz`, the firmware's servo frames, the true arm; clamped: \

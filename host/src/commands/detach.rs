@@ -1,6 +1,6 @@
 //! `lrmcal detach`: make servos limp (or drive them again).
 
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 
 /// Stop the pulses of one joint or all, so the servos go limp; `--attach` undoes it.

@@ -75,13 +75,13 @@ fn emulator_error(reason: impl Into<String>) -> Error {
 
 /// Runs `lrmcal emulator`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let flash = std::path::absolute(&args.flash).map_err(|source| Error::Write {
+    let flash = std::path::absolute(&args.flash).map_err(|source| lrmcal_core::Error::Write {
         path: args.flash.clone(),
         source,
     })?;
     check_flash_file(&flash)?;
     if let Some(elf) = &args.elf {
-        std::fs::metadata(elf).map_err(|source| Error::Read {
+        std::fs::metadata(elf).map_err(|source| lrmcal_core::Error::Read {
             path: elf.clone(),
             source,
         })?;
@@ -174,19 +174,21 @@ fn check_flash_file(flash: &Path) -> Result<(), Error> {
             // The emulator writes it when it stops: its folder must be there.
             match flash.parent().map(std::fs::metadata) {
                 Some(Ok(dir)) if dir.is_dir() => Ok(()),
-                _ => Err(Error::Write {
+                _ => Err(lrmcal_core::Error::Write {
                     path: flash.to_path_buf(),
                     source: std::io::Error::new(
                         std::io::ErrorKind::NotFound,
                         "its folder does not exist",
                     ),
-                }),
+                }
+                .into()),
             }
         }
-        Err(source) => Err(Error::Read {
+        Err(source) => Err(lrmcal_core::Error::Read {
             path: flash.to_path_buf(),
             source,
-        }),
+        }
+        .into()),
     }
 }
 

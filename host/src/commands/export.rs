@@ -5,11 +5,11 @@ use std::path::{Path, PathBuf};
 
 use model::Arm;
 
-use crate::device::calibration;
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::CalibrationFile;
-use crate::io::urdf::{self, UrdfOptions};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::urdf::{self, UrdfOptions};
+use lrmcal_engine::device::calibration;
 
 /// Export an arm for other tools.
 #[derive(Debug, clap::Args)]
@@ -101,9 +101,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         None => {
             let text = urdf::render(&exported.arm, &options);
             std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()).map_err(
-                |source| Error::Write {
-                    path: "<stdout>".into(),
-                    source,
+                |source| {
+                    Error::from(lrmcal_core::Error::Write {
+                        path: "<stdout>".into(),
+                        source,
+                    })
                 },
             )
         }
@@ -167,13 +169,14 @@ fn check_limits(arm: &Arm<f64>, path: &Path) -> Result<(), Error> {
     for (i, joint) in arm.joints.iter().enumerate() {
         let [lower, upper] = joint.limits;
         if lower >= upper {
-            return Err(Error::ArmSource {
+            return Err(lrmcal_core::Error::ArmSource {
                 arm: path.display().to_string(),
                 reason: format!(
                     "joint {}'s limits are [{lower}, {upper}] rad; expected the lower limit below the upper",
                     i + 1
                 ),
-            });
+            }
+        .into());
         }
     }
     Ok(())

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use crate::device::{Client, open};
 use crate::error::Error;
+use lrmcal_engine::device::{Client, open};
 
 /// Reboot the board into its USB bootloader and copy a UF2 image onto it.
 #[derive(Debug, clap::Args)]
@@ -61,12 +61,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 .into(),
         ));
     }
-    let image = std::fs::read(&args.image).map_err(|source| Error::Read {
+    let image = std::fs::read(&args.image).map_err(|source| lrmcal_core::Error::Read {
         path: args.image.clone(),
         source,
     })?;
     if let Some(port) = &args.port {
-        let link = open(port).map_err(crate::device::ClientError::from)?;
+        let link = open(port).map_err(lrmcal_engine::device::ClientError::from)?;
         let mut client = Client::new(link, Duration::from_millis(500), 2);
         client.reboot_to_bootloader()?;
         println!("board is rebooting into its USB bootloader");
@@ -90,7 +90,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     };
     let target = drive.join("firmware.uf2");
     // The bootloader writes flash as blocks arrive and reboots after the last: a plain copy.
-    std::fs::write(&target, &image).map_err(|source| Error::Write {
+    std::fs::write(&target, &image).map_err(|source| lrmcal_core::Error::Write {
         path: target.clone(),
         source,
     })?;

@@ -7,10 +7,10 @@ use std::path::Path;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::calib::ModelOption;
-use crate::calib::progress::Progress;
 use crate::error::Error;
-use crate::io::atomic;
+use lrmcal_core::io::atomic;
+use lrmcal_engine::calib::ModelOption;
+use lrmcal_engine::calib::progress::Progress;
 
 /// The engine's progress as a terminal bar (on stderr, drawn only on a
 /// terminal): a new bar for each step of the engine, with the step's label
@@ -69,7 +69,7 @@ impl std::str::FromStr for OptionChoice {
             (_, Some(option)) => Ok(Self::One(option)),
             (_, None) => Err(format!(
                 "unknown model option `{s}`: expected {} or all",
-                crate::io::model_option::names()
+                lrmcal_core::io::model_option::names()
             )),
         }
     }
@@ -97,7 +97,7 @@ impl OptionChoice {
 
 /// Writes a text file (JSON, a report) whole or not at all (see [`atomic`]).
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
-    atomic::write(path, |w| w.write_all(text.as_bytes()))
+    Ok(atomic::write(path, |w| w.write_all(text.as_bytes()))?)
 }
 
 #[cfg(test)]

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 
 /// Move to the home pose (the calibration's, or all zeros).

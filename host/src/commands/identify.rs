@@ -6,32 +6,34 @@
 //! `--tool-only`, only the tool points are fitted, the arm of an earlier
 //! calibration held fixed (after a tool change).
 //! Before the fit the arm is registered in the measurement frame
-//! (`crate::calib::registration`, on the first target's rows) unless
+//! (`lrmcal_engine::calib::registration`, on the first target's rows) unless
 //! `--no-register` keeps the arm file's base.
 
 use std::path::PathBuf;
 
-use crate::calib::checks::{check_in_candidates, check_measured, identification_load};
-use crate::calib::detmax::DetmaxOptions;
-use crate::calib::export::registered_calibration_file;
-use crate::calib::identifiability::check_structure;
-use crate::calib::identify::IdentifyOptions;
-use crate::calib::pipeline::{CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks};
-use crate::calib::registration::{
-    Gravity, Registration, check_plausible_registered, check_registered_count, register,
-};
-use crate::calib::report::Report;
-use crate::calib::targets::Targets;
-use crate::calib::tool_only::retaught;
-use crate::calib::{CalibError, summary};
 use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
-use crate::dataset::{Pose, loads_of, poses_under};
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::CalibrationFile;
-use crate::io::{measurements, pose_list};
-use crate::tracker::axes::Up;
+use lrmcal_core::dataset::{Pose, loads_of, poses_under};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::calib::checks::{check_in_candidates, check_measured, identification_load};
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::export::registered_calibration_file;
+use lrmcal_engine::calib::identifiability::check_structure;
+use lrmcal_engine::calib::identify::IdentifyOptions;
+use lrmcal_engine::calib::pipeline::{
+    CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks,
+};
+use lrmcal_engine::calib::registration::{
+    Gravity, Registration, check_plausible_registered, check_registered_count, register,
+};
+use lrmcal_engine::calib::report::Report;
+use lrmcal_engine::calib::targets::Targets;
+use lrmcal_engine::calib::tool_only::retaught;
+use lrmcal_engine::calib::{CalibError, summary};
+use lrmcal_engine::tracker::axes::Up;
 use model::Arm;
 
 /// Identify the arm's error parameters from measured tool positions.
@@ -74,7 +76,7 @@ pub struct Args {
     /// Model option: elasto-kinematic-servo (each servo's own curve, backlash
     /// and stiffening too), elasto-kinematic, kinematic, elastic (the paper's
     /// three) or all.
-    #[arg(long, default_value_t = OptionChoice::One(crate::calib::option::DEFAULT))]
+    #[arg(long, default_value_t = OptionChoice::One(lrmcal_engine::calib::option::DEFAULT))]
     pub option: OptionChoice,
     /// Load whose measurements the fit uses, kg.
     #[arg(long, value_name = "KG")]
@@ -280,7 +282,7 @@ fn identify_options(args: &Args) -> IdentifyOptions {
 
 /// Creates the output folder if missing; its path.
 fn create_out(args: &Args) -> Result<&std::path::Path, Error> {
-    std::fs::create_dir_all(&args.out).map_err(|source| Error::Write {
+    std::fs::create_dir_all(&args.out).map_err(|source| lrmcal_core::Error::Write {
         path: args.out.clone(),
         source,
     })?;
@@ -292,7 +294,7 @@ fn create_out(args: &Args) -> Result<&std::path::Path, Error> {
 fn registration(
     args: &Args,
     nominal: &Arm<f64>,
-    first: &[crate::dataset::Measurement],
+    first: &[lrmcal_core::dataset::Measurement],
 ) -> Result<Registration, Error> {
     let gravity = Gravity::chosen(nominal, args.up.map(Up::rotation), args.level_base);
     if args.no_register {

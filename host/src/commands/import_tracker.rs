@@ -9,13 +9,13 @@
 use std::path::PathBuf;
 
 use crate::commands::measure::{non_negative, positive};
-use crate::dataset::{FROM_HOME, Measurement};
 use crate::error::Error;
-use crate::io::{measurements, pose_list, read_text};
-use crate::tracker::TrackerError;
-use crate::tracker::axes::Up;
-use crate::tracker::motive::{self, Asset};
-use crate::tracker::still::{StillOptions, StillPeriod, still_periods};
+use lrmcal_core::dataset::{FROM_HOME, Measurement};
+use lrmcal_core::io::{measurements, pose_list, read_text};
+use lrmcal_engine::tracker::TrackerError;
+use lrmcal_engine::tracker::axes::Up;
+use lrmcal_engine::tracker::motive::{self, Asset};
+use lrmcal_engine::tracker::still::{StillOptions, StillPeriod, still_periods};
 
 /// Import a recorded tracker take (Motive CSV) into a measurement CSV.
 #[derive(Debug, clap::Args)]

@@ -2,7 +2,7 @@
 //! tracker position per pose into a measurement CSV, resumable.
 //!
 //! Positions come from a live ART DTrack stream (`dtrack://`, averaged once
-//! the arm holds still, see `crate::tracker`), from lines of a file or a pipe,
+//! the arm holds still, see `lrmcal_engine::tracker`), from lines of a file or a pipe,
 //! or typed at a prompt. With `--hold-s` nothing is recorded: the arm holds
 //! each pose for a tracker that records a take, imported afterwards with
 //! `lrmcal import-tracker`.
@@ -19,12 +19,12 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
 
-use crate::dataset::{FROM_HOME, Measurement, Pose};
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use crate::io::{measurements, pose_list};
-use crate::tracker::listen::{self, Listener};
-use crate::tracker::{SettleOptions, Target};
+use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::tracker::listen::{self, Listener};
+use lrmcal_engine::tracker::{SettleOptions, Target};
 
 /// Drive the board through a pose list and record tracker positions.
 #[derive(Debug, clap::Args)]
@@ -308,7 +308,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             "standard input".into(),
         )),
         Some(TrackerSource::File(path)) => {
-            let file = std::fs::File::open(path).map_err(|source| Error::Read {
+            let file = std::fs::File::open(path).map_err(|source| lrmcal_core::Error::Read {
                 path: path.clone(),
                 source,
             })?;
@@ -371,7 +371,7 @@ fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
 
 /// Moves the board to `pose` under `load_kg`, waits until it stands, then `settle_ms`.
 fn arrive(
-    client: &mut crate::device::Client<Box<dyn crate::device::Link>>,
+    client: &mut lrmcal_engine::device::Client<Box<dyn lrmcal_engine::device::Link>>,
     load_now: &mut Option<f64>,
     pose: Pose,
     load_kg: f64,

@@ -6,6 +6,7 @@
 pub mod compensation;
 pub mod demo;
 pub mod detach;
+pub mod device_args;
 pub mod emulator;
 pub mod export;
 pub mod flash;

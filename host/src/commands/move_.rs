@@ -1,6 +1,6 @@
 //! `lrmcal move`: move the arm to nominal joint angles, or put its tool point
 //! on a Cartesian target (`--xyz`) through the nominal arm's inverse
-//! kinematics ([`crate::ik`]).
+//! kinematics ([`lrmcal_engine::ik`]).
 
 use std::time::Duration;
 
@@ -8,13 +8,14 @@ use model::{Arm, JOINTS};
 use nalgebra::Vector3;
 use protocol::{CompensationMode, Timing};
 
-use crate::device::commanded::{Commanded, within_board};
-use crate::device::{Client, DeviceArgs, Link, calibration};
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use crate::ik::{self, IkOptions, IkSolution};
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::calibration_file::CalibrationFile;
-use crate::plan::PlanConfig;
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_engine::device::commanded::{Commanded, within_board};
+use lrmcal_engine::device::{Client, Link, calibration};
+use lrmcal_engine::ik::{self, IkOptions, IkSolution};
+use lrmcal_engine::plan::PlanConfig;
 
 /// Move every joint to a nominal angle (degrees), all arriving together, or
 /// the tool point to a position (--xyz).
@@ -284,12 +285,13 @@ fn board(args: &Args) -> Result<&DeviceArgs, Error> {
 fn nominal_arm(source: Option<&ArmSource>) -> Result<(Arm<f64>, String), Error> {
     let source = source.cloned().unwrap_or(ArmSource::Bundled(DEFAULT_ARM));
     if let ArmSource::Calibration(path) = &source {
-        return Err(Error::ArmSource {
+        return Err(lrmcal_core::Error::ArmSource {
             arm: path.display().to_string(),
             reason: "joint targets are for a nominal arm: give the bundled arm's name or the \
                      arm description (.toml) the calibration was identified against"
                 .into(),
-        });
+        }
+        .into());
     }
     let loaded = source.load()?;
     Ok((loaded.arm, format!("{} ({})", loaded.origin, loaded.name)))

@@ -1,6 +1,6 @@
 //! `lrmcal payload`: tell the board the mass at the tool.
 
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 
 /// Set the payload mass the compensation accounts for.

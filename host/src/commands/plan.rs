@@ -3,11 +3,13 @@
 
 use std::path::PathBuf;
 
-use crate::dataset::PoseRow;
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::pose_list;
-use crate::plan::{DEFAULT_RANDOM_POSES, DEFAULT_RANDOM_SEED, Levels, PlanConfig, candidates};
+use lrmcal_core::dataset::PoseRow;
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::pose_list;
+use lrmcal_engine::plan::{
+    DEFAULT_RANDOM_POSES, DEFAULT_RANDOM_SEED, Levels, PlanConfig, candidates,
+};
 
 /// Generate the candidate poses: a grid of joint levels, filtered for safety.
 #[derive(Debug, clap::Args)]
@@ -105,7 +107,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     match &args.out {
         Some(path) => pose_list::write(path, &rows)?,
         None => pose_list::write_to(&mut std::io::stdout().lock(), &rows).map_err(|source| {
-            Error::Write {
+            lrmcal_core::Error::Write {
                 path: "<stdout>".into(),
                 source,
             }

@@ -7,12 +7,12 @@
 use std::collections::HashMap;
 use std::path::PathBuf;
 
-use crate::calib::Sample;
-use crate::calib::export::rig_of;
-use crate::dataset::{Prediction, approaches};
 use crate::error::Error;
-use crate::io::arm_source::ArmSource;
-use crate::io::{pose_list, predictions};
+use lrmcal_core::dataset::{Prediction, approaches};
+use lrmcal_core::io::arm_source::ArmSource;
+use lrmcal_core::io::{pose_list, predictions};
+use lrmcal_engine::calib::Sample;
+use lrmcal_engine::calib::export::rig_of;
 
 /// How the way each joint arrived at a pose is known.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -45,7 +45,7 @@ play instead.")]
 pub struct Args {
     /// The arm: a bundled arm's name, an arm description `.toml` file, or a
     /// calibration `.json` file from `lrmcal identify` or `lrmcal demo` (its calibrated arm).
-    #[arg(long, value_name = "NAME|FILE", default_value = crate::io::arm_source::DEFAULT_ARM)]
+    #[arg(long, value_name = "NAME|FILE", default_value = lrmcal_core::io::arm_source::DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Pose list: any CSV with `pose,[load_kg,]q1_deg..q6_deg` columns.
     #[arg(long, value_name = "FILE")]
@@ -140,10 +140,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
             Ok(())
         }
         None => predictions::write_to(&mut std::io::stdout().lock(), &out).map_err(|source| {
-            Error::Write {
+            Error::from(lrmcal_core::Error::Write {
                 path: "<stdout>".into(),
                 source,
-            }
+            })
         }),
     }
 }

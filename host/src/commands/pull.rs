@@ -4,8 +4,8 @@ use std::path::PathBuf;
 
 use protocol::Calibration;
 
+use crate::commands::device_args::DeviceArgs;
 use crate::commands::helpers::write_text;
-use crate::device::DeviceArgs;
 use crate::error::Error;
 
 /// Read the board's calibration back (JSON: id, option, both arms, home pose).

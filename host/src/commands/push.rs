@@ -5,10 +5,11 @@ use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-use crate::device::{DeviceArgs, calibration};
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use crate::io::arm_toml::joint_without_servo;
-use crate::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::arm_toml::joint_without_servo;
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_engine::device::calibration;
 
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]

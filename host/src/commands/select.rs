@@ -4,15 +4,15 @@
 
 use std::path::PathBuf;
 
-use crate::calib::detmax::DetmaxOptions;
-use crate::calib::experiments::{median, random_o1};
-use crate::calib::pipeline::{Choice, select};
-use crate::calib::report::IdentifiabilityReport;
 use crate::commands::helpers::{Bar, OptionChoice};
-use crate::dataset::{Pose, PoseRow};
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM};
-use crate::io::pose_list;
+use lrmcal_core::dataset::{Pose, PoseRow};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::pose_list;
+use lrmcal_engine::calib::detmax::DetmaxOptions;
+use lrmcal_engine::calib::experiments::{median, random_o1};
+use lrmcal_engine::calib::pipeline::{Choice, select};
+use lrmcal_engine::calib::report::IdentifiabilityReport;
 
 /// Choose the N candidate poses that identify the model best (D-optimal, DETMAX).
 #[derive(Debug, clap::Args)]

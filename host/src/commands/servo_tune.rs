@@ -11,9 +11,10 @@ use crossterm::terminal;
 use model::ServoCurve;
 use model::servo::{KnotCount, PULSE_RANGE_US};
 
-use crate::device::{Client, ClientError, DeviceArgs, Link, calibration};
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use crate::io::arm_toml::{self, no_servo};
+use lrmcal_core::io::arm_toml::{self, no_servo};
+use lrmcal_engine::device::{Client, ClientError, Link, calibration};
 
 /// Tune one servo's pulse curve interactively.
 #[derive(Debug, clap::Args)]

@@ -3,15 +3,15 @@
 
 use std::path::PathBuf;
 
-use crate::calib::Sample;
-use crate::calib::export::rig_of;
 use crate::commands::helpers::write_text;
-use crate::dataset::{Measurement, Pose};
 use crate::error::Error;
-use crate::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
-use crate::io::{measurements, pose_list};
-use crate::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
-use crate::sim::{DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm};
+use lrmcal_core::dataset::{Measurement, Pose};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
+use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::calib::Sample;
+use lrmcal_engine::calib::export::rig_of;
+use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
+use lrmcal_engine::sim::{DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm};
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
 const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
@@ -250,7 +250,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     match &args.out {
         Some(path) => measurements::write(path, &simulation.measurements)?,
         None => measurements::write_to(&mut std::io::stdout().lock(), &simulation.measurements)
-            .map_err(|source| Error::Write {
+            .map_err(|source| lrmcal_core::Error::Write {
                 path: "<stdout>".into(),
                 source,
             })?,

@@ -2,7 +2,7 @@
 
 use protocol::{CompensationMode, Faults, Status};
 
-use crate::device::DeviceArgs;
+use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 
 /// Show the board's versions, calibration, compensation, joints and faults.

@@ -3,15 +3,15 @@
 
 use std::path::PathBuf;
 
-use crate::calib::checks::check_plausible_calibrated;
-use crate::calib::export::rigs_of;
-use crate::calib::report::ValidationOutlier;
-use crate::calib::summary;
-use crate::calib::validate::{ErrorStats, validate_per_load};
 use crate::error::Error;
-use crate::io::arm_source::ArmSource;
-use crate::io::calibration_file::CalibrationFile;
-use crate::io::measurements;
+use lrmcal_core::io::arm_source::ArmSource;
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::measurements;
+use lrmcal_engine::calib::checks::check_plausible_calibrated;
+use lrmcal_engine::calib::export::rigs_of;
+use lrmcal_engine::calib::report::ValidationOutlier;
+use lrmcal_engine::calib::summary;
+use lrmcal_engine::calib::validate::{ErrorStats, validate_per_load};
 
 /// Check a calibration against measurements it was not identified from.
 #[derive(Debug, clap::Args)]

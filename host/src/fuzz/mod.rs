@@ -25,12 +25,12 @@ use model::Arm;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use crate::dataset::{Pose, PoseRow};
-use crate::error::Error;
-use crate::io::arm_source::{BUNDLED, DEFAULT_ARM, bundled};
-use crate::io::calibration_file::CalibrationFile;
-use crate::io::{arm_toml, measurements, pose_list};
-use crate::sim::{SimConfig, TrueArm};
+use lrmcal_core::Error;
+use lrmcal_core::dataset::{Pose, PoseRow};
+use lrmcal_core::io::arm_source::{BUNDLED, DEFAULT_ARM, bundled};
+use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::{arm_toml, measurements, pose_list};
+use lrmcal_engine::sim::{SimConfig, TrueArm};
 
 /// A kind of file the fuzzer feeds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -122,7 +122,9 @@ impl Corpus {
     /// The standard set; an error if one of them is no longer valid (the
     /// formats changed and the corpus was not regrown).
     pub fn new() -> Result<Self, String> {
-        let broken = |what: &str, e: Error| format!("the fuzz corpus's {what}: {}", e.report());
+        let broken = |what: &str, e: Error| {
+            format!("the fuzz corpus's {what}: {}", crate::error::report(&e))
+        };
         let (_, shipped) = BUNDLED
             .iter()
             .find(|(name, _)| *name == DEFAULT_ARM)
@@ -319,7 +321,7 @@ pub fn check(format: Format, path: &Path, bytes: &[u8]) -> Result<Outcome, Viola
 
 /// Checks a refusal's message against the invariants.
 fn refusal(path: &Path, bytes: &[u8], error: Error) -> Result<Error, Violation> {
-    let report = error.report();
+    let report = crate::error::report(&error);
     let broken = |invariant| {
         Err(Violation {
             invariant,
@@ -512,7 +514,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::error::{InputError, Location, Problem};
+    use lrmcal_core::error::{InputError, Location, Problem};
 
     /// Each refusal that breaks an invariant is caught, and the right one named.
     #[test]

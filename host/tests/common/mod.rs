@@ -33,5 +33,8 @@ pub fn p(path: &Path) -> &str {
 /// The file `identify` writes for its default model option.
 #[allow(dead_code)]
 pub fn default_calibration_file() -> String {
-    format!("calibration-{}.json", host::calib::option::DEFAULT.name())
+    format!(
+        "calibration-{}.json",
+        lrmcal_engine::calib::option::DEFAULT.name()
+    )
 }

@@ -332,7 +332,7 @@ impl RawLink {
 /// offsets it, and springs that soften with torque; `id` tells two of them apart in `status`.
 pub fn test_calibration(id: u32) -> protocol::Calibration {
     use model::ParamId;
-    let nominal = host::io::arm_source::bundled("lrm")
+    let nominal = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
     let names = [
@@ -368,7 +368,10 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
         home_rad: [0.0; model::JOINTS],
-        max_correction_rad: host::device::calibration::max_corrections(&nominal, &calibrated),
+        max_correction_rad: lrmcal_engine::device::calibration::max_corrections(
+            &nominal,
+            &calibrated,
+        ),
     };
     calibration.check().expect("the test calibration is valid");
     calibration

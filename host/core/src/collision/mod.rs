@@ -1,0 +1,11 @@
+//! The arm's collision bodies: as an arm file describes them ([`spec`]) and
+//! placed on the links of an arm ([`volumes`]), where the planner and the
+//! inverse kinematics measure distances between them.
+
+pub mod spec;
+pub mod volumes;
+
+pub use spec::{
+    BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
+};
+pub use volumes::{Anchor, Body, BodySet, Contact, SKELETON_RADIUS_PER_LENGTH, Shape};

@@ -1,0 +1,712 @@
+//! The calibration file (JSON): what `lrmcal identify` and `lrmcal demo`
+//! write, `lrmcal validate`, `predict` and `push` read, and the firmware
+//! receives (the device module converts [`CalibrationFile::arm`] to `f32`).
+//!
+//! It carries the *full* corrected arm (nominal + identified errors, the servo
+//! curves inside each joint), the nominal arm it was identified from (so a
+//! mismatched arm is caught), the option, every fitted parameter with its
+//! standard deviation, the poses used and the statistics, and, when the
+//! measurements named several targets (or the tool was re-taught), every
+//! target's tool point: the board compensates one of them
+//! ([`CalibrationFile::arms_for_target`]). The engine fills it from its
+//! results (`crate::calib::export`); this module owns the format.
+//! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
+//!
+//! Version 2 writes each servo curve as its knots (`angles_rad`,
+//! `pulses_us`); version 1 files, whose curves are the pulses at -100°, 0° and
+//! +100° (`minus100`, `zero`, `plus100`), still read, as the same curves.
+//! Version 3 adds [`CalibrationFile::registration`]; files of versions 1
+//! and 2 read without one. Version 4 gives the arms their rated payload
+//! (`rated_payload_kg`, the load the physical bounds of `model::bounds` hold
+//! up to; files of earlier versions read with 0) and means the servo curves
+//! for every reader: a calibrated curve says where the nominal curve's pulse
+//! really goes (`model::command`).
+
+use std::path::Path;
+
+use crate::param_key::{backlash_from_name, servo_knot_from_name};
+use model::{Arm, Frame, ParamId, ServoCurve};
+use protocol::ModelOption;
+use serde::{Deserialize, Serialize};
+
+use super::{json, read_text};
+use crate::error::{Error, InputError, Location, Problem};
+
+/// Name of the schema, so a JSON file of another kind is recognised as such.
+pub const SCHEMA: &str = "lrmcal-calibration";
+/// Version of the schema this build writes (and the newest it reads).
+pub const SCHEMA_VERSION: u32 = 4;
+/// The oldest version this build reads.
+pub const OLDEST_SCHEMA_VERSION: u32 = 1;
+
+/// A servo curve as schema 1 wrote it: the pulses at -100°, 0° and +100°.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ThreePoints {
+    minus100: f64,
+    zero: f64,
+    plus100: f64,
+}
+
+/// Rewrites the servo curves of a schema-1 file's two arms as knots, so the
+/// rest of it reads like a schema-2 file.
+fn upgrade_servo_curves(value: &mut serde_json::Value) -> Result<(), InputError> {
+    for arm in ["nominal", "arm"] {
+        let joints = value
+            .get_mut(arm)
+            .and_then(|a| a.get_mut("joints"))
+            .and_then(|j| j.as_array_mut());
+        // Missing pieces are reported by the typed read that follows.
+        for (i, joint) in joints.into_iter().flatten().enumerate() {
+            let Some(servo) = joint.get_mut("servo") else {
+                continue;
+            };
+            let three: ThreePoints = serde_json::from_value(servo.take()).map_err(|e| {
+                InputError::new(
+                    Location::key(None, format!("{arm}.joints[{}].servo", i + 1)),
+                    Problem::Syntax {
+                        message: format!(
+                            "expected the pulses minus100, zero and plus100 of a schema-1 file: {e}"
+                        ),
+                    },
+                )
+            })?;
+            let curve = ServoCurve::from_three_points(three.minus100, three.zero, three.plus100);
+            *servo = serde_json::to_value(curve).expect("a servo curve always serialises");
+        }
+    }
+    Ok(())
+}
+
+/// One fitted parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FittedParam {
+    /// Stable parameter name (`j2.theta`, `k0`, …).
+    pub name: String,
+    /// Identified correction, SI units (m, rad, rad/Nm).
+    pub error: f64,
+    /// Nominal + correction, SI units.
+    pub value: f64,
+    /// One standard deviation of the correction; null when held at a bound.
+    pub std: Option<f64>,
+}
+
+/// Statistics of a set of 3D error norms, m.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ErrorStats {
+    /// Number of measurements.
+    pub count: usize,
+    /// Mean, m.
+    pub mean_m: f64,
+    /// Median, m.
+    pub median_m: f64,
+    /// Root mean square, m.
+    pub rms_m: f64,
+    /// 95th percentile (linear interpolation between order statistics), m.
+    pub p95_m: f64,
+    /// Largest, m.
+    pub max_m: f64,
+}
+
+impl ErrorStats {
+    /// Statistics of `norms` (m); all zero for an empty set.
+    pub fn of(norms: &[f64]) -> Self {
+        let mut v = norms.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        let quantile = |p: f64| {
+            if n == 0 {
+                return 0.0;
+            }
+            let x = p * (n - 1) as f64;
+            let (lo, hi) = (x.floor() as usize, x.ceil() as usize);
+            v[lo] + (v[hi] - v[lo]) * (x - lo as f64)
+        };
+        let mean = if n == 0 {
+            0.0
+        } else {
+            v.iter().sum::<f64>() / n as f64
+        };
+        let rms = if n == 0 {
+            0.0
+        } else {
+            (v.iter().map(|e| e * e).sum::<f64>() / n as f64).sqrt()
+        };
+        Self {
+            count: n,
+            mean_m: mean,
+            median_m: quantile(0.5),
+            rms_m: rms,
+            p95_m: quantile(0.95),
+            max_m: v.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// The calibration of one arm for one model option.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationFile {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// [`SCHEMA_VERSION`] of the writer.
+    pub schema_version: u32,
+    /// Model option that was identified.
+    #[serde(with = "crate::io::model_option")]
+    pub option: ModelOption,
+    /// The nominal arm the errors are relative to.
+    pub nominal: Arm<f64>,
+    /// The corrected arm: nominal + identified errors, servo curves included.
+    pub arm: Arm<f64>,
+    /// Every fitted parameter.
+    pub parameters: Vec<FittedParam>,
+    /// Compliances held at zero by the non-negativity constraint.
+    pub at_bound: Vec<String>,
+    /// Candidate parameters held at their nominal values: removed by the
+    /// rank analysis and not fitted by its refresh at the estimate.
+    pub removed: Vec<String>,
+    /// Ids of the poses the fit used.
+    pub poses_used: Vec<u32>,
+    /// Payloads of the measurements the fit used, kg.
+    pub loads_kg: Vec<f64>,
+    /// Residual of the fit on its own measurements (3D error norm), m.
+    pub fit_residual: ErrorStats,
+    /// Validation on held-out measurements, when there were any.
+    pub validation: Option<ValidationSummary>,
+    /// The measured targets, in the order the measurements named them; absent
+    /// for one unnamed target (the arm's tool point). The first is the
+    /// arm's tool point and what the board compensates unless
+    /// `lrmcal push --target` names another.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<TargetTool>,
+    /// Where `identify` found the arm's base in the measurement frame, and
+    /// from what; `None` in files of versions 1 and 2 and in the demo's
+    /// (which measures in the arm file's own frame).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub registration: Option<RegistrationRecord>,
+}
+
+/// The arm's place in the measurement frame, as `lrmcal identify` found it.
+///
+/// A registered file's `nominal` and `arm` are both in the measurement
+/// frame already (the nominal's base is the registered base, gravity is the
+/// measurement frame's), so `predict`, `validate` and the board work there
+/// with no conversion; this record only documents where the base was found.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegistrationRecord {
+    /// Whether the base was registered (false: `--no-register`, the arm file's base kept).
+    pub registered: bool,
+    /// The arm file's world frame in the measurement frame (m, rad): the
+    /// rigid motion registration found.
+    pub frame: Frame<f64>,
+    /// The nominal arm's frame 0 in the measurement frame (m, rad), as
+    /// registration placed it (the calibrated `arm` refines it).
+    pub base: Frame<f64>,
+    /// Gravity in the measurement frame, m/s².
+    pub gravity: [f64; 3],
+    /// RMS distance of the nominal arm from the measurements as the arm file placed it, m.
+    pub before_rms_m: f64,
+    /// The same after registration, over the points it kept, m.
+    pub after_rms_m: f64,
+    /// Poses left out of the registration as far off.
+    pub trimmed: Vec<u32>,
+    /// The tool point registration found with the base (frame 6, m), which
+    /// replaced the arm file's in `nominal`; absent when the file's was kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tool_m: Option<[f64; 3]>,
+}
+
+/// One measured target of a calibration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TargetTool {
+    /// The name the measurement file gave it.
+    pub name: String,
+    /// Its tool point in frame 6 (the tool frame's parent) of the corrected arm, m.
+    pub tool_m: [f64; 3],
+    /// Residual of the fit on its own measurements (3D error norm), m.
+    pub fit_residual: ErrorStats,
+    /// The corrected arm's error on its held-out measurements, when there were any, m.
+    pub validation_after: Option<ErrorStats>,
+}
+
+/// Before/after statistics on held-out measurements.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ValidationSummary {
+    /// Payload of the validation measurements, kg.
+    pub load_kg: f64,
+    /// Nominal model.
+    pub before: ErrorStats,
+    /// Calibrated model.
+    pub after: ErrorStats,
+}
+
+impl CalibrationFile {
+    /// Pretty JSON text.
+    pub fn to_json(&self) -> String {
+        json::to_pretty(self)
+    }
+
+    /// Parses and checks a calibration file's text.
+    pub fn parse(text: &str) -> Result<Self, InputError> {
+        let file: Self = json::parse_upgrading(
+            text,
+            SCHEMA,
+            OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
+            |version, value| match version {
+                1 => upgrade_servo_curves(value),
+                // Version 2 lacks only the registration, which reads as none;
+                // versions before 4 the rated payload, which reads as 0.
+                _ => Ok(()),
+            },
+        )?;
+        // Both arms' rated payloads, and their compliances, softenings and
+        // plays within the physical bounds worked out from the nominal arm
+        // (`model::bounds`): what the fit keeps to and the board checks.
+        for (which, arm) in [("nominal", &file.nominal), ("arm", &file.arm)] {
+            if !(arm.rated_payload_kg.is_finite() && arm.rated_payload_kg >= 0.0) {
+                return Err(InputError::new(
+                    Location::key(None, format!("{which}.rated_payload_kg")),
+                    Problem::OutOfRange {
+                        expected: "a payload >= 0 kg",
+                        found: arm.rated_payload_kg.to_string(),
+                    },
+                ));
+            }
+            super::bounds::check(&file.nominal, arm, which, None, false)?;
+        }
+        for (i, p) in file.parameters.iter().enumerate() {
+            let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
+            let known = ParamId::from_name(&p.name).is_some()
+                || matches!(
+                    crate::param_key::ParamKey::from_name(&p.name),
+                    Some(crate::param_key::ParamKey::Softening { .. })
+                )
+                || servo_knot_from_name(&p.name).is_some()
+                || backlash_from_name(&p.name).is_some()
+                || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
+            if !known || repeated {
+                return Err(InputError::new(
+                    Location::key(None, format!("parameters[{}].name", i + 1)),
+                    Problem::OutOfRange {
+                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, j1.servo[1] … j6.servo[9], j1.backlash … j6.backlash, s0 … s6, tool[N].x … tool[N].z of a listed target), each once",
+                        found: format!("`{}`", p.name),
+                    },
+                ));
+            }
+        }
+        for (i, t) in file.targets.iter().enumerate() {
+            let problem = if t.name.is_empty() {
+                Some("a name".to_string())
+            } else if file.targets[..i].iter().any(|u| u.name == t.name) {
+                Some(format!("a name not used before, found `{}` again", t.name))
+            } else if !t.tool_m.iter().all(|v| v.is_finite()) {
+                Some("finite coordinates in m".to_string())
+            } else {
+                None
+            };
+            if let Some(message) = problem {
+                return Err(InputError::new(
+                    Location::key(None, format!("targets[{}]", i + 1)),
+                    Problem::Invalid {
+                        message: format!("expected {message}"),
+                    },
+                ));
+            }
+        }
+        if let Some(first) = file.targets.first()
+            && first.tool_m != file.arm.tool.xyz
+        {
+            return Err(InputError::new(
+                Location::key(None, "targets[1].tool_m"),
+                Problem::Invalid {
+                    message: "the first target is the arm's tool point: expected arm.tool.xyz"
+                        .into(),
+                },
+            ));
+        }
+        Ok(file)
+    }
+
+    /// The nominal and corrected arms the board gets for the target called
+    /// `name` (the first without one): both with that target's tool point,
+    /// so the board puts that target where the nominal arm's tool point
+    /// would be. A file without targets is its arms as they are.
+    pub fn arms_for_target(&self, name: Option<&str>) -> Result<(Arm<f64>, Arm<f64>), String> {
+        let chosen = match name {
+            None => self.targets.first(),
+            Some(name) => Some(self.targets.iter().find(|t| t.name == name).ok_or_else(|| {
+                if self.targets.is_empty() {
+                    format!(
+                        "it has no target `{name}`: it was identified from measurements without a \
+                         `target` column, so it has the one tool point; leave out --target"
+                    )
+                } else {
+                    let names: Vec<&str> = self.targets.iter().map(|t| t.name.as_str()).collect();
+                    format!(
+                        "it has no target `{name}`; its targets are {}",
+                        names.join(", ")
+                    )
+                }
+            })?),
+        };
+        let (mut nominal, mut arm) = (self.nominal, self.arm);
+        if let Some(target) = chosen {
+            nominal.tool.xyz = target.tool_m;
+            arm.tool.xyz = target.tool_m;
+        }
+        Ok((nominal, arm))
+    }
+
+    /// The same file recording `registration`.
+    pub fn with_registration(self, registration: RegistrationRecord) -> Self {
+        Self {
+            registration: Some(registration),
+            ..self
+        }
+    }
+
+    /// Reads and checks a calibration file.
+    pub fn read(path: &Path) -> Result<Self, Error> {
+        Self::parse(&read_text(path)?).map_err(|e| e.in_file(path))
+    }
+
+    /// Checks that this calibration (read from `path`) was identified from
+    /// `nominal`. A registered file's nominal base is where registration
+    /// found it, not the arm file's, so the base is not compared then; nor
+    /// the tool point when registration found that too.
+    pub fn check_nominal(&self, nominal: &Arm<f64>, path: &Path) -> Result<(), Error> {
+        let ours = self.nominal.param_values();
+        let theirs = nominal.param_values();
+        let registered = self.registration.as_ref().is_some_and(|r| r.registered);
+        let tool_found = self
+            .registration
+            .as_ref()
+            .is_some_and(|r| r.tool_m.is_some());
+        for (id, (a, b)) in ParamId::all().zip(ours.iter().zip(&theirs)) {
+            let name = id.name();
+            if (registered && name.starts_with("base."))
+                || (tool_found && ["tool.x", "tool.y", "tool.z"].contains(&name))
+            {
+                continue;
+            }
+            if (a - b).abs() > 1e-9 * (1.0 + a.abs()) {
+                return Err(Error::ArmMismatch {
+                    path: path.to_owned(),
+                    problem: format!(
+                        "it was identified from another nominal arm ({id} is {a} there, {b} here); pass the arm it was made for with --arm"
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The target index `N` of a further target's tool-point parameter `tool[N].x|y|z`.
+fn target_of_tool_name(name: &str) -> Option<usize> {
+    let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+    let target: usize = target.parse().ok().filter(|t| *t > 0)?;
+    ["x", "y", "z"].contains(&axis).then_some(target)
+}
+
+/// A calibration file for the unit tests of `io`.
+#[cfg(test)]
+pub(super) mod test_support {
+    use super::*;
+    use crate::io::arm_source::{DEFAULT_ARM, bundled};
+
+    /// A calibration of the bundled arm whose joint 2 compliance was identified.
+    pub fn sample_file() -> CalibrationFile {
+        let nominal = bundled(DEFAULT_ARM).unwrap().arm;
+        let mut arm = nominal;
+        arm.joints[1].compliance = 0.1;
+        CalibrationFile {
+            schema: SCHEMA.into(),
+            schema_version: SCHEMA_VERSION,
+            option: ModelOption::Elastic,
+            nominal,
+            arm,
+            parameters: vec![FittedParam {
+                name: "k2".into(),
+                error: 0.1,
+                value: 0.1,
+                std: Some(1e-3),
+            }],
+            at_bound: vec![],
+            removed: vec!["k1".into()],
+            poses_used: vec![1, 2],
+            loads_kg: vec![0.0663],
+            fit_residual: ErrorStats::of(&[0.001]),
+            validation: None,
+            registration: None,
+            targets: vec![],
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_support::sample_file;
+    use super::*;
+
+    #[test]
+    fn round_trips_and_checks_its_nominal_arm() {
+        let file = sample_file();
+        let json = file.to_json();
+        assert!(json.contains("\"option\": \"elastic\""), "{json}");
+        let back = CalibrationFile::parse(&json).unwrap();
+        assert_eq!(back, file);
+        let path = Path::new("cal.json");
+        assert!(back.check_nominal(&file.nominal, path).is_ok());
+        let mut other = file.nominal;
+        other.joints[2].a += 0.01;
+        let err = back.check_nominal(&other, path).unwrap_err();
+        assert!(!err.is_access());
+        let err = err.report();
+        assert!(err.contains("cal.json") && err.contains("j3.a"), "{err}");
+    }
+
+    /// Every option reads by its name: ours, `elasto-kinematic-servo`, the
+    /// default of every lrmcal that wrote calibration files, too.
+    #[test]
+    fn every_option_reads_by_its_name() {
+        let json = sample_file().to_json();
+        for o in ModelOption::ALL {
+            let text = json.replacen(
+                "\"option\": \"elastic\"",
+                &format!("\"option\": \"{}\"", o.name()),
+                1,
+            );
+            assert_eq!(CalibrationFile::parse(&text).unwrap().option, o);
+        }
+    }
+
+    /// Each refusal names the key (and the line, where the JSON text has one).
+    #[test]
+    fn rejects_other_schemas_versions_and_bad_values() {
+        let json = sample_file().to_json();
+        let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
+        let e = refused("{\"a\": 1}");
+        assert!(e.contains("key `schema`") && e.contains(SCHEMA), "{e}");
+        let e = refused(&json.replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 9",
+        ));
+        assert!(e.contains("key `schema_version`") && e.contains('9'), "{e}");
+        let e = refused(&json.replacen("\"k2\"", "\"k9\"", 1));
+        assert!(
+            e.contains("key `parameters[1].name`") && e.contains("k9"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"compliance\": 0.1", "\"compliance\": -0.1", 1));
+        assert!(e.contains("key `arm.joints[2].compliance`"), "{e}");
+        // The first arm written is the nominal, its joints after its base.
+        let e = refused(&json.replacen("\"softening\": 0.0", "\"softening\": -0.5", 1));
+        assert!(
+            e.contains("key `nominal.joints[1].softening`") && e.contains("-0.5"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"base_softening\": 0.0", "\"base_softening\": -2.0", 2));
+        assert!(e.contains("key `nominal.base_softening`"), "{e}");
+        // A negative rated payload, in either arm, as the board refuses it.
+        let mut negative = sample_file();
+        negative.arm.rated_payload_kg = -0.1;
+        let e = refused(&negative.to_json());
+        assert!(
+            e.contains("key `arm.rated_payload_kg`") && e.contains("-0.1"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"elastic\"", "\"rigid\"", 1));
+        assert!(
+            e.contains("key `option`")
+                && e.contains("rigid")
+                && e.contains("line 4")
+                && e.contains("elasto-kinematic or elasto-kinematic-servo"),
+            "{e}"
+        );
+        let e = refused(&json.replacen("\"mean_m\"", "\"mean_mm\"", 1));
+        assert!(e.contains("key `fit_residual.mean_mm`"), "{e}");
+        let e = refused(&json[..json.len() / 2]);
+        assert!(e.contains("not JSON"), "{e}");
+        // JSON has no NaN or infinity; a number too large for f64 is refused.
+        let e = refused(&json.replacen("0.1", "1e999", 1));
+        assert!(e.contains("not JSON") && e.contains("number"), "{e}");
+    }
+
+    /// The first target by default, another by name, both arms carrying its
+    /// tool point; an unknown name lists the names; a file without targets
+    /// sends its arms as they are and refuses any name.
+    #[test]
+    fn target_selection_moves_both_tool_points() {
+        let mut file = sample_file();
+        assert_eq!(file.arms_for_target(None), Ok((file.nominal, file.arm)));
+        let e = file.arms_for_target(Some("m1")).unwrap_err();
+        assert!(e.contains("`m1`") && e.contains("target` column"), "{e}");
+        let stats = ErrorStats::of(&[0.001]);
+        for (name, tool_m) in [("m0", file.arm.tool.xyz), ("m1", [0.0, 0.03, 0.05])] {
+            file.targets.push(TargetTool {
+                name: name.into(),
+                tool_m,
+                fit_residual: stats,
+                validation_after: None,
+            });
+        }
+        file.parameters.push(FittedParam {
+            name: "tool[1].y".into(),
+            error: 0.03,
+            value: 0.03,
+            std: None,
+        });
+        let file = CalibrationFile::parse(&file.to_json()).unwrap();
+        let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
+        assert_eq!(nominal.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.tool.xyz, [0.0, 0.03, 0.05]);
+        assert_eq!(arm.joints, file.arm.joints);
+        assert_eq!(nominal.joints, file.nominal.joints);
+        let (nominal, arm) = file.arms_for_target(None).unwrap();
+        assert_eq!(
+            (nominal.tool.xyz, arm.tool.xyz),
+            (file.arm.tool.xyz, file.arm.tool.xyz)
+        );
+        let e = file.arms_for_target(Some("m9")).unwrap_err();
+        assert!(e.contains("`m9`") && e.contains("m0, m1"), "{e}");
+        // A parameter of a target the file does not list, a repeated name, a
+        // first target away from the arm's tool point: refused with the key.
+        let json = file.to_json();
+        let refused = |text: &str| CalibrationFile::parse(text).unwrap_err().to_string();
+        let e = refused(&json.replacen("tool[1].y", "tool[2].y", 1));
+        assert!(e.contains("parameters[2].name"), "{e}");
+        let e = refused(&json.replacen("\"m1\"", "\"m0\"", 1));
+        assert!(e.contains("targets[2]") && e.contains("`m0` again"), "{e}");
+        let mut moved = file.clone();
+        moved.targets[0].tool_m[0] += 0.01;
+        let e = refused(&moved.to_json());
+        assert!(e.contains("targets[1].tool_m"), "{e}");
+    }
+
+    /// A version 2 file (no registration) still reads; a registration
+    /// round trips, and lets the nominal arm's base differ from the arm
+    /// file's (it is the registered base) but nothing else.
+    #[test]
+    fn reads_version_2_and_records_the_registration() {
+        let file = sample_file();
+        let v2 = file.to_json().replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 2",
+        );
+        assert!(!v2.contains("registration"), "{v2}");
+        // Read as this version's file (the upgrade rewrites the version).
+        assert_eq!(CalibrationFile::parse(&v2).unwrap(), file);
+        let arm_file = file.nominal;
+        let mut registered = file.clone();
+        registered.nominal.base.xyz[0] += 0.5;
+        registered.nominal.base.rpy[2] += 1.0;
+        let path = Path::new("cal.json");
+        let e = registered.check_nominal(&arm_file, path).unwrap_err();
+        assert!(e.to_string().contains("base.x"), "{e}");
+        let record = RegistrationRecord {
+            registered: true,
+            frame: Frame {
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
+            },
+            base: Frame {
+                xyz: [0.5, 0.0, 0.0],
+                rpy: [0.0, 0.0, 1.0],
+            },
+            gravity: [0.0, -9.8, 0.0],
+            before_rms_m: 2.0,
+            after_rms_m: 0.03,
+            trimmed: vec![7],
+            tool_m: None,
+        };
+        let with = registered.clone().with_registration(record.clone());
+        assert!(!with.to_json().contains("tool_m"));
+        assert_eq!(CalibrationFile::parse(&with.to_json()).unwrap(), with);
+        with.check_nominal(&arm_file, path).unwrap();
+        let mut other = arm_file;
+        other.joints[2].a += 0.01;
+        let e = with.check_nominal(&other, path).unwrap_err();
+        assert!(e.to_string().contains("j3.a"), "{e}");
+        // A tool point registration found replaces the file's: not compared.
+        let mut moved_tool = registered.clone();
+        moved_tool.nominal.tool.xyz[1] += 0.13;
+        let e = moved_tool
+            .clone()
+            .with_registration(record.clone())
+            .check_nominal(&arm_file, path)
+            .unwrap_err();
+        assert!(e.to_string().contains("tool.y"), "{e}");
+        let tool_m = Some(moved_tool.nominal.tool.xyz);
+        let found = moved_tool.with_registration(RegistrationRecord { tool_m, ..record });
+        assert_eq!(CalibrationFile::parse(&found.to_json()).unwrap(), found);
+        found.check_nominal(&arm_file, path).unwrap();
+    }
+
+    #[test]
+    fn statistics_of_a_known_set() {
+        let s = ErrorStats::of(&[4.0, 1.0, 3.0, 2.0, 5.0]);
+        assert_eq!(s.count, 5);
+        assert!((s.mean_m - 3.0).abs() < 1e-12);
+        assert!((s.median_m - 3.0).abs() < 1e-12);
+        assert!((s.rms_m - 11f64.sqrt()).abs() < 1e-12);
+        assert!((s.p95_m - 4.8).abs() < 1e-12);
+        assert_eq!(s.max_m, 5.0);
+        assert_eq!(ErrorStats::of(&[]).count, 0);
+    }
+
+    #[test]
+    fn schema_1_files_read_as_the_same_curves() {
+        let mut file = sample_file();
+        file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
+        let json = file.to_json();
+        assert!(
+            json.contains(&format!("\"schema_version\": {SCHEMA_VERSION}"))
+                && json.contains("\"angles_rad\"")
+        );
+        // The same file as schema 1 wrote it: each curve as its three pulses.
+        let mut v1: serde_json::Value = serde_json::from_str(&json).unwrap();
+        v1["schema_version"] = 1.into();
+        for arm in ["nominal", "arm"] {
+            for joint in v1[arm]["joints"].as_array_mut().unwrap() {
+                let p = joint["servo"]["pulses_us"].clone();
+                joint["servo"] =
+                    serde_json::json!({ "minus100": p[0], "zero": p[1], "plus100": p[2] });
+            }
+        }
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        assert!(text.contains("\"minus100\": 880.5"), "{text}");
+        assert_eq!(CalibrationFile::parse(&text).unwrap(), file);
+
+        v1["arm"]["joints"][2]["servo"] = serde_json::json!({ "minus100": 900.0, "zero": 1650.0 });
+        let text = serde_json::to_string_pretty(&v1).unwrap();
+        let e = CalibrationFile::parse(&text).unwrap_err().to_string();
+        assert!(
+            e.contains("arm.joints[3].servo") && e.contains("plus100"),
+            "{e}"
+        );
+        // A key missing from the whole document is placed on its last line,
+        // as in a file of the current version.
+        let mut no_option = v1.clone();
+        no_option.as_object_mut().unwrap().remove("option");
+        no_option["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let text = serde_json::to_string_pretty(&no_option).unwrap();
+        let e = CalibrationFile::parse(&text).unwrap_err();
+        assert_eq!(e.location.line, Some(text.lines().count() as u64), "{e}");
+        assert!(e.to_string().contains("option"), "{e}");
+        // A schema-2 file must hold knots: the three points alone are refused.
+        v1["schema_version"] = 2.into();
+        v1["arm"]["joints"][2]["servo"] =
+            serde_json::json!({ "minus100": 900.0, "zero": 1650.0, "plus100": 2400.0 });
+        let e = CalibrationFile::parse(&serde_json::to_string(&v1).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("minus100"), "{e}");
+    }
+}

@@ -1,0 +1,345 @@
+//! Pose lists (`docs/FORMATS.md`, "Pose lists"): candidates and selections,
+//! `pose[,load_kg],q1_deg..q6_deg`, and the check of their angles against
+//! an arm's joint limits.
+//!
+//! Any CSV with the pose columns is a pose list: a measurement file, a
+//! prediction joined with its poses, a spreadsheet. Other columns are
+//! ignored, except one that looks like a misspelt `load_kg`.
+
+use std::io::Write;
+use std::path::Path;
+
+use model::Arm;
+
+use crate::dataset::{Pose, PoseRow, TargetName};
+use crate::error::{Error, InputError, Location, Problem};
+use crate::io::csv_table::{Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg};
+use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
+use crate::io::{atomic, read_text};
+
+/// The columns of a pose list, in the order they are written (`load_kg` only if any row has one).
+pub const COLUMNS: [&str; 8] = [
+    "pose",
+    "load_kg",
+    Q_COLUMNS[0],
+    Q_COLUMNS[1],
+    Q_COLUMNS[2],
+    Q_COLUMNS[3],
+    Q_COLUMNS[4],
+    Q_COLUMNS[5],
+];
+
+const SCHEMA: Schema = Schema {
+    columns: &COLUMNS,
+    optional: &["load_kg"],
+    extra: Extra::Ignore,
+};
+
+/// A pose-list row and the line of the file it was read from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ListedPose {
+    /// 1-based line in the file.
+    pub line: u64,
+    /// The row.
+    pub row: PoseRow,
+}
+
+/// Reads a pose list.
+pub fn read(path: &Path) -> Result<Vec<PoseRow>, Error> {
+    parse(&read_text(path)?).map_err(|e| e.in_file(path))
+}
+
+/// Reads a pose list, keeping each row's line for later messages.
+pub fn read_listed(path: &Path) -> Result<Vec<ListedPose>, Error> {
+    parse_listed(&read_text(path)?).map_err(|e| e.in_file(path))
+}
+
+/// Parses pose-list CSV text (angles converted to rad).
+pub fn parse(text: &str) -> Result<Vec<PoseRow>, InputError> {
+    Ok(parse_listed(text)?.into_iter().map(|l| l.row).collect())
+}
+
+/// Parses pose-list CSV text (angles converted to rad), with each row's line.
+///
+/// Without `load_kg` each pose id appears once; with it each (pose, load)
+/// pair; an id always has the same angles.
+pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
+    let mut out = Vec::new();
+    let mut book = PoseBook::default();
+    let mut listed = std::collections::HashSet::new();
+    for_each_row(text, &SCHEMA, |row| {
+        let id = row.pose_id()?;
+        let load_kg = if row.has("load_kg") {
+            Some(row.non_negative("load_kg", "a load >= 0 kg")?)
+        } else {
+            None
+        };
+        let q = row.joint_angles_rad()?;
+        // A measurement file of several targets lists each pose once per
+        // target: as a pose list it is its poses, each once.
+        let target = row
+            .ignored_text(TARGET_COLUMN)
+            .and_then(|t| TargetName::from(t).ok());
+        book.record(row, id, &q, load_kg, target)?;
+        if target.is_some() && !listed.insert((id, load_kg.map(f64::to_bits))) {
+            return Ok(());
+        }
+        out.push(ListedPose {
+            line: row.line,
+            row: PoseRow {
+                pose: Pose { id, q },
+                load_kg,
+            },
+        });
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// How far past a limit an angle may read and still be on it, rad: files
+/// carry 9 decimals of degrees, so a pose planned on a limit reads back
+/// within 1e-11 rad of it.
+const LIMIT_TOLERANCE_RAD: f64 = 1e-9;
+
+/// The rows of `rows` with an angle outside `arm`'s joint limits, as errors
+/// naming the line, the joint's column, the angle and the limits in degrees.
+pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
+    // Degrees to 1e-6 for people: 105, not 105.00000000000001.
+    let deg = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
+    rows.iter()
+        .filter_map(|listed| {
+            let pose = &listed.row.pose;
+            let (i, (joint, &q)) =
+                arm.joints
+                    .iter()
+                    .zip(&pose.q)
+                    .enumerate()
+                    .find(|(_, (j, q))| {
+                        **q < j.limits[0] - LIMIT_TOLERANCE_RAD
+                            || **q > j.limits[1] + LIMIT_TOLERANCE_RAD
+                    })?;
+            Some(InputError::new(
+                Location::column(listed.line, Q_COLUMNS[i]),
+                Problem::OutsideLimits {
+                    pose: pose.id,
+                    joint: i as u32 + 1,
+                    angle_deg: deg(q),
+                    limits_deg: joint.limits.map(deg),
+                },
+            ))
+        })
+        .collect()
+}
+
+/// Checks the poses read from `path` against `arm`'s joint limits.
+///
+/// A pose outside them is an error naming the file, line, joint, angle and
+/// limits (degrees), unless `allow`: then the poses are used, and the
+/// returned text (`None` if all are inside) is a warning for the user.
+pub fn check_within_limits(
+    arm: &Arm<f64>,
+    path: &Path,
+    rows: &[ListedPose],
+    allow: bool,
+) -> Result<Option<String>, Error> {
+    let outside = outside_limits(arm, rows);
+    match outside.first() {
+        None => Ok(None),
+        Some(first) if !allow => Err(first.clone().in_file(path)),
+        Some(first) => Ok(Some(format!(
+            "{} of the {} rows of `{}` lie outside the joint limits, used anyway \
+             (--allow-outside-limits); the first: {first}",
+            outside.len(),
+            rows.len(),
+            path.display()
+        ))),
+    }
+}
+
+/// The rows of a measurement file as pose-list rows, one per measurement
+/// (every target's row, with its line), for [`check_within_limits`]: a
+/// command checks the measurements it has read, never the file again.
+pub fn of_measurements(rows: &[ListedMeasurement]) -> Vec<ListedPose> {
+    rows.iter()
+        .map(|l| ListedPose {
+            line: l.line,
+            row: PoseRow {
+                pose: l.measurement.pose,
+                load_kg: Some(l.measurement.load_kg),
+            },
+        })
+        .collect()
+}
+
+/// Writes a pose list atomically; the `load_kg` column is written when any row has a load.
+///
+/// A row without a load in a list that has the column is written with load 0.
+pub fn write(path: &Path, rows: &[PoseRow]) -> Result<(), Error> {
+    atomic::write(path, |w| write_to(w, rows))
+}
+
+/// Writes pose-list CSV to any writer.
+pub fn write_to(w: &mut dyn Write, rows: &[PoseRow]) -> std::io::Result<()> {
+    let with_load = rows.iter().any(|r| r.load_kg.is_some());
+    let mut csv = csv::Writer::from_writer(w);
+    let columns: Vec<&str> = COLUMNS
+        .iter()
+        .copied()
+        .filter(|&c| with_load || c != "load_kg")
+        .collect();
+    csv.write_record(&columns)?;
+    for r in rows {
+        let mut record = vec![r.pose.id.to_string()];
+        if with_load {
+            record.push(r.load_kg.unwrap_or(0.0).to_string());
+        }
+        record.extend(r.pose.q.iter().map(|q| format_deg(*q)));
+        csv.write_record(&record)?;
+    }
+    csv.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bundled_arm() -> model::Arm<f64> {
+        crate::io::arm_source::bundled("lrm").unwrap().arm
+    }
+
+    const HEADER: &str = "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n";
+
+    #[test]
+    fn measurement_files_and_other_csv_are_pose_lists() {
+        let measured = "# tracker\npose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n\
+                        17,0,-100,0,100,0,-100,0,212.41,-35.02,188.77\n\
+                        17,0.0663,-100,0,100,0,-100,0,212.9,-35.31,186.02\n";
+        let rows = parse_listed(measured).unwrap();
+        assert_eq!(rows.iter().map(|r| r.line).collect::<Vec<_>>(), [3, 4]);
+        assert_eq!(rows[1].row.load_kg, Some(0.0663));
+        assert_eq!(rows[0].row.pose, rows[1].row.pose);
+        let predicted = "pose,x_mm,y_mm,z_mm,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,operator\n\
+                         5,1,2,3,0,10,20,30,40,50,ann\n";
+        let rows = parse(predicted).unwrap();
+        assert_eq!(rows[0].pose.q[5], 50f64.to_radians());
+        assert_eq!(rows[0].load_kg, None);
+    }
+
+    #[test]
+    fn duplicates_missing_columns_and_a_misspelt_load_are_refused() {
+        let e = parse(&format!("{HEADER}1,0,0,0,0,0,0\n1,0,0,0,0,0,0\n")).unwrap_err();
+        assert!(
+            e.to_string().contains("pose 1 already appears on line 2"),
+            "{e}"
+        );
+        let e = parse("pose,x_mm,y_mm,z_mm\n1,2,3,4\n").unwrap_err();
+        assert!(e.to_string().contains("`q1_deg`"), "{e}");
+        for column in ["load", "Load_g", "payload_kg"] {
+            let text = format!(
+                "pose,{column},q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0.5,0,0,0,0,0,0\n"
+            );
+            let e = parse(&text).unwrap_err().to_string();
+            assert!(
+                e.contains(&format!("column `{column}`")) && e.contains("misspelt `load_kg`"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn angles_outside_the_limits_name_line_joint_and_limit() {
+        let arm = bundled_arm();
+        let text =
+            format!("{HEADER}# comment\n1,0,0,0,0,0,0\n2,0,0,105,0,0,0\n3,0,0,-120.5,0,0,0\n");
+        let rows = parse_listed(&text).unwrap();
+        let outside = outside_limits(&arm, &rows);
+        // 105° is the limit itself (inclusive); -120.5° is past -105°.
+        assert_eq!(outside.len(), 1);
+        let message = outside[0].to_string();
+        assert_eq!(
+            message,
+            "line 5, column `q3_deg`: pose 3: -120.5° is outside joint 3's limits [-105°, 105°] \
+             (pass --allow-outside-limits to use it anyway)"
+        );
+        let path = Path::new("poses.csv");
+        let e = check_within_limits(&arm, path, &rows, false).unwrap_err();
+        assert!(
+            e.report().contains("`poses.csv`: line 5, column `q3_deg`"),
+            "{}",
+            e.report()
+        );
+        let warning = check_within_limits(&arm, path, &rows, true)
+            .unwrap()
+            .unwrap();
+        assert!(
+            warning.starts_with("1 of the 3 rows of `poses.csv`") && warning.contains("line 5"),
+            "{warning}"
+        );
+        assert_eq!(
+            check_within_limits(&arm, path, &rows[..2], false).unwrap(),
+            None
+        );
+    }
+
+    #[test]
+    fn a_measurement_file_is_checked_too() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("measured.csv");
+        std::fs::write(
+            &path,
+            "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n\
+             1,0,0,0,0,0,0,0,1,2,3\n2,0,0,0,0,0,0,200,1,2,3\n",
+        )
+        .unwrap();
+        let rows = of_measurements(&crate::io::measurements::read_listed(&path).unwrap());
+        let e = check_within_limits(&bundled_arm(), &path, &rows, false).unwrap_err();
+        let msg = e.report();
+        assert!(
+            msg.contains("measured.csv")
+                && msg.contains("line 3, column `q6_deg`")
+                && msg.contains("200°"),
+            "{msg}"
+        );
+    }
+
+    /// Several targets per pose: one row per (pose, load, target), sorted by
+    /// pose then target, as `docs/FORMATS.md` shows it.
+    const TARGETS: &str = "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm,target\n\
+                           0,0,0,0,0,0,0,0,1,2,3,T1\n\
+                           0,0,0,0,0,0,0,0,4,5,6,T2\n\
+                           1,0,0,0,0,0,0,200,1,2,3,T1\n\
+                           1,0,0,0,0,0,0,200,4,5,6,T2\n";
+
+    #[test]
+    fn a_measurement_file_of_several_targets_is_a_pose_list_of_its_poses() {
+        let rows = parse_listed(TARGETS).unwrap();
+        let listed: Vec<(u32, u64)> = rows.iter().map(|r| (r.row.pose.id, r.line)).collect();
+        assert_eq!(listed, [(0, 2), (1, 4)]);
+        // The same pose under one target twice is still refused.
+        let twice = TARGETS.replace(",T2\n1,", ",T1\n1,");
+        let e = parse(&twice).unwrap_err().to_string();
+        assert!(
+            e.contains("line 3") && e.contains("already appears on line 2"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn measurements_of_several_targets_are_checked_row_by_row() {
+        let listed = crate::io::measurements::parse_listed(TARGETS).unwrap();
+        let rows = of_measurements(&listed);
+        assert_eq!(rows.len(), 4);
+        let path = Path::new("all.csv");
+        let e = check_within_limits(&bundled_arm(), path, &rows, false).unwrap_err();
+        assert!(
+            e.report()
+                .contains("`all.csv`: line 4, column `q6_deg`: pose 1: 200°"),
+            "{}",
+            e.report()
+        );
+        let warning = check_within_limits(&bundled_arm(), path, &rows, true)
+            .unwrap()
+            .unwrap();
+        assert!(warning.starts_with("2 of the 4 rows"), "{warning}");
+    }
+}

@@ -1,0 +1,233 @@
+//! The names of the quantities a calibration may correct: [`ParamKey`], the
+//! one vocabulary of parameter names that calibration files, reports and
+//! messages write (`j3.d`, `k0`, `s2`, `tool[2].x`, `j3.servo[5]`,
+//! `j3.backlash`). The model names its own 43 parameters
+//! ([`model::ParamId`]); the rest are named here. Joints and knots are
+//! counted from 1 in names, from 0 in code.
+
+use std::borrow::Cow;
+use std::fmt;
+
+use model::ParamId;
+use model::bounds::{Bounds, FIT_MARGIN, Quantity};
+use model::params::ParamKind;
+
+/// A quantity the calibration may correct.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum ParamKey {
+    /// One of the model's 43 error parameters: a field of the arm.
+    Arm(ParamId),
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of the tool point of measured
+    /// target `target` (1 or more; target 0's is the arm's `tool.x/y/z`),
+    /// frame 6, m.
+    TargetTool {
+        /// Index of the target in its measurement set, 1 or more.
+        target: u8,
+        /// 0 x, 1 y, 2 z.
+        axis: u8,
+    },
+    /// The angle of knot `knot` of joint `joint`'s (from 0) servo curve,
+    /// the knot counted from 0 on the finest grid (every 25° from -100°,
+    /// whatever the spacing fitted): its correction is the angle the knot's
+    /// pulse really reaches minus the angle the curve had for it (see
+    /// `calib::servo_knots`).
+    ServoKnot {
+        /// Joint, from 0.
+        joint: u8,
+        /// Knot of the joint's curve, from 0.
+        knot: u8,
+    },
+    /// How spring `spring`'s compliance grows with its torque, 1/Nm (0 the
+    /// base's, `k0`'s; 1..=6 the joints'), `model::Arm::base_softening` and `model::Joint::softening`.
+    Softening {
+        /// Spring, as the compliances `k0..k6` count them.
+        spring: u8,
+    },
+    /// The full width of joint `joint`'s (from 0) play, rad
+    /// (`model::Joint::backlash`, see `calib::backlash`).
+    Backlash {
+        /// Joint, from 0.
+        joint: u8,
+    },
+}
+
+/// Axis letters of [`ParamKey::TargetTool`] names.
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+impl ParamKey {
+    /// Stable name: the arm's parameters keep the model's names (`j3.d`,
+    /// `base.pitch`, `k0`); a further target's tool point is `tool[2].x`, a
+    /// servo knot `j3.servo[5]` (joint and knot from 1), a backlash width
+    /// `j3.backlash` (joint from 1).
+    pub fn name(self) -> Cow<'static, str> {
+        match self {
+            Self::Arm(id) => Cow::Borrowed(id.name()),
+            Self::TargetTool { target, axis } => {
+                let axis = AXES.get(usize::from(axis)).copied().unwrap_or("?");
+                Cow::Owned(format!("tool[{target}].{axis}"))
+            }
+            Self::ServoKnot { joint, knot } => {
+                Cow::Owned(servo_knot_name(joint.into(), knot.into()))
+            }
+            Self::Backlash { joint } => Cow::Owned(backlash_name(joint.into())),
+            Self::Softening { spring } => Cow::Owned(format!("s{spring}")),
+        }
+    }
+
+    /// The key called `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        if let Some(id) = ParamId::from_name(name) {
+            return Some(Self::Arm(id));
+        }
+        // Both fit a u8: at most 6 joints and MAX_KNOTS knots.
+        if let Some((joint, knot)) = servo_knot_from_name(name) {
+            return Some(Self::ServoKnot {
+                joint: joint as u8,
+                knot: knot as u8,
+            });
+        }
+        if let Some(joint) = backlash_from_name(name) {
+            return Some(Self::Backlash { joint: joint as u8 });
+        }
+        if let Some(spring) = name
+            .strip_prefix('s')
+            .and_then(|n| n.parse::<u8>().ok())
+            .filter(|s| usize::from(*s) <= model::JOINTS && name.len() == 2)
+        {
+            return Some(Self::Softening { spring });
+        }
+        let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
+        let target: u8 = target.parse().ok().filter(|t| *t > 0)?;
+        let axis = AXES.iter().position(|a| *a == axis)?;
+        Some(Self::TargetTool {
+            target,
+            axis: axis as u8,
+        })
+    }
+
+    /// Coordinate `axis` (0 x, 1 y, 2 z) of target `target`'s tool point:
+    /// the arm's `tool.x/y/z` for target 0. `None` past the last axis or key.
+    pub fn tool(target: usize, axis: usize) -> Option<Self> {
+        match target {
+            0 => ParamId::from_name(["tool.x", "tool.y", "tool.z"].get(axis)?).map(Self::Arm),
+            _ => Some(Self::TargetTool {
+                target: u8::try_from(target).ok()?,
+                axis: u8::try_from(axis).ok().filter(|a| *a < 3)?,
+            }),
+        }
+    }
+
+    /// Physical kind, which sets the unit and the scale of steps and typical errors.
+    pub fn kind(self) -> ParamKind {
+        match self {
+            Self::Arm(id) => id.kind(),
+            Self::TargetTool { .. } => ParamKind::Length,
+            Self::ServoKnot { .. } | Self::Backlash { .. } => ParamKind::Angle,
+            // Its steps and typical size are a compliance's (about 0.1).
+            Self::Softening { .. } => ParamKind::Compliance,
+        }
+    }
+
+    /// The arm's bounded quantity ([`model::bounds`]) this key corrects, if it is one.
+    pub fn quantity(self) -> Option<Quantity> {
+        match self {
+            Self::Arm(id) if id.kind() == ParamKind::Compliance => {
+                // k0 is the base's spring, k1..k6 the joints'.
+                let spring = id.name().strip_prefix('k')?.parse::<u8>().ok()?;
+                Some(Quantity::Compliance { spring })
+            }
+            Self::Softening { spring } => Some(Quantity::Softening { spring }),
+            Self::Backlash { joint } => Some(Quantity::Backlash { joint }),
+            _ => None,
+        }
+    }
+
+    /// The smallest and largest value the fit may give the quantity (not its
+    /// correction): its physical range in `bounds`, kept inside by
+    /// [`model::bounds::FIT_MARGIN`] so that the board's single-precision
+    /// check passes too; `None` where it is unbounded.
+    pub fn fit_range(self, bounds: &Bounds<f64>) -> (Option<f64>, Option<f64>) {
+        let Some(quantity) = self.quantity() else {
+            return (None, None);
+        };
+        let range = bounds.range(quantity).inner(FIT_MARGIN);
+        let finite = |x: f64| (x.abs() < f64::MAX / 2.0).then_some(x);
+        (finite(range.min), finite(range.max))
+    }
+}
+
+impl From<ParamId> for ParamKey {
+    fn from(id: ParamId) -> Self {
+        Self::Arm(id)
+    }
+}
+
+impl fmt::Display for ParamKey {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.name())
+    }
+}
+
+/// The joint and knot (both from 0) of a servo-knot parameter name,
+/// `j<joint>.servo[<knot>]`, both counted from 1 for people as everywhere
+/// in messages (`j3.servo[5]`: the fifth knot of joint 3's curve).
+pub fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
+    let (joint, rest) = name.strip_prefix('j')?.split_once(".servo[")?;
+    let knot = rest.strip_suffix(']')?;
+    let joint: usize = joint.parse().ok()?;
+    let knot: usize = knot.parse().ok()?;
+    ((1..=model::JOINTS).contains(&joint) && (1..=model::servo::MAX_KNOTS).contains(&knot))
+        .then(|| (joint - 1, knot - 1))
+}
+
+/// The name of knot `knot` of joint `joint`'s curve (both from 0).
+pub fn servo_knot_name(joint: usize, knot: usize) -> String {
+    format!("j{}.servo[{}]", joint + 1, knot + 1)
+}
+
+/// The joint (from 0) of a backlash parameter name, `j<joint>.backlash`
+/// (joint from 1, as in every message).
+pub fn backlash_from_name(name: &str) -> Option<usize> {
+    let joint: usize = name
+        .strip_prefix('j')?
+        .strip_suffix(".backlash")?
+        .parse()
+        .ok()?;
+    (1..=model::JOINTS).contains(&joint).then(|| joint - 1)
+}
+
+/// The name of joint `joint`'s (from 0) backlash width.
+pub fn backlash_name(joint: usize) -> String {
+    format!("j{}.backlash", joint + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn servo_knot_names_round_trip_and_refuse_what_is_out_of_range() {
+        assert_eq!(servo_knot_from_name("j3.servo[5]"), Some((2, 4)));
+        assert_eq!(servo_knot_name(2, 4), "j3.servo[5]");
+        for bad in [
+            "j0.servo[1]",
+            "j7.servo[1]",
+            "j1.servo[0]",
+            "j1.servo[10]",
+            "j1.servo[]",
+            "j1.servo",
+            "j1.theta",
+        ] {
+            assert_eq!(servo_knot_from_name(bad), None, "{bad}");
+        }
+    }
+
+    #[test]
+    fn backlash_names_round_trip_and_refuse_what_is_out_of_range() {
+        assert_eq!(backlash_from_name("j6.backlash"), Some(5));
+        assert_eq!(backlash_name(5), "j6.backlash");
+        for bad in ["j0.backlash", "j7.backlash", "j.backlash", "j1.backlash2"] {
+            assert_eq!(backlash_from_name(bad), None, "{bad}");
+        }
+    }
+}

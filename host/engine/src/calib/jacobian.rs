@@ -1,0 +1,659 @@
+//! The identification Jacobian: how each measured tool point moves per unit
+//! change of each free parameter, and per unit of each commanded joint angle,
+//! exact through the elastic deflection.
+//!
+//! **Every geometric parameter is a small rigid motion.** A DH offset
+//! `theta_k` turns everything beyond joint `k` about axis `z(k-1)`, `d_k`
+//! slides it along that axis, `a_k` along `x(k)`, `alpha_k` turns it about
+//! `x(k)`; the base's six move the whole arm, the tool's move the payload
+//! (and, for `tool.x/y/z`, the measured point). A moved point `x` goes
+//! `ω × x + v` (a [`Twist`]), so its derivative is one cross product.
+//!
+//! **The deflection by the implicit function theorem.** The deflected state
+//! `s = (qa, beta)` solves `s = (q, 0) + D T(s, p)` (`D` the compliances,
+//! `T` the gravity torques of the six joints and the base tilt, `p` the
+//! parameters). Differentiating, `(I − D ∂T/∂s) ds = D ∂T/∂p dp + dD T`: one
+//! 7×7 solve per pose. `∂T/∂s` and `∂T/∂p` are the torques' derivatives
+//! under the same rigid motions (each joint angle and the base tilt is one
+//! too): a torque about an axis that moves with the motion only changes
+//! because gravity does not turn with it (`−a · (r × (ω × g))`), one about an
+//! axis that stays changes by the moments of the masses that move
+//! (`a · ((ω × C + M v) × g)`). With suffix sums of the masses and their
+//! moments each entry costs a few cross products: a pose's 43 columns cost
+//! about as much as two evaluations of the model, where central differences
+//! took 86.
+//!
+//! A spring may soften with its torque, `k (1 + s |τ|) τ`: then `D` holds
+//! each spring's rate `k (1 + 2 s |τ|)`, a compliance's column is
+//! `(1 + s |τ|) τ` per unit and a softening's `k |τ| τ`.
+//!
+//! **Joint-angle columns.** A sample's joints stand where its command drives
+//! them ([`Rig::standing_angles`]: through the rig's servo curves, with its
+//! backlash). The same solve gives `d point / d q` for those angles
+//! ([`Slopes::joints`]): a parameter that acts through a joint's angle alone
+//! (a servo curve's knot, backlash) has that column times its own weight at
+//! the pose (`calib::joint_columns`).
+//!
+//! The test module checks every column against central differences of the
+//! model itself.
+
+use model::params::ParamKind;
+use model::{JOINTS, SolverOptions};
+use nalgebra::{DMatrix, IsometryMatrix3, Matrix3x6, Matrix3xX, SMatrix, Vector3};
+use rayon::prelude::*;
+
+use super::joint_columns;
+use super::params::ParamKey;
+use super::servo_knots::fit_start;
+use super::targets::{chain_of, deflection_error, target_chains};
+use super::{CalibError, Rig, Sample};
+
+/// The deflected state's seven coordinates: the six joint angles, then the base tilt.
+const STATE: usize = JOINTS + 1;
+
+/// Samples per share of the work on another core (a few ms of it).
+const PARALLEL_CHUNK: usize = 1024;
+
+/// Bodies that carry weight: links 1..6, then the payload (index 7).
+const PAYLOAD: usize = JOINTS + 1;
+
+/// The exact slopes of the measured points of a set of samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Slopes {
+    /// `3 n × m`: rows `3k..3k+3` for sample `k` (x y z), a column per key
+    /// asked for, m per unit of the key.
+    pub params: DMatrix<f64>,
+    /// Per sample, the measured point's derivative with respect to the six
+    /// commanded joint angles, the deflection included, m/rad.
+    pub joints: Vec<Matrix3x6<f64>>,
+}
+
+/// The `3 n × m` Jacobian of the measured points of `samples` (rows `3k..3k+3`
+/// for sample `k`, x y z) with respect to `ids` (columns), evaluated at
+/// `rig`, in m per unit of each parameter.
+pub fn jacobian(
+    rig: &Rig,
+    ids: &[ParamKey],
+    samples: &[Sample],
+) -> Result<DMatrix<f64>, CalibError> {
+    Ok(slopes(rig, ids, samples)?.params)
+}
+
+/// [`jacobian`] and the joint-angle slopes of every sample, in one pass.
+/// Sets of thousands of samples (a candidate pool) are worked on all cores,
+/// each sample's rows alone, so the result does not depend on how they are
+/// shared out; a fit's few hundred cost less than waking another thread.
+pub fn slopes(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Result<Slopes, CalibError> {
+    // Servo-knot keys move the curves on their grid (the same map).
+    let rig = &fit_start(rig, ids);
+    let chains = target_chains(rig);
+    let per_sample: Vec<(Matrix3xX<f64>, Matrix3x6<f64>)> = samples
+        .par_iter()
+        .with_min_len(PARALLEL_CHUNK)
+        .map(|s| pose_slopes(rig, chain_of(&chains, s)?, ids, s))
+        .collect::<Result<_, _>>()?;
+    let mut params = DMatrix::zeros(3 * samples.len(), ids.len());
+    let mut joints = Vec::with_capacity(samples.len());
+    for (k, (p, j)) in per_sample.into_iter().enumerate() {
+        params.rows_mut(3 * k, 3).copy_from(&p);
+        joints.push(j);
+    }
+    Ok(Slopes { params, joints })
+}
+
+/// A small rigid motion of the part of the arm beyond `from`: a point it
+/// moves goes `ω × x + v`, world frame.
+#[derive(Clone, Copy, Debug)]
+struct Twist {
+    /// Angular rate, rad per unit of the parameter.
+    w: Vector3<f64>,
+    /// Velocity of the point at the world origin, m per unit.
+    v: Vector3<f64>,
+    /// Frames `from..=6` and bodies `max(from, 1)..` move; [`PAYLOAD`]: the
+    /// payload alone (a tool frame parameter).
+    from: usize,
+}
+
+impl Twist {
+    /// A turn about `axis` through `point`.
+    fn about(axis: Vector3<f64>, point: &Vector3<f64>, from: usize) -> Self {
+        Self {
+            w: axis,
+            v: point.cross(&axis),
+            from,
+        }
+    }
+
+    /// A slide along `direction`.
+    fn along(direction: Vector3<f64>, from: usize) -> Self {
+        Self {
+            w: Vector3::zeros(),
+            v: direction,
+            from,
+        }
+    }
+
+    fn velocity(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.w.cross(x) + self.v
+    }
+}
+
+/// The axes of a `Trans · Rz(yaw) Ry(pitch) Rx(roll)` frame's roll, pitch and
+/// yaw, in its parent's frame: the derivative of each angle turns the frame
+/// about one of them.
+fn rpy_axes([_, pitch, yaw]: [f64; 3]) -> [Vector3<f64>; 3] {
+    let (sy, cy) = yaw.sin_cos();
+    let (sp, cp) = pitch.sin_cos();
+    [
+        Vector3::new(cy * cp, sy * cp, -sp),
+        Vector3::new(-sy, cy, 0.0),
+        Vector3::z(),
+    ]
+}
+
+/// One deflected state as the derivatives see it, world frame.
+struct State {
+    /// Frames 0 (tilted base) ..= 6.
+    frames: [IsometryMatrix3<f64>; JOINTS + 1],
+    /// Gravity, m/s².
+    gravity: Vector3<f64>,
+    /// Axis and origin of each state coordinate's torque: joint `i + 1`
+    /// about `z(i)` through `o(i)`, then the base tilt about `y(0)` through `o(0)`.
+    axes: [(Vector3<f64>, Vector3<f64>); STATE],
+    /// `M_s`: mass of bodies `s..=7` (index 0 unused, 8 none), kg.
+    mass: [f64; PAYLOAD + 2],
+    /// `C_s`: `Σ m c` over bodies `s..=7`, world, kg·m.
+    moment: [Vector3<f64>; PAYLOAD + 2],
+    /// The compliances in state order (`k1..k6`, `k0`), rad/Nm.
+    compliance: [f64; STATE],
+    /// The springs' softenings in state order, 1/Nm.
+    softening: [f64; STATE],
+    /// The springs' rates at their torques, `k (1 + 2 s |τ|)`, rad/Nm.
+    rate: [f64; STATE],
+}
+
+impl State {
+    fn new(
+        chain: &model::Chain<f64>,
+        rig: &Rig,
+        frames: [IsometryMatrix3<f64>; 7],
+        load: f64,
+    ) -> Self {
+        let mut mass = [0.0; PAYLOAD + 2];
+        let mut moment = [Vector3::zeros(); PAYLOAD + 2];
+        let last = &frames[JOINTS];
+        mass[PAYLOAD] = load;
+        moment[PAYLOAD] = (last.rotation * chain.payload_com + last.translation.vector) * load;
+        for j in (1..=JOINTS).rev() {
+            let link = &chain.links[j - 1];
+            let f = &frames[j];
+            mass[j] = mass[j + 1] + link.mass;
+            moment[j] =
+                moment[j + 1] + f.rotation * link.mass_com + f.translation.vector * link.mass;
+        }
+        let axes = std::array::from_fn(|e| {
+            let (frame, column) = if e < JOINTS { (e, 2) } else { (0, 1) };
+            let f = &frames[frame];
+            (
+                f.rotation.matrix().column(column).into_owned(),
+                f.translation.vector,
+            )
+        });
+        let compliance = std::array::from_fn(|e| {
+            if e < JOINTS {
+                chain.links[e].compliance
+            } else {
+                chain.base_compliance
+            }
+        });
+        let softening = std::array::from_fn(|e| {
+            if e < JOINTS {
+                chain.links[e].softening
+            } else {
+                chain.base_softening
+            }
+        });
+        let mut state = Self {
+            frames,
+            gravity: rig.arm.gravity_vector(),
+            axes,
+            mass,
+            moment,
+            compliance,
+            softening,
+            rate: compliance,
+        };
+        let tau = state.torques();
+        state.rate =
+            std::array::from_fn(|e| compliance[e] * (1.0 + 2.0 * softening[e] * tau[e].abs()));
+        state
+    }
+
+    /// The bodies whose weight loads state coordinate `e`'s torque, from
+    /// the first, and the frame its axis is fixed in.
+    fn reach(e: usize) -> (usize, usize) {
+        if e < JOINTS { (e + 1, e) } else { (1, 0) }
+    }
+
+    /// The gravity torques in state order, Nm.
+    fn torques(&self) -> [f64; STATE] {
+        std::array::from_fn(|e| {
+            let (first, _) = Self::reach(e);
+            let (axis, origin) = &self.axes[e];
+            let r = self.moment[first] - origin * self.mass[first];
+            axis.dot(&r.cross(&self.gravity))
+        })
+    }
+
+    /// How the torques change under `t` (module docs).
+    fn torque_slopes(&self, t: &Twist) -> [f64; STATE] {
+        let turned_gravity = t.w.cross(&self.gravity);
+        std::array::from_fn(|e| {
+            let (first, axis_frame) = Self::reach(e);
+            let (axis, origin) = &self.axes[e];
+            if t.from <= axis_frame {
+                let r = self.moment[first] - origin * self.mass[first];
+                -axis.dot(&r.cross(&turned_gravity))
+            } else {
+                let from = t.from.max(first);
+                let moved = t.w.cross(&self.moment[from]) + t.v * self.mass[from];
+                axis.dot(&moved.cross(&self.gravity))
+            }
+        })
+    }
+
+    /// Whether nothing yields: the deflection does not respond to anything.
+    fn rigid(&self) -> bool {
+        self.compliance.iter().all(|k| *k == 0.0)
+    }
+
+    /// The motion of the state coordinate `e`: joint `e + 1` turns about
+    /// its axis, the base tilts about `y(0)`.
+    fn state_twist(&self, e: usize) -> Twist {
+        let (axis, origin) = &self.axes[e];
+        Twist::about(*axis, origin, if e < JOINTS { e + 1 } else { 0 })
+    }
+}
+
+/// Rows of one sample: its measured point's derivatives with respect to
+/// `ids` and to the commanded joint angles.
+fn pose_slopes(
+    rig: &Rig,
+    chain: &model::Chain<f64>,
+    ids: &[ParamKey],
+    sample: &Sample,
+) -> Result<(Matrix3xX<f64>, Matrix3x6<f64>), CalibError> {
+    let d = chain
+        .deflect(
+            &rig.standing_angles(sample),
+            sample.load_kg,
+            &SolverOptions::default(),
+        )
+        .map_err(|e| deflection_error(sample, e.to_string()))?;
+    let point = d.tool_point();
+    let state = State::new(chain, rig, d.frames.frames, sample.load_kg);
+    let twists: [Twist; STATE] = std::array::from_fn(|e| state.state_twist(e));
+    // P: how the point moves per unit of each state coordinate.
+    let p = SMatrix::<f64, 3, STATE>::from_fn(|r, e| twists[e].velocity(&point)[r]);
+    // W = P (I − D ∂T/∂s)⁻¹ carries a change of the state's right-hand side
+    // to the point.
+    let w = if state.rigid() {
+        p
+    } else {
+        let mut h = SMatrix::<f64, STATE, STATE>::identity();
+        for (e, t) in twists.iter().enumerate() {
+            for (row, slope) in state.torque_slopes(t).iter().enumerate() {
+                h[(row, e)] -= state.rate[row] * slope;
+            }
+        }
+        let ht = h.transpose().lu();
+        let wt = ht.solve(&p.transpose()).ok_or_else(|| {
+            deflection_error(
+                sample,
+                "the deflection is singular here: its fixed point does not move smoothly with the parameters".into(),
+            )
+        })?;
+        wt.transpose()
+    };
+    let torques = state.torques();
+    let frame6 = &state.frames[JOINTS];
+    let in_frame6 = |axis: usize| frame6.rotation.matrix().column(axis).into_owned();
+    let mut out = Matrix3xX::zeros(ids.len());
+    for (col, id) in ids.iter().enumerate() {
+        let slope = match *id {
+            ParamKey::Arm(pid) => {
+                let i = pid.index();
+                match pid.kind() {
+                    ParamKind::Compliance => {
+                        // k1..k6 then k0, as the state.
+                        let e = i - 36;
+                        w.column(e) * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
+                    }
+                    ParamKind::Length | ParamKind::Angle => {
+                        let (twist, direct) = arm_twist(rig, &state, i, sample.target);
+                        let direct = direct.unwrap_or_else(|| twist.velocity(&point));
+                        if state.rigid() {
+                            direct
+                        } else {
+                            let dt = state.torque_slopes(&twist);
+                            let rhs = nalgebra::SVector::<f64, STATE>::from_fn(|e, _| {
+                                state.rate[e] * dt[e]
+                            });
+                            direct + w * rhs
+                        }
+                    }
+                }
+            }
+            ParamKey::TargetTool { target, axis } => {
+                if usize::from(target) == sample.target {
+                    in_frame6(usize::from(axis))
+                } else {
+                    Vector3::zeros()
+                }
+            }
+            ParamKey::Softening { spring } => {
+                // s0 is the base's (state 6), s1..s6 the joints'.
+                let e = match usize::from(spring) {
+                    0 => JOINTS,
+                    j => j - 1,
+                };
+                w.column(e) * (state.compliance[e] * torques[e].abs() * torques[e])
+            }
+            ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
+                match joint_columns::joint_of(*id) {
+                    Some(j) => w.column(j) * joint_columns::weight(rig, *id, sample),
+                    None => Vector3::zeros(),
+                }
+            }
+        };
+        out.set_column(col, &slope);
+    }
+    Ok((out, w.fixed_columns::<JOINTS>(0).into_owned()))
+}
+
+/// The rigid motion of the arm's geometric parameter of index `i`
+/// (`model::params` order) at `state`, and the measured point's own motion
+/// when it is not the twist's (the tool frame's parameters move the payload,
+/// and the point of target 0 only by its translation).
+fn arm_twist(rig: &Rig, state: &State, i: usize, target: usize) -> (Twist, Option<Vector3<f64>>) {
+    let f = &state.frames;
+    let column = |frame: usize, axis: usize| f[frame].rotation.matrix().column(axis).into_owned();
+    match i {
+        0..24 => {
+            let k = i / 4 + 1;
+            let (z, before) = (column(k - 1, 2), f[k - 1].translation.vector);
+            let x = column(k, 0);
+            let twist = match i % 4 {
+                0 => Twist::about(z, &before, k),
+                1 => Twist::along(z, k),
+                2 => Twist::along(x, k),
+                _ => Twist::about(x, &f[k].translation.vector, k),
+            };
+            (twist, None)
+        }
+        24..27 => (Twist::along(Vector3::ith(i - 24, 1.0), 0), None),
+        27..30 => {
+            let axis = rpy_axes(rig.arm.base.rpy)[i - 27];
+            let origin = Vector3::from(rig.arm.base.xyz);
+            (Twist::about(axis, &origin, 0), None)
+        }
+        30..33 => {
+            let axis = column(JOINTS, i - 30);
+            let direct = if target == 0 { axis } else { Vector3::zeros() };
+            (Twist::along(axis, PAYLOAD), Some(direct))
+        }
+        _ => {
+            let frame6 = &f[JOINTS];
+            let local = rpy_axes(rig.arm.tool.rpy)[i - 33];
+            let origin =
+                frame6.rotation * Vector3::from(rig.arm.tool.xyz) + frame6.translation.vector;
+            (
+                Twist::about(frame6.rotation * local, &origin, PAYLOAD),
+                Some(Vector3::zeros()),
+            )
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::ModelOption;
+    use crate::calib::params::Key as _;
+    use crate::calib::targets::Targets;
+    use crate::calib::testing::{small_samples, test_arm};
+    use lrmcal_core::dataset::TargetName;
+
+    /// Central differences of the model itself, the reference the exact
+    /// slopes are held to: step `h = eps^(1/3) · max(|value|, typical)`
+    /// (0.1 m, 1 rad, 0.1 rad/Nm) balances the O(h²) truncation against the
+    /// O(eps/h) rounding; a compliance nearer zero than its step is
+    /// differenced one-sidedly upwards (second order), never below zero.
+    fn central_differences(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> DMatrix<f64> {
+        let at = |id: ParamKey, delta: f64| {
+            let mut r = rig.clone();
+            *id.slot(&mut r) += delta;
+            DMatrix::from_iterator(
+                3 * samples.len(),
+                1,
+                r.tool_points(samples)
+                    .unwrap()
+                    .iter()
+                    .flat_map(|p| p.iter().copied()),
+            )
+        };
+        let mut j = DMatrix::zeros(3 * samples.len(), ids.len());
+        for (c, &id) in ids.iter().enumerate() {
+            let value = id.value(rig);
+            let typical = match id.kind() {
+                ParamKind::Length | ParamKind::Compliance => 0.1,
+                ParamKind::Angle => 1.0,
+            };
+            let h = f64::EPSILON.cbrt() * value.abs().max(typical);
+            let column = if id.kind() == ParamKind::Compliance && value < h {
+                (at(id, 0.0) * -1.5 + at(id, h) * 2.0 - at(id, 2.0 * h) * 0.5) / h
+            } else {
+                (at(id, h) - at(id, -h)) / (2.0 * h)
+            };
+            j.set_column(c, &column.column(0));
+        }
+        j
+    }
+
+    /// A rig on which every column is alive: the compliant, tilted test arm
+    /// with its payload's centre off the tool point and a turned tool frame
+    /// (so the tool's rotations move the payload), and a second target.
+    fn lively_rig() -> Rig {
+        let mut arm = test_arm();
+        arm.payload_com = [0.01, -0.02, 0.015];
+        arm.tool.rpy = [0.1, -0.2, 0.3];
+        arm.base_compliance = 0.05;
+        arm.base.xyz = [0.1, -0.05, 0.02];
+        let names: Vec<TargetName> = ["a", "b"]
+            .iter()
+            .map(|n| TargetName::from(n).unwrap())
+            .collect();
+        let mut rig = Rig::new(arm, Targets::named_as(&names));
+        rig.tools[0] += Vector3::new(0.01, 0.02, -0.01);
+        rig
+    }
+
+    fn lively_samples() -> Vec<Sample> {
+        let mut samples = small_samples(6);
+        for (k, s) in samples.iter_mut().enumerate() {
+            s.target = k % 2;
+            // No load, the paper's 66.3 g, and a heavy 0.4 kg.
+            s.load_kg = [0.0, 0.0663, 0.4][k % 3];
+        }
+        samples
+    }
+
+    fn all_keys(rig: &Rig) -> Vec<ParamKey> {
+        let mut ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
+        ids.extend(rig.tool_keys());
+        ids
+    }
+
+    /// Every column, on several poses and loads, agrees with central
+    /// differences to 1e-6 of the column's size. The differences' own error
+    /// is their truncation (`h²`) plus the deflection solver's stopping noise
+    /// (about 1e-14 rad) over the step: most columns agree to 1e-9, the
+    /// worst (k6, whose joint carries a few mNm) to 3e-7, and to 2e-8 with
+    /// a ten times larger step, so that is the differences' noise. A wrong
+    /// term (a torque feedback missed, a sign) is off by percents.
+    #[test]
+    fn exact_columns_match_central_differences() {
+        let rig = lively_rig();
+        let samples = lively_samples();
+        let ids = all_keys(&rig);
+        let exact = jacobian(&rig, &ids, &samples).unwrap();
+        let reference = central_differences(&rig, &ids, &samples);
+        let mut worst = 0.0f64;
+        for (c, id) in ids.iter().enumerate() {
+            let size = reference.column(c).amax();
+            let diff = (exact.column(c) - reference.column(c)).amax();
+            assert!(size > 1e-6, "{id}: a column of the lively rig is dead");
+            assert!(
+                diff <= 1e-6 * size,
+                "{id}: exact vs differences {diff:e}, size {size:e}"
+            );
+            worst = worst.max(diff / size);
+        }
+        eprintln!("worst relative difference {worst:e}");
+    }
+
+    /// With our option's parameters on a rig whose springs soften, whose
+    /// joints have play and whose servo curves sit on the knots' grid, the
+    /// knot, backlash and softening columns (and all the others) agree with
+    /// central differences as closely as the paper's.
+    #[test]
+    fn servo_backlash_and_softening_columns_match_central_differences() {
+        let mut lively = lively_rig();
+        let mut ids = crate::calib::option::candidates(
+            ModelOption::ElastoKinematicServo,
+            &lively.arm,
+            crate::calib::servo_knots::KnotSpacing::FINEST,
+        );
+        ids.extend(crate::calib::option::refresh_candidates(
+            ModelOption::ElastoKinematicServo,
+        ));
+        ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));
+        ids.extend(lively.tool_keys());
+        for spring in 0..=JOINTS as u8 {
+            *ParamKey::Softening { spring }.slot(&mut lively) = 0.2 + 0.05 * f64::from(spring);
+        }
+        for joint in 0..JOINTS as u8 {
+            *ParamKey::Backlash { joint }.slot(&mut lively) = 0.004 + 0.001 * f64::from(joint);
+        }
+        let rig = fit_start(&lively, &ids);
+        let samples = lively_samples();
+        let approaches: Vec<_> = samples.iter().map(|s| s.approach).collect();
+        assert!(
+            (0..JOINTS).all(|j| approaches.iter().any(|a| a[j] != approaches[0][j])),
+            "every joint must arrive both ways in the samples"
+        );
+        let exact = jacobian(&rig, &ids, &samples).unwrap();
+        let reference = central_differences(&rig, &ids, &samples);
+        for (c, id) in ids.iter().enumerate() {
+            let size = reference.column(c).amax();
+            let diff = (exact.column(c) - reference.column(c)).amax();
+            // Plus the differences' absolute noise: the solver's 1e-14 over
+            // a step of a few 1e-6 (a wrist spring's softening moves the
+            // point by only a micrometre per unit).
+            assert!(
+                diff <= 1e-6 * size + 1e-9,
+                "{id}: exact vs differences {diff:e}, size {size:e}"
+            );
+        }
+    }
+
+    /// The joint-angle slopes agree with central differences of the
+    /// commanded angles, through the deflection.
+    #[test]
+    fn joint_slopes_match_central_differences() {
+        let rig = lively_rig();
+        let samples = lively_samples();
+        let s = slopes(&rig, &[], &samples).unwrap();
+        let h = f64::EPSILON.cbrt();
+        for (k, sample) in samples.iter().enumerate() {
+            for joint in 0..JOINTS {
+                let shifted = |by: f64| {
+                    let mut moved = *sample;
+                    moved.q[joint] += by;
+                    rig.tool_points(&[moved]).unwrap()[0]
+                };
+                let reference = (shifted(h) - shifted(-h)) / (2.0 * h);
+                let exact = s.joints[k].column(joint);
+                assert!(
+                    (exact - reference).amax() <= 1e-6 * reference.amax().max(1e-3),
+                    "sample {k} joint {}: {exact} vs {reference}",
+                    joint + 1
+                );
+            }
+        }
+    }
+
+    /// Hand-checkable columns: a base translation moves every point by exactly
+    /// its own amount; a tool rotation does not move the tool point of a
+    /// payload centred on it.
+    #[test]
+    fn frame_columns_match_their_meaning() {
+        let arm = test_arm();
+        let ids: Vec<ParamKey> = ["base.x", "base.z", "tool.roll"]
+            .iter()
+            .map(|n| ParamKey::from_name(n).unwrap())
+            .collect();
+        let samples = small_samples(5);
+        let j = jacobian(&Rig::from(arm), &ids, &samples).unwrap();
+        for k in 0..samples.len() {
+            let row = |r: usize, c: usize| j[(3 * k + r, c)];
+            assert!(
+                (row(0, 0) - 1.0).abs() < 1e-12
+                    && row(1, 0).abs() < 1e-12
+                    && row(2, 0).abs() < 1e-12
+            );
+            assert!((row(2, 1) - 1.0).abs() < 1e-12);
+            assert!(j.fixed_view::<3, 1>(3 * k, 2).norm() < 1e-12);
+        }
+    }
+
+    /// On a rigid arm a compliance's column is the joint's column times its
+    /// gravity torque, exactly: the derivative of the physical side at zero.
+    #[test]
+    fn compliance_column_of_a_rigid_arm_is_joint_column_times_torque() {
+        let arm = crate::calib::testing::rigid_nominal();
+        let k2 = ParamKey::from_name("k2").unwrap();
+        let theta2 = ParamKey::from_name("j2.theta").unwrap();
+        let samples = small_samples(4);
+        let j = jacobian(&Rig::from(arm), &[k2, theta2], &samples).unwrap();
+        let chain = arm.chain();
+        for (k, s) in samples.iter().enumerate() {
+            let tau = chain.gravity_torques(&s.q, 0.0, s.load_kg).joints[1];
+            let expected = j.fixed_view::<3, 1>(3 * k, 1) * tau;
+            let got = j.fixed_view::<3, 1>(3 * k, 0);
+            assert!(
+                (got - expected).norm() <= 1e-12 * expected.norm().max(1e-9),
+                "pose {k}"
+            );
+        }
+    }
+
+    /// The torques the slopes are built on are the model's own.
+    #[test]
+    fn world_frame_torques_are_the_model_torques() {
+        let rig = lively_rig();
+        let chain = rig.arm.chain();
+        for s in lively_samples() {
+            let d = chain
+                .deflect(&s.q, s.load_kg, &SolverOptions::default())
+                .unwrap();
+            let state = State::new(&chain, &rig, d.frames.frames, s.load_kg);
+            let model = chain.gravity_torques(&d.qa, d.beta, s.load_kg);
+            let ours = state.torques();
+            for (e, (a, b)) in ours.iter().zip(model.joints).enumerate() {
+                assert!((a - b).abs() < 1e-12, "joint {}", e + 1);
+            }
+            assert!((ours[JOINTS] - model.base).abs() < 1e-12);
+        }
+    }
+}

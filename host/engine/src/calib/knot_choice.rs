@@ -1,0 +1,121 @@
+//! How many knots the servo curves get: the spacing whose fit best predicts
+//! the poses it leaves out.
+//!
+//! Each knot of our option's servo curves is a parameter the poses must
+//! determine (`calib::servo_knots`). From many poses the finest grid (every
+//! 25°) follows a servo's error best; from few, its knots take up the
+//! measurements' noise and the fit predicts the poses it did not see worse
+//! than a coarser curve would (on the bundled arm from 30 poses the finest
+//! grid even bends a curve back on itself). So the fit is made on the
+//! finest grid the candidates' analysis kept, then on coarser ones (every
+//! 50°, every 100°) while their leave-one-out error (`calib::identify`: each
+//! measurement's error in the fit without it) keeps dropping, and the best
+//! is kept. A fit that fails (a curve that no longer maps angle to pulse
+//! one-to-one, too few poses for its parameters) loses to any that does.
+//!
+//! The finest grid and the next coarser one are fitted side by side (two
+//! cores): most fits stop there.
+
+use serde::Serialize;
+
+use super::identify::{Identified, IdentifyOptions};
+use super::params::ParamKey;
+use super::refresh::identify_refreshed;
+use super::servo_knots::{KnotSpacing, on_spacing, spacing_of};
+use super::{CalibError, ModelOption, Rig, backlash};
+use lrmcal_core::dataset::Measurement;
+
+/// One knot spacing tried.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KnotTrial {
+    /// The spacing.
+    pub spacing: KnotSpacing,
+    /// Mean leave-one-out error of its fit, mm; `None` when it failed.
+    pub loo_mean_mm: Option<f64>,
+    /// Why its fit failed, if it did.
+    pub failure: Option<String>,
+}
+
+/// The spacing chosen and the ones tried.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct KnotChoice {
+    /// The spacing of the calibration's curves.
+    pub chosen: KnotSpacing,
+    /// Every spacing fitted, finest first.
+    pub trials: Vec<KnotTrial>,
+}
+
+/// A fit of an option's parameters, with the knot spacing chosen when the
+/// option fits servo curves.
+#[derive(Clone, Debug)]
+pub struct ChosenFit {
+    /// The identification.
+    pub identified: Identified,
+    /// How the knot spacing was chosen; `None` without knots.
+    pub knots: Option<KnotChoice>,
+}
+
+/// Fits `option`'s `kept` parameters (and the backlash widths the
+/// measurements identify, `calib::backlash`) to `measurements`, refreshed
+/// at the estimate (`calib::refresh`); when `kept` holds servo knots, on the
+/// spacing chosen as the module docs say.
+pub fn fit(
+    nominal: &Rig,
+    option: ModelOption,
+    kept: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<ChosenFit, CalibError> {
+    let fit_on = |keys: &[ParamKey]| -> Result<Identified, CalibError> {
+        let keys = backlash::with_widths(nominal, option, keys, measurements)?;
+        identify_refreshed(nominal, option, &keys, measurements, options)
+    };
+    let Some(finest) = spacing_of(kept) else {
+        return Ok(ChosenFit {
+            identified: fit_on(kept)?,
+            knots: None,
+        });
+    };
+    let fit_spaced = |spacing: KnotSpacing| fit_on(&on_spacing(kept, spacing));
+    let (first, second) = rayon::join(
+        || fit_spaced(finest),
+        || finest.coarser().map(|s| (s, fit_spaced(s))),
+    );
+    let mut fits = vec![(finest, first)];
+    fits.extend(second);
+    // Coarser still while the last fit failed or predicted better than the one before.
+    while let Some(coarser) = fits.last().and_then(|(spacing, _)| spacing.coarser()) {
+        let n = fits.len();
+        let go_on = match (&fits[n - 1].1, n.checked_sub(2).map(|i| &fits[i].1)) {
+            (Ok(last), Some(Ok(before))) => {
+                last.diagnostics.loo_mean_m < before.diagnostics.loo_mean_m
+            }
+            _ => true,
+        };
+        if !go_on {
+            break;
+        }
+        fits.push((coarser, fit_spaced(coarser)));
+    }
+    let trials = fits
+        .iter()
+        .map(|(spacing, fit)| KnotTrial {
+            spacing: *spacing,
+            loo_mean_mm: fit.as_ref().ok().map(|f| f.diagnostics.loo_mean_m * 1e3),
+            failure: fit.as_ref().err().map(|e| e.to_string()),
+        })
+        .collect();
+    let best = fits
+        .iter()
+        .enumerate()
+        .filter_map(|(i, (_, fit))| fit.as_ref().ok().map(|f| (i, f.diagnostics.loo_mean_m)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i);
+    // Every spacing failed: the coarsest's reason, the simplest curve's.
+    let i = best.unwrap_or(fits.len() - 1);
+    let (chosen, fit) = fits.swap_remove(i);
+    Ok(ChosenFit {
+        identified: fit?,
+        knots: Some(KnotChoice { chosen, trials }),
+    })
+}

@@ -1,0 +1,411 @@
+//! The machine-readable report (JSON): what a run learnt, per option, in one
+//! document with its schema header.
+//!
+//! The report carries the rank analysis (kept, removed and what each removed
+//! parameter is confounded with), the selection and its observability
+//! indices, the fitted parameters with their deviations, the solver
+//! diagnostics, named outliers, the validation and cross-load statistics,
+//! and the demo's experiments. Every list entry is an object with named
+//! fields. Bump [`REPORT_SCHEMA_VERSION`] when a field changes meaning or shape.
+
+use serde::Serialize;
+
+use super::ModelOption;
+use super::experiments::{ErrorPoint, O1Point, RandomBaseline};
+use super::identifiability::Identifiability;
+use super::identify::{Identified, Outlier};
+use super::knot_choice::KnotChoice;
+use super::observability::Observability;
+use super::pipeline::OptionResult;
+use super::validate::{ErrorStats, Validation};
+use lrmcal_core::io::calibration_file::FittedParam;
+
+/// Name of the report schema.
+pub const REPORT_SCHEMA: &str = "lrmcal-report";
+/// Version of the report schema (2: named list entries; 3: the fit's
+/// leave-one-out error, the knot spacing chosen, the error against the
+/// number of poses).
+pub const REPORT_SCHEMA_VERSION: u32 = 3;
+
+/// A kept parameter that reproduces a removed one.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Confounder {
+    /// Kept parameter name.
+    pub name: String,
+    /// Its coefficient in the combination of unit columns.
+    pub coefficient: f64,
+}
+
+/// A removed parameter and what explains it.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RemovedReport {
+    /// Parameter name.
+    pub name: String,
+    /// Sine of the angle between its column and the kept columns' span.
+    pub residual: f64,
+    /// Kept parameters reproducing its column, largest coefficient first.
+    pub confounded_with: Vec<Confounder>,
+}
+
+impl RemovedReport {
+    /// One line: what the parameter is confounded with, or that it has no effect.
+    pub fn explain(&self) -> String {
+        if self.confounded_with.is_empty() {
+            format!(
+                "{}: no effect on the measured point (zero column)",
+                self.name
+            )
+        } else {
+            let with: Vec<String> = self
+                .confounded_with
+                .iter()
+                .map(|c| format!("{:+.3}·{}", c.coefficient, c.name))
+                .collect();
+            format!("{}: confounded with {}", self.name, with.join(" "))
+        }
+    }
+}
+
+/// The rank analysis of one option.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct IdentifiabilityReport {
+    /// Candidates before the analysis.
+    pub candidates: usize,
+    /// Kept parameter names.
+    pub kept: Vec<String>,
+    /// Removed parameters.
+    pub removed: Vec<RemovedReport>,
+    /// Rank by SVD (must equal the number kept).
+    pub svd_rank: usize,
+    /// Condition number of the kept unit columns.
+    pub kept_condition: f64,
+}
+
+impl From<&Identifiability> for IdentifiabilityReport {
+    fn from(a: &Identifiability) -> Self {
+        Self {
+            candidates: a.kept.len() + a.removed.len(),
+            kept: a.kept.iter().map(|p| p.to_string()).collect(),
+            removed: a
+                .removed
+                .iter()
+                .map(|r| RemovedReport {
+                    name: r.id.to_string(),
+                    residual: r.residual,
+                    confounded_with: r
+                        .confounded_with
+                        .iter()
+                        .map(|(p, c)| Confounder {
+                            name: p.to_string(),
+                            coefficient: *c,
+                        })
+                        .collect(),
+                })
+                .collect(),
+            svd_rank: a.svd_rank,
+            kept_condition: a.kept_condition,
+        }
+    }
+}
+
+/// A measurement named as an outlier, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OutlierReport {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Norm of its residual after the fit, mm.
+    pub residual_mm: f64,
+    /// Its final weight in the fit.
+    pub weight: f64,
+}
+
+impl From<&Outlier> for OutlierReport {
+    fn from(o: &Outlier) -> Self {
+        Self {
+            pose: o.pose,
+            load_kg: o.load_kg,
+            residual_mm: o.residual_m * 1e3,
+            weight: o.weight,
+        }
+    }
+}
+
+/// Solver diagnostics, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FitReport {
+    /// Last LM termination reason.
+    pub termination: String,
+    /// Whether LM reported success.
+    pub converged: bool,
+    /// Residual evaluations.
+    pub evaluations: usize,
+    /// Active-set rounds.
+    pub active_set_rounds: usize,
+    /// Trial steps rejected because the deflection could not be solved there.
+    pub failed_steps: usize,
+    /// Reweighting rounds.
+    pub irls_rounds: usize,
+    /// Compliances held at a bound (zero or their physical ceiling).
+    pub at_bound: Vec<String>,
+    /// Free parameters the data barely determine (see `calib::identify`).
+    pub weak: Vec<String>,
+    /// RMS 3D residual of the fit data before, mm.
+    pub rms_before_mm: f64,
+    /// RMS 3D residual of the fit data after, mm.
+    pub rms_after_mm: f64,
+    /// Residual deviation per coordinate, mm.
+    pub sigma_mm: f64,
+    /// Condition number of the scaled Jacobian at the solution.
+    pub condition: f64,
+    /// Mean error at each fitted measurement of the fit without it
+    /// (leave-one-out, `calib::identify`), mm; `null` when a measurement
+    /// alone decides a parameter.
+    pub loo_mean_mm: f64,
+    /// Fitted parameters.
+    pub parameters: Vec<FittedParam>,
+    /// Measurements named as outliers, largest residual first.
+    pub outliers: Vec<OutlierReport>,
+}
+
+impl From<&Identified> for FitReport {
+    fn from(f: &Identified) -> Self {
+        let d = &f.diagnostics;
+        Self {
+            termination: d.termination.clone(),
+            converged: d.converged,
+            evaluations: d.evaluations,
+            active_set_rounds: d.active_set_rounds,
+            failed_steps: d.failed_steps,
+            irls_rounds: d.irls_rounds,
+            at_bound: d.at_bound.iter().map(|p| p.to_string()).collect(),
+            weak: f
+                .estimates
+                .iter()
+                .filter(|e| e.weak)
+                .map(|e| e.id.to_string())
+                .collect(),
+            rms_before_mm: d.rms_before_m * 1e3,
+            rms_after_mm: d.rms_after_m * 1e3,
+            sigma_mm: d.sigma_m * 1e3,
+            condition: d.condition,
+            loo_mean_mm: d.loo_mean_m * 1e3,
+            parameters: f.estimates.iter().map(FittedParam::from).collect(),
+            outliers: f.outliers.iter().map(OutlierReport::from).collect(),
+        }
+    }
+}
+
+/// Validation statistics of one measurement set.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ValidationReport {
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Nominal model, m.
+    pub before: ErrorStats,
+    /// Calibrated model, m.
+    pub after: ErrorStats,
+    /// Mean error reduction, %.
+    pub reduction_pct: f64,
+    /// Measurements whose calibrated error is far beyond the others', largest first.
+    pub outliers: Vec<ValidationOutlier>,
+}
+
+/// A validation measurement named as an outlier, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ValidationOutlier {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// 3D error of the calibrated model there, mm.
+    pub error_mm: f64,
+}
+
+impl ValidationReport {
+    /// Summarises a validation under `load_kg`.
+    pub fn new(load_kg: f64, v: &Validation) -> Self {
+        Self {
+            load_kg,
+            before: v.before,
+            after: v.after,
+            reduction_pct: v.reduction_pct,
+            outliers: v
+                .outliers
+                .iter()
+                .map(|o| ValidationOutlier {
+                    pose: o.pose,
+                    load_kg: o.load_kg,
+                    error_mm: o.after_m * 1e3,
+                })
+                .collect(),
+        }
+    }
+}
+
+/// Everything about one option.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct OptionReport {
+    /// The option.
+    pub option: ModelOption,
+    /// The load whose measurements were fitted, kg.
+    pub identify_load_kg: f64,
+    /// Rank analysis.
+    pub identifiability: IdentifiabilityReport,
+    /// Selected pose ids.
+    pub selected_poses: Vec<u32>,
+    /// ln det of the selection's scaled information matrix.
+    pub log_det: f64,
+    /// ln det reached by each DETMAX start.
+    pub start_log_dets: Vec<f64>,
+    /// Observability indices of the selection.
+    pub observability: Observability,
+    /// The fit.
+    pub fit: FitReport,
+    /// How the servo curves' knot spacing was chosen, for an option that fits them.
+    pub knots: Option<KnotChoice>,
+    /// Validation on held-out poses under the identification load, if any were held out.
+    pub validation: Option<ValidationReport>,
+    /// Validation under the other load.
+    pub cross_load: Option<ValidationReport>,
+}
+
+impl From<&OptionResult> for OptionReport {
+    fn from(r: &OptionResult) -> Self {
+        Self {
+            option: r.option(),
+            identify_load_kg: r.identify_load_kg,
+            identifiability: (&r.selection.candidates.identifiability).into(),
+            selected_poses: r.pose_ids(),
+            log_det: r.selection.design.log_det,
+            start_log_dets: r.selection.design.start_log_dets.clone(),
+            observability: r.selection.observability,
+            fit: (&r.identified).into(),
+            knots: r.knots.clone(),
+            validation: r
+                .validation
+                .as_ref()
+                .map(|v| ValidationReport::new(r.identify_load_kg, v)),
+            cross_load: r
+                .cross_load
+                .as_ref()
+                .map(|c| ValidationReport::new(c.load_kg, &c.validation)),
+        }
+    }
+}
+
+/// The whole report of a run.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Report {
+    /// Always [`REPORT_SCHEMA`].
+    pub schema: &'static str,
+    /// [`REPORT_SCHEMA_VERSION`].
+    pub schema_version: u32,
+    /// Where the nominal arm came from.
+    pub arm: String,
+    /// Candidate poses.
+    pub candidates: usize,
+    /// Load the identification used, kg.
+    pub identify_load_kg: f64,
+    /// How the measurements were made (simulator settings for the demo).
+    pub measurements: serde_json::Value,
+    /// Per option, in the order run.
+    pub options: Vec<OptionReport>,
+    /// DETMAX versus random selection, when computed.
+    pub random_baseline: Option<RandomBaseline>,
+    /// O1 of DETMAX selections per number of poses, when computed.
+    pub o1_vs_poses: Vec<O1Point>,
+    /// The error of calibrations from DETMAX selections per number of poses, when computed.
+    pub error_vs_poses: Vec<ErrorPoint>,
+}
+
+impl Report {
+    /// The report of `results` (fitted under `identify_load_kg`, except the
+    /// demo's reverse cross-load check, which says its own load), with the
+    /// arm's origin, the number of candidate poses and how the measurements
+    /// were made; without experiments until the caller adds them.
+    pub fn new<'a>(
+        arm: String,
+        candidates: usize,
+        identify_load_kg: f64,
+        measurements: serde_json::Value,
+        results: impl IntoIterator<Item = &'a OptionResult>,
+    ) -> Self {
+        Self {
+            schema: REPORT_SCHEMA,
+            schema_version: REPORT_SCHEMA_VERSION,
+            arm,
+            candidates,
+            identify_load_kg,
+            measurements,
+            options: results.into_iter().map(OptionReport::from).collect(),
+            random_baseline: None,
+            o1_vs_poses: Vec::new(),
+            error_vs_poses: Vec::new(),
+        }
+    }
+
+    /// The report as pretty JSON.
+    pub fn to_json(&self) -> String {
+        // Numbers, strings and vectors only: serialisation cannot fail.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::experiments::{O1_SIZES, o1_vs_poses};
+    use crate::calib::pipeline::{Inputs, calibrate_option};
+    use crate::calib::progress::Silent;
+    use crate::calib::testing::{LOAD_KG, elastic_run, elastic_settings};
+
+    /// The schema header comes from one place, and every list entry is an
+    /// object with named fields.
+    #[test]
+    fn report_json_has_its_header_and_named_entries() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let mut report = Report::new(
+            "test arm".into(),
+            poses.len(),
+            LOAD_KG,
+            serde_json::json!({ "source": "test" }),
+            [&r],
+        );
+        report.o1_vs_poses = o1_vs_poses(std::slice::from_ref(&r), &O1_SIZES, &Silent).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+        assert_eq!(json["schema"], REPORT_SCHEMA);
+        assert_eq!(json["schema_version"], REPORT_SCHEMA_VERSION);
+        let option = &json["options"][0];
+        assert_eq!(option["option"], "elastic");
+        assert_eq!(option["identify_load_kg"], LOAD_KG);
+        assert_eq!(option["identifiability"]["removed"][0]["name"], "k1");
+        let point = &json["o1_vs_poses"][0];
+        assert_eq!(point["option"], "elastic");
+        assert_eq!(point["poses"], 10);
+        assert!(point["o1"].as_f64().unwrap() > 0.0);
+        let outlier = serde_json::to_value(OutlierReport {
+            pose: 3,
+            load_kg: LOAD_KG,
+            residual_mm: 1.5,
+            weight: 1.0,
+        })
+        .unwrap();
+        assert_eq!(outlier["residual_mm"], 1.5);
+        let removed = serde_json::to_value(RemovedReport {
+            name: "j3.d".into(),
+            residual: 0.0,
+            confounded_with: vec![Confounder {
+                name: "j2.d".into(),
+                coefficient: 1.0,
+            }],
+        })
+        .unwrap();
+        assert_eq!(removed["confounded_with"][0]["name"], "j2.d");
+        assert_eq!(removed["confounded_with"][0]["coefficient"], 1.0);
+    }
+}

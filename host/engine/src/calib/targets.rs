@@ -1,0 +1,573 @@
+//! Several measured targets per pose: one arm, one tool point per target.
+//!
+//! A laser tracker or a motion-capture rig measures several targets on the end
+//! effector at each pose. They share everything but their position on the
+//! flange, so they are fitted together: the arm's parameters once, and per
+//! target a tool point (x, y, z in frame 6, the tool frame's parent). Target
+//! 0, the first one a measurement file names, is the arm's own tool point
+//! (`tool.x/y/z`); each further target `t` has the three keys
+//! [`ParamKey::TargetTool`], named `tool[t].x` … ([`Rig`] holds their values).
+//!
+//! The deflection does not depend on which target is measured (the payload
+//! hangs where it hangs), so a target's point is the deflected frame 6 times
+//! its tool point.
+//!
+//! **What a calibration means** is [`Rig::evaluate`]: a commanded pose, its
+//! load and the way each joint arrived in, the joint angles the arm stands
+//! at, its deflected state and the tool point out. The fit, its validation,
+//! `predict`, `validate` and the simulator's comparisons all go through it.
+//!
+//! A target's three coordinates are fixed by its own measurements only: with
+//! fewer than [`MIN_TARGET_POSES`] poses the fit would have as many unknowns
+//! as equations for it and nothing would check them, so such a file is
+//! refused ([`Targets::check_poses`]).
+
+use model::bounds::Bounds;
+use model::{Arm, Deflection, JOINTS, ServoCurve, SolverOptions};
+use nalgebra::Vector3;
+
+use super::{CalibError, Sample};
+use lrmcal_core::dataset::{Measurement, TargetName};
+use lrmcal_core::param_key::ParamKey;
+
+/// Fewest distinct poses a target must be measured at to be fitted.
+pub const MIN_TARGET_POSES: usize = 3;
+
+/// The arm and the tool points of its further targets: what the calibration's
+/// parameters correct.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Rig {
+    /// The arm; its tool point is target 0's.
+    pub arm: Arm<f64>,
+    /// Tool points of targets 1, 2, … in frame 6, m.
+    pub tools: Vec<Vector3<f64>>,
+    /// The targets' names, as many as tool points.
+    pub targets: Targets,
+    /// The servo curves the measurements were commanded through (the
+    /// nominal arm's); where the arm's own curves differ, a command stands
+    /// elsewhere (`model::command::reached`).
+    pub command_curves: [ServoCurve<f64>; JOINTS],
+    /// The physical bounds of its parameters: those of the nominal arm the
+    /// rig was first made from, whatever the fit changes after.
+    pub bounds: Bounds<f64>,
+}
+
+/// A commanded pose evaluated: where the rig stands and where its target goes.
+#[derive(Clone, Copy, Debug)]
+pub struct Evaluated {
+    /// The joint angles the arm stands at before it deflects, rad
+    /// ([`Rig::standing_angles`]).
+    pub standing: [f64; JOINTS],
+    /// Its deflected state under the load (deflected angles, base tilt).
+    pub deflection: Deflection<f64>,
+    /// Where the sample's target goes, world frame, m.
+    pub tool_m: Vector3<f64>,
+}
+
+impl From<Arm<f64>> for Rig {
+    /// The arm alone: one unnamed target, its tool point.
+    fn from(arm: Arm<f64>) -> Self {
+        Self::new(arm, Targets::single())
+    }
+}
+
+impl Rig {
+    /// `arm` measured at `targets`, each further one starting at the arm's
+    /// tool point (a tool point enters the measured point linearly, so the
+    /// fit needs no better start).
+    pub fn new(arm: Arm<f64>, targets: Targets) -> Self {
+        let start = Vector3::from(arm.tool.xyz);
+        Self {
+            arm,
+            tools: vec![start; targets.len().saturating_sub(1)],
+            targets,
+            command_curves: arm.joints.map(|j| j.servo),
+            bounds: Bounds::of(&arm),
+        }
+    }
+
+    /// The arm's chain, its springs softening as the arm says.
+    pub fn chain(&self) -> model::Chain<f64> {
+        self.arm.chain()
+    }
+
+    /// The joint angles the arm stands at when `sample` was commanded: where
+    /// its servos drive the command sent through [`Rig::command_curves`],
+    /// short of it or beyond by half the play the way each joint arrived.
+    pub fn standing_angles(&self, sample: &Sample) -> [f64; JOINTS] {
+        model::command::standing(&self.arm, &self.command_curves, &sample.q, &sample.approach)
+    }
+
+    /// What the calibration means for `sample` (module docs): the joint
+    /// angles the arm stands at, its deflected state and where the sample's
+    /// target goes.
+    pub fn evaluate(&self, sample: &Sample) -> Result<Evaluated, CalibError> {
+        let chain = self
+            .target_chain(sample.target)
+            .ok_or_else(|| unknown_target(self.targets.len(), sample))?;
+        evaluate_on(self, &chain, sample)
+    }
+
+    /// The chain of target `t`: the arm's with that target's tool point (the
+    /// deflection does not depend on which target is measured).
+    fn target_chain(&self, t: usize) -> Option<model::Chain<f64>> {
+        let mut chain = self.chain();
+        chain.tool_point = self.tool_point(t)?;
+        Some(chain)
+    }
+
+    /// The tool points of [`Rig::evaluate`] for every sample (each its own
+    /// target's), world frame, m: the fit's residuals and every comparison
+    /// with measurements come from here.
+    pub fn tool_points(&self, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+        let chains = target_chains(self);
+        samples
+            .iter()
+            .map(|s| Ok(evaluate_on(self, chain_of(&chains, s)?, s)?.tool_m))
+            .collect()
+    }
+
+    /// The same rig with no play: a joint whose approach is unknown is
+    /// taken to stand at the middle of its play, its command (the error is
+    /// then at most half the play, either way).
+    pub fn without_play(&self) -> Self {
+        let mut rig = self.clone();
+        for j in &mut rig.arm.joints {
+            j.backlash = 0.0;
+        }
+        rig
+    }
+
+    /// Tool point of target `t` in frame 6, m, if the rig has it.
+    pub fn tool_point(&self, t: usize) -> Option<Vector3<f64>> {
+        match t {
+            0 => Some(Vector3::from(self.arm.tool.xyz)),
+            _ => self.tools.get(t - 1).copied(),
+        }
+    }
+
+    /// The arm as it measures target `t`: its tool point moved to the target's.
+    pub fn arm_of(&self, t: usize) -> Option<Arm<f64>> {
+        let mut arm = self.arm;
+        arm.tool.xyz = self.tool_point(t)?.into();
+        Some(arm)
+    }
+
+    /// The keys of every target's tool point beyond target 0's, in target order.
+    pub fn tool_keys(&self) -> Vec<ParamKey> {
+        tool_keys(1..self.targets.len())
+    }
+
+    /// The samples of `measurements`, each with its target's index; a
+    /// target the rig does not have is refused, listing those it has.
+    pub fn samples(&self, measurements: &[Measurement]) -> Result<Vec<Sample>, CalibError> {
+        measurements
+            .iter()
+            .map(|m| {
+                let target =
+                    self.targets
+                        .index(m.target)
+                        .ok_or_else(|| CalibError::UnknownTarget {
+                            target: name_of(m.target),
+                            known: self.targets.names().join(", "),
+                        })?;
+                Ok(Sample {
+                    target,
+                    ..Sample::from(m)
+                })
+            })
+            .collect()
+    }
+}
+
+/// [`Rig::evaluate`] with the chain of the sample's target.
+fn evaluate_on(
+    rig: &Rig,
+    chain: &model::Chain<f64>,
+    sample: &Sample,
+) -> Result<Evaluated, CalibError> {
+    let standing = rig.standing_angles(sample);
+    let deflection = chain
+        .deflect(&standing, sample.load_kg, &SolverOptions::default())
+        .map_err(|e| deflection_error(sample, e.to_string()))?;
+    Ok(Evaluated {
+        standing,
+        tool_m: deflection.tool_point(),
+        deflection,
+    })
+}
+
+/// One chain per target ([`Rig::target_chain`]), in target order.
+pub(super) fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
+    (0..rig.targets.len())
+        .filter_map(|t| rig.target_chain(t))
+        .collect()
+}
+
+/// The chain of `sample`'s target.
+pub(super) fn chain_of<'a>(
+    chains: &'a [model::Chain<f64>],
+    sample: &Sample,
+) -> Result<&'a model::Chain<f64>, CalibError> {
+    chains
+        .get(sample.target)
+        .ok_or_else(|| unknown_target(chains.len(), sample))
+}
+
+/// The error of a sample of a target the calibration (of `targets` targets) lacks.
+fn unknown_target(targets: usize, sample: &Sample) -> CalibError {
+    deflection_error(
+        sample,
+        format!(
+            "the calibration has {targets} targets, not a target {}",
+            sample.target
+        ),
+    )
+}
+
+/// The error of a sample whose deflection cannot be solved.
+pub(super) fn deflection_error(sample: &Sample, message: String) -> CalibError {
+    CalibError::Deflection {
+        pose: sample.id,
+        load_kg: sample.load_kg,
+        message,
+    }
+}
+
+/// A target's name as files and messages show it: `tool` for the unnamed one.
+fn name_of(name: Option<TargetName>) -> String {
+    name.map_or_else(|| UNNAMED.to_string(), |n| n.to_string())
+}
+
+/// What the one target of a file without a `target` column is called.
+pub const UNNAMED: &str = "tool";
+
+/// The tool-point keys of `targets` (target 0's are the arm's `tool.x/y/z`).
+pub fn tool_keys(targets: impl IntoIterator<Item = usize>) -> Vec<ParamKey> {
+    targets
+        .into_iter()
+        .flat_map(|t| (0..3).filter_map(move |axis| ParamKey::tool(t, axis)))
+        .collect()
+}
+
+/// The targets of a measurement set, in the order the file first names them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Targets {
+    /// Names, in order; one `None` for a file without a `target` column.
+    names: Vec<Option<TargetName>>,
+}
+
+impl Targets {
+    /// The one unnamed target of a file without a `target` column.
+    pub fn single() -> Self {
+        Self { names: vec![None] }
+    }
+
+    /// Targets with these names, in order.
+    pub fn named_as(names: &[TargetName]) -> Self {
+        Self {
+            names: names.iter().copied().map(Some).collect(),
+        }
+    }
+
+    /// The targets `measurements` name, in order of first appearance (the
+    /// measurement reader refuses a file with more than
+    /// [`lrmcal_core::dataset::MAX_TARGETS`]).
+    pub fn of(measurements: &[Measurement]) -> Self {
+        let mut names: Vec<Option<TargetName>> = Vec::new();
+        for m in measurements {
+            if !names.contains(&m.target) {
+                names.push(m.target);
+            }
+        }
+        if names.is_empty() {
+            names.push(None);
+        }
+        Self { names }
+    }
+
+    /// Number of targets.
+    pub fn len(&self) -> usize {
+        self.names.len()
+    }
+
+    /// Whether there is no target (never: a set has at least its one tool point).
+    pub fn is_empty(&self) -> bool {
+        self.names.is_empty()
+    }
+
+    /// Whether the measurements name their targets (the file has a `target` column).
+    pub fn named(&self) -> bool {
+        self.names.iter().any(Option::is_some)
+    }
+
+    /// The targets' names in order ([`UNNAMED`] for the unnamed one).
+    pub fn names(&self) -> Vec<String> {
+        self.names.iter().map(|n| name_of(*n)).collect()
+    }
+
+    /// The name of target `t` (`None` for the unnamed one or past the last).
+    pub fn name_at(&self, t: usize) -> Option<TargetName> {
+        self.names.get(t).copied().flatten()
+    }
+
+    /// Index of the target called `name`. The unnamed target is the one
+    /// called [`UNNAMED`], as the calibration file writes it: a calibration
+    /// re-taught (`--tool-only`) from a file without a `target` column lists
+    /// its target as `tool`, and that file's rows are that target's.
+    pub fn index(&self, name: Option<TargetName>) -> Option<usize> {
+        self.names
+            .iter()
+            .position(|n| *n == name)
+            .or_else(|| self.names.iter().position(|n| name_of(*n) == name_of(name)))
+    }
+
+    /// Refuses a set where some target is measured at fewer than
+    /// [`MIN_TARGET_POSES`] distinct poses: its three coordinates would not
+    /// be checked by anything.
+    pub fn check_poses(&self, measurements: &[Measurement], file: &str) -> Result<(), CalibError> {
+        for (t, name) in self.names().into_iter().enumerate() {
+            let mut poses: Vec<u32> = measurements
+                .iter()
+                .filter(|m| self.index(m.target) == Some(t))
+                .map(|m| m.pose.id)
+                .collect();
+            poses.sort_unstable();
+            poses.dedup();
+            if poses.len() < MIN_TARGET_POSES {
+                return Err(CalibError::TargetTooFewPoses {
+                    file: file.into(),
+                    target: name,
+                    poses: poses.len(),
+                    needed: MIN_TARGET_POSES,
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::params::Key as _;
+    use crate::calib::testing::{measure, measure_rig, rigid_nominal, small_samples};
+
+    fn names(names: &[&str]) -> Targets {
+        let names: Vec<TargetName> = names
+            .iter()
+            .map(|n| TargetName::from(n).expect("short name"))
+            .collect();
+        Targets::named_as(&names)
+    }
+
+    /// Measurements at `n` poses, each named in turn after `targets`.
+    fn rows(n: usize, targets: &[&str]) -> Vec<Measurement> {
+        let mut rows = measure(&rigid_nominal(), &small_samples(n));
+        for (k, m) in rows.iter_mut().enumerate() {
+            m.target = TargetName::from(targets[k % targets.len()]).ok();
+        }
+        rows
+    }
+
+    #[test]
+    fn targets_are_indexed_in_order_of_first_appearance() {
+        let rows = rows(6, &["b", "a"]);
+        let targets = Targets::of(&rows);
+        assert_eq!(targets, names(&["b", "a"]));
+        assert!(targets.named());
+        let rig = Rig::new(rigid_nominal(), targets.clone());
+        let samples = rig.samples(&rows).unwrap();
+        assert_eq!(
+            samples.iter().map(|s| s.target).collect::<Vec<_>>(),
+            [0, 1, 0, 1, 0, 1]
+        );
+        let plain = Targets::of(&measure(&rigid_nominal(), &small_samples(2)));
+        assert_eq!(
+            (plain.names(), plain.named()),
+            (vec![UNNAMED.to_string()], false)
+        );
+        // The unnamed target is the one a calibration file lists as `tool`.
+        let listed = names(&[UNNAMED]);
+        assert_eq!(listed.index(None), Some(0));
+        assert_eq!(
+            Targets::single().index(TargetName::from(UNNAMED).ok()),
+            Some(0)
+        );
+        assert_eq!(names(&["b", "a"]).index(None), None);
+        // Rows of a target the rig lacks are refused with the rig's names.
+        let e = Rig::new(rigid_nominal(), names(&["b"]))
+            .samples(&rows)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("`a`") && e.contains("targets b"), "{e}");
+    }
+
+    /// A target measured at two poses is refused, naming the file, the
+    /// target, its count and the count needed; three poses are enough.
+    #[test]
+    fn a_target_seen_at_two_poses_is_refused() {
+        let mut rows = rows(8, &["m1"]);
+        rows[3].target = TargetName::from("m2").ok();
+        rows[6].target = TargetName::from("m2").ok();
+        let targets = Targets::of(&rows);
+        let text = targets.check_poses(&rows, "m.csv").unwrap_err().to_string();
+        for part in ["m.csv", "`m2`", "at 2 poses", "at least 3"] {
+            assert!(text.contains(part), "{text}");
+        }
+        rows[1].target = TargetName::from("m2").ok();
+        targets.check_poses(&rows, "m.csv").unwrap();
+    }
+
+    #[test]
+    fn target_zero_uses_the_arm_tool_and_others_their_own() {
+        let mut rig = Rig::new(rigid_nominal(), names(&["a", "b", "c"]));
+        rig.tools[1] = Vector3::new(0.01, 0.02, 0.03);
+        assert_eq!(rig.tool_point(0), Some(Vector3::from(rig.arm.tool.xyz)));
+        assert_eq!(rig.tool_point(1), Some(Vector3::from(rig.arm.tool.xyz)));
+        assert_eq!(rig.tool_point(2), Some(Vector3::new(0.01, 0.02, 0.03)));
+        assert_eq!(rig.tool_point(3), None);
+        assert_eq!(rig.arm_of(2).unwrap().tool.xyz, [0.01, 0.02, 0.03]);
+        let keys = tool_keys(0..3);
+        let names: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+        assert_eq!(
+            names,
+            [
+                "tool.x",
+                "tool.y",
+                "tool.z",
+                "tool[1].x",
+                "tool[1].y",
+                "tool[1].z",
+                "tool[2].x",
+                "tool[2].y",
+                "tool[2].z"
+            ]
+        );
+        assert_eq!(rig.tool_keys(), keys[3..]);
+        for k in &keys {
+            assert_eq!(ParamKey::from_name(&k.name()), Some(*k));
+        }
+        assert_eq!(ParamKey::from_name("tool[0].x"), None);
+        assert_eq!(ParamKey::from_name("tool[1].w"), None);
+        // Each key corrects its own target's coordinate.
+        let mut v = crate::calib::ParamVector::new(keys.iter().copied()).unwrap();
+        v.set(keys[7], 0.005).unwrap();
+        let moved = v.apply(&rig);
+        assert_eq!(moved.tools[1].y, 0.025);
+        assert_eq!(moved.tools[0], rig.tools[0]);
+        assert_eq!(keys[7].value(&moved), 0.025);
+    }
+
+    /// Three markers 0, 30 and 60 mm apart measured at every pose, with
+    /// 0.1 mm noise: one fit shares the arm and gives each its tool point,
+    /// and on poses not used it is no worse for any marker than that marker
+    /// calibrated alone (it sees three times the data for the same arm).
+    #[test]
+    fn three_targets_fitted_together_beat_each_alone_on_held_out_poses() {
+        use crate::calib::ModelOption;
+        use crate::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+        use crate::calib::progress::Silent;
+        use lrmcal_core::dataset::Pose;
+
+        let nominal = rigid_nominal();
+        let sizes = model::testing::ErrorSizes {
+            length_m: 1e-3,
+            angle_rad: 5e-3,
+            compliance: 1e-2..5e-2,
+        };
+        let errors = model::testing::random_errors(
+            &mut <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(3),
+            &sizes,
+        );
+        let mut truth = Rig::new(
+            nominal.with_errors(&model::ParamId::all().collect::<Vec<_>>(), &errors),
+            names(&["m0", "m30", "m60"]),
+        );
+        // The arm's own tool rotation is invisible; keep the truth's tool frame nominal.
+        truth.arm.tool = nominal.tool;
+        let base = Vector3::from(nominal.tool.xyz);
+        truth.tools = vec![
+            base + Vector3::new(0.03, 0.0, 0.0),
+            base + Vector3::new(0.0, 0.06, 0.0),
+        ];
+        let load = 0.0663;
+        let samples: Vec<Sample> = small_samples(60)
+            .into_iter()
+            .flat_map(|s| {
+                (0..3).map(move |target| Sample {
+                    id: s.id,
+                    q: s.q,
+                    load_kg: load,
+                    target,
+                    approach: s.approach,
+                })
+            })
+            .collect();
+        let mut rows = measure_rig(&truth, &samples);
+        for (k, m) in rows.iter_mut().enumerate() {
+            // Deterministic noise of about 0.1 mm per axis.
+            let n = |i: usize| 1e-4 * (((k * 7 + i * 13) % 11) as f64 - 5.0) / 3.0;
+            m.position += Vector3::new(n(0), n(1), n(2));
+        }
+        let poses: Vec<Pose> = rows.iter().step_by(3).map(|m| m.pose).collect();
+        let settings = RunSettings {
+            identify_load_kg: load,
+            other_load_kg: None,
+            choice: Choice::Given(poses[..30].iter().map(|p| p.id).collect()),
+            identify: Default::default(),
+        };
+        let option = ModelOption::ElastoKinematic;
+        let together = calibrate_option(
+            &Inputs::new(&nominal, &poses, &rows),
+            option,
+            &settings,
+            &Silent,
+        )
+        .unwrap();
+        let rig = &together.identified.rig;
+        assert_eq!(rig.targets.names(), ["m0", "m30", "m60"]);
+        // The tool points' offsets from the first are found to about a mm: they
+        // are expressed in the fitted frame 6, which carries the rotation
+        // errors positions cannot tell apart (j6.alpha, the tool rotation).
+        for t in 1..3 {
+            let found = rig.tool_point(t).unwrap() - rig.tool_point(0).unwrap();
+            let true_offset = truth.tools[t - 1] - base;
+            assert!(
+                (found - true_offset).norm() < 2e-3,
+                "target {t}: {found} vs {true_offset}"
+            );
+        }
+        let joint = together.validation.as_ref().unwrap().after_per_target(3);
+        for (t, name) in ["m0", "m30", "m60"].into_iter().enumerate() {
+            let alone_rows: Vec<Measurement> = rows
+                .iter()
+                .filter(|m| m.target.is_some_and(|n| n.as_str() == name))
+                .copied()
+                .collect();
+            // Alone, a marker is the arm's tool point: its arm file would say where.
+            let mut own = nominal;
+            own.tool.xyz = truth.tool_point(t).unwrap().into();
+            let alone = calibrate_option(
+                &Inputs::new(&own, &poses, &alone_rows),
+                option,
+                &settings,
+                &Silent,
+            )
+            .unwrap();
+            let alone_after = alone.validation.as_ref().unwrap().after;
+            assert_eq!(joint[t].count, alone_after.count);
+            assert!(
+                joint[t].mean_m <= alone_after.mean_m,
+                "{name}: together {:.4} mm, alone {:.4} mm",
+                joint[t].mean_m * 1e3,
+                alone_after.mean_m * 1e3
+            );
+            eprintln!(
+                "{name}: held-out mean together {:.4} mm, alone {:.4} mm",
+                joint[t].mean_m * 1e3,
+                alone_after.mean_m * 1e3
+            );
+        }
+    }
+}

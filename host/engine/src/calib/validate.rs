@@ -1,0 +1,147 @@
+//! How far the model's measured points are from the measurements, before and
+//! after calibration: mean, median, RMS, 95th percentile and max of the 3D
+//! error norm, and the measurements whose error is far beyond the others'
+//! (named by the fit's outlier rule, [`super::identify::outlier_indices`]).
+
+use super::identify::outlier_indices;
+use super::{CalibError, Rig};
+use lrmcal_core::dataset::Measurement;
+
+/// The statistics of a set of 3D error norms, as the file formats hold them.
+pub use lrmcal_core::io::calibration_file::ErrorStats;
+
+/// The error of one measurement before and after calibration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PoseError {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Index of the measured target in the calibration's targets.
+    pub target: usize,
+    /// 3D error of the nominal model, m.
+    pub before_m: f64,
+    /// 3D error of the calibrated model, m.
+    pub after_m: f64,
+}
+
+/// Before/after comparison on one measurement set.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Validation {
+    /// Errors of the nominal (uncalibrated) model.
+    pub before: ErrorStats,
+    /// Errors of the calibrated model.
+    pub after: ErrorStats,
+    /// `100 (1 − mean after / mean before)`, %.
+    pub reduction_pct: f64,
+    /// Each measurement's error, in the order given.
+    pub per_measurement: Vec<PoseError>,
+    /// The measurements whose calibrated error is far beyond the others'
+    /// (a measurement gone wrong, or a pose the model does not describe),
+    /// largest first.
+    pub outliers: Vec<PoseError>,
+}
+
+/// A validation on the measurements under one load.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadValidation {
+    /// The load of the measurements, kg.
+    pub load_kg: f64,
+    /// Errors before and after on them.
+    pub validation: Validation,
+}
+
+/// Compares `nominal` and `calibrated` on `measurements`, load by load (ascending).
+pub fn validate_per_load(
+    nominal: &Rig,
+    calibrated: &Rig,
+    measurements: &[Measurement],
+) -> Result<Vec<LoadValidation>, CalibError> {
+    lrmcal_core::dataset::loads_of(measurements)
+        .into_iter()
+        .map(|load_kg| {
+            let set: Vec<Measurement> = measurements
+                .iter()
+                .filter(|m| m.load_kg == load_kg)
+                .copied()
+                .collect();
+            Ok(LoadValidation {
+                load_kg,
+                validation: validate(nominal, calibrated, &set)?,
+            })
+        })
+        .collect()
+}
+
+/// 3D error norms of `rig`'s predictions against `measurements` (each of
+/// one of its targets), m.
+pub fn error_norms(rig: &Rig, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
+    let samples = rig.samples(measurements)?;
+    Ok(rig
+        .tool_points(&samples)?
+        .iter()
+        .zip(measurements)
+        .map(|(p, m)| (p - m.position).norm())
+        .collect())
+}
+
+/// Compares `nominal` and `calibrated` (the same targets) on `measurements`.
+pub fn validate(
+    nominal: &Rig,
+    calibrated: &Rig,
+    measurements: &[Measurement],
+) -> Result<Validation, CalibError> {
+    if measurements.is_empty() {
+        return Err(CalibError::Empty {
+            what: "validate the calibration: no validation measurements".into(),
+        });
+    }
+    let before = error_norms(nominal, measurements)?;
+    let after = error_norms(calibrated, measurements)?;
+    let (b, a) = (ErrorStats::of(&before), ErrorStats::of(&after));
+    let per_measurement: Vec<PoseError> = measurements
+        .iter()
+        .zip(before.iter().zip(&after))
+        .map(|(m, (b, a))| PoseError {
+            pose: m.pose.id,
+            load_kg: m.load_kg,
+            target: calibrated.targets.index(m.target).unwrap_or(0),
+            before_m: *b,
+            after_m: *a,
+        })
+        .collect();
+    let mut outliers: Vec<PoseError> = outlier_indices(&after)
+        .into_iter()
+        .map(|k| per_measurement[k])
+        .collect();
+    outliers.sort_by(|x, y| y.after_m.total_cmp(&x.after_m));
+    Ok(Validation {
+        before: b,
+        after: a,
+        reduction_pct: if b.mean_m > 0.0 {
+            100.0 * (1.0 - a.mean_m / b.mean_m)
+        } else {
+            0.0
+        },
+        per_measurement,
+        outliers,
+    })
+}
+
+impl Validation {
+    /// The calibrated model's error statistics per target, in target order
+    /// (`targets` of them; a target with no measurement here has count 0).
+    pub fn after_per_target(&self, targets: usize) -> Vec<ErrorStats> {
+        (0..targets)
+            .map(|t| {
+                let norms: Vec<f64> = self
+                    .per_measurement
+                    .iter()
+                    .filter(|e| e.target == t)
+                    .map(|e| e.after_m)
+                    .collect();
+                ErrorStats::of(&norms)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,131 @@
+//! From a calibration file (JSON, [`lrmcal_core::io::calibration_file`]) to the
+//! payload the board stores, with the largest correction the board may
+//! apply to each joint worked out from the calibration
+//! ([`max_corrections`]).
+
+use model::{Arm, CompensationOptions, JOINTS};
+use protocol::calibration::{MAX_CALIBRATION_LEN, MAX_CORRECTION_RAD};
+use protocol::{Calibration, CalibrationFault};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use lrmcal_core::io::calibration_file::CalibrationFile;
+
+/// Random poses [`max_corrections`] looks at besides the grid's (fixed seed:
+/// the same calibration always gets the same bounds and the same id).
+const RANDOM_POSES: usize = 1000;
+/// Seed of those poses.
+const POSES_SEED: u64 = 0x00c0_4ec7;
+/// The margin on the largest correction seen: times this (the poses are a
+/// sample, and near a singular pose the correction grows) ...
+const CORRECTION_FACTOR: f64 = 1.5;
+/// ... plus this, rad (3°): room for the solve's steps on the way.
+const CORRECTION_SLACK_RAD: f64 = 0.052_359_877_559_829_89;
+
+/// The payload for `file`, in single precision, with the home pose `home_rad`.
+pub fn payload(
+    file: &CalibrationFile,
+    home_rad: [f32; JOINTS],
+) -> Result<Calibration, CalibrationFault> {
+    identified(Calibration {
+        id: 0,
+        option: file.option,
+        nominal: file.nominal.map(|x| x as f32),
+        calibrated: file.arm.map(|x| x as f32),
+        home_rad,
+        max_correction_rad: max_corrections(&file.nominal, &file.arm),
+    })
+}
+
+/// How far the board may move each joint from its nominal target: the
+/// largest correction the compensation of `calibrated` asks for over poses
+/// within its limits (each joint at its limits and midway, every
+/// combination, and [`RANDOM_POSES`] random poses), with no load and with
+/// the rated payload, times [`CORRECTION_FACTOR`] plus
+/// [`CORRECTION_SLACK_RAD`], at most `protocol`'s cap. A solve that asks
+/// the board for more is a failed one (it falls back to the last good
+/// correction).
+pub fn max_corrections(nominal: &Arm<f64>, calibrated: &Arm<f64>) -> [f32; JOINTS] {
+    let limits = calibrated.joints.map(|j| j.limits);
+    let levels = |j: usize| {
+        let [lo, hi] = limits[j];
+        [lo, 0.5 * (lo + hi), hi]
+    };
+    let grid = (0..3usize.pow(JOINTS as u32)).map(|mut k| {
+        std::array::from_fn(|j| {
+            let level = k % 3;
+            k /= 3;
+            levels(j)[level]
+        })
+    });
+    let mut rng = ChaCha8Rng::seed_from_u64(POSES_SEED);
+    let random: Vec<[f64; JOINTS]> = (0..RANDOM_POSES)
+        .map(|_| std::array::from_fn(|j| rng.random_range(limits[j][0]..=limits[j][1])))
+        .collect();
+    let (nominal_chain, chain) = (nominal.chain(), calibrated.chain());
+    let options = CompensationOptions {
+        max_iterations: 30,
+        ..CompensationOptions::default()
+    };
+    let mut largest = [0.0f64; JOINTS];
+    for q in grid.chain(random) {
+        for load in [0.0, nominal.rated_payload_kg] {
+            let Ok(target) = nominal_chain.tool_point(&q, load, &Default::default()) else {
+                continue;
+            };
+            let Ok(c) = chain.compensate(&q, &target, load, None, &options) else {
+                continue;
+            };
+            if c.converged {
+                for j in 0..JOINTS {
+                    largest[j] = largest[j].max((c.q[j] - q[j]).abs());
+                }
+            }
+        }
+    }
+    largest.map(|m| {
+        let bound = m * CORRECTION_FACTOR + CORRECTION_SLACK_RAD;
+        (bound as f32).min(MAX_CORRECTION_RAD)
+    })
+}
+
+/// `fault` in words; for a servo curve, with the knots of `arm` (the
+/// calibrated arm it was found in) so the user sees where the curve turns,
+/// for a bounded quantity with its value.
+pub fn explain(fault: CalibrationFault, arm: &Arm<f64>) -> String {
+    if let CalibrationFault::Bound { quantity, .. } = fault
+        && let Some(value) = quantity.value(arm)
+    {
+        return format!("{fault}: found {value}; not sent, the board keeps the calibration it has");
+    }
+    let CalibrationFault::ServoCurve { joint, .. } = fault else {
+        return fault.to_string();
+    };
+    let Some(curve) = arm.joints.get(usize::from(joint)).map(|j| j.servo) else {
+        return fault.to_string();
+    };
+    let knots: Vec<String> = curve
+        .angles_rad()
+        .iter()
+        .zip(curve.pulses_us())
+        .map(|(a, p)| format!("{:.2}° {p} µs", a.to_degrees()))
+        .collect();
+    format!(
+        "{fault} (knots: {}); not sent: the board must never map angle to pulse non-monotonically",
+        knots.join(", ")
+    )
+}
+
+/// Checks `calibration` and gives it its id: the CRC-32 of the payload
+/// encoded with id 0, so the same calibration always has the same id and
+/// `status` shows which one is in use.
+pub fn identified(mut calibration: Calibration) -> Result<Calibration, CalibrationFault> {
+    calibration.check()?;
+    calibration.id = 0;
+    let mut buf = [0u8; MAX_CALIBRATION_LEN];
+    let bytes = calibration
+        .encode(&mut buf)
+        .map_err(|_| CalibrationFault::NotFinite)?;
+    calibration.id = protocol::frame::crc32(bytes);
+    Ok(calibration)
+}
