@@ -23,12 +23,12 @@ use std::process::Command;
 use std::time::{Duration, Instant};
 
 use lrmcal_core::dataset::Pose;
-use lrmcal_engine::calib::detmax::{DetmaxOptions, detmax};
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::jacobian::jacobian;
-use lrmcal_engine::calib::knot_choice;
-use lrmcal_engine::calib::params::Key as _;
-use lrmcal_engine::calib::pipeline::CandidateBlocks;
+use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
+use lrmcal_engine::calib::analysis::jacobian::jacobian;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::knot_choice;
+use lrmcal_engine::calib::fit::pipeline::CandidateBlocks;
+use lrmcal_engine::calib::parameters::params::Key as _;
 use lrmcal_engine::calib::{ModelOption, ParamKey, Rig, Sample};
 use lrmcal_engine::plan::{Levels, PlanConfig, candidates};
 use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
@@ -166,7 +166,7 @@ fn pool(nominal: &model::Arm<f64>) {
     };
     for option in [
         ModelOption::ElastoKinematic,
-        lrmcal_engine::calib::option::DEFAULT,
+        lrmcal_engine::calib::parameters::option::DEFAULT,
     ] {
         let runs = 3;
         let mut rows: Vec<[Duration; 3]> = Vec::new();

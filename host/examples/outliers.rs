@@ -7,10 +7,10 @@
 //! `cargo run --release -p host --example outliers`
 
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::experiments::outlier_trial;
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::results::experiments::outlier_trial;
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{SimConfig, TrueArm};
 use nalgebra::Vector3;

@@ -15,9 +15,9 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::experiments::{ErrorPoint, O1Point};
-use lrmcal_engine::calib::pipeline::OptionResult;
-use lrmcal_engine::calib::validate::Validation;
+use lrmcal_engine::calib::fit::pipeline::OptionResult;
+use lrmcal_engine::calib::fit::validate::Validation;
+use lrmcal_engine::calib::results::experiments::{ErrorPoint, O1Point};
 use lrmcal_engine::sim::positioning::Positioning;
 
 use crate::Error;

@@ -3,13 +3,17 @@
 //! claims on the seeds where each holds, and DETMAX against random selection.
 
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::experiments::{grid_and_off_grid, outlier_trial, random_baseline};
-use lrmcal_engine::calib::identify::{IdentifyOptions, identify};
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::{IdentifyOptions, identify};
+use lrmcal_engine::calib::fit::pipeline::{
+    Choice, Inputs, OptionResult, RunSettings, calibrate_option,
+};
+use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::progress::Silent;
-use lrmcal_engine::calib::report::IdentifiabilityReport;
-use lrmcal_engine::calib::validate::validate;
+use lrmcal_engine::calib::results::experiments::{
+    grid_and_off_grid, outlier_trial, random_baseline,
+};
+use lrmcal_engine::calib::results::report::IdentifiabilityReport;
 use lrmcal_engine::calib::{ModelOption, ParamKey, ParamVector, Sample};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
@@ -96,7 +100,8 @@ fn exact_data_gives_exact_parameters() {
             }
         }
         // Servo knots are corrections of the curves on their grid.
-        let start = lrmcal_engine::calib::servo_knots::fit_start(&nominal.into(), &kept);
+        let start =
+            lrmcal_engine::calib::parameters::servo_knots::fit_start(&nominal.into(), &kept);
         let true_arm = truth.apply(&start).arm;
         let all = exact_measurements(&true_arm, &poses, &[0.0, LOAD]);
         let inputs = Inputs::new(&nominal, &poses, &all);
@@ -274,7 +279,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     let nominal = bundled();
     let poses = candidate_poses(&nominal);
     let name = |n: &str| ParamKey::from_name(n).expect("parameter name");
-    let a = lrmcal_engine::calib::identifiability::analyse(
+    let a = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
         ModelOption::ElastoKinematic,
         &poses
@@ -319,7 +324,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     for r in &a.removed {
         assert!(r.residual < 1e-6, "{}: residual {}", r.id, r.residual);
     }
-    let kin = lrmcal_engine::calib::identifiability::analyse(
+    let kin = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
         ModelOption::Kinematic,
         &poses
@@ -370,8 +375,8 @@ fn a_soft_light_wrist_is_fitted_and_its_weak_compliances_named() {
             let std = e.std.expect("a weak parameter is free");
             assert!(std > e.value, "{option} {}: {} ± {std}", e.id, e.value);
         }
-        let report = lrmcal_engine::calib::report::OptionReport::from(&r);
-        let line = lrmcal_engine::calib::summary::weak(&report).expect("weak line");
+        let report = lrmcal_engine::calib::results::report::OptionReport::from(&r);
+        let line = lrmcal_engine::calib::results::summary::weak(&report).expect("weak line");
         assert!(line.contains(&format!("{} = ", weak[0].id)), "{line}");
         assert!(r.held_out().expect("validation").reduction_pct > 50.0);
     }
@@ -495,7 +500,7 @@ off_grid_claims! {
 /// selected for it (seed 1, the demo's candidates).
 #[test]
 fn the_knot_spacing_follows_the_number_of_poses() {
-    use lrmcal_engine::calib::servo_knots::KnotSpacing;
+    use lrmcal_engine::calib::parameters::servo_knots::KnotSpacing;
     let nominal = bundled();
     let config = PlanConfig {
         random: lrmcal_engine::plan::DEFAULT_RANDOM_POSES,

@@ -130,7 +130,7 @@ fn select_identify_validate_round_trip() {
         let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
         let warned = stderr.contains(&format!(
             "warning: {}: ",
-            lrmcal_engine::calib::option::DEFAULT.name()
+            lrmcal_engine::calib::parameters::option::DEFAULT.name()
         )) && stderr.contains(&format!(
             "measurements of {} are far off the others (poses {fitted} (",
             p(&moved)

@@ -198,7 +198,7 @@ fn plan_simulate_identify_validate_predict() {
     );
     assert_eq!(
         cal_json["option"],
-        lrmcal_engine::calib::option::DEFAULT.name()
+        lrmcal_engine::calib::parameters::option::DEFAULT.name()
     );
     assert_eq!(cal_json["loads_kg"], serde_json::json!([LOAD_KG]));
     assert_ne!(cal_json["arm"], cal_json["nominal"]);

@@ -63,9 +63,10 @@ impl Measured {
 
         // The same true arm (same seed: the same drawn errors) seen at two
         // points of its flange.
-        let bundled =
-            std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("arms/lrm.toml"))
-                .unwrap();
+        let bundled = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("core/arms/lrm.toml"),
+        )
+        .unwrap();
         assert!(bundled.contains(TOOL));
         std::fs::write(path("second.toml"), bundled.replacen(TOOL, SECOND_TOOL, 1)).unwrap();
         let simulate = |arm: &str, out: &str| {

@@ -8,13 +8,13 @@
 //! tool point where the nominal arm's would be, within its tolerance.
 
 use lrmcal_core::io::calibration_file::CalibrationFile;
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::export::{result_calibration_file, rigs_of};
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::progress::Silent;
-use lrmcal_engine::calib::validate::validate;
-use lrmcal_engine::calib::{Sample, option};
+use lrmcal_engine::calib::results::export::{result_calibration_file, rigs_of};
+use lrmcal_engine::calib::{Sample, parameters::option};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{ServoErrorShape, SimConfig, TrueArm};
 use model::backlash::Approach;

@@ -4,12 +4,12 @@
 //! arm. The calibrated board must put the tool far nearer the targets than
 //! an uncalibrated one, and nearer still when it knows the play.
 
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::export::calibration_file;
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
 use lrmcal_engine::calib::progress::Silent;
-use lrmcal_engine::calib::{ModelOption, option};
+use lrmcal_engine::calib::results::export::calibration_file;
+use lrmcal_engine::calib::{ModelOption, parameters::option};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::positioning::{self, Positioning};
 use lrmcal_engine::sim::{SimConfig, TrueArm};

@@ -5,13 +5,15 @@
 //! the paper's reduction leaves.
 
 use lrmcal_core::dataset::{Measurement, Pose};
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::params::Key as _;
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, OptionResult, RunSettings, calibrate_option};
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{
+    Choice, Inputs, OptionResult, RunSettings, calibrate_option,
+};
+use lrmcal_engine::calib::fit::registration::{Gravity, Registration, register};
+use lrmcal_engine::calib::fit::validate::validate;
+use lrmcal_engine::calib::parameters::params::Key as _;
 use lrmcal_engine::calib::progress::Silent;
-use lrmcal_engine::calib::registration::{Gravity, Registration, register};
-use lrmcal_engine::calib::validate::validate;
 use lrmcal_engine::calib::{ModelOption, ParamKey, Rig};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{SimConfig, TrueArm};

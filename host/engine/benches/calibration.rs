@@ -17,9 +17,9 @@ use std::time::Duration;
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::detmax::{DetmaxOptions, detmax};
-use lrmcal_engine::calib::identify::{IdentifyOptions, identify};
-use lrmcal_engine::calib::pipeline::{
+use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
+use lrmcal_engine::calib::fit::identify::{IdentifyOptions, identify};
+use lrmcal_engine::calib::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, MeasurementIndex, RunSettings, calibrate_option,
 };
 use lrmcal_engine::calib::progress::Silent;

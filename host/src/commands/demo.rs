@@ -10,12 +10,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::export::result_calibration_file;
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::pipeline::{Choice, Inputs, RunSettings};
-use lrmcal_engine::calib::study::{StudySettings, study};
-use lrmcal_engine::calib::summary;
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::results::export::result_calibration_file;
+use lrmcal_engine::calib::results::study::{StudySettings, study};
+use lrmcal_engine::calib::results::summary;
 
 use crate::commands::helpers::Bar;
 use crate::commands::helpers::write_text;

@@ -6,7 +6,7 @@
 //! `--tool-only`, only the tool points are fitted, the arm of an earlier
 //! calibration held fixed (after a tool change).
 //! Before the fit the arm is registered in the measurement frame
-//! (`lrmcal_engine::calib::registration`, on the first target's rows) unless
+//! (`lrmcal_engine::calib::fit::registration`, on the first target's rows) unless
 //! `--no-register` keeps the arm file's base.
 
 use std::path::PathBuf;
@@ -18,21 +18,21 @@ use lrmcal_core::dataset::{Pose, loads_of, poses_under};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::{measurements, pose_list};
-use lrmcal_engine::calib::checks::{check_in_candidates, check_measured, identification_load};
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::export::registered_calibration_file;
-use lrmcal_engine::calib::identifiability::check_structure;
-use lrmcal_engine::calib::identify::IdentifyOptions;
-use lrmcal_engine::calib::pipeline::{
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::analysis::identifiability::check_structure;
+use lrmcal_engine::calib::fit::checks::{check_in_candidates, check_measured, identification_load};
+use lrmcal_engine::calib::fit::identify::IdentifyOptions;
+use lrmcal_engine::calib::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks,
 };
-use lrmcal_engine::calib::registration::{
+use lrmcal_engine::calib::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
-use lrmcal_engine::calib::report::Report;
-use lrmcal_engine::calib::targets::Targets;
-use lrmcal_engine::calib::tool_only::retaught;
-use lrmcal_engine::calib::{CalibError, summary};
+use lrmcal_engine::calib::fit::tool_only::retaught;
+use lrmcal_engine::calib::parameters::targets::Targets;
+use lrmcal_engine::calib::results::export::registered_calibration_file;
+use lrmcal_engine::calib::results::report::Report;
+use lrmcal_engine::calib::{CalibError, results::summary};
 use lrmcal_engine::tracker::axes::Up;
 use model::Arm;
 
@@ -76,7 +76,7 @@ pub struct Args {
     /// Model option: elasto-kinematic-servo (each servo's own curve, backlash
     /// and stiffening too), elasto-kinematic, kinematic, elastic (the paper's
     /// three) or all.
-    #[arg(long, default_value_t = OptionChoice::One(lrmcal_engine::calib::option::DEFAULT))]
+    #[arg(long, default_value_t = OptionChoice::One(lrmcal_engine::calib::parameters::option::DEFAULT))]
     pub option: OptionChoice,
     /// Load whose measurements the fit uses, kg.
     #[arg(long, value_name = "KG")]

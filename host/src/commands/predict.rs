@@ -12,7 +12,7 @@ use lrmcal_core::dataset::{Prediction, approaches};
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::{pose_list, predictions};
 use lrmcal_engine::calib::Sample;
-use lrmcal_engine::calib::export::rig_of;
+use lrmcal_engine::calib::results::export::rig_of;
 
 /// How the way each joint arrived at a pose is known.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

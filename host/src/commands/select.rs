@@ -9,10 +9,10 @@ use crate::error::Error;
 use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::pose_list;
-use lrmcal_engine::calib::detmax::DetmaxOptions;
-use lrmcal_engine::calib::experiments::{median, random_o1};
-use lrmcal_engine::calib::pipeline::{Choice, select};
-use lrmcal_engine::calib::report::IdentifiabilityReport;
+use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
+use lrmcal_engine::calib::fit::pipeline::{Choice, select};
+use lrmcal_engine::calib::results::experiments::{median, random_o1};
+use lrmcal_engine::calib::results::report::IdentifiabilityReport;
 
 /// Choose the N candidate poses that identify the model best (D-optimal, DETMAX).
 #[derive(Debug, clap::Args)]

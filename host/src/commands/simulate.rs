@@ -9,7 +9,7 @@ use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
 use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::Sample;
-use lrmcal_engine::calib::export::rig_of;
+use lrmcal_engine::calib::results::export::rig_of;
 use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
 use lrmcal_engine::sim::{DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm};
 

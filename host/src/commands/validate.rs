@@ -7,11 +7,11 @@ use crate::error::Error;
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::measurements;
-use lrmcal_engine::calib::checks::check_plausible_calibrated;
-use lrmcal_engine::calib::export::rigs_of;
-use lrmcal_engine::calib::report::ValidationOutlier;
-use lrmcal_engine::calib::summary;
-use lrmcal_engine::calib::validate::{ErrorStats, validate_per_load};
+use lrmcal_engine::calib::fit::checks::check_plausible_calibrated;
+use lrmcal_engine::calib::fit::validate::{ErrorStats, validate_per_load};
+use lrmcal_engine::calib::results::export::rigs_of;
+use lrmcal_engine::calib::results::report::ValidationOutlier;
+use lrmcal_engine::calib::results::summary;
 
 /// Check a calibration against measurements it was not identified from.
 #[derive(Debug, clap::Args)]

@@ -35,6 +35,6 @@ pub fn p(path: &Path) -> &str {
 pub fn default_calibration_file() -> String {
     format!(
         "calibration-{}.json",
-        lrmcal_engine::calib::option::DEFAULT.name()
+        lrmcal_engine::calib::parameters::option::DEFAULT.name()
     )
 }

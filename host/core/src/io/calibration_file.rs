@@ -9,7 +9,7 @@
 //! measurements named several targets (or the tool was re-taught), every
 //! target's tool point: the board compensates one of them
 //! ([`CalibrationFile::arms_for_target`]). The engine fills it from its
-//! results (`crate::calib::export`); this module owns the format.
+//! results (`lrmcal_engine::calib::results::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
 //!
 //! Version 2 writes each servo curve as its knots (`angles_rad`,

@@ -5,7 +5,7 @@
 //!
 //! A JSON format is a module of [`crate::io`] with plain serde structs, its
 //! `SCHEMA` and `SCHEMA_VERSION`, and `parse`/`read` built on [`parse`]; the
-//! engine converts its results into those structs (see `crate::calib::export`).
+//! engine converts its results into those structs (see `lrmcal_engine::calib::results::export`).
 
 use std::ops::RangeInclusive;
 

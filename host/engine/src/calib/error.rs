@@ -69,7 +69,7 @@ pub enum CalibError {
     },
     /// Parameters given to the fit twice, or unknown to it.
     #[error("set up the parameters to fit")]
-    Params(#[from] super::params::ParamError),
+    Params(#[from] super::parameters::params::ParamError),
     /// A measured target has too few poses to fix its tool point.
     #[error(
         "fit the tool point of target `{target}` of {file}: it is measured at {poses} poses, at least {needed} are needed to fix its three coordinates together with the arm; measure it at more poses or drop its rows"

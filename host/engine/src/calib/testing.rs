@@ -6,10 +6,10 @@ use model::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q};
 use model::{Arm, PARAM_COUNT};
 use rand::{SeedableRng, rngs::StdRng};
 
-use super::detmax::DetmaxOptions;
-use super::identify::IdentifyOptions;
-use super::params::{ParamKey, ParamVector};
-use super::pipeline::{Choice, RunSettings};
+use super::analysis::detmax::DetmaxOptions;
+use super::fit::identify::IdentifyOptions;
+use super::fit::pipeline::{Choice, RunSettings};
+use super::parameters::params::{ParamKey, ParamVector};
 use super::{Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose};
 

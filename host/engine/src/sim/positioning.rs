@@ -41,7 +41,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::TrueArm;
-use crate::calib::{ModelOption, option};
+use crate::calib::{ModelOption, parameters::option};
 use crate::device::commanded::Commanded;
 use crate::device::memory::MemoryBoard;
 use crate::device::{Client, ClientError};

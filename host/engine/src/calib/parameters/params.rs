@@ -26,7 +26,7 @@ use std::fmt;
 
 pub use lrmcal_core::param_key::ParamKey;
 
-use super::targets::Rig;
+use crate::calib::parameters::targets::Rig;
 
 /// What [`ParamVector`] needs of a key: an order for its index, a stable
 /// name, and the quantity it corrects in the model it applies to.
@@ -63,7 +63,7 @@ impl Key for ParamKey {
                 .map_or(f64::NAN, |p| p[usize::from(axis)]),
             Self::ServoKnot { joint, knot } => {
                 let curve = &rig.arm.joints[usize::from(joint)].servo;
-                super::servo_knots::curve_index(curve, usize::from(knot))
+                crate::calib::parameters::servo_knots::curve_index(curve, usize::from(knot))
                     .and_then(|i| curve.angles_rad().get(i).copied())
                     .unwrap_or(f64::NAN)
             }
@@ -88,8 +88,9 @@ impl Key for ParamKey {
             }
             Self::ServoKnot { joint, knot } => {
                 let curve = &mut rig.arm.joints[usize::from(joint)].servo;
-                let i = super::servo_knots::curve_index(curve, usize::from(knot))
-                    .expect("the fit puts the curve on its knots' grid first");
+                let i =
+                    crate::calib::parameters::servo_knots::curve_index(curve, usize::from(knot))
+                        .expect("the fit puts the curve on its knots' grid first");
                 &mut curve.angles_rad_mut()[i]
             }
             Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,

@@ -20,11 +20,11 @@
 //! the calibration always reaches the board; one wider than
 //! [`PLAUSIBLE_MAX_RAD`] is flagged (`calib::summary::backlash`).
 
-use super::identifiability::{TypicalErrors, analyse_jacobian};
-use super::jacobian::jacobian;
-use super::params::ParamKey;
-use super::servo_knots::fit_start;
-use super::{CalibError, ModelOption, Rig};
+use crate::calib::analysis::identifiability::{TypicalErrors, analyse_jacobian};
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::fit_start;
+use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
 use model::JOINTS;
 use model::backlash::Approach;
@@ -56,7 +56,7 @@ pub fn with_widths(
     kept: &[ParamKey],
     measurements: &[Measurement],
 ) -> Result<Vec<ParamKey>, CalibError> {
-    if !super::option::fits_backlash(option) {
+    if !crate::calib::parameters::option::fits_backlash(option) {
         return Ok(kept.to_vec());
     }
     let samples = nominal.samples(measurements)?;

@@ -2,10 +2,10 @@
 //! every target's tool point fitted with the arm of an earlier calibration
 //! held fixed, and that calibration written again with the new points.
 
-use super::CalibError;
-use super::export::target_tools;
-use super::identify::{IdentifyOptions, identify};
-use super::targets::{Rig, Targets, tool_keys};
+use crate::calib::CalibError;
+use crate::calib::fit::identify::{IdentifyOptions, identify};
+use crate::calib::parameters::targets::{Rig, Targets, tool_keys};
+use crate::calib::results::export::target_tools;
 use lrmcal_core::dataset::Measurement;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 

@@ -7,16 +7,16 @@ use serde::Serialize;
 
 use nalgebra::Vector3;
 
-use super::detmax::{DetmaxOptions, detmax, random_design};
-use super::identify::IdentifyOptions;
-use super::pipeline::{
+use crate::calib::analysis::detmax::{DetmaxOptions, detmax, random_design};
+use crate::calib::fit::identify::IdentifyOptions;
+use crate::calib::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks, calibrate_option,
 };
-use super::progress::{Progress, Silent, par_map};
-use super::refresh::identify_refreshed;
-use super::servo_knots::KnotSpacing;
-use super::validate::{ErrorStats, validate};
-use super::{CalibError, ModelOption};
+use crate::calib::fit::refresh::identify_refreshed;
+use crate::calib::fit::validate::{ErrorStats, validate};
+use crate::calib::parameters::servo_knots::KnotSpacing;
+use crate::calib::progress::{Progress, Silent, par_map};
+use crate::calib::{CalibError, ModelOption};
 use lrmcal_core::dataset::Measurement;
 
 /// Random set `s` of a comparison is drawn with seed `RANDOM_SEED + s`.
@@ -372,7 +372,7 @@ mod tests {
     use std::cell::Cell;
 
     use super::*;
-    use crate::calib::pipeline::calibrate_option;
+    use crate::calib::fit::pipeline::calibrate_option;
     use crate::calib::testing::{elastic_run, elastic_settings};
 
     /// Counts what the engine reports.

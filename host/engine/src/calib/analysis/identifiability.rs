@@ -4,7 +4,7 @@
 //! Method: the Jacobian over all candidate samples, each column scaled to unit
 //! norm for the angles between columns. Parameters are taken in the
 //! option's preference order (compliances first, then the base and tool
-//! frames, then DH joint by joint; `super::option` says why) and one is kept when its unit column has a component of at least
+//! frames, then DH joint by joint; `crate::calib::parameters::option` says why) and one is kept when its unit column has a component of at least
 //! [`RANK_TOLERANCE`] orthogonal to the span of the columns already kept
 //! (Gram–Schmidt with re-orthogonalisation); otherwise it is removed, and the
 //! least-squares combination of kept columns that reproduces it names what it
@@ -31,7 +31,7 @@
 //! tool point within frame 6, which the tool offset already spans); and k1
 //! (joint 1's axis is vertical on the level nominal base, so gravity exerts no
 //! torque about it and its compliance never shows). Several of these are
-//! redundant only at the nominal arm; `super::refresh` runs the analysis again
+//! redundant only at the nominal arm; `crate::calib::fit::refresh` runs the analysis again
 //! at the estimate. The paper does not list what it removed, and
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
@@ -40,12 +40,12 @@ use model::Arm;
 use model::params::ParamKind;
 use nalgebra::{DMatrix, DVector};
 
-use super::jacobian::jacobian;
-use super::observability::ColumnScale;
-use super::option::candidates;
-use super::params::ParamKey;
-use super::servo_knots::{self, KnotSpacing};
-use super::{CalibError, ModelOption, Rig, Sample};
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::analysis::observability::ColumnScale;
+use crate::calib::parameters::option::candidates;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::{self, KnotSpacing};
+use crate::calib::{CalibError, ModelOption, Rig, Sample};
 
 /// Sine of the smallest angle between a kept column and the span of the others.
 pub const RANK_TOLERANCE: f64 = 1e-6;

@@ -1,10 +1,10 @@
 //! How far the model's measured points are from the measurements, before and
 //! after calibration: mean, median, RMS, 95th percentile and max of the 3D
 //! error norm, and the measurements whose error is far beyond the others'
-//! (named by the fit's outlier rule, [`super::identify::outlier_indices`]).
+//! (named by the fit's outlier rule, [`crate::calib::fit::identify::outlier_indices`]).
 
-use super::identify::outlier_indices;
-use super::{CalibError, Rig};
+use crate::calib::fit::identify::outlier_indices;
+use crate::calib::{CalibError, Rig};
 use lrmcal_core::dataset::Measurement;
 
 /// The statistics of a set of 3D error norms, as the file formats hold them.

@@ -2,12 +2,14 @@
 //! and `lrmcal demo` print, rendered from the report, so the terminal and
 //! `report.json` always tell the same story.
 
-use super::CalibError;
-use super::experiments::{ErrorPoint, GridErrors, RandomBaseline};
-use super::option::DEFAULT;
-use super::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
-use super::report::{OptionReport, OutlierReport, RemovedReport, ValidationOutlier};
-use super::study::Study;
+use crate::calib::CalibError;
+use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
+use crate::calib::parameters::option::DEFAULT;
+use crate::calib::results::experiments::{ErrorPoint, GridErrors, RandomBaseline};
+use crate::calib::results::report::{
+    OptionReport, OutlierReport, RemovedReport, ValidationOutlier,
+};
+use crate::calib::results::study::Study;
 use lrmcal_core::io::calibration_file::TargetTool;
 use model::Arm;
 
@@ -240,14 +242,14 @@ pub fn backlash(o: &OptionReport) -> Vec<String> {
         .filter_map(|p| {
             let joint = lrmcal_core::param_key::backlash_from_name(&p.name)? + 1;
             let deg = p.value.to_degrees();
-            if p.value >= super::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
+            if p.value >= crate::calib::parameters::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
                 Some(format!(
                     "warning: joint {joint}'s backlash held at {deg:.2}°, the widest the board takes: the measurements asked for more, so those of joint {joint} are inconsistent, its servo is worn, or its play is confounded with its servo curve (measure it arriving both ways at more angles)"
                 ))
-            } else if p.value > super::backlash::PLAUSIBLE_MAX_RAD {
+            } else if p.value > crate::calib::parameters::backlash::PLAUSIBLE_MAX_RAD {
                 Some(format!(
                     "warning: joint {joint}'s backlash fitted {deg:.2}°, more than {:.0}°: measurements of joint {joint} are inconsistent or the servo is worn",
-                    super::backlash::PLAUSIBLE_MAX_RAD.to_degrees()
+                    crate::calib::parameters::backlash::PLAUSIBLE_MAX_RAD.to_degrees()
                 ))
             } else {
                 None
@@ -468,7 +470,7 @@ pub fn unweighted_outliers(o: &OptionReport, file: &str) -> Option<String> {
 mod tests {
     use super::*;
     use crate::calib::ModelOption;
-    use crate::calib::pipeline::{Inputs, calibrate_option};
+    use crate::calib::fit::pipeline::{Inputs, calibrate_option};
     use crate::calib::progress::Silent;
     use crate::calib::testing::{elastic_run, elastic_settings};
 
@@ -487,7 +489,10 @@ mod tests {
         let mut o = elastic_report();
         let template = o.fit.parameters[0].clone();
         o.fit.parameters = [
-            ("j2.backlash", crate::calib::backlash::FIT_MAX_RAD),
+            (
+                "j2.backlash",
+                crate::calib::parameters::backlash::FIT_MAX_RAD,
+            ),
             ("j5.backlash", 4f64.to_radians()),
             ("j3.backlash", 0.01),
         ]

@@ -26,7 +26,7 @@ use model::bounds::Bounds;
 use model::{Arm, Deflection, JOINTS, ServoCurve, SolverOptions};
 use nalgebra::Vector3;
 
-use super::{CalibError, Sample};
+use crate::calib::{CalibError, Sample};
 use lrmcal_core::dataset::{Measurement, TargetName};
 use lrmcal_core::param_key::ParamKey;
 
@@ -198,14 +198,14 @@ fn evaluate_on(
 }
 
 /// One chain per target ([`Rig::target_chain`]), in target order.
-pub(super) fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
+pub(crate) fn target_chains(rig: &Rig) -> Vec<model::Chain<f64>> {
     (0..rig.targets.len())
         .filter_map(|t| rig.target_chain(t))
         .collect()
 }
 
 /// The chain of `sample`'s target.
-pub(super) fn chain_of<'a>(
+pub(crate) fn chain_of<'a>(
     chains: &'a [model::Chain<f64>],
     sample: &Sample,
 ) -> Result<&'a model::Chain<f64>, CalibError> {
@@ -226,7 +226,7 @@ fn unknown_target(targets: usize, sample: &Sample) -> CalibError {
 }
 
 /// The error of a sample whose deflection cannot be solved.
-pub(super) fn deflection_error(sample: &Sample, message: String) -> CalibError {
+pub(crate) fn deflection_error(sample: &Sample, message: String) -> CalibError {
     CalibError::Deflection {
         pose: sample.id,
         load_kg: sample.load_kg,
@@ -350,7 +350,7 @@ impl Targets {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::params::Key as _;
+    use crate::calib::parameters::params::Key as _;
     use crate::calib::testing::{measure, measure_rig, rigid_nominal, small_samples};
 
     fn names(names: &[&str]) -> Targets {
@@ -466,7 +466,7 @@ mod tests {
     #[test]
     fn three_targets_fitted_together_beat_each_alone_on_held_out_poses() {
         use crate::calib::ModelOption;
-        use crate::calib::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+        use crate::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
         use crate::calib::progress::Silent;
         use lrmcal_core::dataset::Pose;
 

@@ -53,11 +53,11 @@
 use model::{Arm, Frame};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
-use super::checks::IMPLAUSIBLE_M;
-use super::identify::{Estimate, Identified};
-use super::params::Key as _;
-use super::params::ParamKey;
-use super::{CalibError, ModelOption, Rig, Sample};
+use crate::calib::fit::checks::IMPLAUSIBLE_M;
+use crate::calib::fit::identify::{Estimate, Identified};
+use crate::calib::parameters::params::Key as _;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::{CalibError, ModelOption, Rig, Sample};
 use lrmcal_core::dataset::Measurement;
 use lrmcal_core::io::calibration_file::RegistrationRecord;
 
@@ -695,7 +695,7 @@ pub fn check_registered_count(
     Ok(())
 }
 
-/// [`super::checks::check_plausible`] on registered measurements: a point
+/// [`crate::calib::fit::checks::check_plausible`] on registered measurements: a point
 /// still 150 mm off after the best rigid motion gets the likely cause
 /// ([`diagnose`]) in its message.
 pub fn check_plausible_registered(
@@ -703,7 +703,7 @@ pub fn check_plausible_registered(
     measurements: &[Measurement],
     file: &str,
 ) -> Result<(), CalibError> {
-    super::checks::check_plausible(nominal, measurements, file).map_err(|e| match e {
+    crate::calib::fit::checks::check_plausible(nominal, measurements, file).map_err(|e| match e {
         CalibError::BadMeasurement {
             pose,
             load_kg,

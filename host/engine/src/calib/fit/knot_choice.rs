@@ -18,11 +18,11 @@
 
 use serde::Serialize;
 
-use super::identify::{Identified, IdentifyOptions};
-use super::params::ParamKey;
-use super::refresh::identify_refreshed;
-use super::servo_knots::{KnotSpacing, on_spacing, spacing_of};
-use super::{CalibError, ModelOption, Rig, backlash};
+use crate::calib::fit::identify::{Identified, IdentifyOptions};
+use crate::calib::fit::refresh::identify_refreshed;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::{KnotSpacing, on_spacing, spacing_of};
+use crate::calib::{CalibError, ModelOption, Rig, parameters::backlash};
 use lrmcal_core::dataset::Measurement;
 
 /// One knot spacing tried.

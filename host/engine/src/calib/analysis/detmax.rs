@@ -40,8 +40,8 @@ use nalgebra::DMatrix;
 use rand::seq::index::sample;
 use rand::{SeedableRng, rngs::StdRng};
 
-use super::CalibError;
-use super::progress::{Progress, par_map};
+use crate::calib::CalibError;
+use crate::calib::progress::{Progress, par_map};
 
 /// Settings of the exchange.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -5,11 +5,11 @@
 use model::Arm;
 use nalgebra::Vector3;
 
-use super::ParamKey;
-use super::identify::{Estimate, Identified};
-use super::pipeline::OptionResult;
-use super::registration::Registration;
-use super::targets::{Rig, Targets};
+use crate::calib::ParamKey;
+use crate::calib::fit::identify::{Estimate, Identified};
+use crate::calib::fit::pipeline::OptionResult;
+use crate::calib::fit::registration::Registration;
+use crate::calib::parameters::targets::{Rig, Targets};
 use lrmcal_core::dataset::TargetName;
 use lrmcal_core::io::calibration_file::{
     CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
@@ -189,7 +189,7 @@ mod tests {
     use model::ParamId;
 
     use crate::calib::ModelOption;
-    use crate::calib::identify::Diagnostics;
+    use crate::calib::fit::identify::Diagnostics;
     use crate::calib::testing::rigid_nominal;
 
     #[test]

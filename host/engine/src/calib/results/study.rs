@@ -4,15 +4,15 @@
 //! (DETMAX against random sets, O1 and the error against the number of
 //! poses), in one report.
 
-use super::experiments::{
+use crate::calib::fit::pipeline::{Inputs, OptionResult, RunSettings, calibrate_option};
+use crate::calib::parameters::option::DEFAULT;
+use crate::calib::progress::Progress;
+use crate::calib::results::experiments::{
     ERROR_SIZES, GridErrors, O1_SIZES, error_vs_poses, grid_and_off_grid, o1_vs_poses,
     random_baseline,
 };
-use super::option::DEFAULT;
-use super::pipeline::{Inputs, OptionResult, RunSettings, calibrate_option};
-use super::progress::Progress;
-use super::report::Report;
-use super::{CalibError, ModelOption};
+use crate::calib::results::report::Report;
+use crate::calib::{CalibError, ModelOption};
 use lrmcal_core::dataset::Measurement;
 
 /// What the study runs besides the calibrations.

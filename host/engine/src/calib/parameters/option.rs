@@ -2,9 +2,9 @@
 //! (the option itself is [`protocol::ModelOption`], re-exported as
 //! `calib::ModelOption`), and which option is the default.
 
-use super::ModelOption;
-use super::params::ParamKey;
-use super::servo_knots::{self, KnotSpacing};
+use crate::calib::ModelOption;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::{self, KnotSpacing};
 use model::{Arm, ParamId};
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's

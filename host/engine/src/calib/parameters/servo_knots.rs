@@ -40,7 +40,7 @@
 use model::{Arm, JOINTS, ServoCurve};
 use serde::Serialize;
 
-use super::{CalibError, Rig};
+use crate::calib::{CalibError, Rig};
 use lrmcal_core::param_key::ParamKey;
 
 /// Knots of the finest identified grid, every [`FINEST_SPACING_DEG`] over
@@ -234,7 +234,7 @@ pub fn fit_start(nominal: &Rig, keys: &[ParamKey]) -> Rig {
 /// the knot's weight in the interpolation, exact because the reached angle is
 /// affine in the knot angles (the segment is chosen by the pulse, which the
 /// knot angles do not move).
-pub(super) fn knot_weight(rig: &Rig, joint: usize, knot: usize, q: f64) -> f64 {
+pub(crate) fn knot_weight(rig: &Rig, joint: usize, knot: usize, q: f64) -> f64 {
     let pulse = rig.command_curves[joint].pulse_us(q);
     let own = rig.arm.joints[joint].servo;
     let mut moved = own;

@@ -42,11 +42,11 @@ use model::{JOINTS, SolverOptions};
 use nalgebra::{DMatrix, IsometryMatrix3, Matrix3x6, Matrix3xX, SMatrix, Vector3};
 use rayon::prelude::*;
 
-use super::joint_columns;
-use super::params::ParamKey;
-use super::servo_knots::fit_start;
-use super::targets::{chain_of, deflection_error, target_chains};
-use super::{CalibError, Rig, Sample};
+use crate::calib::parameters::joint_columns;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::fit_start;
+use crate::calib::parameters::targets::{chain_of, deflection_error, target_chains};
+use crate::calib::{CalibError, Rig, Sample};
 
 /// The deflected state's seven coordinates: the six joint angles, then the base tilt.
 const STATE: usize = JOINTS + 1;
@@ -419,8 +419,8 @@ fn arm_twist(rig: &Rig, state: &State, i: usize, target: usize) -> (Twist, Optio
 mod tests {
     use super::*;
     use crate::calib::ModelOption;
-    use crate::calib::params::Key as _;
-    use crate::calib::targets::Targets;
+    use crate::calib::parameters::params::Key as _;
+    use crate::calib::parameters::targets::Targets;
     use crate::calib::testing::{small_samples, test_arm};
     use lrmcal_core::dataset::TargetName;
 
@@ -529,12 +529,12 @@ mod tests {
     #[test]
     fn servo_backlash_and_softening_columns_match_central_differences() {
         let mut lively = lively_rig();
-        let mut ids = crate::calib::option::candidates(
+        let mut ids = crate::calib::parameters::option::candidates(
             ModelOption::ElastoKinematicServo,
             &lively.arm,
-            crate::calib::servo_knots::KnotSpacing::FINEST,
+            crate::calib::parameters::servo_knots::KnotSpacing::FINEST,
         );
-        ids.extend(crate::calib::option::refresh_candidates(
+        ids.extend(crate::calib::parameters::option::refresh_candidates(
             ModelOption::ElastoKinematicServo,
         ));
         ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));

@@ -44,14 +44,14 @@
 //! reduction 0.19 mm). With noise the residual hardly drops and the second
 //! round adds nothing (the default demo's figures and time are unchanged).
 
-use super::identifiability::{TypicalErrors, analyse_jacobian_within};
-use super::identify::{Estimate, Identified, IdentifyOptions, identify};
-use super::jacobian::jacobian;
-use super::option::{candidates, refresh_candidates};
-use super::params::Key as _;
-use super::params::ParamKey;
-use super::servo_knots::{self, KnotSpacing};
-use super::{CalibError, ModelOption, Rig};
+use crate::calib::analysis::identifiability::{TypicalErrors, analyse_jacobian_within};
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::fit::identify::{Estimate, Identified, IdentifyOptions, identify};
+use crate::calib::parameters::option::{candidates, refresh_candidates};
+use crate::calib::parameters::params::Key as _;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::{self, KnotSpacing};
+use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
 
 /// Sine of the smallest angle between a removed parameter's column at the
@@ -292,9 +292,13 @@ mod tests {
         truth.joints[1].d -= 0.002;
         let meas = measure(&truth, &small_samples(30));
         let samples = small_samples(30);
-        let keys = crate::calib::identifiability::analyse(&arm, ModelOption::Kinematic, &samples)
-            .unwrap()
-            .kept;
+        let keys = crate::calib::analysis::identifiability::analyse(
+            &arm,
+            ModelOption::Kinematic,
+            &samples,
+        )
+        .unwrap()
+        .kept;
         assert!(!keys.contains(&key("j3.d")), "{keys:?}");
         let plain = IdentifyOptions {
             refresh: false,

@@ -10,14 +10,14 @@
 
 use serde::Serialize;
 
-use super::ModelOption;
-use super::experiments::{ErrorPoint, O1Point, RandomBaseline};
-use super::identifiability::Identifiability;
-use super::identify::{Identified, Outlier};
-use super::knot_choice::KnotChoice;
-use super::observability::Observability;
-use super::pipeline::OptionResult;
-use super::validate::{ErrorStats, Validation};
+use crate::calib::ModelOption;
+use crate::calib::analysis::identifiability::Identifiability;
+use crate::calib::analysis::observability::Observability;
+use crate::calib::fit::identify::{Identified, Outlier};
+use crate::calib::fit::knot_choice::KnotChoice;
+use crate::calib::fit::pipeline::OptionResult;
+use crate::calib::fit::validate::{ErrorStats, Validation};
+use crate::calib::results::experiments::{ErrorPoint, O1Point, RandomBaseline};
 use lrmcal_core::io::calibration_file::FittedParam;
 
 /// Name of the report schema.
@@ -356,9 +356,9 @@ impl Report {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::experiments::{O1_SIZES, o1_vs_poses};
-    use crate::calib::pipeline::{Inputs, calibrate_option};
+    use crate::calib::fit::pipeline::{Inputs, calibrate_option};
     use crate::calib::progress::Silent;
+    use crate::calib::results::experiments::{O1_SIZES, o1_vs_poses};
     use crate::calib::testing::{LOAD_KG, elastic_run, elastic_settings};
 
     /// The schema header comes from one place, and every list entry is an

@@ -8,9 +8,9 @@
 //! its column is the exact joint-angle column `d point / d q_j`
 //! (`jacobian::Slopes::joints`) times that weight.
 
-use super::params::ParamKey;
-use super::servo_knots::knot_weight;
-use super::{Rig, Sample};
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::knot_weight;
+use crate::calib::{Rig, Sample};
 
 /// The joint a key acts on through its angle alone, if it does.
 pub(crate) fn joint_of(key: ParamKey) -> Option<usize> {

@@ -13,19 +13,21 @@ use std::collections::{HashMap, HashSet};
 use model::Arm;
 use nalgebra::DMatrix;
 
-use super::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
-use super::identifiability::{Identifiability, TypicalErrors, analyse_jacobian, check_structure};
-use super::identify::{Identified, IdentifyOptions};
-use super::jacobian::jacobian;
-use super::knot_choice::{self, ChosenFit, KnotChoice};
-use super::observability::{ColumnScale, Observability};
-use super::option::candidates as option_candidates;
-use super::params::ParamKey;
-use super::progress::Progress;
-use super::servo_knots::KnotSpacing;
-use super::targets::Targets;
-use super::validate::{LoadValidation, Validation, validate};
-use super::{CalibError, ModelOption, Rig, Sample};
+use crate::calib::analysis::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
+use crate::calib::analysis::identifiability::{
+    Identifiability, TypicalErrors, analyse_jacobian, check_structure,
+};
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::analysis::observability::{ColumnScale, Observability};
+use crate::calib::fit::identify::{Identified, IdentifyOptions};
+use crate::calib::fit::knot_choice::{self, ChosenFit, KnotChoice};
+use crate::calib::fit::validate::{LoadValidation, Validation, validate};
+use crate::calib::parameters::option::candidates as option_candidates;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::servo_knots::KnotSpacing;
+use crate::calib::parameters::targets::Targets;
+use crate::calib::progress::Progress;
+use crate::calib::{CalibError, ModelOption, Rig, Sample};
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the

@@ -8,7 +8,7 @@ use std::cmp::Ordering;
 
 use nalgebra::Vector3;
 
-use super::{CalibError, Rig, Sample};
+use crate::calib::{CalibError, Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose};
 
 /// A measured point farther than this from the nominal model's prediction is

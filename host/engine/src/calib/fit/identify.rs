@@ -61,13 +61,13 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
 use model::params::ParamKind;
 
-use super::identifiability::check_full_rank;
-use super::jacobian::jacobian;
-use super::observability::ColumnScale;
-use super::params::Key as _;
-use super::params::{ParamKey, ParamVector};
-use super::servo_knots;
-use super::{CalibError, ModelOption, Rig, Sample};
+use crate::calib::analysis::identifiability::check_full_rank;
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::analysis::observability::ColumnScale;
+use crate::calib::parameters::params::Key as _;
+use crate::calib::parameters::params::{ParamKey, ParamVector};
+use crate::calib::parameters::servo_knots;
+use crate::calib::{CalibError, ModelOption, Rig, Sample};
 use lrmcal_core::dataset::Measurement;
 use lrmcal_core::io::calibration_file::ErrorStats;
 
@@ -97,7 +97,7 @@ pub struct IdentifyOptions {
     /// Most reweighting rounds of the robust fit.
     pub max_irls_rounds: usize,
     /// Run the rank analysis again at the estimate and fit what it adds
-    /// (`super::refresh`, which the pipeline calls); false is the paper's reduction.
+    /// (`crate::calib::fit::refresh`, which the pipeline calls); false is the paper's reduction.
     pub refresh: bool,
     /// Most residual evaluations of one LM run, in units of the free
     /// parameters + 1 (MINPACK's `maxfev` factor).
