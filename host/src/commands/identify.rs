@@ -9,32 +9,25 @@
 //! (`lrmcal_engine::calib::fit::registration`, on the first target's rows) unless
 //! `--no-register` keeps the arm file's base.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::commands::helpers::write_text;
 use crate::commands::helpers::{Bar, OptionChoice};
 use crate::error::Error;
-use lrmcal_core::dataset::{Pose, loads_of, poses_under};
+use lrmcal_core::dataset::{Measurement, Pose, loads_of};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::calib::CalibError;
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
-use lrmcal_engine::calib::analysis::identifiability::check_structure;
-use lrmcal_engine::calib::fit::checks::{check_in_candidates, check_measured, identification_load};
+use lrmcal_engine::calib::fit::checks::identification_load;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{
-    CandidateBlocks, Choice, Inputs, RunSettings, calibrate_blocks,
-};
-use lrmcal_engine::calib::fit::registration::{
-    Gravity, Registration, check_plausible_registered, check_registered_count, register,
-};
+use lrmcal_engine::calib::fit::registration::Gravity;
 use lrmcal_engine::calib::fit::tool_only::retaught;
 use lrmcal_engine::calib::parameters::targets::Targets;
-use lrmcal_engine::calib::results::export::registered_calibration_file;
-use lrmcal_engine::calib::results::report::Report;
-use lrmcal_engine::calib::{CalibError, results::summary};
+use lrmcal_engine::calib::results::summary;
+use lrmcal_engine::calib::run::{Placement, PoseChoice, Request, calibrate};
 use lrmcal_engine::tracker::axes::Up;
-use model::Arm;
 
 /// Identify the arm's error parameters from measured tool positions.
 #[derive(Debug, clap::Args)]
@@ -124,7 +117,6 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<(), Error> {
     let loaded = args.arm.load()?;
     let nominal = loaded.arm;
-    let file = args.measurements.display().to_string();
     // The file is read once: the limits are checked on the rows read, every
     // target's included, each named by its line.
     let listed = measurements::read_listed(&args.measurements)?;
@@ -137,138 +129,108 @@ pub fn run(args: &Args) -> Result<(), Error> {
         eprintln!("warning: {warning}");
     }
     let all = measurements::unlisted(&listed);
-    if all.is_empty() {
-        return Err(CalibError::Empty {
-            what: format!("identify from {file}"),
-        }
-        .into());
-    }
-    let loads = loads_of(&all);
-    let load = identification_load(&loads, args.load_kg, &file)?;
-    let targets = Targets::of(&all);
-    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
-    targets.check_poses(&under_load, &file)?;
     if let Some(path) = &args.calibration {
-        let cal = retaught(
-            CalibrationFile::read(path)?,
-            targets,
-            &under_load,
-            load,
-            &identify_options(args),
-        )?;
-        let out = create_out(args)?.join(format!("calibration-{}.json", cal.option));
-        write_text(&out, &cal.to_json())?;
-        println!(
-            "tool points re-taught from {} measurements with the arm of {} held fixed:",
-            under_load.len(),
-            path.display()
-        );
-        print!("{}", summary::targets_table(&cal.targets));
-        println!("  wrote {}", out.display());
-        return Ok(());
+        return reteach(args, path, &all);
     }
-    // The nominal arm knows the first target's tool point only: the others
-    // may sit anywhere on the flange.
-    let first: Vec<_> = all
-        .iter()
-        .filter(|m| targets.index(m.target) == Some(0))
-        .copied()
-        .collect();
-    let registration = registration(args, &nominal, &first)?;
-    // The fit runs in the arm file's world frame, where the base's angles
-    // are small corrections; the file gets the result in the measurement frame.
-    let nominal = registration.arm_for_fit(&nominal);
-    let all = registration.to_arm_frame(&all);
-    check_plausible_registered(&nominal, &registration.to_arm_frame(&first), &file)?;
-    if let Some(path) = &args.candidates {
-        let candidates: Vec<Pose> = pose_list::read(path)?.into_iter().map(|r| r.pose).collect();
-        check_in_candidates(&all, &candidates, &file)?;
-    }
-    let measured = poses_under(&all, load);
-    let choice = match (&args.select, &args.poses) {
-        (Some(n), _) => Choice::Detmax(DetmaxOptions {
+    let candidates: Option<Vec<Pose>> = match &args.candidates {
+        Some(path) => Some(pose_list::read(path)?.into_iter().map(|r| r.pose).collect()),
+        None => None,
+    };
+    let poses = match (&args.select, &args.poses) {
+        (Some(n), _) => PoseChoice::Detmax {
             n: *n,
             starts: args.starts,
-            ..Default::default()
-        }),
-        (None, Some(path)) => {
-            let ids: Vec<u32> = pose_list::read(path)?.iter().map(|r| r.pose.id).collect();
-            check_measured(&ids, &measured, &path.display().to_string(), &file, load)?;
-            Choice::Given(ids)
-        }
-        (None, None) => Choice::Given(measured.iter().map(|p| p.id).collect()),
+        },
+        (None, Some(path)) => PoseChoice::Listed {
+            ids: pose_list::read(path)?.iter().map(|r| r.pose.id).collect(),
+            file: path.display().to_string(),
+        },
+        (None, None) => PoseChoice::All,
     };
-    let settings = RunSettings {
-        identify_load_kg: load,
-        other_load_kg: loads.iter().copied().find(|l| *l != load),
-        choice,
+    let gravity = Gravity::chosen(&nominal, args.up.map(Up::rotation), args.level_base);
+    let request = Request {
+        nominal: &nominal,
+        arm_origin: loaded.origin,
+        measurements: &all,
+        measurements_file: args.measurements.display().to_string(),
+        load_kg: args.load_kg,
+        candidates: candidates.as_deref(),
+        poses,
+        options: args.option.options(),
+        placement: if args.no_register {
+            Placement::Keep(gravity)
+        } else {
+            Placement::Register(gravity)
+        },
         identify: identify_options(args),
     };
     create_out(args)?;
+    let run = calibrate(&request, &Bar::new())?;
 
-    let inputs = Inputs::new(&nominal, &measured, &all);
-    let bar = Bar::new();
-    let mut results = Vec::new();
-    let mut first_error = None;
-    let options = args.option.options();
-    for &option in &options {
-        let result = (|| -> Result<_, Error> {
-            let blocks = CandidateBlocks::build_for(
-                &inputs.nominal,
-                option,
-                &measured,
-                &[load],
-                settings.choice.poses(),
-            )?;
-            // The measured poses must identify what positions can reveal on this arm at all.
-            check_structure(&nominal, &blocks.identifiability, load)?;
-            if !args.no_register {
-                let params = blocks.identifiability.kept.len();
-                check_registered_count(settings.choice.poses(), params, option)?;
-            }
-            Ok(calibrate_blocks(&inputs, blocks, &settings, &bar)?)
-        })();
-        match result {
-            Ok(r) => results.push(r),
-            // With every option asked for, one the measurements cannot
-            // determine is said and skipped; the others are still fitted.
-            Err(e) if options.len() > 1 => {
-                eprintln!("{option}: not fitted: {e}");
-                first_error.get_or_insert(e);
-            }
-            Err(e) => return Err(e),
+    if !args.no_register {
+        let (lines, warning) = summary::registration(&run.registration, &nominal);
+        println!("{lines}");
+        if let Some(warning) = warning {
+            eprintln!("{warning}");
         }
     }
-    if let (true, Some(e)) = (results.is_empty(), first_error) {
-        return Err(e);
+    for (option, e) in &run.skipped {
+        eprintln!("{option}: not fitted: {e}");
     }
-
-    let report = Report::new(
-        loaded.origin,
-        measured.len(),
-        load,
-        serde_json::json!({ "source": file, "loads_kg": loads }),
-        &results,
-    );
-    for (r, details) in results.iter().zip(&report.options) {
-        let cal = registered_calibration_file(&registration, !args.no_register, &nominal, r);
-        let path = args.out.join(format!("calibration-{}.json", r.option()));
+    for (cal, details) in run.files.iter().zip(&run.report.options) {
+        let path = args.out.join(format!("calibration-{}.json", cal.option));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
         if !cal.targets.is_empty() {
             print!("{}", summary::targets_table(&cal.targets));
         }
         if args.no_robust
-            && let Some(warning) = summary::unweighted_outliers(details, &file)
+            && let Some(warning) = summary::unweighted_outliers(details, &request.measurements_file)
         {
             eprintln!("{warning}");
         }
         println!("  wrote {}", path.display());
     }
-    write_text(&args.out.join("report.json"), &report.to_json())?;
-    println!("\nValidation on the measured poses not used for the fit, {load} kg (mean 3D error):");
-    print!("{}", summary::table(&report.options));
+    write_text(&args.out.join("report.json"), &run.report.to_json())?;
+    println!(
+        "\nValidation on the measured poses not used for the fit, {} kg (mean 3D error):",
+        run.load_kg
+    );
+    print!("{}", summary::table(&run.report.options));
     println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// `--tool-only`: re-teaches the tool points of `--calibration` from the
+/// measurements under the fitted load, its arm held fixed.
+fn reteach(args: &Args, path: &Path, all: &[Measurement]) -> Result<(), Error> {
+    let file = args.measurements.display().to_string();
+    if all.is_empty() {
+        return Err(CalibError::Empty {
+            what: format!("identify from {file}"),
+        }
+        .into());
+    }
+    let load = identification_load(&loads_of(all), args.load_kg, &file)?;
+    let targets = Targets::of(all);
+    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
+    targets.check_poses(&under_load, &file)?;
+    let cal = retaught(
+        CalibrationFile::read(path)?,
+        targets,
+        &under_load,
+        load,
+        &identify_options(args),
+    )?;
+    let out = create_out(args)?.join(format!("calibration-{}.json", cal.option));
+    write_text(&out, &cal.to_json())?;
+    println!(
+        "tool points re-taught from {} measurements with the arm of {} held fixed:",
+        under_load.len(),
+        path.display()
+    );
+    print!("{}", summary::targets_table(&cal.targets));
+    println!("  wrote {}", out.display());
     Ok(())
 }
 
@@ -281,40 +243,10 @@ fn identify_options(args: &Args) -> IdentifyOptions {
 }
 
 /// Creates the output folder if missing; its path.
-fn create_out(args: &Args) -> Result<&std::path::Path, Error> {
+fn create_out(args: &Args) -> Result<&Path, Error> {
     std::fs::create_dir_all(&args.out).map_err(|source| lrmcal_core::Error::Write {
         path: args.out.clone(),
         source,
     })?;
     Ok(&args.out)
-}
-
-/// Registers the arm on `first` (the first target's rows; or keeps the
-/// file's base with `--no-register`) and prints where it stands.
-fn registration(
-    args: &Args,
-    nominal: &Arm<f64>,
-    first: &[lrmcal_core::dataset::Measurement],
-) -> Result<Registration, Error> {
-    let gravity = Gravity::chosen(nominal, args.up.map(Up::rotation), args.level_base);
-    if args.no_register {
-        let g = match gravity {
-            Gravity::Measured(g) => g,
-            Gravity::LevelBase(_) => nominal.gravity_vector(),
-        };
-        return Ok(Registration::identity(nominal, g));
-    }
-    let file = args.measurements.display();
-    let reg = register(nominal, first, gravity).map_err(|e| match e {
-        CalibError::Registration { problem } => CalibError::Registration {
-            problem: format!("{file}: {problem}"),
-        },
-        other => other,
-    })?;
-    let (lines, warning) = summary::registration(&reg, nominal);
-    println!("{lines}");
-    if let Some(warning) = warning {
-        eprintln!("{warning}");
-    }
-    Ok(reg)
 }

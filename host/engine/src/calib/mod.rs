@@ -11,7 +11,8 @@
 //! | [`fit`] | registration, the fit, its refresh and knot choice, validation, the stages chained for one option |
 //! | [`results`] | what a run gives people and files: calibration file content, report, printed lines, the demo's study |
 //!
-//! beside [`error`] and [`progress`] (how long steps report progress
+//! [`run`] chains them into one calibration run, as `lrmcal identify` asks
+//! for it, beside [`error`] and [`progress`] (how long steps report progress
 //! without a terminal).
 //!
 //! Each stage is a plain function over `model` types so it can be tested and
@@ -24,6 +25,7 @@ pub mod fit;
 pub mod parameters;
 pub mod progress;
 pub mod results;
+pub mod run;
 #[cfg(test)]
 mod testing;
 
