@@ -152,7 +152,7 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
         identify_load_kg: load,
         other_load_kg: loads.iter().copied().find(|l| *l != load),
         choice,
-        identify: request.identify.clone(),
+        identify: request.identify,
     };
     let registered = matches!(request.placement, Placement::Register(_));
     let inputs = Inputs::new(&nominal, &measured, &all);

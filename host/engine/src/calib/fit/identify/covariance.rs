@@ -1,0 +1,111 @@
+//! The fit's uncertainty at its solution (step *covariance* of the fit):
+//! the standard deviations of the free parameters, the condition of the
+//! problem, each measurement's leave-one-out error, and which parameters
+//! the data barely determine.
+
+use nalgebra::{DMatrix, Vector3};
+
+use model::params::ParamKind;
+
+use super::{FitData, WEAK_REACH_FRACTION};
+use crate::calib::analysis::observability::ColumnScale;
+use crate::calib::{CalibError, ParamKey, Rig};
+
+/// The fit's uncertainty at its solution.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Covariance {
+    /// Residual deviation per coordinate, m.
+    pub(super) sigma_m: f64,
+    /// Condition number of the column-scaled, weighted Jacobian.
+    pub(super) condition: f64,
+    /// One standard deviation per free parameter, in `free` order, SI units.
+    pub(super) std: Vec<f64>,
+    /// Mean leave-one-out error of the measurements, m.
+    pub(super) loo_mean_m: f64,
+}
+
+/// Mean over the measurements of the norm of their leave-one-out residual
+/// `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of measurement `k`, `H_kk`
+/// its 3×3 block of the hat matrix `U Uᵀ` of the weighted Jacobian (`U` its
+/// left singular vectors; a measurement's weight scales its residual and
+/// its rows alike, so it cancels). Exact for a linear least-squares fit,
+/// the classic PRESS statistic; infinite when `I − H_kk` is singular (the
+/// measurement alone decides a direction of the parameters).
+pub(super) fn leave_one_out_mean(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> f64 {
+    let total: f64 = residuals
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let rows = u.rows(3 * k, 3);
+            let i_minus_h = nalgebra::Matrix3::identity() - rows * rows.transpose();
+            i_minus_h
+                .lu()
+                .solve(r)
+                .filter(|e| e.iter().all(|v| v.is_finite()))
+                .map_or(f64::INFINITY, |e| e.norm())
+        })
+        .sum();
+    total / residuals.len().max(1) as f64
+}
+
+/// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
+/// with `s² = RSS / (3n − m)` of the weighted residual norms, and the
+/// leave-one-out error of the measurements ([`leave_one_out_mean`]).
+pub(super) fn covariance(
+    data: &FitData,
+    arm: &Rig,
+    free: &[ParamKey],
+    weights: &[f64],
+    residuals: &[Vector3<f64>],
+) -> Result<Covariance, CalibError> {
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let j = data.weighted_jacobian(arm, free, &sqrt_w)?;
+    let rss: f64 = residuals
+        .iter()
+        .zip(weights)
+        .map(|(e, w)| w * e.norm_squared())
+        .sum();
+    let dof = (3 * data.samples.len()).saturating_sub(free.len()).max(1);
+    let sigma_m = (rss / dof as f64).sqrt();
+    let scale = ColumnScale::from_jacobian(&j, data.samples.len());
+    let svd = scale.apply(&j).svd(true, true);
+    let condition = svd.singular_values.max() / svd.singular_values.min();
+    let loo_mean_m = svd
+        .u
+        .as_ref()
+        .map_or(f64::NAN, |u| leave_one_out_mean(u, residuals));
+    // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
+    let vt = svd.v_t.as_ref();
+    let std = (0..free.len())
+        .map(|c| {
+            let var: f64 = vt
+                .map(|vt| {
+                    svd.singular_values
+                        .iter()
+                        .enumerate()
+                        .map(|(i, s)| (vt[(i, c)] / s).powi(2))
+                        .sum()
+                })
+                .unwrap_or(f64::NAN);
+            sigma_m * var.sqrt() * scale.factors[c]
+        })
+        .collect();
+    Ok(Covariance {
+        sigma_m,
+        condition,
+        std,
+        loo_mean_m,
+    })
+}
+
+/// Whether a free parameter with value `value` and deviation `std` is weak
+/// on an arm of reach `reach_m` (module docs); a deviation that is not a
+/// number (a direction the data do not see at all) is weak too.
+pub(super) fn is_weak(key: ParamKey, value: f64, std: f64, reach_m: f64) -> bool {
+    let (moves, limit) = match key.kind() {
+        ParamKind::Compliance => (std, value.abs()),
+        ParamKind::Length => (std, WEAK_REACH_FRACTION * reach_m),
+        ParamKind::Angle => (std * reach_m, WEAK_REACH_FRACTION * reach_m),
+    };
+    moves.is_nan() || moves > limit
+}

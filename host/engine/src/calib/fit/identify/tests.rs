@@ -1,0 +1,375 @@
+//! Tests of `identify`.
+
+use super::*;
+use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
+use covariance::leave_one_out_mean;
+use model::ParamId;
+
+fn elastic_keys() -> Vec<ParamKey> {
+    ["k2", "k3", "k4", "k5", "k0"].map(key).to_vec()
+}
+
+/// `nominal` with `errors` added to `keys`.
+fn with_errors(nominal: &Rig, keys: &[ParamKey], errors: &[f64]) -> Rig {
+    let mut v = ParamVector::new(keys.iter().copied()).unwrap();
+    for (k, e) in keys.iter().zip(errors) {
+        v.set(*k, *e).unwrap();
+    }
+    v.apply(nominal)
+}
+
+fn fit_data<'a>(nominal: &'a Rig, meas: &[Measurement]) -> FitData<'a> {
+    FitData::new(nominal, ModelOption::Elastic, meas).unwrap()
+}
+
+/// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
+fn upward_sag(nominal: &Rig) -> Vec<Measurement> {
+    let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]).arm;
+    true_arm.joints[2].compliance = -0.05;
+    measure(&true_arm, &small_samples(16))
+}
+
+/// Noise-free data of a true arm that differs only in compliances: the fit
+/// recovers them exactly and the residual vanishes.
+#[test]
+fn recovers_compliances_exactly() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
+    let meas = measure(
+        &with_errors(&nominal, &keys, &truth).arm,
+        &small_samples(16),
+    );
+    let fit = identify(
+        &nominal,
+        ModelOption::Elastic,
+        &keys,
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    for (e, t) in fit.estimates.iter().zip(truth) {
+        assert!((e.error - t).abs() < 1e-8, "{}: {} vs {t}", e.id, e.error);
+    }
+    assert!(fit.diagnostics.rms_after_m < 1e-9);
+    assert!(fit.fit_residual.max_m < 1e-9);
+    assert_eq!(fit.fit_residual.count, meas.len());
+    assert!(fit.diagnostics.converged, "{}", fit.diagnostics.termination);
+}
+
+/// A true compliance of zero with data pulling it below zero stays at the
+/// bound, and the bound is reported.
+#[test]
+fn compliances_never_go_negative() {
+    let nominal = Rig::from(rigid_nominal());
+    let meas = upward_sag(&nominal);
+    let fit = identify(
+        &nominal,
+        ModelOption::Elastic,
+        &elastic_keys(),
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    assert!(
+        fit.rig.arm.joints.iter().all(|j| j.compliance >= 0.0)
+            && fit.rig.arm.base_compliance >= 0.0
+    );
+    assert!(
+        fit.diagnostics.at_bound.contains(&key("k3")),
+        "{:?}",
+        fit.estimates
+    );
+    // KKT: raising any compliance held at zero makes the fit worse.
+    let data = fit_data(&nominal, &meas);
+    let cost = |arm: &Rig| rms(&data.residual_norms(arm).unwrap());
+    for &p in &fit.diagnostics.at_bound {
+        let raised = with_errors(&fit.rig, &[p], &[1e-4]);
+        assert!(cost(&raised) > cost(&fit.rig), "{p} should stay at zero");
+    }
+    assert!(fit.estimates[1].std.is_none());
+}
+
+/// With the round budget spent before the bound is met, the compliance is
+/// fixed at its bound anyway: the estimate and the arm agree, and the arm
+/// is physical.
+#[test]
+fn a_spent_round_budget_still_ends_inside_the_bounds() {
+    let nominal = Rig::from(rigid_nominal());
+    let one_round = IdentifyOptions {
+        robust: false,
+        max_active_set_rounds: 1,
+        ..Default::default()
+    };
+    let fit = identify(
+        &nominal,
+        ModelOption::Elastic,
+        &elastic_keys(),
+        &upward_sag(&nominal),
+        &one_round,
+    )
+    .unwrap();
+    assert_eq!(fit.diagnostics.active_set_rounds, 1);
+    assert_eq!(fit.diagnostics.at_bound, [key("k3")]);
+    let k3 = fit.estimates[1];
+    assert_eq!((k3.id, k3.value, k3.std), (key("k3"), 0.0, None));
+    assert_eq!(fit.rig.arm.joints[2].compliance, 0.0);
+    for e in &fit.estimates {
+        assert_eq!(e.value, e.id.value(&nominal) + e.error, "{}", e.id);
+    }
+}
+
+/// A compliance held at zero while the data want it positive is the one
+/// the active set releases; one that belongs at zero is not.
+#[test]
+fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let meas = measure(
+        &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+        &small_samples(16),
+    );
+    let data = fit_data(&nominal, &meas);
+    let sqrt_w = vec![1.0; meas.len()];
+    let mut params = ParamVector::new(keys.iter().copied()).unwrap();
+    params.fix(key("k4"), 0.0).unwrap();
+    let arm = params.apply(&nominal);
+    assert_eq!(
+        release_candidate(&data, &params, &arm, &sqrt_w),
+        Some(key("k4"))
+    );
+    let sagging_up = upward_sag(&nominal);
+    let data = fit_data(&nominal, &sagging_up);
+    let mut params = ParamVector::new(keys.iter().copied()).unwrap();
+    for (k, e) in keys.iter().zip([0.1, 0.0, 0.08, 0.03, 0.02]) {
+        params.set(*k, e).unwrap();
+    }
+    params.fix(key("k3"), 0.0).unwrap();
+    assert_eq!(
+        release_candidate(&data, &params, &params.apply(&nominal), &sqrt_w),
+        None
+    );
+}
+
+/// The covariance from the scaled SVD equals `s² (JᵀJ)⁻¹` computed directly.
+#[test]
+fn covariance_matches_the_normal_equations() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let mut meas = measure(
+        &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+        &small_samples(16),
+    );
+    for (k, m) in meas.iter_mut().enumerate() {
+        m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
+    }
+    let data = fit_data(&nominal, &meas);
+    let arm = nominal.clone();
+    let residuals = data.residuals(&arm).unwrap();
+    let norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
+    let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
+    let cov = covariance(&data, &arm, &keys, &weights, &residuals).unwrap();
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
+    let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
+    let s2 = rss / (3 * meas.len() - keys.len()) as f64;
+    let direct = (j.transpose() * &j).try_inverse().unwrap() * s2;
+    assert!((cov.sigma_m - s2.sqrt()).abs() < 1e-15);
+    for (c, std) in cov.std.iter().enumerate() {
+        let expected = direct[(c, c)].sqrt();
+        assert!(
+            (std - expected).abs() < 1e-8 * expected,
+            "{}: {std} vs {expected}",
+            keys[c]
+        );
+    }
+}
+
+/// The leave-one-out errors from the hat matrix equal those of refitting a
+/// linear problem without each measurement in turn; a measurement that
+/// alone decides a parameter cannot be predicted.
+#[test]
+fn leave_one_out_equals_refitting_without_each_measurement() {
+    let (n, m) = (8, 5);
+    let j = DMatrix::from_fn(3 * n, m, |r, c| {
+        ((r * 7 + c * 13) % 11) as f64 - 5.0 + 0.1 * c as f64
+    });
+    let y = DVector::from_fn(3 * n, |r, _| ((r * 5) % 9) as f64 * 0.3 - 1.0);
+    let fit = |rows: &[usize]| {
+        let a = j.select_rows(rows);
+        let b = y.select_rows(rows);
+        (a.transpose() * &a).try_inverse().unwrap() * a.transpose() * b
+    };
+    let all: Vec<usize> = (0..3 * n).collect();
+    let beta = fit(&all);
+    let r = &y - &j * &beta;
+    let residuals: Vec<Vector3<f64>> = (0..n)
+        .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]))
+        .collect();
+    let u = j.clone().svd(true, false).u.unwrap();
+    let refitted: f64 = (0..n)
+        .map(|k| {
+            let rest: Vec<usize> = all.iter().copied().filter(|i| i / 3 != k).collect();
+            let beta_k = fit(&rest);
+            (y.rows(3 * k, 3) - j.rows(3 * k, 3) * beta_k).norm()
+        })
+        .sum::<f64>()
+        / n as f64;
+    let loo = leave_one_out_mean(&u, &residuals);
+    assert!(
+        (loo - refitted).abs() < 1e-9 * refitted,
+        "{loo} vs {refitted}"
+    );
+    assert!(loo > residuals.iter().map(|r| r.norm()).sum::<f64>() / n as f64);
+    // Five parameters from two measurements (six rows): the first
+    // measurement's rows are all the data have for some direction.
+    let two = j.rows(0, 6).clone_owned();
+    let u = two.svd(true, false).u.unwrap();
+    let loo = leave_one_out_mean(&u, &residuals[..2]);
+    assert!(loo.is_infinite() || loo > 1e6, "{loo}");
+}
+
+/// The fit's range of each bounded parameter is the arm's physical one
+/// (`model::bounds`), just inside; a value above it is outside.
+#[test]
+fn fit_ranges_are_the_arms_bounds_just_inside() {
+    let nominal = Rig::from(rigid_nominal());
+    let meas = measure(&nominal.arm, &small_samples(12));
+    let data = fit_data(&nominal, &meas);
+    let bounds = nominal.bounds;
+    assert_eq!(bounds, model::bounds::Bounds::of(&nominal.arm));
+    let k3 = key("k3");
+    let (lo, hi) = data.bounds(k3);
+    assert_eq!(lo, Some(0.0));
+    let ceiling = model::bounds::MAX_SAG_RAD / bounds.torque_nm(3);
+    assert!(hi.unwrap() < ceiling && hi.unwrap() > ceiling * (1.0 - 1e-4));
+    let (s_lo, s_hi) = data.bounds(ParamKey::Softening { spring: 2 });
+    assert!(s_lo.unwrap() > -0.5 / bounds.torque_nm(2) && s_lo.unwrap() < 0.0);
+    assert!(s_hi.unwrap() < 1.0 / bounds.torque_nm(2));
+    assert_eq!(data.bounds(key("j2.d")), (None, None));
+    let mut params = ParamVector::new(elastic_keys()).unwrap();
+    params.set(k3, 2.0 * hi.unwrap()).unwrap();
+    let arm = params.apply(&nominal);
+    assert_eq!(outside_bounds(&data, &params, &arm), [(k3, hi.unwrap())]);
+}
+
+/// A trial point whose deflection diverges is a failed step with a huge
+/// residual, counted, not the end of the fit.
+#[test]
+fn an_unsolvable_trial_point_is_a_failed_step() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let meas = measure(
+        &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+        &small_samples(8),
+    );
+    let data = fit_data(&nominal, &meas);
+    let params = ParamVector::new(keys.iter().copied()).unwrap();
+    let sqrt_w = vec![1.0; meas.len()];
+    let mut problem = Problem {
+        data: &data,
+        params: &params,
+        free: keys.clone(),
+        sqrt_w: &sqrt_w,
+        x: DVector::zeros(keys.len()),
+        failed_entry: 7.0,
+        failed: std::cell::Cell::new(0),
+    };
+    assert!(problem.residuals().unwrap().iter().all(|r| *r != 7.0));
+    problem.set_params(&DVector::from_element(keys.len(), 500.0));
+    assert!(data.residual_norms(&problem.arm()).is_err());
+    let r = problem.residuals().unwrap();
+    assert!(r.len() == 3 * meas.len() && r.iter().all(|v| *v == 7.0));
+    assert_eq!(problem.failed.get(), 1);
+}
+
+#[test]
+fn huber_weights_down_weight_only_beyond_the_threshold() {
+    // Median 1.5382 makes the robust scale 1, so the threshold is HUBER_K.
+    let norms = [0.0, 1.0, 1.2, 1.5382, 2.9, 6.0, 30.0];
+    let w = huber_weights(&norms);
+    assert_eq!(w[..5], [1.0; 5]);
+    assert!((w[5] - HUBER_K / 6.0).abs() < 1e-12);
+    assert!((w[6] - HUBER_K / 30.0).abs() < 1e-12);
+}
+
+#[test]
+fn outliers_are_named_largest_first() {
+    let samples = small_samples(7);
+    let norms = [1.0, 1.5382, 9.0, 2.0, 0.5, 4.4, 7.0];
+    let weights = [1.0, 1.0, 0.3, 1.0, 1.0, 1.0, 0.4];
+    let o = name_outliers(&samples, &norms, &weights);
+    let named: Vec<(u32, f64)> = o.iter().map(|o| (o.pose, o.weight)).collect();
+    assert_eq!(named, [(2, 0.3), (6, 0.4)]);
+    assert_eq!(o[0].load_kg, samples[2].load_kg);
+    assert!(name_outliers(&samples, &[0.0; 7], &weights).is_empty());
+}
+
+/// One corrupted measurement is named, and the robust fit is not pulled by it.
+#[test]
+fn robust_fit_names_and_ignores_an_outlier() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
+    let samples = small_samples(24);
+    let mut meas = measure(&with_errors(&nominal, &keys, &truth).arm, &samples);
+    // Small noise so the robust scale is not zero, then one gross error.
+    for (k, m) in meas.iter_mut().enumerate() {
+        m.position.x += 1e-4 * ((k * 7 % 5) as f64 - 2.0);
+    }
+    meas[5].position.z += 0.02;
+    // Robust is the default.
+    let fit = identify(
+        &nominal,
+        ModelOption::Elastic,
+        &keys,
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(fit.outliers.first().map(|o| o.pose), Some(meas[5].pose.id));
+    assert!(fit.outliers[0].weight < 0.1);
+    let squared = IdentifyOptions {
+        robust: false,
+        ..Default::default()
+    };
+    let plain = identify(&nominal, ModelOption::Elastic, &keys, &meas, &squared).unwrap();
+    assert_eq!(plain.outliers[0].weight, 1.0);
+    let err = |f: &Identified| {
+        f.estimates
+            .iter()
+            .zip(truth)
+            .map(|(e, t)| (e.error - t).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        err(&fit) < 0.5 * err(&plain),
+        "robust {} plain {}",
+        err(&fit),
+        err(&plain)
+    );
+}
+
+#[test]
+fn too_few_and_rank_deficient_sets_are_refused() {
+    let nominal = Rig::from(rigid_nominal());
+    let all: Vec<ParamKey> = ParamId::all().map(ParamKey::Arm).collect();
+    let meas = measure(
+        &with_errors(&nominal, &all, &true_errors(1)).arm,
+        &small_samples(20),
+    );
+    let opts = IdentifyOptions::default();
+    assert!(matches!(
+        identify(
+            &nominal,
+            ModelOption::ElastoKinematic,
+            &all,
+            &meas[..5],
+            &opts
+        ),
+        Err(CalibError::TooFewPoses { params: 43, .. })
+    ));
+    // All 43 include the tool rotation, which no position can reveal.
+    let err = identify(&nominal, ModelOption::ElastoKinematic, &all, &meas, &opts).unwrap_err();
+    assert!(matches!(err, CalibError::RankDeficient { .. }), "{err}");
+}
