@@ -5,6 +5,7 @@
 mod common;
 
 use common::lrmcal;
+use model::JOINTS;
 
 use std::path::Path;
 use std::process::Output;
@@ -75,7 +76,7 @@ fn bundled_arm_is_the_default_and_stdout_the_default_output() {
     let arm = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let expected = arm
         .chain()
-        .tool_point(&[0.0; 6], 0.0, &model::SolverOptions::default())
+        .tool_point(&[0.0; JOINTS], 0.0, &model::SolverOptions::default())
         .unwrap();
     assert!((rows[0].position - expected).norm() < 1e-8);
 }

@@ -4,6 +4,7 @@
 mod common;
 
 use common::lrmcal;
+use model::JOINTS;
 
 use std::path::Path;
 use std::process::Output;
@@ -69,7 +70,7 @@ fn plan_writes_the_survivors_and_says_why_the_rest_went() {
         .iter()
         .find(|r| r.pose.id == 364)
         .expect("the home pose survives");
-    assert_eq!(home.pose.q, [0.0; 6]);
+    assert_eq!(home.pose.q, [0.0; JOINTS]);
     let text = stderr(&run);
     assert!(
         text.contains("405 of 729 grid poses kept, 324 dropped"),

@@ -11,11 +11,12 @@ use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
 use lrmcal_engine::calib::fit::pipeline::{CandidateBlocks, Choice, Selection};
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::plan::{PlanConfig, candidates};
+use model::JOINTS;
 use rand::seq::SliceRandom;
 use rand::{SeedableRng, rngs::StdRng};
 
 /// A pose as a set element: its joint angles' bits.
-fn key(pose: &Pose) -> [u64; 6] {
+fn key(pose: &Pose) -> [u64; JOINTS] {
     pose.q.map(f64::to_bits)
 }
 
@@ -65,7 +66,7 @@ fn shuffled_candidate_rows_give_the_same_selection() {
                 .expect("the candidates are analysed");
         let s = Selection::choose(blocks, &poses, &Choice::Detmax(options), &Silent)
             .expect("DETMAX selects");
-        let set: BTreeSet<[u64; 6]> = s.poses.iter().map(key).collect();
+        let set: BTreeSet<[u64; JOINTS]> = s.poses.iter().map(key).collect();
         (set, s.design.log_det)
     };
     let (first, log_det) = select(&text);

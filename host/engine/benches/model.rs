@@ -12,10 +12,10 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use model::{Arm, CompensationOptions, SolverOptions};
+use model::{Arm, CompensationOptions, JOINTS, SolverOptions};
 
 /// A pose away from singularities, with every joint loaded.
-const Q: [f64; 6] = [0.3, 0.9, -0.6, 0.4, -0.8, 0.2];
+const Q: [f64; JOINTS] = [0.3, 0.9, -0.6, 0.4, -0.8, 0.2];
 /// The paper's payload, kg.
 const LOAD_KG: f64 = 0.0663;
 

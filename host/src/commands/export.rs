@@ -1,10 +1,12 @@
 //! `lrmcal export --urdf`: an arm's rigid geometry (calibrated or nominal) as a
 //! URDF for ROS tools, with what URDF cannot hold said in the file.
 
+use model::JOINTS;
 use std::path::{Path, PathBuf};
 
 use model::Arm;
 
+use crate::commands::helpers::positive;
 use crate::error::Error;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -42,7 +44,7 @@ pub struct Args {
         allow_negative_numbers = true,
         value_name = "NM",
         default_value_t = 1.0,
-        value_parser = parse_positive
+        value_parser = positive
     )]
     pub effort_nm: f64,
     /// Velocity limit written for every joint, rad/s (the default is the board's top joint speed).
@@ -51,19 +53,12 @@ pub struct Args {
         allow_negative_numbers = true,
         value_name = "RAD_S",
         default_value_t = 1.5,
-        value_parser = parse_positive
+        value_parser = positive
     )]
     pub velocity_rad_s: f64,
     /// Where to write the URDF [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
-}
-
-fn parse_positive(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("expected a finite number > 0, found `{text}`")),
-    }
 }
 
 /// The arm to export, with what the file's header says about it.
@@ -119,7 +114,7 @@ fn from_calibration(path: &Path) -> Result<Exported, Error> {
     check_limits(&file.arm, path)?;
     // `lrmcal push` without --home-deg sends the all-zero home pose, and the
     // home pose is part of what the id covers.
-    let id = match calibration::payload(&file, [0.0; 6]) {
+    let id = match calibration::payload(&file, [0.0; JOINTS]) {
         Ok(payload) => format!(
             "Calibration id {:08x}: what `lrmcal status` shows once `lrmcal push` has stored it \
              (default home pose).",

@@ -100,6 +100,22 @@ pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
     Ok(atomic::write(path, |w| w.write_all(text.as_bytes()))?)
 }
 
+/// A clap parser for a finite number > 0.
+pub(crate) fn positive(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number > 0, found `{text}`")),
+    }
+}
+
+/// A clap parser for a finite number >= 0.
+pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("expected a finite number >= 0, found `{text}`")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,7 @@
 
 use std::path::PathBuf;
 
-use crate::commands::measure::{non_negative, positive};
+use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use lrmcal_core::dataset::{FROM_HOME, Measurement};
 use lrmcal_core::io::{measurements, pose_list, read_text};

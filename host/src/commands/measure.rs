@@ -20,6 +20,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
 
 use crate::commands::device_args::DeviceArgs;
+use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
 use lrmcal_core::io::{measurements, pose_list};
@@ -137,22 +138,6 @@ impl DTrackArgs {
             max_spread_m: self.max_spread_mm / 1000.0,
             max_lost_in_row: self.max_lost,
         }
-    }
-}
-
-/// A clap parser for a number > 0.
-pub(crate) fn positive(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("expected a number > 0, found `{text}`")),
-    }
-}
-
-/// A clap parser for a number >= 0.
-pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("expected a number >= 0, found `{text}`")),
     }
 }
 
@@ -402,6 +387,7 @@ fn progress(poses: usize) -> ProgressBar {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model::JOINTS;
 
     #[test]
     fn tracker_lines_in_either_form() {
@@ -435,7 +421,10 @@ mod tests {
 
     #[test]
     fn resuming_skips_recorded_pose_and_load_pairs() {
-        let pose = |id| Pose { id, q: [0.0; 6] };
+        let pose = |id| Pose {
+            id,
+            q: [0.0; JOINTS],
+        };
         let poses = vec![(pose(1), 0.0), (pose(2), 0.0), (pose(1), 0.0663)];
         let done = vec![Measurement {
             pose: pose(1),

@@ -9,6 +9,7 @@ use nalgebra::Vector3;
 use protocol::{CompensationMode, Timing};
 
 use crate::commands::device_args::DeviceArgs;
+use crate::commands::helpers::non_negative;
 use crate::error::Error;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -50,7 +51,7 @@ nominal arm of --calibration, whose compensation (full, with --load-kg) it then 
 pub struct Args {
     /// Six joint angles, degrees, base to tip.
     #[arg(
-        num_args = 6,
+        num_args = JOINTS,
         value_name = "DEG",
         allow_negative_numbers = true,
         required_unless_present = "xyz",
@@ -73,7 +74,7 @@ pub struct Args {
     /// The pose --dry-run starts from, six angles in degrees [default: all 0].
     #[arg(
         long,
-        num_args = 6,
+        num_args = JOINTS,
         value_name = "DEG",
         allow_negative_numbers = true,
         requires = "dry_run",
@@ -109,7 +110,7 @@ pub struct Args {
     #[arg(long, conflicts_with = "ground_z_mm")]
     pub no_ground: bool,
     /// Smallest gap --xyz allows between two links, or a link and the ground, mm.
-    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, value_parser = super::plan::non_negative)]
+    #[arg(long, value_name = "MM", default_value_t = PlanConfig::default().clearance_m * 1e3, value_parser = non_negative)]
     pub clearance_mm: f64,
     /// How long the move takes, ms (stretched if the limits need more).
     #[arg(long, conflicts_with = "speed_deg_s")]

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use crate::commands::helpers::non_negative;
 use crate::error::Error;
 use lrmcal_core::dataset::PoseRow;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
@@ -69,14 +70,6 @@ pub(crate) fn finite(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(format!("expected a finite height in mm, found `{text}`")),
-    }
-}
-
-/// Parses a finite distance >= 0, mm (`--clearance-mm`).
-pub(crate) fn non_negative(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("expected a distance >= 0 in mm, found `{text}`")),
     }
 }
 

@@ -1,5 +1,6 @@
 //! `lrmcal pull`: read the calibration stored on the board.
 
+use model::JOINTS;
 use std::path::PathBuf;
 
 use protocol::Calibration;
@@ -26,7 +27,7 @@ struct Pulled<'a> {
     schema: &'static str,
     id: String,
     option: &'static str,
-    home_deg: [f32; 6],
+    home_deg: [f32; JOINTS],
     nominal: &'a model::Arm<f32>,
     calibrated: &'a model::Arm<f32>,
 }

@@ -1,6 +1,7 @@
 //! `lrmcal push`: send a calibration file to the board, which stores it in
 //! flash and uses it from then on.
 
+use model::JOINTS;
 use std::path::PathBuf;
 
 use indicatif::{ProgressBar, ProgressStyle};
@@ -32,7 +33,7 @@ pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
     pub calibration: PathBuf,
     /// Home pose for `lrmcal home` and start-up, six angles in degrees [default: all 0].
-    #[arg(long, num_args = 6, value_name = "DEG", allow_negative_numbers = true)]
+    #[arg(long, num_args = JOINTS, value_name = "DEG", allow_negative_numbers = true)]
     pub home_deg: Option<Vec<f64>>,
     /// The measured target the board compensates (its tool point goes where
     /// the nominal arm's would be) [default: the calibration's first].
@@ -61,8 +62,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ),
         });
     }
-    let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; 6]);
-    let home_rad: [f32; 6] = std::array::from_fn(|i| home[i].to_radians() as f32);
+    let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; JOINTS]);
+    let home_rad: [f32; JOINTS] = std::array::from_fn(|i| home[i].to_radians() as f32);
     let (nominal, arm) = file
         .arms_for_target(args.target.as_deref())
         .map_err(|reason| Error::DeviceInput {

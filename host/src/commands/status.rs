@@ -1,5 +1,6 @@
 //! `lrmcal status`: what the board runs on and what it is doing.
 
+use model::JOINTS;
 use protocol::{CompensationMode, Faults, Status};
 
 use crate::commands::device_args::DeviceArgs;
@@ -64,7 +65,7 @@ pub fn render(s: &Status) -> String {
     };
     out += &format!("motion {}\n", if s.moving { "running" } else { "still" });
     out += "joint  target°   now°      pulse µs\n";
-    for i in 0..6 {
+    for i in 0..JOINTS {
         let pulse = match s.pulses_us[i] {
             0 => "limp".to_owned(),
             p => p.to_string(),
@@ -96,6 +97,7 @@ pub fn render(s: &Status) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model::JOINTS;
     use protocol::{CalibrationInfo, CompensationReport, DeviceInfo, FirmwareVersion, ModelOption};
 
     #[test]
@@ -123,8 +125,8 @@ mod tests {
             },
             payload_kg: 0.0663,
             moving: false,
-            targets_rad: [0.5; 6],
-            nominal_rad: [0.5; 6],
+            targets_rad: [0.5; JOINTS],
+            nominal_rad: [0.5; JOINTS],
             pulses_us: [1865, 0, 1865, 1865, 1865, 1865],
             faults: Faults::LIMIT_CLAMPED,
             frames_dropped: 2,

@@ -6,6 +6,7 @@
 //! when the board answered and refused; a calibration the board would refuse
 //! is not sent at all ([`ClientError::Invalid`]).
 
+use model::JOINTS;
 use std::io::ErrorKind;
 use std::time::{Duration, Instant};
 
@@ -161,13 +162,17 @@ impl<L: Link> Client<L> {
     fn receive(&mut self, path: &'static str) -> Result<Option<Response>, CommsError> {
         let deadline = Instant::now() + self.timeout;
         let mut buf = [0u8; 256];
+        // The link is read at least once, however late this thread runs: a
+        // reply already waiting is never taken for a timeout.
+        let mut read_once = false;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
-            if left.is_zero() {
+            if left.is_zero() && read_once {
                 return Ok(None);
             }
+            read_once = true;
             self.link
-                .set_timeout(left)
+                .set_timeout(left.max(Duration::from_millis(1)))
                 .map_err(|source| CommsError::Io { path, source })?;
             let n = match self.link.read(&mut buf) {
                 Ok(0) => {
@@ -238,7 +243,11 @@ impl<L: Link> Client<L> {
     }
 
     /// `motion/move`.
-    pub fn move_to(&mut self, targets_rad: [f32; 6], timing: Timing) -> Result<(), ClientError> {
+    pub fn move_to(
+        &mut self,
+        targets_rad: [f32; JOINTS],
+        timing: Timing,
+    ) -> Result<(), ClientError> {
         self.done(Request::Move {
             targets_rad,
             timing,

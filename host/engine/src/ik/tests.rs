@@ -193,7 +193,7 @@ fn a_target_below_the_ground_collides_and_names_the_bodies() {
             && text.contains("too close to the ground (the nearest at "),
         "{text}"
     );
-    let s = solve_position(&arm, &target, &[0.0; 6], &no_collisions()).unwrap();
+    let s = solve_position(&arm, &target, &[0.0; JOINTS], &no_collisions()).unwrap();
     assert_eq!(s.q, *q);
 }
 
@@ -262,7 +262,12 @@ fn bad_input_is_named() {
     let arm = bundled_arm();
     let opts = IkOptions::default();
     let t = Vector3::new(0.2, 0.0, 0.3);
-    let e = solve_position(&arm, &Vector3::new(f64::NAN, 0.0, 0.0), &[0.0; 6], &opts);
+    let e = solve_position(
+        &arm,
+        &Vector3::new(f64::NAN, 0.0, 0.0),
+        &[0.0; JOINTS],
+        &opts,
+    );
     assert_eq!(
         e.unwrap_err().to_string(),
         "the target has a non-finite number"
@@ -276,13 +281,13 @@ fn bad_input_is_named() {
         tolerance_m: 0.0,
         ..IkOptions::default()
     };
-    let e = solve_position(&arm, &t, &[0.0; 6], &bad).unwrap_err();
+    let e = solve_position(&arm, &t, &[0.0; JOINTS], &bad).unwrap_err();
     assert!(e.to_string().contains("`tolerance_m`"), "{e}");
     let bad = IkOptions {
         max_iterations: 0,
         ..IkOptions::default()
     };
-    let e = solve_position(&arm, &t, &[0.0; 6], &bad).unwrap_err();
+    let e = solve_position(&arm, &t, &[0.0; JOINTS], &bad).unwrap_err();
     assert!(e.to_string().contains("`max_iterations`"), "{e}");
     let bad = IkOptions {
         collisions: Some(PlanConfig {
@@ -291,10 +296,10 @@ fn bad_input_is_named() {
         }),
         ..IkOptions::default()
     };
-    let e = solve_position(&arm, &t, &[0.0; 6], &bad).unwrap_err();
+    let e = solve_position(&arm, &t, &[0.0; JOINTS], &bad).unwrap_err();
     assert!(e.to_string().contains("clearance_m"), "{e}");
     let mut swapped = arm;
     swapped.joints[3].limits = [1.0, -1.0];
-    let e = solve_position(&swapped, &t, &[0.0; 6], &opts).unwrap_err();
+    let e = solve_position(&swapped, &t, &[0.0; JOINTS], &opts).unwrap_err();
     assert_eq!(e, IkError::Limits { joint: 4 });
 }

@@ -179,9 +179,9 @@ mod tests {
         let poses: Vec<Pose> = levels.grid().collect();
         assert_eq!(poses.len(), 729);
         let h = 100f64.to_radians();
-        assert_eq!(poses[0].q, [-h; 6]);
-        assert_eq!(poses[364].q, [0.0; 6]);
-        assert_eq!(poses[728].q, [h; 6]);
+        assert_eq!(poses[0].q, [-h; JOINTS]);
+        assert_eq!(poses[364].q, [0.0; JOINTS]);
+        assert_eq!(poses[728].q, [h; JOINTS]);
         // Joint 6 is the fastest digit, joint 1 the slowest.
         assert_eq!(poses[1].q, [-h, -h, -h, -h, -h, 0.0]);
         assert_eq!(poses[243].q, [0.0, -h, -h, -h, -h, -h]);

@@ -3,13 +3,14 @@
 use super::*;
 use crate::sim::test_support::bundled_arm;
 use lrmcal_core::collision::{Body, BodySpec, FrameRef, PointSpec, Shape, ShapeSpec};
+use model::JOINTS;
 
-fn deg(q: [f64; 6]) -> [f64; 6] {
+fn deg(q: [f64; JOINTS]) -> [f64; JOINTS] {
     q.map(f64::to_radians)
 }
 
 /// The self-collision test of the default settings (no floor).
-fn contact(arm: &Arm<f64>, q: [f64; 6]) -> Option<Contact> {
+fn contact(arm: &Arm<f64>, q: [f64; JOINTS]) -> Option<Contact> {
     let config = PlanConfig {
         ground_z_m: None,
         ..PlanConfig::default()
@@ -109,7 +110,12 @@ fn bundled_arm_keeps_about_half_of_the_paper_grid() {
         }
     );
     // The home pose (arm straight up) survives; ids are grid ids in grid order.
-    assert!(report.kept.iter().any(|p| p.id == 364 && p.q == [0.0; 6]));
+    assert!(
+        report
+            .kept
+            .iter()
+            .any(|p| p.id == 364 && p.q == [0.0; JOINTS])
+    );
     assert!(report.kept.windows(2).all(|w| w[0].id < w[1].id));
     // Shoulder down, elbow straight: the forearm reaches the ground.
     let low = report
@@ -140,7 +146,7 @@ fn bundled_arm_keeps_about_half_of_the_paper_grid() {
 #[test]
 fn the_bundled_skeleton_is_the_arm_the_planner_had_built_in() {
     let arm = bundled_arm();
-    let skeleton = BodySet::skeleton(&arm.chain().frames(&[0.0; 6], 0.0), None);
+    let skeleton = BodySet::skeleton(&arm.chain().frames(&[0.0; JOINTS], 0.0), None);
     // Links 3 and 5 have no length: no bodies.
     assert_eq!(
         names(&skeleton),
@@ -213,7 +219,7 @@ fn an_elbow_arm_of_other_proportions_keeps_what_a_skeleton_test_keeps() {
         "{kept} vs {yardstick}\n{report}"
     );
     // The tool meets the forearm at the wrist centre: that pair is not tested.
-    let skeleton = BodySet::skeleton(&arm.chain().frames(&[0.0; 6], 0.0), None);
+    let skeleton = BodySet::skeleton(&arm.chain().frames(&[0.0; JOINTS], 0.0), None);
     assert_eq!(names(&skeleton), ["link 1", "link 2", "link 4", "tool"]);
     assert!(!pair_names(&skeleton).contains(&["link 4", "tool"]));
     // And on the bundled arm the two tests agree exactly.
@@ -225,7 +231,7 @@ fn every_kept_pose_is_clear_of_ground_and_itself() {
     let arm = bundled_arm();
     let config = PlanConfig::default();
     let chain = arm.chain();
-    let bodies = BodySet::skeleton(&chain.frames(&[0.0; 6], 0.0), None);
+    let bodies = BodySet::skeleton(&chain.frames(&[0.0; JOINTS], 0.0), None);
     for pose in candidates(&arm, &config).unwrap().kept {
         let frames = chain.frames(&pose.q, 0.0);
         assert_eq!(bodies.self_contact(&frames, config.clearance_m), None);
@@ -249,7 +255,7 @@ fn every_kept_pose_is_clear_of_ground_and_itself() {
 #[test]
 fn folded_poses_collide_and_the_home_pose_does_not() {
     let arm = bundled_arm();
-    assert_eq!(contact(&arm, [0.0; 6]), None);
+    assert_eq!(contact(&arm, [0.0; JOINTS]), None);
     // Elbow folded right back: the wrist comes down onto the shoulder and the hand into the base.
     for elbow in [170.0, -170.0] {
         assert!(
@@ -421,7 +427,7 @@ fn boxes_and_tool_frame_points_sit_where_the_file_puts_them() {
     );
     let chain = arm.chain();
     // Home pose: the gripper's centre is 3 cm above the tool point (frame 6's z points up).
-    let frames = chain.frames(&[0.0; 6], 0.0);
+    let frames = chain.frames(&[0.0; JOINTS], 0.0);
     let Shape::Box {
         frame, placement, ..
     } = set.bodies()[2].shapes[0]
@@ -536,7 +542,7 @@ fn bad_settings_are_named() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("ground_z_m"), "{err}");
-    let bodies = BodySet::skeleton(&arm.chain().frames(&[0.0; 6], 0.0), Some(f64::NAN));
+    let bodies = BodySet::skeleton(&arm.chain().frames(&[0.0; JOINTS], 0.0), Some(f64::NAN));
     let err = candidates(
         &arm,
         &PlanConfig {

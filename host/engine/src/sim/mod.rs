@@ -110,6 +110,7 @@ pub(crate) mod test_support {
 mod tests {
     use super::*;
     use lrmcal_core::dataset::Pose;
+    use model::JOINTS;
     use test_support::bundled_arm;
 
     fn grid_poses() -> Vec<Pose> {
@@ -316,13 +317,19 @@ mod tests {
             ..SimConfig::model_only()
         };
         let truth = TrueArm::draw(&bundled_arm(), 4, &config).unwrap();
-        let target = Pose { id: 0, q: [0.2; 6] };
+        let target = Pose {
+            id: 0,
+            q: [0.2; JOINTS],
+        };
         let (below, above) = (
             Pose {
                 id: 1,
-                q: [-0.5; 6],
+                q: [-0.5; JOINTS],
             },
-            Pose { id: 2, q: [0.9; 6] },
+            Pose {
+                id: 2,
+                q: [0.9; JOINTS],
+            },
         );
         let from_below = truth.measure(&[below, target], &[0.0]).unwrap()[1];
         let from_above = truth.measure(&[above, target], &[0.0]).unwrap()[1];
@@ -340,7 +347,10 @@ mod tests {
     #[test]
     fn bad_poses_and_loads_are_named() {
         let truth = TrueArm::draw(&bundled_arm(), 1, &SimConfig::default()).unwrap();
-        let p = Pose { id: 4, q: [0.0; 6] };
+        let p = Pose {
+            id: 4,
+            q: [0.0; JOINTS],
+        };
         let err = truth.measure(&[p, p], &[0.0]).unwrap_err();
         assert_eq!(err, SimError::DuplicatePose { pose: 4 });
         let err = truth.measure(&[p], &[-0.1]).unwrap_err().to_string();

@@ -280,6 +280,7 @@ impl<K: Key> ParamVector<K> {
 mod tests {
     use super::*;
     use crate::calib::testing::{key, rigid_nominal};
+    use model::JOINTS;
     use model::bounds::{Bounds, Quantity};
     use model::params::ParamKind;
     use model::{Arm, ParamId};
@@ -406,7 +407,7 @@ mod tests {
     #[derive(Clone, Debug, PartialEq)]
     struct BacklashRig {
         arm: Arm<f64>,
-        backlash_rad: [f64; 6],
+        backlash_rad: [f64; JOINTS],
     }
 
     #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -454,7 +455,7 @@ mod tests {
     fn the_registry_holds_parameters_beyond_the_43() {
         let keys = ParamId::all()
             .map(RigKey::Arm)
-            .chain((0..6).map(RigKey::Backlash));
+            .chain((0..JOINTS).map(RigKey::Backlash));
         let mut v = ParamVector::new(keys).unwrap();
         assert_eq!(v.len(), model::PARAM_COUNT + 6);
         v.set(RigKey::Backlash(2), 0.01).unwrap();
@@ -462,7 +463,7 @@ mod tests {
             .unwrap();
         let nominal = BacklashRig {
             arm: rigid_nominal(),
-            backlash_rad: [0.002; 6],
+            backlash_rad: [0.002; JOINTS],
         };
         let rig = v.apply(&nominal);
         assert_eq!(rig.backlash_rad[2], 0.012);
