@@ -10,6 +10,7 @@ pub mod commands;
 pub mod error;
 pub mod fuzz;
 pub mod plots;
+pub mod progress;
 
 pub use cli::main_impl;
 pub use error::Error;

@@ -17,10 +17,10 @@ use lrmcal_engine::calib::results::export::result_calibration_file;
 use lrmcal_engine::calib::results::study::{StudySettings, study};
 use lrmcal_engine::calib::results::summary;
 
-use crate::commands::helpers::Bar;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::plots;
+use crate::progress::Steps;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::measurements;
 use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
@@ -177,7 +177,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &off_grid,
         &settings,
         (loaded.origin.clone(), measured),
-        &Bar::new(),
+        &Steps::new(),
     )?;
     let mut files = Vec::with_capacity(study.results.len());
     for r in &study.results {

@@ -5,15 +5,15 @@
 //!
 //! Before the board starts, the command checks the user's files (flash image, `--elf`), then
 //! what it needs from the machine, each with a message that says how to get it: Node, the
-//! checkout, the firmware ELF (built with `cargo firmware` when missing or older than the
-//! firmware's sources) and the emulator's one package (`npm ci` once).
+//! checkout, the firmware ELF (brought up to date with `cargo firmware`, which rebuilds
+//! only what changed) and the emulator's one package (`npm ci` once).
 
 use std::ffi::{OsStr, OsString};
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::sync::mpsc::{self, RecvTimeoutError};
-use std::time::{Duration, Instant, SystemTime};
+use std::time::{Duration, Instant};
 
 use crate::error::Error;
 
@@ -25,18 +25,6 @@ const EMULATOR_DIR: &str = "tests/emulator";
 const MIN_NODE_MAJOR: u32 = 18;
 /// Size of a saved flash image: the board's whole 2 MiB flash chip (`memory.x`).
 const FLASH_IMAGE_BYTES: u64 = 2 * 1024 * 1024;
-/// What the firmware ELF is built from, relative to the checkout's root: its crate and the two
-/// it depends on (sources and manifests), and the memory map.
-const FIRMWARE_SOURCES: [&str; 8] = [
-    "firmware/src",
-    "firmware/build.rs",
-    "firmware/Cargo.toml",
-    "model/src",
-    "model/Cargo.toml",
-    "protocol/src",
-    "protocol/Cargo.toml",
-    "memory.x",
-];
 /// How long the emulator may take to load the ELF and open its port.
 const START_TIMEOUT: Duration = Duration::from_secs(60);
 /// How long the emulator may take to save the flash and exit once asked to stop.
@@ -242,24 +230,15 @@ pub fn find_checkout(starts: &[PathBuf]) -> Option<PathBuf> {
         .map(Path::to_path_buf)
 }
 
-/// The checkout's firmware ELF, built first when it is missing or older than its sources.
+/// The checkout's firmware ELF, brought up to date by `cargo firmware`
+/// (cargo rebuilds only what changed since the last build, and knows what
+/// the firmware is built from).
 fn firmware_elf(root: &Path) -> Result<PathBuf, Error> {
     let target = std::env::var_os("CARGO_TARGET_DIR")
         .map(|dir| root.join(dir))
         .unwrap_or_else(|| root.join("target"));
     let elf = target.join("thumbv6m-none-eabi/release/firmware");
-    let why = match std::fs::metadata(&elf).and_then(|meta| meta.modified()) {
-        Err(_) => Some(format!("no firmware ELF at {}", elf.display())),
-        Ok(built) => newer_source(root, built).map(|source| {
-            format!(
-                "{} changed since the firmware ELF was built",
-                source.strip_prefix(root).unwrap_or(&source).display()
-            )
-        }),
-    };
-    if let Some(why) = why {
-        build_firmware(root, &why)?;
-    }
+    build_firmware(root)?;
     if !elf.is_file() {
         return Err(emulator_error(format!(
             "`cargo firmware` left no ELF at {}: name one with --elf",
@@ -269,28 +248,10 @@ fn firmware_elf(root: &Path) -> Result<PathBuf, Error> {
     Ok(elf)
 }
 
-/// A file the firmware is built from that was modified after `built`, if there is one. Files
-/// that cannot be read are left for cargo to report.
-pub fn newer_source(root: &Path, built: SystemTime) -> Option<PathBuf> {
-    fn walk(path: &Path, built: SystemTime) -> Option<PathBuf> {
-        let meta = std::fs::metadata(path).ok()?;
-        if meta.is_dir() {
-            let entries = std::fs::read_dir(path).ok()?;
-            return entries
-                .filter_map(Result::ok)
-                .find_map(|entry| walk(&entry.path(), built));
-        }
-        (meta.modified().ok()? > built).then(|| path.to_path_buf())
-    }
-    FIRMWARE_SOURCES
-        .iter()
-        .find_map(|source| walk(&root.join(source), built))
-}
-
 /// Runs `cargo firmware` in the checkout, its output on the terminal.
-fn build_firmware(root: &Path, why: &str) -> Result<(), Error> {
+fn build_firmware(root: &Path) -> Result<(), Error> {
     eprintln!(
-        "{why}: building it with `cargo firmware` \
+        "bringing the firmware up to date with `cargo firmware` \
          (cargo build -p firmware --release --target thumbv6m-none-eabi)"
     );
     // `cargo run` says which cargo it is; that one matches the checkout's toolchain.
@@ -416,7 +377,6 @@ fn stop_board(child: &mut Child) -> Result<(), Error> {
 
 #[cfg(test)]
 mod tests {
-    use std::fs::File;
 
     use super::*;
 
@@ -448,27 +408,6 @@ mod tests {
         let found = find_checkout(&[root.join("host/src/commands")]).expect("the checkout");
         assert!(found.join(HARNESS).is_file());
         assert_eq!(find_checkout(&[std::env::temp_dir()]), None);
-    }
-
-    #[test]
-    fn a_source_newer_than_the_elf_is_named() {
-        let dir = tempfile::tempdir().expect("temp dir");
-        let root = dir.path();
-        std::fs::create_dir_all(root.join("model/src/deep")).expect("folders");
-        let source = root.join("model/src/deep/lib.rs");
-        File::create(&source).expect("source");
-        let then = SystemTime::now() - Duration::from_secs(3600);
-        File::options()
-            .write(true)
-            .open(&source)
-            .and_then(|f| f.set_modified(then))
-            .expect("set mtime");
-        assert_eq!(newer_source(root, SystemTime::now()), None, "ELF newer");
-        assert_eq!(
-            newer_source(root, then - Duration::from_secs(1)),
-            Some(source),
-            "a source edited after the build"
-        );
     }
 
     #[test]

@@ -1,55 +1,12 @@
-//! What several subcommands share: the terminal progress bar the engine's
-//! long steps draw, the `--option` choice of one model option or all, and
-//! writing a text file whole.
+//! What several subcommands share: the `--option` choice of one model
+//! option or all, writing a text file whole, and the parsers of positive
+//! numbers.
 
-use std::cell::RefCell;
 use std::path::Path;
-
-use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::error::Error;
 use lrmcal_core::io::atomic;
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::progress::Progress;
-
-/// The engine's progress as a terminal bar (on stderr, drawn only on a
-/// terminal): a new bar for each step of the engine, with the step's label
-/// and length, cleared when the step ends.
-#[derive(Default)]
-pub struct Bar(RefCell<Option<ProgressBar>>);
-
-impl Bar {
-    /// No bar until a step begins.
-    pub fn new() -> Self {
-        Self::default()
-    }
-}
-
-impl Progress for Bar {
-    fn begin(&self, label: &str, len: u64) {
-        let bar = ProgressBar::new(len);
-        if let Ok(style) = ProgressStyle::with_template("{msg:<40} {bar:30} {pos}/{len} {elapsed}")
-        {
-            bar.set_style(style);
-        }
-        bar.set_message(label.to_owned());
-        if let Some(previous) = self.0.replace(Some(bar)) {
-            previous.finish_and_clear();
-        }
-    }
-
-    fn advance(&self, units: u64) {
-        if let Some(bar) = self.0.borrow().as_ref() {
-            bar.inc(units);
-        }
-    }
-
-    fn end(&self) {
-        if let Some(bar) = self.0.take() {
-            bar.finish_and_clear();
-        }
-    }
-}
 
 /// Which options to fit: one, or all of them for comparison.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

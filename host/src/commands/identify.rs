@@ -11,9 +11,10 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::commands::helpers::OptionChoice;
 use crate::commands::helpers::write_text;
-use crate::commands::helpers::{Bar, OptionChoice};
 use crate::error::Error;
+use crate::progress::Steps;
 use lrmcal_core::dataset::{Measurement, Pose, loads_of};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -165,7 +166,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         identify: identify_options(args),
     };
     create_out(args)?;
-    let run = calibrate(&request, &Bar::new())?;
+    let run = calibrate(&request, &Steps::new())?;
 
     if !args.no_register {
         let (lines, warning) = summary::registration(&run.registration, &nominal);

@@ -16,15 +16,16 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::time::Duration;
 
-use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Vector3;
 
 use crate::commands::device_args::DeviceArgs;
 use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
+use crate::progress::Meter;
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
 use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::tracker::listen::{self, Listener};
+use lrmcal_engine::tracker::text::parse_tracker_line;
 use lrmcal_engine::tracker::{SettleOptions, Target};
 
 /// Drive the board through a pose list and record tracker positions.
@@ -141,36 +142,6 @@ impl DTrackArgs {
     }
 }
 
-/// A tracker position, m, with the pose id the line names, if it names one.
-pub type TrackerReading = (Option<u32>, Vector3<f64>);
-
-/// One tracker line: `None` for a blank, comment or header line.
-pub fn parse_tracker_line(line: &str) -> Result<Option<TrackerReading>, String> {
-    let line = line.trim();
-    if line.is_empty() || line.starts_with('#') || line.starts_with(|c: char| c.is_alphabetic()) {
-        return Ok(None);
-    }
-    let fields: Vec<&str> = line
-        .split(|c: char| c == ',' || c.is_whitespace())
-        .filter(|f| !f.is_empty())
-        .collect();
-    let numbers: Vec<f64> = fields
-        .iter()
-        .map(|f| f.parse::<f64>().ok().filter(|v| v.is_finite()))
-        .collect::<Option<_>>()
-        .ok_or_else(|| format!("expected three numbers `x y z` in mm, found `{line}`"))?;
-    let mm = |x: f64, y: f64, z: f64| Vector3::new(x, y, z) / 1000.0;
-    match numbers[..] {
-        [x, y, z] => Ok(Some((None, mm(x, y, z)))),
-        [p, x, y, z] if p >= 0.0 && p.fract() == 0.0 && p <= u32::MAX as f64 => {
-            Ok(Some((Some(p as u32), mm(x, y, z))))
-        }
-        _ => Err(format!(
-            "expected `x y z` or `pose x y z` (mm), found `{line}`"
-        )),
-    }
-}
-
 /// The poses still to measure: those without a row of the same pose and load in `done`.
 pub fn remaining(poses: &[(Pose, f64)], done: &[Measurement]) -> Vec<(Pose, f64)> {
     poses
@@ -199,7 +170,7 @@ enum Text {
 
 impl Tracker {
     /// The next position for `pose`.
-    fn next(&mut self, pose: u32, bar: &ProgressBar) -> Result<Vector3<f64>, Error> {
+    fn next(&mut self, pose: u32, bar: &Meter) -> Result<Vector3<f64>, Error> {
         match self {
             Tracker::Text(text) => text.next(pose, bar),
             Tracker::DTrack {
@@ -209,7 +180,7 @@ impl Tracker {
                 timeout,
             } => {
                 let r = listener.read(*target, *options, *timeout)?;
-                bar.println(format!(
+                bar.println(&format!(
                     "pose {pose}: {} frames {}..{}, spread {:.3} mm, {} lost",
                     r.frames,
                     r.frame_range.0,
@@ -225,7 +196,7 @@ impl Tracker {
 
 impl Text {
     /// The next position for `pose`.
-    fn next(&mut self, pose: u32, bar: &ProgressBar) -> Result<Vector3<f64>, Error> {
+    fn next(&mut self, pose: u32, bar: &Meter) -> Result<Vector3<f64>, Error> {
         loop {
             let mut line = String::new();
             let (n, source) = match self {
@@ -309,11 +280,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         },
     };
     let mut client = args.device.connect()?;
-    let bar = progress(poses.len());
+    let bar = Meter::new("measuring", poses.len() as u64, "poses");
     bar.set_position((poses.len() - todo.len()) as u64);
     let mut load_now = None;
     for (pose, load_kg) in todo {
-        bar.set_message(format!("pose {}", pose.id));
+        bar.set_label(&format!("pose {}", pose.id));
         arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
         let position = tracker.next(pose.id, &bar)?;
         // Appended in the order visited: the file's readers work out from
@@ -328,7 +299,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         measurements::write(out, &done)?;
         bar.inc(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     println!("{} poses recorded in {}", done.len(), out.display());
     Ok(())
 }
@@ -336,15 +307,15 @@ pub fn run(args: &Args) -> Result<(), Error> {
 /// `--hold-s`: every pose of the list in order, held for `hold_s`, nothing recorded.
 fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
     let mut client = args.device.connect()?;
-    let bar = progress(poses.len());
+    let bar = Meter::new("measuring", poses.len() as u64, "poses");
     let mut load_now = None;
     for &(pose, load_kg) in poses {
-        bar.set_message(format!("holding pose {}", pose.id));
+        bar.set_label(&format!("holding pose {}", pose.id));
         arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
         std::thread::sleep(seconds(hold_s));
         bar.inc(1);
     }
-    bar.finish_and_clear();
+    bar.finish();
     println!(
         "{} poses held {hold_s} s each; stop the take, export it as CSV and run \
          `lrmcal import-tracker --poses {}` on it",
@@ -377,32 +348,10 @@ fn seconds(s: f64) -> Duration {
     Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX)
 }
 
-fn progress(poses: usize) -> ProgressBar {
-    ProgressBar::new(poses as u64).with_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} poses, eta {eta}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    )
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use model::JOINTS;
-
-    #[test]
-    fn tracker_lines_in_either_form() {
-        let p = parse_tracker_line("212.41, -35.02, 188.77")
-            .unwrap()
-            .unwrap();
-        assert_eq!(p.0, None);
-        assert!((p.1 - Vector3::new(0.21241, -0.03502, 0.18877)).norm() < 1e-12);
-        assert_eq!(parse_tracker_line("17 1 2 3").unwrap().unwrap().0, Some(17));
-        assert_eq!(parse_tracker_line("# comment").unwrap(), None);
-        assert_eq!(parse_tracker_line("x_mm,y_mm,z_mm").unwrap(), None);
-        assert!(parse_tracker_line("1 2").unwrap_err().contains("expected"));
-        assert!(parse_tracker_line("1 NaN 3").is_err());
-        assert!(parse_tracker_line("1.5 1 2 3").is_err());
-    }
 
     #[test]
     fn tracker_sources_by_their_form() {

@@ -4,10 +4,9 @@
 use model::JOINTS;
 use std::path::PathBuf;
 
-use indicatif::{ProgressBar, ProgressStyle};
-
 use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
+use crate::progress::Meter;
 use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_engine::device::calibration;
@@ -97,16 +96,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         return Ok(());
     };
     let mut client = device.connect()?;
-    let bar = ProgressBar::new(0).with_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {bytes}/{total_bytes}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    bar.set_message("sending");
+    let bar = Meter::new("sending", 0, "bytes");
     let info = client.push_calibration(&payload, |sent, total| {
         bar.set_length(total as u64);
         bar.set_position(sent as u64);
     })?;
-    bar.finish_and_clear();
+    bar.finish();
     println!(
         "calibration {:08x} ({}) stored in flash (sequence {}) and in use",
         info.id,

@@ -4,8 +4,9 @@
 
 use std::path::PathBuf;
 
-use crate::commands::helpers::{Bar, OptionChoice};
+use crate::commands::helpers::OptionChoice;
 use crate::error::Error;
+use crate::progress::Steps;
 use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::pose_list;
@@ -66,7 +67,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .map(|r| r.pose)
         .collect();
     let options = args.option.options();
-    let bar = Bar::new();
+    let bar = Steps::new();
     for option in &options {
         let choice = match &args.evaluate {
             Some(path) => Choice::Given(pose_list::read(path)?.iter().map(|r| r.pose.id).collect()),

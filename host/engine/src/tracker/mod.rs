@@ -1,6 +1,6 @@
-//! Positions from optical trackers: a live ART DTrack stream for
-//! `lrmcal measure`, and recorded OptiTrack Motive takes for
-//! `lrmcal import-tracker`.
+//! Positions from optical trackers: a live ART DTrack stream or positions
+//! as text lines ([`text`]) for `lrmcal measure`, and recorded OptiTrack
+//! Motive takes for `lrmcal import-tracker`.
 //!
 //! Data flow: DTrack datagrams ([`dtrack`]) → [`settle`] (wait until still,
 //! average a window) → one position per pose; a Motive CSV export
@@ -14,6 +14,7 @@ pub mod listen;
 pub mod motive;
 pub mod settle;
 pub mod still;
+pub mod text;
 
 use std::net::SocketAddr;
 use std::path::PathBuf;
