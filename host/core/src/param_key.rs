@@ -171,7 +171,7 @@ impl fmt::Display for ParamKey {
 /// The joint and knot (both from 0) of a servo-knot parameter name,
 /// `j<joint>.servo[<knot>]`, both counted from 1 for people as everywhere
 /// in messages (`j3.servo[5]`: the fifth knot of joint 3's curve).
-pub fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
+fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
     let (joint, rest) = name.strip_prefix('j')?.split_once(".servo[")?;
     let knot = rest.strip_suffix(']')?;
     let joint: usize = joint.parse().ok()?;
@@ -181,13 +181,13 @@ pub fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
 }
 
 /// The name of knot `knot` of joint `joint`'s curve (both from 0).
-pub fn servo_knot_name(joint: usize, knot: usize) -> String {
+fn servo_knot_name(joint: usize, knot: usize) -> String {
     format!("j{}.servo[{}]", joint + 1, knot + 1)
 }
 
 /// The joint (from 0) of a backlash parameter name, `j<joint>.backlash`
 /// (joint from 1, as in every message).
-pub fn backlash_from_name(name: &str) -> Option<usize> {
+fn backlash_from_name(name: &str) -> Option<usize> {
     let joint: usize = name
         .strip_prefix('j')?
         .strip_suffix(".backlash")?
@@ -197,7 +197,7 @@ pub fn backlash_from_name(name: &str) -> Option<usize> {
 }
 
 /// The name of joint `joint`'s (from 0) backlash width.
-pub fn backlash_name(joint: usize) -> String {
+fn backlash_name(joint: usize) -> String {
     format!("j{}.backlash", joint + 1)
 }
 

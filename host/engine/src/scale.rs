@@ -11,17 +11,19 @@ use std::sync::OnceLock;
 
 use model::Arm;
 
+use lrmcal_core::io::arm_source::DEFAULT_ARM;
+
 use crate::plan::Levels;
 
 /// The bundled arm's largest gravity torque over that of `arm`, for the
 /// joints and for the base (`[joints, base]`); 1 where either carries none.
 pub fn torque_ratio_to_bundled(arm: &Arm<f64>) -> [f64; 2] {
     static BUNDLED: OnceLock<[f64; 2]> = OnceLock::new();
+    // The bundled arm is text compiled in; its unit tests read it.
     let reference = BUNDLED.get_or_init(|| {
-        let (_, text) = lrmcal_core::io::arm_source::BUNDLED[0];
-        lrmcal_core::io::arm_toml::parse(text)
-            .map(|d| largest_gravity_torques(&d.arm))
-            .unwrap_or([0.0; 2])
+        let bundled = lrmcal_core::io::arm_source::bundled(DEFAULT_ARM)
+            .expect("the bundled arm description parses");
+        largest_gravity_torques(&bundled.arm)
     });
     let own = largest_gravity_torques(arm);
     [0, 1].map(|i| {

@@ -24,7 +24,7 @@
 
 use std::path::Path;
 
-use crate::param_key::{backlash_from_name, servo_knot_from_name};
+use crate::param_key::ParamKey;
 use model::{Arm, Frame, ParamId, ServoCurve};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
@@ -281,14 +281,14 @@ impl CalibrationFile {
         }
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
-            let known = ParamId::from_name(&p.name).is_some()
-                || matches!(
-                    crate::param_key::ParamKey::from_name(&p.name),
-                    Some(crate::param_key::ParamKey::Softening { .. })
-                )
-                || servo_knot_from_name(&p.name).is_some()
-                || backlash_from_name(&p.name).is_some()
-                || target_of_tool_name(&p.name).is_some_and(|t| t < file.targets.len());
+            // A further target's tool point names a target the file lists.
+            let known = match ParamKey::from_name(&p.name) {
+                Some(ParamKey::TargetTool { target, .. }) => {
+                    usize::from(target) < file.targets.len()
+                }
+                Some(_) => true,
+                None => false,
+            };
             if !known || repeated {
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
@@ -405,13 +405,6 @@ impl CalibrationFile {
         }
         Ok(())
     }
-}
-
-/// The target index `N` of a further target's tool-point parameter `tool[N].x|y|z`.
-fn target_of_tool_name(name: &str) -> Option<usize> {
-    let (target, axis) = name.strip_prefix("tool[")?.split_once("].")?;
-    let target: usize = target.parse().ok().filter(|t| *t > 0)?;
-    ["x", "y", "z"].contains(&axis).then_some(target)
 }
 
 /// A calibration file for the unit tests of `io`.

@@ -3,6 +3,7 @@
 //! `report.json` always tell the same story.
 
 use crate::calib::CalibError;
+use crate::calib::ParamKey;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use crate::calib::parameters::option::DEFAULT;
 use crate::calib::results::experiments::{ErrorPoint, GridErrors, RandomBaseline};
@@ -240,7 +241,10 @@ pub fn backlash(o: &OptionReport) -> Vec<String> {
         .parameters
         .iter()
         .filter_map(|p| {
-            let joint = lrmcal_core::param_key::backlash_from_name(&p.name)? + 1;
+            let Some(ParamKey::Backlash { joint }) = ParamKey::from_name(&p.name) else {
+                return None;
+            };
+            let joint = joint + 1;
             let deg = p.value.to_degrees();
             if p.value >= crate::calib::parameters::backlash::FIT_MAX_RAD * (1.0 - 1e-9) {
                 Some(format!(
