@@ -34,6 +34,9 @@ pub struct Frame {
     pub bodies: Vec<Tracked>,
     /// The `3d` single markers in the datagram.
     pub markers: Vec<Tracked>,
+    /// The kind of every line after `fr`, as written (`ts`, `6d`, `6di`, …),
+    /// read or skipped.
+    pub kinds: Vec<String>,
 }
 
 /// A body or marker as the datagram gives it.
@@ -66,6 +69,15 @@ impl fmt::Display for Target {
 }
 
 impl Target {
+    /// The kind of line that carries this target: `6d` for a standard body,
+    /// `3d` for a single marker.
+    pub fn line_kind(self) -> &'static str {
+        match self {
+            Self::Body(_) => "6d",
+            Self::Marker(_) => "3d",
+        }
+    }
+
     /// The entries of this target's kind in `frame`.
     pub fn candidates(self, frame: &Frame) -> &[Tracked] {
         match self {
@@ -104,6 +116,7 @@ pub fn parse(datagram: &str) -> Result<Frame, DatagramError> {
         calibrated_bodies: None,
         bodies: Vec::new(),
         markers: Vec::new(),
+        kinds: Vec::new(),
     };
     let mut lines = datagram
         .lines()
@@ -134,6 +147,7 @@ pub fn parse(datagram: &str) -> Result<Frame, DatagramError> {
     }
     for (n, text) in lines {
         let (kind, rest) = text.split_once(char::is_whitespace).unwrap_or((text, ""));
+        frame.kinds.push(kind.to_owned());
         let result = match kind {
             "ts" => number(rest.trim(), "a timestamp in s").map(|t| frame.timestamp_s = Some(t)),
             "6dcal" => count(rest.trim()).map(|c| frame.calibrated_bodies = Some(c)),
@@ -255,6 +269,11 @@ mod tests {
         assert!((Target::Body(0).position_in(&f).unwrap().x - 0.326848).abs() < 1e-12);
         // Quality -1: the body is calibrated but the cameras lost it.
         assert_eq!(Target::Body(1).position_in(&f), None);
+        // Every line's kind is kept, the skipped ones' too.
+        let kinds = parse("fr 3\n6dcal 1\n6di 1 [0 1 0][1 2 3][1 0 0 0 1 0 0 0 1]\n")
+            .unwrap()
+            .kinds;
+        assert_eq!(kinds, ["6dcal", "6di"]);
         // `6d 0` (nothing tracked) is a valid line.
         assert!(parse("fr 8\n6d 0\n3d 0\n").unwrap().bodies.is_empty());
     }

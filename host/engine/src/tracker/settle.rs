@@ -118,6 +118,9 @@ pub enum StreamProblem {
         tracked: Vec<u32>,
         /// Calibrated bodies (`6dcal`), if sent.
         calibrated: Option<u32>,
+        /// When no frame had the target's kind of line (`6d`, `3d`): the
+        /// kinds of line the frames did carry.
+        line_missing: Option<Vec<String>>,
     },
     /// Frames came with the target, but never `frames` of them within the spread.
     Unsettled {
@@ -177,8 +180,36 @@ impl fmt::Display for StreamProblem {
                 target,
                 in_row,
                 ever_seen,
+                line_missing: Some(kinds),
+                ..
+            } => {
+                let wanted = target.line_kind();
+                let carried = if kinds.is_empty() {
+                    "nothing but the frame counter".to_owned()
+                } else {
+                    kinds
+                        .iter()
+                        .map(|k| format!("`{k}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                };
+                let output = match target {
+                    Target::Body(_) => "standard bodies (`6d`)",
+                    Target::Marker(_) => "single markers (`3d`)",
+                };
+                write!(
+                    f,
+                    "{target}: no `{wanted}` line arrived in {in_row} frames (they carry {carried}): \
+                     switch on DTrack's output of {output} for this UDP channel"
+                )
+            }
+            Self::Lost {
+                target,
+                in_row,
+                ever_seen,
                 tracked,
                 calibrated,
+                line_missing: None,
             } => {
                 let what = match target {
                     Target::Body(_) => "bodies",
@@ -250,6 +281,10 @@ pub struct Settler {
     last_spread_m: Option<f64>,
     tracked: BTreeSet<u32>,
     calibrated: Option<u32>,
+    /// Whether any frame had the target's kind of line.
+    line_seen: bool,
+    /// The kinds of line the frames carried.
+    kinds: BTreeSet<String>,
 }
 
 impl Settler {
@@ -269,6 +304,8 @@ impl Settler {
             last_spread_m: None,
             tracked: BTreeSet::new(),
             calibrated: None,
+            line_seen: false,
+            kinds: BTreeSet::new(),
         }
     }
 
@@ -284,6 +321,9 @@ impl Settler {
             .map(|t| t.id)
             .collect();
         self.calibrated = frame.calibrated_bodies.or(self.calibrated);
+        let wanted = self.target.line_kind();
+        self.line_seen |= frame.kinds.iter().any(|k| k == wanted);
+        self.kinds.extend(frame.kinds.iter().cloned());
         let Some(position) = self.target.position_in(frame) else {
             self.lost += 1;
             self.lost_in_row += 1;
@@ -323,6 +363,7 @@ impl Settler {
             ever_seen: self.seen > 0,
             tracked: self.tracked.iter().copied().collect(),
             calibrated: self.calibrated,
+            line_missing: (!self.line_seen).then(|| self.kinds.iter().cloned().collect()),
         }
     }
 
@@ -371,6 +412,7 @@ mod tests {
                 .into_iter()
                 .collect(),
             markers: vec![],
+            kinds: ["ts", "6dcal", "6d"].map(String::from).to_vec(),
         }
     }
 
@@ -522,5 +564,34 @@ mod tests {
             s.give_up(5.0, last(3.0), None),
             StreamProblem::Stopped { .. }
         ));
+    }
+
+    #[test]
+    fn a_stream_without_the_targets_line_says_so_not_that_the_body_is_out_of_view() {
+        let mut settler = Settler::new(Target::Body(0), SettleOptions::default());
+        let only_6di = |counter| Frame {
+            counter,
+            timestamp_s: None,
+            calibrated_bodies: Some(1),
+            bodies: vec![],
+            markers: vec![],
+            kinds: ["6dcal", "6di"].map(String::from).to_vec(),
+        };
+        let problem = (0..1000)
+            .find_map(|c| settler.push(&only_6di(c)).err())
+            .expect("the body is given up on");
+        let text = problem.to_string();
+        assert!(
+            text.contains("no `6d` line arrived") && text.contains("`6dcal`, `6di`"),
+            "{text}"
+        );
+        assert!(!text.contains("in view"), "{text}");
+        // One frame with a `6d` line (the body not in it): out of view again.
+        let mut settler = Settler::new(Target::Body(0), SettleOptions::default());
+        let text = (0..1000)
+            .find_map(|c| settler.push(&frame(c, None)).err())
+            .expect("the body is given up on")
+            .to_string();
+        assert!(text.contains("in view"), "{text}");
     }
 }
