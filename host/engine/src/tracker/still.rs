@@ -5,7 +5,10 @@
 //! target is tracked in at least half of its frames. Overlapping still windows
 //! join into one still period; its position is the mean of all tracked frames
 //! in it. A move between poses breaks the chain, since every window that
-//! reaches into the move spreads beyond the threshold.
+//! reaches into the move spreads beyond the threshold. A take may skip time
+//! (frames the software dropped, a take stopped and resumed): a window is a
+//! hold only when its frames span `min_duration_s` (to within a frame and a
+//! half), so the frame before a skip is not a hold of its own.
 
 use nalgebra::Vector3;
 
@@ -50,6 +53,7 @@ pub struct StillPeriod {
 pub fn still_periods(samples: &[Sample], options: StillOptions) -> Vec<StillPeriod> {
     // Half-open index ranges of the still windows' union, merged as they come.
     let mut spans: Vec<(usize, usize)> = Vec::new();
+    let frame_s = median_interval_s(samples);
     let mut end = 0;
     for start in 0..samples.len() {
         let until = samples[start].time_s + options.min_duration_s;
@@ -64,6 +68,10 @@ pub fn still_periods(samples: &[Sample], options: StillOptions) -> Vec<StillPeri
             break;
         }
         let window = &samples[start..end];
+        let span_s = window[window.len() - 1].time_s - window[0].time_s;
+        if !cut_short && span_s < options.min_duration_s - 1.5 * frame_s {
+            continue;
+        }
         let tracked = window.iter().filter_map(|s| s.position.as_ref());
         if 2 * tracked.clone().count() < window.len() {
             continue;
@@ -95,6 +103,19 @@ pub fn still_periods(samples: &[Sample], options: StillOptions) -> Vec<StillPeri
             })
         })
         .collect()
+}
+
+/// The median time between consecutive frames, s (0 for fewer than two).
+fn median_interval_s(samples: &[Sample]) -> f64 {
+    let mut steps: Vec<f64> = samples
+        .windows(2)
+        .map(|w| w[1].time_s - w[0].time_s)
+        .collect();
+    if steps.is_empty() {
+        return 0.0;
+    }
+    steps.sort_by(f64::total_cmp);
+    steps[steps.len() / 2]
 }
 
 #[cfg(test)]
@@ -167,5 +188,34 @@ mod tests {
             )
             .is_empty()
         );
+    }
+
+    #[test]
+    fn a_skip_in_time_is_not_a_hold_and_a_hold_across_one_stays_one() {
+        let options = StillOptions {
+            min_duration_s: 1.0,
+            max_spread_m: 0.5e-3,
+        };
+        // The first hold's last 0.5 s are not in the take, and the take
+        // resumes 3 s later during the move.
+        let skipped: Vec<Sample> = take()
+            .into_iter()
+            .filter(|s| !(1.5..2.5).contains(&s.time_s))
+            .collect();
+        let periods = still_periods(&skipped, options);
+        assert_eq!(periods.len(), 2, "{periods:?}");
+        assert!(periods.iter().all(|p| p.frames > 50), "{periods:?}");
+        // A frame alone before a skip of several seconds, then a hold.
+        let mut lone = vec![Sample {
+            time_s: 0.0,
+            position: Some(Vector3::new(0.3, 0.0, 0.0)),
+        }];
+        lone.extend(take().into_iter().map(|s| Sample {
+            time_s: s.time_s + 10.0,
+            ..s
+        }));
+        let periods = still_periods(&lone, options);
+        assert_eq!(periods.len(), 2, "{periods:?}");
+        assert!(periods[0].start_s >= 10.0, "{periods:?}");
     }
 }
