@@ -275,7 +275,7 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
         hold_s: None,
         settle_ms: 0,
         dtrack: dtrack_args(None),
-        device: board.args(),
+        device: Some(board.args()),
     };
 
     // The tracker file runs out after two poses: the run stops, both rows are kept.
@@ -375,7 +375,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
         hold_s: None,
         settle_ms: 0,
         dtrack: dtrack_args(Some(0)),
-        device: board.args(),
+        device: Some(board.args()),
     };
     let stop = Arc::new(AtomicBool::new(false));
     let sender = dtrack_sender(addr, [212.41, -35.02, 188.77], stop.clone());

@@ -1,5 +1,9 @@
 //! `lrmcal measure`: drive the board through a pose list and record one
-//! tracker position per pose into a measurement CSV, resumable.
+//! tracker position per pose into a measurement CSV, resumable. Without
+//! `--port` the arm is moved by hand or by its own controller (an arm our
+//! board does not drive): each pose is announced on stderr, and its tracker
+//! line, or Enter on standard input before a DTrack reading, says it is
+//! there.
 //!
 //! Positions come from a live ART DTrack stream (`dtrack://`, averaged once
 //! the arm holds still, see `lrmcal_engine::tracker`), from lines of a file or a pipe,
@@ -24,13 +28,16 @@ use crate::error::Error;
 use crate::progress::Meter;
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
 use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::device::{Client, Link};
 use lrmcal_engine::tracker::listen::{self, Listener};
 use lrmcal_engine::tracker::text::parse_tracker_line;
 use lrmcal_engine::tracker::{SettleOptions, Target};
 
-/// Drive the board through a pose list and record tracker positions.
+/// Drive the arm through a pose list and record tracker positions.
 #[derive(Debug, clap::Args)]
-#[command(after_help = "Examples:\n  \
+#[command(
+    mut_arg("port", |a| a.required(false)),
+    after_help = "Examples:\n  \
 lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 --body 0\n  \
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
 tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n  \
@@ -42,7 +49,12 @@ frames in which the target is tracked are averaged once none lies farther than \
 Tracker positions from a file or pipe are millimetres in the world frame, one pose per line: \
 `x y z` (or `x,y,z`) in the order of the poses still to measure, or `pose x y z` to name the \
 pose. Without --tracker each one is typed at a prompt. Run the same command again after an \
-interruption: recorded poses are kept and skipped.")]
+interruption: recorded poses are kept and skipped.\n\n\
+Without --port (and LRMCAL_PORT) lrmcal moves nothing: the arm is moved by hand or by its own \
+controller. Each pose is announced with its joint angles; with a DTrack stream, press Enter \
+(or send a line on standard input) once the arm is there, and the reading waits until it \
+holds still; a tracker line from a file, a pipe or the prompt is itself the confirmation."
+)]
 pub struct Args {
     /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).
     #[arg(long, value_name = "FILE")]
@@ -64,9 +76,10 @@ pub struct Args {
     /// Pause after the arm arrives, before the position is taken, ms.
     #[arg(long, value_name = "MS", default_value_t = 500)]
     pub settle_ms: u64,
-    /// The board.
+    /// The board that moves the arm; none: the arm is moved by hand or by its
+    /// own controller.
     #[command(flatten)]
-    pub device: DeviceArgs,
+    pub device: Option<DeviceArgs>,
     /// How a DTrack stream is read (listed last: its help heading carries on).
     #[command(flatten)]
     pub dtrack: DTrackArgs,
@@ -279,13 +292,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             timeout: seconds(args.dtrack.tracker_timeout_s),
         },
     };
-    let mut client = args.device.connect()?;
+    let mut mover = Mover::of(args)?;
     let bar = Meter::new("measuring", poses.len() as u64, "poses");
     bar.set_position((poses.len() - todo.len()) as u64);
-    let mut load_now = None;
     for (pose, load_kg) in todo {
         bar.set_label(&format!("pose {}", pose.id));
-        arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
+        let confirm = matches!(tracker, Tracker::DTrack { .. });
+        mover.arrive(pose, load_kg, args.settle_ms, confirm, &bar)?;
         let position = tracker.next(pose.id, &bar)?;
         // Appended in the order visited: the file's readers work out from
         // it which way each joint arrived (its backlash's side).
@@ -306,12 +319,22 @@ pub fn run(args: &Args) -> Result<(), Error> {
 
 /// `--hold-s`: every pose of the list in order, held for `hold_s`, nothing recorded.
 fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
-    let mut client = args.device.connect()?;
+    let Some(device) = &args.device else {
+        return Err(Error::DeviceInput {
+            what: "hold the poses".into(),
+            reason: "--hold-s has the board hold each pose: pass --port (an arm moved by hand \
+                     or its own controller holds its poses itself)"
+                .into(),
+        });
+    };
+    let mut mover = Mover::Board {
+        client: Box::new(device.connect()?),
+        load_now: None,
+    };
     let bar = Meter::new("measuring", poses.len() as u64, "poses");
-    let mut load_now = None;
     for &(pose, load_kg) in poses {
         bar.set_label(&format!("holding pose {}", pose.id));
-        arrive(&mut client, &mut load_now, pose, load_kg, args.settle_ms)?;
+        mover.arrive(pose, load_kg, args.settle_ms, false, &bar)?;
         std::thread::sleep(seconds(hold_s));
         bar.inc(1);
     }
@@ -325,22 +348,87 @@ fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
     Ok(())
 }
 
-/// Moves the board to `pose` under `load_kg`, waits until it stands, then `settle_ms`.
-fn arrive(
-    client: &mut lrmcal_engine::device::Client<Box<dyn lrmcal_engine::device::Link>>,
-    load_now: &mut Option<f64>,
-    pose: Pose,
-    load_kg: f64,
-    settle_ms: u64,
-) -> Result<(), Error> {
-    if *load_now != Some(load_kg) {
-        client.set_payload(load_kg as f32)?;
-        *load_now = Some(load_kg);
+/// What brings the arm to each pose.
+enum Mover {
+    /// Our board, with the payload it was last told.
+    Board {
+        client: Box<Client<Box<dyn Link>>>,
+        load_now: Option<f64>,
+    },
+    /// A person or the arm's own controller, told each pose on stderr.
+    Announced,
+}
+
+impl Mover {
+    /// The board of `--port`, else the announcements.
+    fn of(args: &Args) -> Result<Self, Error> {
+        Ok(match &args.device {
+            Some(device) => Self::Board {
+                client: Box::new(device.connect()?),
+                load_now: None,
+            },
+            None => Self::Announced,
+        })
     }
-    client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
-    client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
-    std::thread::sleep(Duration::from_millis(settle_ms));
-    Ok(())
+
+    /// Brings the arm to `pose` under `load_kg`: the board moves there,
+    /// waits until it stands, then `settle_ms`; otherwise the pose is
+    /// announced and, when `confirm`, a line on standard input awaited.
+    fn arrive(
+        &mut self,
+        pose: Pose,
+        load_kg: f64,
+        settle_ms: u64,
+        confirm: bool,
+        bar: &Meter,
+    ) -> Result<(), Error> {
+        match self {
+            Self::Board { client, load_now } => {
+                if *load_now != Some(load_kg) {
+                    client.set_payload(load_kg as f32)?;
+                    *load_now = Some(load_kg);
+                }
+                client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
+                client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
+                std::thread::sleep(Duration::from_millis(settle_ms));
+                Ok(())
+            }
+            Self::Announced => {
+                let angles: Vec<String> = pose
+                    .q
+                    .iter()
+                    .map(|q| format!("{:.2}", q.to_degrees()))
+                    .collect();
+                let announce = format!(
+                    "pose {}: move the arm to q = ({}) deg with {load_kg} kg",
+                    pose.id,
+                    angles.join(", ")
+                );
+                if !confirm {
+                    bar.println(&announce);
+                    return Ok(());
+                }
+                let mut line = String::new();
+                let read = bar.suspend(|| {
+                    eprint!("{announce}, then press Enter ");
+                    std::io::stdin().lock().read_line(&mut line)
+                });
+                match read {
+                    Ok(n) if n > 0 => Ok(()),
+                    Ok(_) => Err(Error::DeviceInput {
+                        what: format!("wait for the arm at pose {}", pose.id),
+                        reason: "standard input ended before the arm was there; the poses so far \
+                                 are saved"
+                            .into(),
+                    }),
+                    Err(e) => Err(Error::DeviceInput {
+                        what: format!("wait for the arm at pose {}", pose.id),
+                        reason: format!("standard input cannot be read: {e}"),
+                    }),
+                }
+            }
+        }
+    }
 }
 
 /// A duration from a checked number of seconds (>= 0); beyond `Duration`'s range, forever.

@@ -179,7 +179,6 @@ impl fmt::Display for StreamProblem {
             Self::Lost {
                 target,
                 in_row,
-                ever_seen,
                 line_missing: Some(kinds),
                 ..
             } => {
