@@ -2,7 +2,11 @@
 //! with an independent parser (urdf-rs) and evaluated by composing its joint
 //! origins and turns; its `tool_point` must be where `lrmcal predict` puts the
 //! tool point of the same rigid arm, to 1e-6 mm, for the bundled arm and for a
-//! calibrated arm with an error in every parameter. Bad input is named.
+//! calibrated arm with an error in every parameter, in the measurement frame
+//! (`--world`) and in the arm's own base frame (the default). What ROS needs
+//! of it is there: the arm file's joint names, masses with positive definite
+//! inertias, geometry on every link, the payload as a link; a URDF that
+//! would stand tilted in ROS is warned about. Bad input is named.
 
 mod common;
 
@@ -62,7 +66,8 @@ fn calibration_json(nominal: &Arm<f64>, arm: &Arm<f64>, schema_version: u32) -> 
 }
 
 /// Where `link` is at joint positions `q` (rad): the URDF's joint origins and
-/// turns composed from `link` up to the root, which must be `world`.
+/// turns composed from `link` up to the root, `world` if the file has one,
+/// else `base_link`. Joint i is the one whose child is `link_i`.
 fn link_pose(robot: &urdf_rs::Robot, link: &str, q: &[f64; JOINTS]) -> Isometry3<f64> {
     let mut pose = Isometry3::identity();
     let mut current = link.to_owned();
@@ -75,7 +80,7 @@ fn link_pose(robot: &urdf_rs::Robot, link: &str, q: &[f64; JOINTS]) -> Isometry3
         let turn = match joint.joint_type {
             urdf_rs::JointType::Fixed => UnitQuaternion::identity(),
             urdf_rs::JointType::Revolute => {
-                let i: usize = joint.name["joint_".len()..].parse().unwrap();
+                let i: usize = joint.child.link["link_".len()..].parse().unwrap();
                 let axis = Unit::new_normalize(Vector3::from(joint.axis.xyz.0));
                 UnitQuaternion::from_axis_angle(&axis, q[i - 1])
             }
@@ -84,7 +89,12 @@ fn link_pose(robot: &urdf_rs::Robot, link: &str, q: &[f64; JOINTS]) -> Isometry3
         pose = origin * turn * pose;
         current = joint.parent.link.clone();
     }
-    assert_eq!(current, "world", "the chain from `{link}` ends elsewhere");
+    let root = if robot.links.iter().any(|l| l.name == "world") {
+        "world"
+    } else {
+        "base_link"
+    };
+    assert_eq!(current, root, "the chain from `{link}` ends elsewhere");
     pose
 }
 
@@ -94,6 +104,7 @@ fn check_structure(robot: &urdf_rs::Robot, arm: &Arm<f64>) {
     let expected = [
         "world",
         "base_link",
+        "base",
         "link_1",
         "link_2",
         "link_3",
@@ -105,14 +116,21 @@ fn check_structure(robot: &urdf_rs::Robot, arm: &Arm<f64>) {
         "tool_point",
     ];
     assert_eq!(links, expected.into_iter().collect());
+    let parents = [
+        "base_link",
+        "link_1",
+        "link_2",
+        "link_3",
+        "link_4",
+        "link_5",
+    ];
     for (i, joint) in arm.joints.iter().enumerate() {
-        let name = format!("joint_{}", i + 1);
-        let j = robot.joints.iter().find(|j| j.name == name).unwrap();
+        let child = format!("link_{}", i + 1);
+        let j = robot.joints.iter().find(|j| j.child.link == child).unwrap();
         assert_eq!(j.joint_type, urdf_rs::JointType::Revolute);
         assert_eq!(j.axis.xyz.0, [0.0, 0.0, 1.0]);
-        assert_eq!([j.limit.lower, j.limit.upper], joint.limits, "{name}");
-        assert_eq!(j.child.link, format!("link_{}", i + 1));
-        assert_eq!(j.parent.link, expected[i + 1]);
+        assert_eq!([j.limit.lower, j.limit.upper], joint.limits, "{child}");
+        assert_eq!(j.parent.link, parents[i]);
     }
     let fixed = robot
         .joints
@@ -120,8 +138,8 @@ fn check_structure(robot: &urdf_rs::Robot, arm: &Arm<f64>) {
         .filter(|j| j.joint_type == urdf_rs::JointType::Fixed)
         .count();
     assert_eq!(
-        fixed, 4,
-        "world-base_link, link_6-flange, flange-tool0, tool0-tool_point"
+        fixed, 5,
+        "world-base_link, base_link-base, link_6-flange, flange-tool0, tool0-tool_point"
     );
 }
 
@@ -227,8 +245,8 @@ fn bundled_arm_urdf_puts_the_tool_where_predict_does() {
     assert!(arm.chain().is_rigid(), "the comparison needs a rigid arm");
     let poses = random_poses_deg(&arm, 300, 1);
     let list = pose_list(dir.path(), &poses);
-    // The defaults: the bundled arm, written to standard output.
-    let text = export(&[]);
+    // The bundled arm, written to standard output, in the measurement frame.
+    let text = export(&["--world"]);
     let predicted = predict(dir.path(), "lrm", &list);
     let (file, memory) = check_against_predict(&text, &arm, &poses, &predicted);
     eprintln!(
@@ -282,6 +300,7 @@ fn calibrated_arm_urdf_puts_the_tool_where_predict_does_without_sag() {
         s(&out),
         "--name",
         "my arm",
+        "--world",
     ]);
     let poses = random_poses_deg(&calibrated, 300, 2);
     let list = pose_list(dir.path(), &poses);
@@ -329,7 +348,10 @@ fn calibrated_arm_urdf_puts_the_tool_where_predict_does_without_sag() {
     assert_ne!(id(header), id(&rigid_text));
 
     // A calibration file given as --arm is exported the same way.
-    assert_eq!(export(&["--arm", s(&cal), "--name", "my arm"]), text);
+    assert_eq!(
+        export(&["--arm", s(&cal), "--name", "my arm", "--world"]),
+        text
+    );
 }
 
 #[test]
@@ -386,20 +408,11 @@ fn bad_input_is_named_and_nothing_is_written() {
         "{msg}"
     );
 
-    // Usage errors: no format, two arms, a limit that is no speed.
+    // Usage errors: no format, a payload below zero, a limit that is no speed.
     let msg = fails(&["export", "--out", s(&out)], 2);
     assert!(msg.contains("--urdf"), "{msg}");
     fails(
-        &[
-            "export",
-            "--urdf",
-            "--calibration",
-            s(&old),
-            "--arm",
-            "lrm",
-            "--out",
-            s(&out),
-        ],
+        &["export", "--urdf", "--payload-kg=-1", "--out", s(&out)],
         2,
     );
     fails(
@@ -421,4 +434,108 @@ fn help_teaches() {
     for needle in ["--urdf", "--calibration", "Examples:", "tool0", "radians"] {
         assert!(sub.contains(needle), "`{needle}` missing from\n{sub}");
     }
+}
+
+/// What ROS tools need of the file, on the default export: the robot in its
+/// own base frame, the arm file's joint names, masses and centres of mass
+/// with positive definite inertias, geometry, the payload as a link.
+#[test]
+fn the_default_urdf_stands_in_its_base_frame_with_names_masses_and_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let description = arm_source::bundled("lrm").unwrap();
+    let arm = description.arm;
+    let text = export(&["--payload-kg", "0.0663"]);
+    let robot = urdf_rs::read_from_string(&text).unwrap();
+    assert_eq!(robot.name, description.name);
+    assert!(robot.links.iter().all(|l| l.name != "world"));
+
+    // The tool point in the base frame: predict's, carried into it.
+    let poses = random_poses_deg(&arm, 50, 3);
+    let list = pose_list(dir.path(), &poses);
+    let base = arm.base.isometry();
+    for (q_deg, p) in poses.iter().zip(predict(dir.path(), "lrm", &list)) {
+        let q = q_deg.map(f64::to_radians);
+        let in_base = base.inverse_transform_point(&p.into()).coords;
+        let urdf = link_pose(&robot, "tool_point", &q).translation.vector;
+        assert!((urdf - in_base).norm() < 1e-9, "{q_deg:?}");
+    }
+
+    // Joint names are the arm file's, in chain order.
+    for (i, name) in description.joint_names.iter().enumerate() {
+        let j = robot.joints.iter().find(|j| &j.name == name).unwrap();
+        assert_eq!(j.child.link, format!("link_{}", i + 1));
+    }
+    // Every link with a mass carries it, the payload too; inertias are
+    // positive definite and every link has geometry.
+    let masses: f64 = robot.links.iter().map(|l| l.inertial.mass.value).sum();
+    let expected: f64 = arm.joints.iter().map(|j| j.mass).sum::<f64>() + 0.0663;
+    assert!((masses - expected).abs() < 1e-12, "{masses} vs {expected}");
+    for link in &robot.links {
+        let i = &link.inertial.inertia;
+        let tensor = nalgebra::Matrix3::new(
+            i.ixx, i.ixy, i.ixz, i.ixy, i.iyy, i.iyz, i.ixz, i.iyz, i.izz,
+        );
+        if link.inertial.mass.value > 0.0 {
+            assert!(tensor.cholesky().is_some(), "{}: {tensor}", link.name);
+        }
+    }
+    // Every body of the arm is on the link it moves with.
+    let bodies = lrmcal_core::collision::BodySet::for_arm(&arm, &description.collision).unwrap();
+    for body in bodies.bodies() {
+        let name = match body.links[0] {
+            0 => "base_link".to_owned(),
+            k => format!("link_{k}"),
+        };
+        let link = robot.links.iter().find(|l| l.name == name).unwrap();
+        assert!(
+            !link.visual.is_empty() && link.visual.len() == link.collision.len(),
+            "{}: {name}",
+            body.name
+        );
+    }
+    for i in 1..=JOINTS {
+        let link = robot
+            .links
+            .iter()
+            .find(|l| l.name == format!("link_{i}"))
+            .unwrap();
+        // Link i's centre of mass is the arm file's, in DH frame i.
+        let q = [0.0; JOINTS];
+        let com =
+            link_pose(&robot, &link.name, &q) * nalgebra::Point3::from(link.inertial.origin.xyz.0);
+        let frames = arm.chain().frames(&q, 0.0).frames;
+        let want = base.inverse() * frames[i] * nalgebra::Point3::from(arm.joints[i - 1].com);
+        assert!((com - want).norm() < 1e-12, "link_{i}");
+    }
+    let payload = robot
+        .joints
+        .iter()
+        .find(|j| j.child.link == "payload")
+        .unwrap();
+    assert_eq!(payload.parent.link, "tool_point");
+    assert_eq!(payload.origin.xyz.0, arm.payload_com);
+}
+
+/// A calibration registered in a Y-up tracker frame: in its base frame the
+/// arm stands upright; rooted at the tracker's frame (`--world`) it would
+/// lie on its side in ROS's Z-up world, and the export says so.
+#[test]
+fn a_urdf_that_would_stand_tilted_in_ros_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let nominal = arm_source::bundled("lrm").unwrap().arm;
+    let mut y_up = nominal;
+    y_up.base.rpy = [-std::f64::consts::FRAC_PI_2, 0.0, 0.0];
+    y_up.gravity = [0.0, -9.81, 0.0];
+    let cal = dir.path().join("cal.json");
+    std::fs::write(&cal, calibration_json(&nominal, &y_up, SCHEMA_VERSION)).unwrap();
+    let run = lrmcal(&["export", "--urdf", "--calibration", s(&cal)]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(!stderr(&run).contains("warning"), "{}", stderr(&run));
+    let run = lrmcal(&["export", "--urdf", "--calibration", s(&cal), "--world"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    let text = stderr(&run);
+    assert!(
+        text.contains("warning: gravity") && text.contains("90.0° off the -z axis of world"),
+        "{text}"
+    );
 }

@@ -6,37 +6,58 @@ use std::path::{Path, PathBuf};
 
 use model::Arm;
 
-use crate::commands::helpers::positive;
+use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
+use lrmcal_core::collision::{BodySet, CollisionSpec};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::urdf::{self, UrdfOptions};
 use lrmcal_engine::device::calibration;
+
+/// Gravity further than this from the URDF root's -z is warned about, rad (1°).
+const MAX_TILT_RAD: f64 = 0.017_453_292_519_943_295;
 
 /// Export an arm for other tools.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
 lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --out arm.urdf\n  \
 lrmcal export --urdf --arm my_arm.toml > nominal.urdf\n\n\
-The URDF chain is world -> base_link -> link_1..link_6 (revolute joint_1..joint_6) -> \
-flange -> tool0 -> tool_point. Joint positions are lrmcal's commanded angles in radians, \
-0 where the pose files say 0 degrees, so the same angles put tool_point where `lrmcal \
-predict` puts the tool point of a rigid arm. Compliances (the sag under gravity and load) \
-and servo curves have no place in a URDF; the file's header says so.")]
+lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --arm my_arm.toml --name my_arm --out arm.urdf\n\n\
+The URDF chain is base_link (with base beside it) -> link_1..link_6 (revolute joints named \
+as in the arm file) -> flange -> tool0 -> tool_point, the robot standing in its own base \
+frame; --world roots it at world, the frame lrmcal measured in. Links carry the arm file's \
+masses and centres of mass, and its collision bodies as visual and collision geometry. \
+Joint positions are lrmcal's commanded angles in radians, 0 where the pose files say 0 \
+degrees, so the same angles put tool_point where `lrmcal predict` puts the tool point of a \
+rigid arm. Compliances (the sag under gravity and load), servo curves and play have no \
+place in a URDF; the file's header says so.")]
 pub struct Args {
     /// Write a URDF (ROS robot description) of the arm's rigid geometry.
     #[arg(long, required = true)]
     pub urdf: bool,
     /// Calibration file from `lrmcal identify` or `lrmcal demo`: its calibrated arm.
-    #[arg(long, value_name = "FILE", conflicts_with = "arm")]
+    #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
-    /// The arm otherwise: a bundled arm's name, an arm description `.toml` file,
-    /// or a calibration `.json` file (as --calibration).
-    #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
-    pub arm: ArmSource,
-    /// The robot's name in the URDF [default: the arm's name, or the calibration file's name].
+    /// The arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// calibration `.json` file (as --calibration). With --calibration, the
+    /// arm description whose joint names, bodies and name the URDF takes, the
+    /// geometry staying the calibration's [default: the bundled arm; with
+    /// --calibration, joints joint_1.. and the arm's skeleton].
+    #[arg(long, value_name = "NAME|FILE")]
+    pub arm: Option<ArmSource>,
+    /// The robot's name in the URDF [default: the arm's name; `arm` for a
+    /// calibration without --arm].
     #[arg(long, value_name = "NAME")]
     pub name: Option<String>,
+    /// Root the URDF at `world`, the frame lrmcal measured in (the
+    /// tracker's), with the arm's base placed in it [default: the robot in
+    /// its own base frame, `base_link` the root].
+    #[arg(long)]
+    pub world: bool,
+    /// A payload at the tool, kg: a `payload` link at the arm's payload
+    /// centre of mass.
+    #[arg(long, value_name = "KG", value_parser = non_negative)]
+    pub payload_kg: Option<f64>,
     /// Effort limit written for every joint, N·m: lrmcal does not know it, URDF
     /// requires one (the default is about a standard hobby servo's stall torque).
     #[arg(
@@ -64,6 +85,8 @@ pub struct Args {
 /// The arm to export, with what the file's header says about it.
 struct Exported {
     arm: Arm<f64>,
+    joint_names: [String; JOINTS],
+    collision: CollisionSpec,
     /// What the arm is called in messages.
     label: String,
     /// The robot's name when --name is not given.
@@ -73,15 +96,42 @@ struct Exported {
 
 /// Runs `lrmcal export`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    let bundled = ArmSource::Bundled(DEFAULT_ARM);
     let exported = match (&args.calibration, &args.arm) {
-        (Some(path), _) | (None, ArmSource::Calibration(path)) => from_calibration(path)?,
-        (None, source) => from_arm(source)?,
+        (Some(path), names) => from_calibration(path, names.as_ref())?,
+        (None, Some(ArmSource::Calibration(path))) => from_calibration(path, None)?,
+        (None, source) => from_arm(source.as_ref().unwrap_or(&bundled))?,
     };
+    let bodies = BodySet::for_arm(&exported.arm, &exported.collision).map_err(|e| {
+        lrmcal_core::Error::ArmSource {
+            arm: exported.label.clone(),
+            reason: format!("its collision bodies do not fit the arm exported: {e}"),
+        }
+    })?;
+    let off_down = urdf::gravity_off_down_rad(&exported.arm, args.world);
+    if off_down > MAX_TILT_RAD {
+        let root = if args.world { "world" } else { "base_link" };
+        eprintln!(
+            "warning: gravity in {} is {:.1}° off the -z axis of {root}: ROS takes gravity along -z, \
+             so the arm stands tilted by that much in it ({})",
+            exported.label,
+            off_down.to_degrees(),
+            if args.world {
+                "register with `identify --up AXIS` so that the measurement frame is Z-up, or export without --world"
+            } else {
+                "the arm's base frame is not level; the calibration's gravity says how it is mounted"
+            }
+        );
+    }
     let options = UrdfOptions {
         robot_name: args.name.clone().unwrap_or(exported.default_name),
         provenance: exported.provenance,
         effort_nm: args.effort_nm,
         velocity_rad_s: args.velocity_rad_s,
+        joint_names: exported.joint_names,
+        bodies: Some(bodies),
+        world: args.world,
+        payload_kg: args.payload_kg,
     };
     match &args.out {
         Some(path) => {
@@ -108,8 +158,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
 }
 
 /// The calibrated arm of a calibration file (the one place `export` reads one),
-/// and the id the board will show for it.
-fn from_calibration(path: &Path) -> Result<Exported, Error> {
+/// and the id the board will show for it; joint names, bodies and name from
+/// the arm description `names`, if given.
+fn from_calibration(path: &Path, names: Option<&ArmSource>) -> Result<Exported, Error> {
     let file = CalibrationFile::read(path)?;
     check_limits(&file.arm, path)?;
     // `lrmcal push` without --home-deg sends the all-zero home pose, and the
@@ -125,14 +176,21 @@ fn from_calibration(path: &Path) -> Result<Exported, Error> {
              pose ({fault})."
         ),
     };
-    let name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "arm".into());
+    let described = names.map(ArmSource::load).transpose()?;
+    let (default_name, joint_names, collision) = match described {
+        Some(d) => (d.name, d.joint_names, d.collision),
+        None => (
+            "arm".to_owned(),
+            std::array::from_fn(|i| format!("joint_{}", i + 1)),
+            CollisionSpec::default(),
+        ),
+    };
     Ok(Exported {
         arm: file.arm,
+        joint_names,
+        collision,
         label: format!("calibration `{}`", path.display()),
-        default_name: name,
+        default_name,
         provenance: vec![
             format!(
                 "Arm: the calibrated arm of `{}` ({} model).",
@@ -149,6 +207,8 @@ fn from_arm(source: &ArmSource) -> Result<Exported, Error> {
     let loaded = source.load()?;
     Ok(Exported {
         arm: loaded.arm,
+        joint_names: loaded.joint_names,
+        collision: loaded.collision,
         provenance: vec![format!(
             "Arm: {} ({}), nominal: not a calibration.",
             loaded.origin, loaded.name

@@ -10,7 +10,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use model::Arm;
+use model::{Arm, JOINTS};
 
 use crate::collision::CollisionSpec;
 use crate::error::Error;
@@ -43,6 +43,9 @@ pub struct LoadedArm {
     pub name: String,
     /// The arm.
     pub arm: Arm<f64>,
+    /// Its joints' names, base to tip: the arm file's (`joint_1` … for a
+    /// calibration file, which holds none).
+    pub joint_names: [String; JOINTS],
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
     pub collision: CollisionSpec,
@@ -96,26 +99,26 @@ impl ArmSource {
     /// checked there); it names no arm, so the name says which model option
     /// calibrated it.
     pub fn load(&self) -> Result<LoadedArm, Error> {
-        let (name, arm, collision, calibration) = match self {
-            Self::Bundled(name) => {
-                let d = bundled(name)?;
-                (d.name, d.arm, d.collision, None)
-            }
-            Self::Description(path) => {
-                let d = arm_toml::read(path)?;
-                (d.name, d.arm, d.collision, None)
-            }
+        let (d, calibration) = match self {
+            Self::Bundled(name) => (bundled(name)?, None),
+            Self::Description(path) => (arm_toml::read(path)?, None),
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
-                let name = format!("calibrated, {} model", file.option.name());
-                (name, file.arm, CollisionSpec::default(), Some(file))
+                let d = ArmDescription {
+                    name: format!("calibrated, {} model", file.option.name()),
+                    joint_names: std::array::from_fn(|i| format!("joint_{}", i + 1)),
+                    arm: file.arm,
+                    collision: CollisionSpec::default(),
+                };
+                (d, Some(file))
             }
         };
         Ok(LoadedArm {
             origin: self.to_string(),
-            name,
-            arm,
-            collision,
+            name: d.name,
+            arm: d.arm,
+            joint_names: d.joint_names,
+            collision: d.collision,
             calibration,
         })
     }

@@ -1,10 +1,20 @@
 //! URDF (the ROS robot description) of an arm's rigid geometry: what
 //! `lrmcal export --urdf` writes for robot_state_publisher, RViz and MoveIt.
 //!
-//! The chain uses the ROS-Industrial names (REP 199):
-//! `world` (the frame lrmcal measures in) → `base_link` (DH frame 0) →
-//! `link_1` … `link_6` (revolute `joint_1` … `joint_6`) → `flange` → `tool0`
-//! → `tool_point` (the tool frame, whose origin is the measured point).
+//! The chain uses the ROS-Industrial names (REP 199): `base_link` (DH frame
+//! 0, the root: the robot stands in its own base frame) with `base` beside
+//! it → `link_1` … `link_6` (revolute joints named as in the arm file) →
+//! `flange` → `tool0` → `tool_point` (the tool frame, whose origin is the
+//! measured point), and optionally `payload`. With [`UrdfOptions::world`]
+//! the root is `world`, the frame lrmcal measured in, with the base placed
+//! in it.
+//!
+//! Each link carries its mass and centre of mass from the arm file, with the
+//! inertia of a uniform sphere as thick as the link's bodies (lrmcal's model
+//! needs no inertia tensors, so it has none to give), and the arm's
+//! collision bodies as its visual and collision geometry: a capsule as a
+//! cylinder with a sphere at each end, a box as a box, each on the link it
+//! moves with (placed at the zero pose).
 //!
 //! Standard DH turns joint i before the link's own offsets,
 //! `T(i-1,i) = Rz(q_i + θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`, while URDF turns a
@@ -14,16 +24,23 @@
 //! `xyz = (a cos θ, a sin θ, d)`, `rpy = (α, 0, θ)`. Link 6's rest leads to
 //! DH frame 6, where `flange` and `tool0` sit.
 //!
-//! Compliances, servo curves and masses have no place in a URDF; the file's
+//! Compliances, servo curves and play have no place in a URDF; the file's
 //! header says so, and what that means on the board.
 
 use std::path::Path;
 
-use model::{Arm, Frame};
-use nalgebra::{Matrix3, Rotation3};
+use model::{Arm, Frame, JOINTS};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
+use crate::collision::{BodySet, Shape};
 use crate::error::Error;
 use crate::io::atomic;
+
+/// Radius of the sphere whose inertia a link with no body gets, m.
+const DEFAULT_INERTIA_RADIUS_M: f64 = 0.02;
+
+/// Radius of the sphere whose inertia the payload gets, m.
+const PAYLOAD_INERTIA_RADIUS_M: f64 = 0.01;
 
 /// What the file says besides the arm's geometry.
 #[derive(Clone, Debug, PartialEq)]
@@ -36,6 +53,16 @@ pub struct UrdfOptions {
     pub effort_nm: f64,
     /// Velocity limit of every joint, rad/s.
     pub velocity_rad_s: f64,
+    /// The joints' names, base to tip (the arm file's).
+    pub joint_names: [String; JOINTS],
+    /// The arm's bodies, placed on it: the links' visual and collision
+    /// geometry, and how thick each link is.
+    pub bodies: Option<BodySet>,
+    /// Root the tree at `world`, the frame lrmcal measured in, with the
+    /// base placed in it; otherwise `base_link` is the root.
+    pub world: bool,
+    /// A payload at the tool, kg: a `payload` link at its centre of mass.
+    pub payload_kg: Option<f64>,
 }
 
 /// Writes the URDF of `arm` to `path`, whole or not at all.
@@ -50,21 +77,36 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
     let mut out = String::from("<?xml version=\"1.0\"?>\n");
     out += &header(options);
     out += &format!("<robot name=\"{}\">\n", attribute(&options.robot_name));
-    out += "  <link name=\"world\"/>\n";
-    out += "  <link name=\"base_link\"/>\n";
-    out += &fixed_joint("world", "base_link", &origin_of_frame(&arm.base));
+    let zero = arm.chain().frames(&[0.0; JOINTS], 0.0);
+    let geometry = Geometry::of(options.bodies.as_ref(), &zero);
+    if options.world {
+        out += "  <link name=\"world\"/>\n";
+        out += &fixed_joint("world", "base_link", &origin_of_frame(&arm.base));
+    }
+    out += &link("base_link", None, &geometry.elements[0]);
+    out += "  <link name=\"base\"/>\n";
+    out += &fixed_joint("base_link", "base", &Origin::identity());
     let mut parent = String::from("base_link");
     // Joint 1 turns DH frame 0 itself; every later joint first carries the
     // rest of the link before it.
     let mut origin = Origin::identity();
     for (i, joint) in arm.joints.iter().enumerate() {
-        let link = format!("link_{}", i + 1);
-        out += &format!("  <link name=\"{link}\"/>\n");
+        let link_name = format!("link_{}", i + 1);
+        // The centre of mass is given in DH frame i, which sits at the rest of
+        // link i from this link's frame.
+        let rest = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha).isometry();
+        let com = rest * Point3::from(joint.com);
+        let mass = (joint.mass > 0.0).then(|| Inertial {
+            mass_kg: joint.mass,
+            com_m: com.coords.into(),
+            radius_m: geometry.thickness_m[i + 1].unwrap_or(DEFAULT_INERTIA_RADIUS_M),
+        });
+        out += &link(&link_name, mass.as_ref(), &geometry.elements[i + 1]);
         out += &format!(
-            "  <joint name=\"joint_{}\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    \
-             <child link=\"{link}\"/>\n    {}\n    <axis xyz=\"0 0 1\"/>\n    \
+            "  <joint name=\"{}\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    \
+             <child link=\"{link_name}\"/>\n    {}\n    <axis xyz=\"0 0 1\"/>\n    \
              <limit lower=\"{}\" upper=\"{}\" effort=\"{}\" velocity=\"{}\"/>\n  </joint>\n",
-            i + 1,
+            attribute(&options.joint_names[i]),
             origin.element(),
             number(joint.limits[0]),
             number(joint.limits[1]),
@@ -72,7 +114,7 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
             number(options.velocity_rad_s),
         );
         origin = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
-        parent = link;
+        parent = link_name;
     }
     // `origin` now holds link 6's rest: DH frame 6, turned so that x points
     // out of the flange (along z6) as REP 199 has it for `flange`.
@@ -92,6 +134,19 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
     out += &fixed_joint("flange", "tool0", &back_to_dh6);
     out += "  <link name=\"tool_point\"/>\n";
     out += &fixed_joint("tool0", "tool_point", &origin_of_frame(&arm.tool));
+    if let Some(kg) = options.payload_kg {
+        let payload = Inertial {
+            mass_kg: kg,
+            com_m: [0.0; 3],
+            radius_m: PAYLOAD_INERTIA_RADIUS_M,
+        };
+        out += &link("payload", Some(&payload), "");
+        let at_com = Origin {
+            xyz: arm.payload_com,
+            rpy: [0.0; 3],
+        };
+        out += &fixed_joint("tool_point", "payload", &at_com);
+    }
     out += "</robot>\n";
     out
 }
@@ -110,8 +165,9 @@ fn header(options: &UrdfOptions) -> String {
     text += &format!(
         "
 Frames (ROS-Industrial names, REP 199):
-  world       the frame lrmcal measured in (the tracker's); world-base_link is the arm's base frame
-  base_link   DH frame 0 of the arm
+  world       (with `export --world`) the frame lrmcal measured in; world-base_link places the base
+  base_link   DH frame 0 of the arm, the root otherwise
+  base        the same frame, as REP 199 names the controller's base
   link_i      DH frame i-1 turned by joint_i about its z axis
   flange      at DH frame 6, x along joint 6's axis (out of the flange)
   tool0       DH frame 6 itself: z along joint 6's axis, the all-zero tool
@@ -129,9 +185,11 @@ What URDF cannot hold, so this file leaves out:
     each command really takes its joint;
   - the play in each joint's drive (backlash): a joint stands half of it short of or
     beyond its command, the way it arrived;
-  - the payload's centre of mass;
-  - link masses and centres of mass (a URDF inertial also needs inertia tensors,
-    which lrmcal does not know).
+  - the links' inertia tensors: lrmcal's model needs masses and centres of mass,
+    written here, but no inertias; each link gets a uniform sphere's, as thick as
+    its collision bodies (Gazebo and dynamics need some; do not trust them).
+Visual and collision geometry are the arm file's collision bodies (the skeleton of
+capsules when it has none), as lrmcal plans with them.
 On the board, `lrmcal compensation elastic` cancels the sag: the tool point then goes
 where this file puts tool_point. With `compensation off` it sags below it; with
 `compensation full` the arm follows its nominal arm: export that one instead.
@@ -150,6 +208,154 @@ where this file puts tool_point. With `compensation off` it sags below it; with
         })
         .collect();
     format!("<!--\n{body}-->\n")
+}
+
+/// A link's mass, centre of mass in its frame, m, and the radius of the
+/// uniform sphere whose inertia it gets.
+struct Inertial {
+    mass_kg: f64,
+    com_m: [f64; 3],
+    radius_m: f64,
+}
+
+/// A `<link>` with its inertial, if any, and its geometry elements.
+fn link(name: &str, inertial: Option<&Inertial>, geometry: &str) -> String {
+    let mut body = String::new();
+    if let Some(i) = inertial {
+        let moment = 0.4 * i.mass_kg * i.radius_m * i.radius_m;
+        body += &format!(
+            "    <inertial>\n      <origin xyz=\"{}\" rpy=\"0 0 0\"/>\n      <mass value=\"{}\"/>\n      \
+             <inertia ixx=\"{m}\" ixy=\"0\" ixz=\"0\" iyy=\"{m}\" iyz=\"0\" izz=\"{m}\"/>\n    </inertial>\n",
+            i.com_m.map(number).join(" "),
+            number(i.mass_kg),
+            m = number(moment),
+        );
+    }
+    body += geometry;
+    if body.is_empty() {
+        format!("  <link name=\"{name}\"/>\n")
+    } else {
+        format!("  <link name=\"{name}\">\n{body}  </link>\n")
+    }
+}
+
+/// The arm's bodies as URDF geometry, per link (0: `base_link`, i: `link_i`).
+struct Geometry {
+    /// The `<visual>` and `<collision>` elements of each link.
+    elements: Vec<String>,
+    /// How thick each link's bodies are, m: the largest capsule radius or
+    /// smallest box half-size; `None` for a link without a body.
+    thickness_m: Vec<Option<f64>>,
+}
+
+impl Geometry {
+    /// The elements of `bodies` (none without them), each on the link it
+    /// moves with, placed with the arm's frames `zero` at the zero pose.
+    fn of(bodies: Option<&BodySet>, zero: &model::ChainFrames<f64>) -> Self {
+        let mut geometry = Self {
+            elements: vec![String::new(); JOINTS + 1],
+            thickness_m: vec![None; JOINTS + 1],
+        };
+        // Link i's frame at the zero pose: DH frame i-1 (turned by q_i = 0).
+        let link_frame = |k: usize| zero.frames[k.saturating_sub(1)];
+        for body in bodies.map(BodySet::bodies).unwrap_or_default() {
+            let k = body.links[0];
+            let to_link = link_frame(k).inverse();
+            let at = |frame: usize, p: &Vector3<f64>| {
+                (to_link * zero.frames[frame] * Point3::from(*p)).coords
+            };
+            for shape in &body.shapes {
+                let (pieces, thickness) = match shape {
+                    Shape::Capsule { from, to, radius_m } => (
+                        capsule(
+                            at(from.frame, &from.offset_m),
+                            at(to.frame, &to.offset_m),
+                            *radius_m,
+                        ),
+                        *radius_m,
+                    ),
+                    Shape::Box {
+                        frame,
+                        placement,
+                        half_extents_m,
+                    } => {
+                        let place = to_link * zero.frames[*frame] * placement;
+                        let size = (half_extents_m * 2.0).map(number);
+                        let piece = (
+                            Origin::of(&place),
+                            format!("<box size=\"{}\"/>", size.as_slice().join(" ")),
+                        );
+                        (vec![piece], half_extents_m.min())
+                    }
+                };
+                for (origin, shape) in pieces {
+                    for element in ["visual", "collision"] {
+                        geometry.elements[k] += &format!(
+                            "    <{element}>\n      {}\n      <geometry>{shape}</geometry>\n    </{element}>\n",
+                            origin.element()
+                        );
+                    }
+                }
+                let t = &mut geometry.thickness_m[k];
+                *t = Some(t.map_or(thickness, |t| t.max(thickness)));
+            }
+        }
+        geometry
+    }
+}
+
+/// A capsule from `a` to `b` (link frame, m) as a cylinder along it and a
+/// sphere at each end: the origin and geometry of each piece.
+fn capsule(a: Vector3<f64>, b: Vector3<f64>, radius_m: f64) -> Vec<(Origin, String)> {
+    let sphere = |c: Vector3<f64>| {
+        (
+            Origin {
+                xyz: c.into(),
+                rpy: [0.0; 3],
+            },
+            format!("<sphere radius=\"{}\"/>", number(radius_m)),
+        )
+    };
+    let axis = b - a;
+    let length = axis.norm();
+    if length < 1e-9 {
+        return vec![sphere(a)];
+    }
+    // The cylinder's z axis along the capsule's.
+    let turn = Rotation3::rotation_between(&Vector3::z(), &axis)
+        .unwrap_or_else(|| Rotation3::from_euler_angles(std::f64::consts::PI, 0.0, 0.0));
+    let middle = Origin {
+        xyz: ((a + b) / 2.0).into(),
+        rpy: rpy(&turn),
+    };
+    vec![
+        (
+            middle,
+            format!(
+                "<cylinder radius=\"{}\" length=\"{}\"/>",
+                number(radius_m),
+                number(length)
+            ),
+        ),
+        sphere(a),
+        sphere(b),
+    ]
+}
+
+/// How far, rad, gravity in the root frame of the URDF (`world` when
+/// `world`, else the base frame) is from its -z axis: ROS takes gravity
+/// along -z, so a URDF whose root is tilted from it stands tilted.
+pub fn gravity_off_down_rad(arm: &Arm<f64>, world: bool) -> f64 {
+    let g = arm.gravity_vector();
+    let g = if world {
+        g
+    } else {
+        arm.base.isometry().rotation.inverse() * g
+    };
+    if g.norm() == 0.0 {
+        return 0.0;
+    }
+    g.angle(&-Vector3::z())
 }
 
 /// A fixed joint `parent-child`.
@@ -184,6 +390,18 @@ impl Origin {
             xyz: [a * c, a * s, d],
             rpy: [alpha, 0.0, theta],
         }
+    }
+
+    /// The placement `iso` as an origin.
+    fn of(iso: &IsometryMatrix3<f64>) -> Self {
+        Self {
+            xyz: iso.translation.vector.into(),
+            rpy: rpy(&iso.rotation),
+        }
+    }
+
+    fn isometry(&self) -> IsometryMatrix3<f64> {
+        IsometryMatrix3::from_parts(Translation3::from(Vector3::from(self.xyz)), self.rotation())
     }
 
     fn rotation(&self) -> Rotation3<f64> {
@@ -333,6 +551,10 @@ mod tests {
             provenance: vec!["calibration `cal--v2.json`-".into()],
             effort_nm: 1.0,
             velocity_rad_s: 1.5,
+            joint_names: std::array::from_fn(|i| format!("j{i} <&>")),
+            bodies: None,
+            world: true,
+            payload_kg: None,
         };
         let text = render(
             &crate::io::arm_source::bundled("lrm").unwrap().arm,
