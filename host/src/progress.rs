@@ -145,7 +145,11 @@ impl Meter {
 
     /// In a log, a line if the last one is [`PLAIN_EVERY`] old.
     fn maybe_line(&self) {
-        if matches!(self.shown, Shown::Lines) && self.last_line.get().elapsed() >= PLAIN_EVERY {
+        // The last unit's line is the one `finish` writes.
+        if matches!(self.shown, Shown::Lines)
+            && self.pos.get() < self.len.get()
+            && self.last_line.get().elapsed() >= PLAIN_EVERY
+        {
             self.last_line.set(Instant::now());
             eprintln!(
                 "{} ({:.0} s so far)",
