@@ -27,6 +27,8 @@ const STYLE: &str = "{msg:<40} [{bar:30}] {pos}/{len} {prefix} {elapsed}";
 /// One counted step: a bar on a terminal, plain lines in a log.
 pub struct Meter {
     shown: Shown,
+    /// How often a line is written in a log, at most.
+    every: Duration,
     unit: &'static str,
     label: RefCell<String>,
     len: Cell<u64>,
@@ -37,7 +39,11 @@ pub struct Meter {
 
 enum Shown {
     Bar(ProgressBar),
+    /// Lines on stderr.
     Lines,
+    /// Lines kept, for the tests.
+    #[cfg(test)]
+    Kept(RefCell<Vec<String>>),
 }
 
 impl Meter {
@@ -57,6 +63,7 @@ impl Meter {
         let now = Instant::now();
         Self {
             shown,
+            every: PLAIN_EVERY,
             unit,
             label: RefCell::new(label.to_owned()),
             len: Cell::new(len),
@@ -100,7 +107,17 @@ impl Meter {
     pub fn println(&self, line: &str) {
         match &self.shown {
             Shown::Bar(bar) => bar.println(line),
+            _ => self.line(line.to_owned()),
+        }
+    }
+
+    /// Writes `line` where the plain lines go.
+    fn line(&self, line: String) {
+        match &self.shown {
+            Shown::Bar(_) => {}
             Shown::Lines => eprintln!("{line}"),
+            #[cfg(test)]
+            Shown::Kept(lines) => lines.borrow_mut().push(line),
         }
     }
 
@@ -108,7 +125,7 @@ impl Meter {
     pub fn suspend<R>(&self, f: impl FnOnce() -> R) -> R {
         match &self.shown {
             Shown::Bar(bar) => bar.suspend(f),
-            Shown::Lines => f(),
+            _ => f(),
         }
     }
 
@@ -117,14 +134,12 @@ impl Meter {
     pub fn finish(&self) {
         match &self.shown {
             Shown::Bar(bar) => bar.finish_and_clear(),
-            Shown::Lines if self.start.elapsed() >= PLAIN_EVERY => {
-                eprintln!(
-                    "{} in {:.1} s",
-                    self.count(),
-                    self.start.elapsed().as_secs_f64()
-                );
-            }
-            Shown::Lines => {}
+            _ if self.start.elapsed() >= self.every => self.line(format!(
+                "{} in {:.1} s",
+                self.count(),
+                self.start.elapsed().as_secs_f64()
+            )),
+            _ => {}
         }
     }
 
@@ -143,19 +158,19 @@ impl Meter {
         )
     }
 
-    /// In a log, a line if the last one is [`PLAIN_EVERY`] old.
+    /// In a log, a line if the last one is `every` old.
     fn maybe_line(&self) {
         // The last unit's line is the one `finish` writes.
-        if matches!(self.shown, Shown::Lines)
+        if !matches!(self.shown, Shown::Bar(_))
             && self.pos.get() < self.len.get()
-            && self.last_line.get().elapsed() >= PLAIN_EVERY
+            && self.last_line.get().elapsed() >= self.every
         {
             self.last_line.set(Instant::now());
-            eprintln!(
+            self.line(format!(
                 "{} ({:.0} s so far)",
                 self.count(),
                 self.start.elapsed().as_secs_f64()
-            );
+            ));
         }
     }
 }
@@ -189,5 +204,59 @@ impl Progress for Steps {
         if let Some(meter) = self.0.take() {
             meter.finish();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A meter whose plain lines are kept, written at most every `every`.
+    fn kept(label: &str, len: u64, unit: &'static str, every: Duration) -> Meter {
+        let now = Instant::now();
+        Meter {
+            shown: Shown::Kept(RefCell::new(Vec::new())),
+            every,
+            unit,
+            label: RefCell::new(label.to_owned()),
+            len: Cell::new(len),
+            pos: Cell::new(0),
+            start: now,
+            last_line: Cell::new(now),
+        }
+    }
+
+    fn lines(meter: &Meter) -> Vec<String> {
+        match &meter.shown {
+            Shown::Kept(lines) => lines.borrow().clone(),
+            _ => unreachable!("a kept meter"),
+        }
+    }
+
+    #[test]
+    fn a_log_gets_a_line_per_period_and_a_closing_one() {
+        // Every unit is a period late: a line each, but the last unit's,
+        // whose line is the closing one.
+        let meter = kept("measuring", 3, "poses", Duration::ZERO);
+        meter.set_label("pose 7");
+        meter.println("pose 7: 20 frames");
+        for _ in 0..3 {
+            meter.inc(1);
+        }
+        meter.finish();
+        let lines = lines(&meter);
+        assert_eq!(lines.len(), 4, "{lines:?}");
+        assert_eq!(lines[0], "pose 7: 20 frames");
+        assert!(lines[1].starts_with("pose 7: 1/3 poses ("), "{lines:?}");
+        assert!(lines[2].starts_with("pose 7: 2/3 poses ("), "{lines:?}");
+        assert!(lines[3].starts_with("pose 7: 3/3 poses in "), "{lines:?}");
+    }
+
+    #[test]
+    fn a_short_step_leaves_nothing_in_a_log() {
+        let meter = kept("elasto-kinematic: DETMAX starts", 8, "", PLAIN_EVERY);
+        meter.inc(8);
+        meter.finish();
+        assert!(lines(&meter).is_empty());
     }
 }
