@@ -25,8 +25,8 @@ use std::time::{Duration, Instant};
 use lrmcal_core::dataset::Pose;
 use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
 use lrmcal_engine::calib::analysis::jacobian::jacobian;
+use lrmcal_engine::calib::fit::grow::grow;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::knot_choice;
 use lrmcal_engine::calib::fit::pipeline::CandidateBlocks;
 use lrmcal_engine::calib::parameters::params::Key as _;
 use lrmcal_engine::calib::{ModelOption, ParamKey, Rig, Sample};
@@ -186,7 +186,7 @@ fn pool(nominal: &model::Arm<f64>) {
             let measured = truth.measure(&poses, &[LOAD]).expect("measure");
             let start = Instant::now();
             black_box(
-                knot_choice::fit(
+                grow(
                     &rig,
                     option,
                     &blocks.identifiability.kept,

@@ -18,12 +18,10 @@
 
 use serde::Serialize;
 
-use crate::calib::fit::identify::{Identified, IdentifyOptions};
-use crate::calib::fit::refresh::identify_refreshed;
+use crate::calib::CalibError;
+use crate::calib::fit::identify::Identified;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{KnotSpacing, on_spacing, spacing_of};
-use crate::calib::{CalibError, ModelOption, Rig, parameters::backlash};
-use lrmcal_core::dataset::Measurement;
 
 /// One knot spacing tried.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -55,21 +53,13 @@ pub struct ChosenFit {
     pub knots: Option<KnotChoice>,
 }
 
-/// Fits `option`'s `kept` parameters (and the backlash widths the
-/// measurements identify, `calib::backlash`) to `measurements`, refreshed
-/// at the estimate (`calib::refresh`); when `kept` holds servo knots, on the
-/// spacing chosen as the module docs say.
-pub fn fit(
-    nominal: &Rig,
-    option: ModelOption,
+/// The knot spacing stage: `fit_on` (the stages after it) of `kept`; when
+/// `kept` holds servo knots, of `kept` on each spacing tried, the one chosen
+/// as the module docs say.
+pub fn choose(
     kept: &[ParamKey],
-    measurements: &[Measurement],
-    options: &IdentifyOptions,
+    fit_on: impl Fn(&[ParamKey]) -> Result<Identified, CalibError> + Sync,
 ) -> Result<ChosenFit, CalibError> {
-    let fit_on = |keys: &[ParamKey]| -> Result<Identified, CalibError> {
-        let keys = backlash::with_widths(nominal, option, keys, measurements)?;
-        identify_refreshed(nominal, option, &keys, measurements, options)
-    };
     let Some(finest) = spacing_of(kept) else {
         return Ok(ChosenFit {
             identified: fit_on(kept)?,

@@ -2,10 +2,12 @@
 //! ([`registration`]), measurements that cannot be right ([`checks`]), the
 //! Levenberg–Marquardt fit ([`identify`]), the rank analysis again at the
 //! estimate ([`refresh`]), the servo curves' knot spacing ([`knot_choice`]),
+//! these stages in their order for one option ([`grow`]),
 //! validation on held-out poses ([`validate`]), re-teaching the tool points
 //! ([`tool_only`]) and the stages chained for one option ([`pipeline`]).
 
 pub mod checks;
+pub mod grow;
 pub mod identify;
 pub mod knot_choice;
 pub mod pipeline;

@@ -19,8 +19,9 @@ use crate::calib::analysis::identifiability::{
 };
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::{ColumnScale, Observability};
+use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
-use crate::calib::fit::knot_choice::{self, ChosenFit, KnotChoice};
+use crate::calib::fit::knot_choice::{ChosenFit, KnotChoice};
 use crate::calib::fit::validate::{LoadValidation, Validation, validate};
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;
@@ -527,7 +528,7 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let ChosenFit { identified, knots } = knot_choice::fit(
+    let ChosenFit { identified, knots } = grow(
         &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,

@@ -75,20 +75,18 @@ pub const TRIAL_PATIENCE: usize = 10;
 /// to shrink as many times for it to be determined.
 pub const HOPELESS_FACTOR: f64 = 100.0;
 
-/// [`identify`], then, when `options.refresh`, the refresh described in the
-/// module docs. The result's estimates are corrections of `nominal`, the
-/// added parameters among them.
-pub fn identify_refreshed(
+/// The refresh described in the module docs, from `first`, the fit of
+/// `keys` to `measurements` from `nominal`. The result's estimates are
+/// corrections of `nominal`, the added parameters among them.
+pub fn refreshed(
     nominal: &Rig,
     option: ModelOption,
     keys: &[ParamKey],
+    first: Identified,
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
-    let mut fit = identify(nominal, option, keys, measurements, options)?;
-    if !options.refresh {
-        return Ok(fit);
-    }
+    let mut fit = first;
     let typical = TypicalErrors::of_arm(&nominal.arm);
     let mut fitted = keys.to_vec();
     // Joined once and found undetermined: not proposed again.
@@ -275,6 +273,7 @@ fn combine(nominal: &Rig, first: &Identified, second: Identified) -> Identified 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::calib::fit::grow::fit_refreshed;
     use crate::calib::testing::{key, measure, rigid_nominal, small_samples};
 
     /// Joints 2 and 3 of the nominal arm are parallel, so `j3.d` is removed
@@ -304,14 +303,13 @@ mod tests {
             refresh: false,
             ..Default::default()
         };
-        let first =
-            identify_refreshed(&nominal, ModelOption::Kinematic, &keys, &meas, &plain).unwrap();
+        let first = fit_refreshed(&nominal, ModelOption::Kinematic, &keys, &meas, &plain).unwrap();
         assert!(
             first.diagnostics.rms_after_m > 1e-6,
             "{:?}",
             first.diagnostics
         );
-        let fit = identify_refreshed(
+        let fit = fit_refreshed(
             &nominal,
             ModelOption::Kinematic,
             &keys,

@@ -8,11 +8,11 @@ use serde::Serialize;
 use nalgebra::Vector3;
 
 use crate::calib::analysis::detmax::{DetmaxOptions, detmax, random_design};
+use crate::calib::fit::grow::fit_refreshed;
 use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks, calibrate_option,
 };
-use crate::calib::fit::refresh::identify_refreshed;
 use crate::calib::fit::validate::{ErrorStats, validate};
 use crate::calib::parameters::servo_knots::KnotSpacing;
 use crate::calib::progress::{Progress, Silent, par_map};
@@ -95,7 +95,7 @@ pub fn random_baseline(
         let fit = inputs.measurements.of(chosen_ids.iter().copied(), load);
         let rest = inputs.measurements.of(inputs.held_out(&chosen_ids), load);
         // A random set may be rank deficient: that is a loss for random selection.
-        let mean = match identify_refreshed(&inputs.nominal, result.option(), keys, &fit, options) {
+        let mean = match fit_refreshed(&inputs.nominal, result.option(), keys, &fit, options) {
             Ok(f) => validate(&inputs.nominal, &f.rig, &rest)?.after.mean_m,
             Err(_) => f64::INFINITY,
         };

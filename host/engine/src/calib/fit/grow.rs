@@ -1,0 +1,52 @@
+//! One option's fit, its parameter set grown stage by stage, each stage
+//! handing the next a larger set and none calling another:
+//!
+//! ```text
+//! kept (the candidates' analysis, structure checked)
+//!   → knot spacing (knot_choice: the servo curves' knots on each spacing tried)
+//!     → play widths (backlash: the joints the measurements show arriving both ways)
+//!       → the fit (identify)
+//!         → refresh (the rank analysis again at the estimate, and what it adds)
+//! ```
+//!
+//! The spacing stage compares the fits its spacings end in and keeps the
+//! one that predicts best; the stages after it run once per spacing.
+
+use crate::calib::fit::identify::{Identified, IdentifyOptions, identify};
+use crate::calib::fit::knot_choice::{self, ChosenFit};
+use crate::calib::fit::refresh::refreshed;
+use crate::calib::parameters::backlash;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::{CalibError, ModelOption, Rig};
+use lrmcal_core::dataset::Measurement;
+
+/// Fits `option`'s `kept` parameters to `measurements` from `nominal`
+/// through every stage.
+pub fn grow(
+    nominal: &Rig,
+    option: ModelOption,
+    kept: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<ChosenFit, CalibError> {
+    knot_choice::choose(kept, |keys| {
+        let keys = backlash::with_widths(nominal, option, keys, measurements)?;
+        fit_refreshed(nominal, option, &keys, measurements, options)
+    })
+}
+
+/// The last two stages for `keys`: the fit, then, when `options.refresh`,
+/// the refresh at its estimate.
+pub fn fit_refreshed(
+    nominal: &Rig,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<Identified, CalibError> {
+    let fit = identify(nominal, option, keys, measurements, options)?;
+    if !options.refresh {
+        return Ok(fit);
+    }
+    refreshed(nominal, option, keys, fit, measurements, options)
+}
