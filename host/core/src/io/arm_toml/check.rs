@@ -1,16 +1,17 @@
-//! The arm file's values checked against their allowed ranges, each
-//! refusal naming the key path, the line and what was expected.
+//! The arm file's tables made into its description, every value checked
+//! against its allowed range, each refusal naming the key path, the line
+//! and what was expected.
 
 use std::ops::Range;
 
 use model::servo::{CurveFault, MAX_KNOTS, PULSE_RANGE_US};
-use model::{Frame, ServoCurve};
+use model::{Arm, Frame, JOINTS, ServoCurve};
 use toml::{Spanned, Value};
 
 use super::raw::*;
-use super::{LineIndex, no_servo};
+use super::{ArmDescription, LineIndex, no_servo};
 use crate::collision::{
-    BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
+    BodySet, BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
 };
 use crate::error::{InputError, Location, Problem};
 use model::Joint;
@@ -458,5 +459,71 @@ impl Checker<'_> {
                 ),
             )),
         }
+    }
+}
+
+/// The description the tables hold, every value checked.
+impl RawArm {
+    pub(super) fn check(self, lines: &LineIndex) -> Result<ArmDescription, InputError> {
+        let c = Checker { lines };
+        let raw_joints = self.joint.get_ref();
+        if raw_joints.len() != JOINTS {
+            return Err(c.fail(
+                "joint",
+                self.joint.span(),
+                Problem::JointCount {
+                    found: raw_joints.len(),
+                },
+            ));
+        }
+        let mut joints = Vec::with_capacity(JOINTS);
+        for (i, raw) in raw_joints.iter().enumerate() {
+            joints.push(c.joint(&format!("joint[{}]", i + 1), raw)?);
+        }
+        let arm = Arm {
+            gravity: c.finite_array("gravity", &self.gravity)?,
+            base: c.frame("base", &self.base.xyz, &self.base.rpy)?,
+            base_compliance: c.non_negative(
+                "base.compliance",
+                &self.base.compliance,
+                "a compliance >= 0 rad/Nm",
+            )?,
+            base_softening: 0.0,
+            tool: c.frame("tool", &self.tool.xyz, &self.tool.rpy)?,
+            payload_com: c.finite_array("payload.com", &self.payload.com)?,
+            rated_payload_kg: match &self.payload.rated_kg {
+                Some(kg) => c.non_negative("payload.rated_kg", kg, "a payload >= 0 kg")?,
+                None => 0.0,
+            },
+            joints: joints.try_into().expect("length checked above"),
+        };
+        // The nominal compliances within the physical bounds (`model::bounds`).
+        let bounds = model::bounds::Bounds::of(&arm);
+        if let Err(v) = bounds.check(&arm) {
+            let key = crate::io::bounds::key("", v.quantity, true);
+            let span = match v.quantity {
+                model::bounds::Quantity::Compliance { spring: 0 } => self.base.compliance.span(),
+                model::bounds::Quantity::Compliance { spring } => {
+                    raw_joints[usize::from(spring) - 1].compliance.span()
+                }
+                _ => self.joint.span(),
+            };
+            return Err(c.fail(
+                &key,
+                span,
+                crate::io::bounds::problem(&v, &bounds, arm.rated_payload_kg),
+            ));
+        }
+        let joint_names = std::array::from_fn(|i| raw_joints[i].name.clone());
+        let collision = c.collision(self.collision.as_ref(), &self.body)?;
+        // Names, links and pairs are only known on the arm: place the bodies once to check them.
+        BodySet::for_arm(&arm, &collision)
+            .map_err(|e| c.spec_error(e, self.collision.as_ref(), &self.body))?;
+        Ok(ArmDescription {
+            name: self.name,
+            joint_names,
+            arm,
+            collision,
+        })
     }
 }
