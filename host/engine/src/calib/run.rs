@@ -16,7 +16,7 @@
 use model::Arm;
 
 use super::analysis::detmax::DetmaxOptions;
-use super::analysis::identifiability::check_structure;
+use super::analysis::identifiability::Structures;
 use super::fit::checks::{check_in_candidates, check_measured, identification_load};
 use super::fit::identify::IdentifyOptions;
 use super::fit::pipeline::{
@@ -156,6 +156,9 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
     };
     let registered = matches!(request.placement, Placement::Register(_));
     let inputs = Inputs::new(&nominal, &measured, &all);
+    // Worked out once per option and spacing, for the candidates' analysis
+    // and the check below alike.
+    let structures = Structures::new(&inputs.nominal.arm, load);
     let mut results = Vec::new();
     let mut skipped = Vec::new();
     for &option in &request.options {
@@ -166,9 +169,10 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
                 &measured,
                 &[load],
                 settings.choice.poses(),
+                &structures,
             )?;
             // The measured poses must identify what positions can reveal on this arm at all.
-            check_structure(&nominal, &blocks.identifiability, load)?;
+            structures.check(&blocks.identifiability)?;
             if registered {
                 let params = blocks.identifiability.kept.len();
                 check_registered_count(settings.choice.poses(), params, option)?;

@@ -36,6 +36,8 @@
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
 
+use std::cell::RefCell;
+
 use model::Arm;
 use model::params::ParamKind;
 use nalgebra::{DMatrix, DVector};
@@ -356,48 +358,84 @@ pub fn check_full_rank(
     })
 }
 
-/// Refuses a measured pose set that identifies fewer of `measured.option`'s
-/// parameters than the arm's structure allows: what the -100/0/+100° grid of
-/// every joint identifies under `load_kg` (servo knots on `measured`'s grid)
-/// is what positions can reveal at all.
-pub fn check_structure(
-    nominal: &Arm<f64>,
-    measured: &Identifiability,
+/// What the arm's structure lets positions identify, worked out once per
+/// option and knot spacing and kept for every later check of the same arm
+/// and load: the parameters the -100/0/+100° grid of every joint identifies
+/// (servo knots on the spacing checked) is what positions can reveal at all.
+pub struct Structures<'a> {
+    nominal: &'a Arm<f64>,
     load_kg: f64,
-) -> Result<(), CalibError> {
-    let grid: Vec<Sample> = crate::plan::Levels::paper()
-        .grid()
-        .map(|p| Sample {
-            id: p.id,
-            q: p.q,
+    known: RefCell<Vec<Structure>>,
+}
+
+/// The parameters the grid identifies for an option and knot spacing.
+type Structure = ((ModelOption, KnotSpacing), Vec<ParamKey>);
+
+impl<'a> Structures<'a> {
+    /// The structures of `nominal` under `load_kg`, none worked out yet.
+    pub fn new(nominal: &'a Arm<f64>, load_kg: f64) -> Self {
+        Self {
+            nominal,
             load_kg,
-            target: 0,
-            approach: lrmcal_core::dataset::FROM_HOME,
-        })
-        .collect();
-    let spacing = measured.knots.unwrap_or(KnotSpacing::FINEST);
-    let structural = analyse_spaced(nominal, measured.option, spacing, &grid)?.kept;
-    // Compared over the rig's own parameters: further targets' tool points
-    // are the measurements' own, the grid has none.
-    let own_kept = measured
-        .kept
-        .iter()
-        .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
-        .count();
-    if own_kept >= structural.len() {
-        return Ok(());
+            known: RefCell::new(Vec::new()),
+        }
     }
-    let missing: Vec<String> = structural
-        .iter()
-        .filter(|p| !measured.kept.contains(p))
-        .map(|p| p.to_string())
-        .collect();
-    Err(CalibError::Unidentifiable {
-        option: measured.option.name().into(),
-        identified: own_kept,
-        structural: structural.len(),
-        missing: missing.join(", "),
-    })
+
+    /// Refuses a measured pose set that identifies fewer of
+    /// `measured.option`'s parameters than the arm's structure allows.
+    pub fn check(&self, measured: &Identifiability) -> Result<(), CalibError> {
+        let spacing = measured.knots.unwrap_or(KnotSpacing::FINEST);
+        let structural = self.kept(measured.option, spacing)?;
+        // Compared over the rig's own parameters: further targets' tool points
+        // are the measurements' own, the grid has none.
+        let own_kept = measured
+            .kept
+            .iter()
+            .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
+            .count();
+        if own_kept >= structural.len() {
+            return Ok(());
+        }
+        let missing: Vec<String> = structural
+            .iter()
+            .filter(|p| !measured.kept.contains(p))
+            .map(|p| p.to_string())
+            .collect();
+        Err(CalibError::Unidentifiable {
+            option: measured.option.name().into(),
+            identified: own_kept,
+            structural: structural.len(),
+            missing: missing.join(", "),
+        })
+    }
+
+    /// The parameters the grid identifies for `option` on `spacing`: worked
+    /// out the first time they are asked for.
+    fn kept(&self, option: ModelOption, spacing: KnotSpacing) -> Result<Vec<ParamKey>, CalibError> {
+        if let Some((_, kept)) = self
+            .known
+            .borrow()
+            .iter()
+            .find(|(k, _)| *k == (option, spacing))
+        {
+            return Ok(kept.clone());
+        }
+        let grid: Vec<Sample> = crate::plan::Levels::paper()
+            .grid()
+            .map(|p| Sample {
+                id: p.id,
+                q: p.q,
+                load_kg: self.load_kg,
+                target: 0,
+                approach: lrmcal_core::dataset::FROM_HOME,
+            })
+            .collect();
+        let kept = analyse_spaced(self.nominal, option, spacing, &grid)?.kept;
+        self.known
+            .borrow_mut()
+            .push(((option, spacing), kept.clone()));
+        Ok(kept)
+    }
 }
 
 #[cfg(test)]
@@ -454,7 +492,8 @@ mod tests {
     fn a_pose_set_must_identify_what_the_grid_does() {
         let nominal = test_arm();
         let one = analyse(&nominal, ModelOption::Elastic, &small_samples(1)).unwrap();
-        let e = check_structure(&nominal, &one, 0.0663).unwrap_err();
+        let structures = Structures::new(&nominal, 0.0663);
+        let e = structures.check(&one).unwrap_err();
         assert!(
             matches!(e, CalibError::Unidentifiable { structural: 6, .. }),
             "{e}"
@@ -471,6 +510,6 @@ mod tests {
             })
             .collect();
         let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();
-        assert!(check_structure(&nominal, &all, 0.0663).is_ok());
+        assert!(structures.check(&all).is_ok());
     }
 }

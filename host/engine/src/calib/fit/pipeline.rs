@@ -15,7 +15,7 @@ use nalgebra::DMatrix;
 
 use crate::calib::analysis::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use crate::calib::analysis::identifiability::{
-    Identifiability, TypicalErrors, analyse_jacobian, check_structure,
+    Identifiability, Structures, TypicalErrors, analyse_jacobian,
 };
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::{ColumnScale, Observability};
@@ -65,14 +65,15 @@ impl CandidateBlocks {
     /// ([`CandidateBlocks::selects_for`]) or, when all the candidates are
     /// to be fitted, they leave some of what the arm's structure identifies
     /// undetermined
-    /// (`identifiability::check_structure`, under the first load). The
-    /// coarsest grid's when none will do: the callers' checks then say why.
+    /// (`structures`, the arm's under the first load). The coarsest grid's
+    /// when none will do: the callers' checks then say why.
     pub fn build_for(
         nominal: &Rig,
         option: ModelOption,
         candidates: &[Pose],
         loads_kg: &[f64],
         poses: usize,
+        structures: &Structures,
     ) -> Result<Self, CalibError> {
         let mut spacing = KnotSpacing::FINEST;
         loop {
@@ -82,8 +83,7 @@ impl CandidateBlocks {
             let carried = || {
                 blocks.selects_for(poses)
                     && (poses < candidates.len()
-                        || check_structure(&nominal.arm, &blocks.identifiability, loads_kg[0])
-                            .is_ok())
+                        || structures.check(&blocks.identifiability).is_ok())
             };
             match spacing.coarser() {
                 Some(coarser) if blocks.identifiability.knots.is_some() && !carried() => {
@@ -319,6 +319,7 @@ pub fn select(
         candidates,
         loads_kg,
         choice.poses(),
+        &Structures::new(nominal, loads_kg[0]),
     )?;
     Selection::choose(blocks, candidates, choice, progress)
 }
@@ -495,6 +496,7 @@ pub fn calibrate_option(
         inputs.candidates,
         &[settings.identify_load_kg],
         settings.choice.poses(),
+        &Structures::new(&inputs.nominal.arm, settings.identify_load_kg),
     )?;
     calibrate_blocks(inputs, blocks, settings, progress)
 }

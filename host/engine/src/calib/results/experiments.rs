@@ -8,6 +8,7 @@ use serde::Serialize;
 use nalgebra::Vector3;
 
 use crate::calib::analysis::detmax::{DetmaxOptions, detmax, random_design};
+use crate::calib::analysis::identifiability::Structures;
 use crate::calib::fit::grow::fit_refreshed;
 use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::pipeline::{
@@ -314,6 +315,7 @@ pub fn error_vs_poses(
                     inputs.candidates,
                     &[r.identify_load_kg],
                     n,
+                    &Structures::new(&inputs.nominal.arm, r.identify_load_kg),
                 )
             };
             point(blocks.and_then(|b| {
