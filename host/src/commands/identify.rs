@@ -15,19 +15,17 @@ use crate::commands::helpers::OptionChoice;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::progress::Steps;
-use lrmcal_core::dataset::{Measurement, Pose, loads_of};
+use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::{measurements, pose_list};
-use lrmcal_engine::calib::CalibError;
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
-use lrmcal_engine::calib::fit::checks::identification_load;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
 use lrmcal_engine::calib::fit::registration::Gravity;
-use lrmcal_engine::calib::fit::tool_only::retaught;
-use lrmcal_engine::calib::parameters::targets::Targets;
 use lrmcal_engine::calib::results::summary;
-use lrmcal_engine::calib::run::{Placement, PoseChoice, Request, calibrate};
+use lrmcal_engine::calib::run::{
+    Placement, PoseChoice, Request, calibrate, reteach as reteach_tools,
+};
 use lrmcal_engine::tracker::axes::Up;
 
 /// Identify the arm's error parameters from measured tool positions.
@@ -205,29 +203,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
 /// `--tool-only`: re-teaches the tool points of `--calibration` from the
 /// measurements under the fitted load, its arm held fixed.
 fn reteach(args: &Args, path: &Path, all: &[Measurement]) -> Result<(), Error> {
-    let file = args.measurements.display().to_string();
-    if all.is_empty() {
-        return Err(CalibError::Empty {
-            what: format!("identify from {file}"),
-        }
-        .into());
-    }
-    let load = identification_load(&loads_of(all), args.load_kg, &file)?;
-    let targets = Targets::of(all);
-    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
-    targets.check_poses(&under_load, &file)?;
-    let cal = retaught(
+    let (cal, count) = reteach_tools(
         CalibrationFile::read(path)?,
-        targets,
-        &under_load,
-        load,
+        all,
+        args.load_kg,
+        &args.measurements.display().to_string(),
         &identify_options(args),
     )?;
     let out = create_out(args)?.join(format!("calibration-{}.json", cal.option));
     write_text(&out, &cal.to_json())?;
     println!(
-        "tool points re-taught from {} measurements with the arm of {} held fixed:",
-        under_load.len(),
+        "tool points re-taught from {count} measurements with the arm of {} held fixed:",
         path.display()
     );
     print!("{}", summary::targets_table(&cal.targets));

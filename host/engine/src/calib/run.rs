@@ -25,6 +25,7 @@ use super::fit::pipeline::{
 use super::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
+use super::fit::tool_only::retaught;
 use super::parameters::targets::Targets;
 use super::progress::Progress;
 use super::results::export::registered_calibration_file;
@@ -105,20 +106,69 @@ pub struct Run {
     pub files: Vec<CalibrationFile>,
 }
 
+/// The measurements a fit works from: the loads measured, the one fitted,
+/// the targets seen and the rows under that load.
+struct FitLoad {
+    loads: Vec<f64>,
+    load_kg: f64,
+    targets: Targets,
+    under_load: Vec<Measurement>,
+}
+
+impl FitLoad {
+    /// The load `requested` (the file's only one when `None`) of `all`,
+    /// read from `file`, each target seen in enough poses under it.
+    fn of(all: &[Measurement], requested: Option<f64>, file: &str) -> Result<Self, CalibError> {
+        if all.is_empty() {
+            return Err(CalibError::Empty {
+                what: format!("identify from {file}"),
+            });
+        }
+        let loads = loads_of(all);
+        let load_kg = identification_load(&loads, requested, file)?;
+        let targets = Targets::of(all);
+        let under_load: Vec<_> = all
+            .iter()
+            .filter(|m| m.load_kg == load_kg)
+            .copied()
+            .collect();
+        targets.check_poses(&under_load, file)?;
+        Ok(Self {
+            loads,
+            load_kg,
+            targets,
+            under_load,
+        })
+    }
+}
+
+/// Re-teaches the tool points of `old` from `all` (read from `file`) under
+/// the load `load_kg` (the file's only one when `None`), `old`'s arm held
+/// fixed: after a tool change. The new file, and how many measurements it
+/// was fitted to.
+pub fn reteach(
+    old: CalibrationFile,
+    all: &[Measurement],
+    load_kg: Option<f64>,
+    file: &str,
+    options: &IdentifyOptions,
+) -> Result<(CalibrationFile, usize), CalibError> {
+    let fit = FitLoad::of(all, load_kg, file)?;
+    let count = fit.under_load.len();
+    let cal = retaught(old, fit.targets, &fit.under_load, fit.load_kg, options)?;
+    Ok((cal, count))
+}
+
 /// Runs the calibration `request` asks for; long steps report to `progress`.
 pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, CalibError> {
     let file = request.measurements_file.as_str();
     let all = request.measurements;
-    if all.is_empty() {
-        return Err(CalibError::Empty {
-            what: format!("identify from {file}"),
-        });
-    }
-    let loads = loads_of(all);
-    let load = identification_load(&loads, request.load_kg, file)?;
-    let targets = Targets::of(all);
-    let under_load: Vec<_> = all.iter().filter(|m| m.load_kg == load).copied().collect();
-    targets.check_poses(&under_load, file)?;
+    let FitLoad {
+        loads,
+        load_kg: load,
+        targets,
+        ..
+    } = FitLoad::of(all, request.load_kg, file)?;
     // The nominal arm knows the first target's tool point only: the others
     // may sit anywhere on the flange.
     let first: Vec<_> = all
