@@ -110,7 +110,8 @@ pub struct Body {
 }
 
 impl Body {
-    fn thickness_m(&self) -> f64 {
+    /// How far its thickest shape reaches from its core, m.
+    pub fn thickness_m(&self) -> f64 {
         self.shapes
             .iter()
             .map(Shape::thickness_m)

@@ -94,8 +94,8 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
         let link_name = format!("link_{}", i + 1);
         // The centre of mass is given in DH frame i, which sits at the rest of
         // link i from this link's frame.
-        let rest = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha).isometry();
-        let com = rest * Point3::from(joint.com);
+        let rest = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
+        let com = rest.isometry() * Point3::from(joint.com);
         let mass = (joint.mass > 0.0).then(|| Inertial {
             mass_kg: joint.mass,
             com_m: com.coords.into(),
@@ -113,7 +113,7 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
             number(options.effort_nm),
             number(options.velocity_rad_s),
         );
-        origin = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
+        origin = rest;
         parent = link_name;
     }
     // `origin` now holds link 6's rest: DH frame 6, turned so that x points
@@ -265,13 +265,10 @@ impl Geometry {
                 (to_link * zero.frames[frame] * Point3::from(*p)).coords
             };
             for shape in &body.shapes {
-                let (pieces, thickness) = match shape {
-                    Shape::Capsule { from, to, radius_m } => (
-                        capsule(
-                            at(from.frame, &from.offset_m),
-                            at(to.frame, &to.offset_m),
-                            *radius_m,
-                        ),
+                let pieces = match shape {
+                    Shape::Capsule { from, to, radius_m } => capsule(
+                        at(from.frame, &from.offset_m),
+                        at(to.frame, &to.offset_m),
                         *radius_m,
                     ),
                     Shape::Box {
@@ -285,7 +282,7 @@ impl Geometry {
                             Origin::of(&place),
                             format!("<box size=\"{}\"/>", size.as_slice().join(" ")),
                         );
-                        (vec![piece], half_extents_m.min())
+                        vec![piece]
                     }
                 };
                 for (origin, shape) in pieces {
@@ -296,9 +293,10 @@ impl Geometry {
                         );
                     }
                 }
-                let t = &mut geometry.thickness_m[k];
-                *t = Some(t.map_or(thickness, |t| t.max(thickness)));
             }
+            let thickness = body.thickness_m();
+            let t = &mut geometry.thickness_m[k];
+            *t = Some(t.map_or(thickness, |t| t.max(thickness)));
         }
         geometry
     }
