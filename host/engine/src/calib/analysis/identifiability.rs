@@ -44,6 +44,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::ColumnScale;
+use crate::calib::analysis::triangular::triangular_factor;
 use crate::calib::parameters::option::candidates;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{self, KnotSpacing};
@@ -225,6 +226,12 @@ pub fn analyse_jacobian_within(
             }
         })
         .collect();
+    // Everything below depends on the unit columns only through their inner
+    // products: read it on their triangular factor, a column per parameter.
+    let unit: Vec<DVector<f64>> = triangular_factor(&DMatrix::from_columns(&unit))
+        .column_iter()
+        .map(|c| c.into_owned())
+        .collect();
 
     let mut basis: Vec<DVector<f64>> = Vec::new();
     let mut kept = Vec::new();
@@ -325,7 +332,8 @@ pub fn check_full_rank(
 ) -> Result<(), CalibError> {
     let j = jacobian(rig, keys, samples)?;
     let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
-    let svd = scaled.svd(false, true);
+    // The same singular values and right singular vectors, on a square matrix.
+    let svd = triangular_factor(&scaled).svd(false, true);
     let rank = numerical_rank(&svd.singular_values);
     if rank == keys.len() {
         return Ok(());
