@@ -104,22 +104,26 @@ pub fn log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
 }
 
 /// The candidates as the exchange reads them: the blocks, and all of them
-/// stacked and transposed (`m × r·C`: a candidate's rows are `r·m`
-/// contiguous numbers), for the passes over every candidate.
+/// stacked (`r·C × m`, column-major) and transposed (`m × r·C`: a
+/// candidate's rows are `r·m` contiguous numbers), for the passes over
+/// every candidate.
 struct Pool<'a> {
     blocks: &'a [DMatrix<f64>],
     /// Rows per block.
     r: usize,
+    stacked: DMatrix<f64>,
     stacked_t: DMatrix<f64>,
 }
 
 impl<'a> Pool<'a> {
     fn new(blocks: &'a [DMatrix<f64>]) -> Self {
         let all: Vec<usize> = (0..blocks.len()).collect();
+        let stacked = stack(blocks, &all);
         Self {
             blocks,
             r: blocks.first().map_or(0, |b| b.nrows()),
-            stacked_t: stack(blocks, &all).transpose(),
+            stacked_t: stacked.transpose(),
+            stacked,
         }
     }
 
@@ -215,33 +219,37 @@ impl Corrections {
         }
     }
 
-    /// `A_c K̃` of every candidate at once (`w' × r·C`: candidate `c`'s row
-    /// `i` is column `r·c + i`), `None` when there is nothing to correct.
+    /// `A_c K̃` of every candidate at once (`r·C × w'`: candidate `c`'s row
+    /// `i` is row `r·c + i`), `None` when there is nothing to correct.
     ///
-    /// One product `K̃ᵀ · stacked` through nalgebra's blocked kernel
+    /// One product `stacked · K̃` through nalgebra's blocked kernel
     /// (matrixmultiply, vectorised for the machine it runs on), which it
-    /// uses only above 5 rows: fewer columns are padded with zeros (`w'`).
+    /// uses only above 5 columns: fewer are padded with zeros (`w'`). The
+    /// kernel first copies the candidates' rows into panels of a few rows;
+    /// from the column-major `stacked` that copy reads each panel's rows
+    /// side by side, where from `stacked_t` it would gather them across
+    /// columns, and it was most of the time of a pass.
     fn products(&self, pool: &Pool) -> Option<DMatrix<f64>> {
         if self.is_empty() {
             return None;
         }
         let m = pool.m();
         let w = self.signs.len();
-        let mut kt = DMatrix::zeros(w.max(6), m);
-        kt.rows_mut(0, w)
-            .copy_from(&DMatrix::from_row_slice(w, m, &self.columns));
-        Some(kt * &pool.stacked_t)
+        let mut k = DMatrix::zeros(m, w.max(6));
+        k.columns_mut(0, w)
+            .copy_from(&DMatrix::from_column_slice(m, w, &self.columns));
+        Some(&pool.stacked * k)
     }
 
     /// `g` corrected for candidate `c` into `out`, from [`Corrections::products`].
     fn correct(&self, g: &[f64], products: &DMatrix<f64>, c: usize, r: usize, out: &mut [f64]) {
         out.copy_from_slice(g);
-        let p = |i: usize| products.column(r * c + i);
+        let p = |i: usize, j: usize| products[(r * c + i, j)];
         for (j, &sign) in self.signs.iter().enumerate() {
             for b in 0..r {
-                let pb = sign * p(b)[j];
+                let pb = sign * p(b, j);
                 for a in 0..r {
-                    out[a + b * r] -= p(a)[j] * pb;
+                    out[a + b * r] -= p(a, j) * pb;
                 }
             }
         }
