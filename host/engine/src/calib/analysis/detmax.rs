@@ -88,6 +88,14 @@ const RIDGE: f64 = 1e-9;
 /// 1e-13, far finer than the differences between candidates.
 pub const REBUILD_AFTER: usize = 64;
 
+/// Candidates of the highest earlier gains corrected first, to set the
+/// floor of a bounded search for the best addition.
+const BOUND_PROBES: usize = 16;
+
+/// Relative margin on the earlier gains of that search: far above the
+/// rounding of a 3×3 determinant, far below the gaps between candidates.
+const BOUND_MARGIN: f64 = 1e-9;
+
 /// `ln det` of the information matrix of `chosen`, without any ridge; −∞ when singular.
 pub fn log_det(blocks: &[DMatrix<f64>], chosen: &[usize]) -> f64 {
     let Some(m) = blocks.first().map(|b| b.ncols()) else {
@@ -203,6 +211,12 @@ impl Corrections {
         self.signs.is_empty()
     }
 
+    /// Whether every correction is an addition: each then only shrinks
+    /// the dispersions (`G_c − Σ p pᵀ`), and with them every gain.
+    fn only_additions(&self) -> bool {
+        self.signs.iter().all(|&s| s > 0.0)
+    }
+
     fn push(&mut self, k: &DMatrix<f64>, sign: f64) {
         let m = k.nrows();
         self.columns.extend_from_slice(k.as_slice());
@@ -233,15 +247,37 @@ impl Corrections {
         if self.is_empty() {
             return None;
         }
-        let m = pool.m();
+        Some(&pool.stacked * self.padded(pool.m()))
+    }
+
+    /// `A_c K̃` of the candidates `some` only (candidate `some[s]`'s row
+    /// `i` is row `r·s + i`), entry for entry the numbers of
+    /// [`Corrections::products`]: the same kernel, padded with zero rows to
+    /// the 6 it needs.
+    fn products_of(&self, pool: &Pool, some: &[usize]) -> DMatrix<f64> {
+        let (m, r) = (pool.m(), pool.r);
+        let mut rows = DMatrix::zeros((r * some.len()).max(6), m);
+        for (s, &c) in some.iter().enumerate() {
+            for (i, row) in pool.rows(c).chunks_exact(m).enumerate() {
+                for (k, v) in row.iter().enumerate() {
+                    rows[(r * s + i, k)] = *v;
+                }
+            }
+        }
+        rows * self.padded(m)
+    }
+
+    /// The `K̃` as an `m × w'` matrix, zero columns past the last.
+    fn padded(&self, m: usize) -> DMatrix<f64> {
         let w = self.signs.len();
         let mut k = DMatrix::zeros(m, w.max(6));
         k.columns_mut(0, w)
             .copy_from(&DMatrix::from_column_slice(m, w, &self.columns));
-        Some(&pool.stacked * k)
+        k
     }
 
-    /// `g` corrected for candidate `c` into `out`, from [`Corrections::products`].
+    /// `g` corrected into `out` for the candidate whose rows are block `c`
+    /// of `products` ([`Corrections::products`] or [`Corrections::products_of`]).
     fn correct(&self, g: &[f64], products: &DMatrix<f64>, c: usize, r: usize, out: &mut [f64]) {
         out.copy_from_slice(g);
         let p = |i: usize, j: usize| products[(r * c + i, j)];
@@ -321,6 +357,9 @@ struct State<'a> {
     corrections: usize,
     /// The candidate whose addition raises `ln det M` most.
     best_addition: Option<usize>,
+    /// `det(I + G_c)` of every candidate outside the design, from the
+    /// dispersions as they stand (−∞ for the members).
+    addition_gains: Vec<f64>,
 }
 
 impl<'a> State<'a> {
@@ -338,6 +377,7 @@ impl<'a> State<'a> {
             dispersion: Vec::new(),
             corrections: 0,
             best_addition: None,
+            addition_gains: Vec::new(),
         };
         s.log_det = refactor(pool, &s.member, &mut s.minv);
         s.dispersion = dispersion(pool, &s.minv);
@@ -424,10 +464,11 @@ impl<'a> State<'a> {
                 dets.push((c, det_shifted(g, 1.0, r, &mut scratch)));
             }
         }
-        self.best_addition = first_max(
-            dets.into_iter()
-                .map(|(c, d)| (c, d.unwrap_or(f64::NEG_INFINITY))),
-        );
+        self.addition_gains = vec![f64::NEG_INFINITY; pool.len()];
+        for (c, d) in dets {
+            self.addition_gains[c] = d.unwrap_or(f64::NEG_INFINITY);
+        }
+        self.best_addition = first_max(self.addition_gains.iter().copied().enumerate());
     }
 }
 
@@ -491,6 +532,9 @@ impl Trial<'_, '_> {
         if adding && c.corrections.is_empty() && c.own.is_none() {
             return self.state.best_addition;
         }
+        if adding && c.own.is_none() && c.corrections.only_additions() {
+            return self.best_bounded_addition();
+        }
         let pool = self.state.pool;
         let r = pool.r;
         let base = c.own.as_deref().unwrap_or(&self.state.dispersion);
@@ -513,6 +557,54 @@ impl Trial<'_, '_> {
             let det = det_shifted(&g, sign, r, &mut scratch);
             (i, det.unwrap_or(f64::NEG_INFINITY))
         }))
+    }
+
+    /// [`Trial::best`] addition after additions only: no candidate's gain
+    /// can exceed its gain before them, so the candidates whose earlier
+    /// gain lies below the best of the [`BOUND_PROBES`] earlier leaders,
+    /// as corrected now, cannot win, and only the rest are corrected; the
+    /// same numbers as a pass over all, so the same choice.
+    fn best_bounded_addition(&self) -> Option<usize> {
+        let (c, pool) = (&self.changes, self.state.pool);
+        let r = pool.r;
+        let earlier = &self.state.addition_gains;
+        let outside = |i: &usize| !c.member[*i];
+        let gains_of = |some: &[usize]| -> Vec<(usize, f64)> {
+            let products = c.corrections.products_of(pool, some);
+            let (mut g, mut scratch) = (vec![0.0; r * r], vec![0.0; r * r]);
+            let base = &self.state.dispersion;
+            some.iter()
+                .enumerate()
+                .map(|(s, &i)| {
+                    c.corrections.correct(
+                        &base[r * r * i..r * r * (i + 1)],
+                        &products,
+                        s,
+                        r,
+                        &mut g,
+                    );
+                    let det = det_shifted(&g, 1.0, r, &mut scratch);
+                    (i, det.unwrap_or(f64::NEG_INFINITY))
+                })
+                .collect()
+        };
+        let mut leaders: Vec<usize> = (0..pool.len()).filter(outside).collect();
+        if leaders.len() > BOUND_PROBES {
+            leaders
+                .select_nth_unstable_by(BOUND_PROBES, |a, b| earlier[*b].total_cmp(&earlier[*a]));
+            leaders.truncate(BOUND_PROBES);
+        }
+        let floor = gains_of(&leaders)
+            .into_iter()
+            .map(|(_, g)| g)
+            .fold(f64::NEG_INFINITY, f64::max);
+        // Rounding may lift a corrected gain a few ulps above its earlier
+        // one; the margin keeps every candidate that could tie.
+        let contenders: Vec<usize> = (0..pool.len())
+            .filter(outside)
+            .filter(|&i| earlier[i] * (1.0 + BOUND_MARGIN) >= floor)
+            .collect();
+        first_max(gains_of(&contenders).into_iter())
     }
 
     /// Adds (`sign` = 1) or removes (−1) candidate `c`: a Woodbury update
