@@ -282,6 +282,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     let a = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
         ModelOption::ElastoKinematic,
+        lrmcal_engine::calib::parameters::servo_knots::KnotSpacing::FINEST,
         &poses
             .iter()
             .map(|p| Sample {
@@ -327,6 +328,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     let kin = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
         ModelOption::Kinematic,
+        lrmcal_engine::calib::parameters::servo_knots::KnotSpacing::FINEST,
         &poses
             .iter()
             .map(|p| Sample {

@@ -158,18 +158,9 @@ impl Identifiability {
     }
 }
 
-/// Runs the analysis for `option` at `arm` over `samples`, servo knots on
-/// the finest grid.
+/// Runs the analysis for `option` at `arm` over `samples`, the servo knots
+/// on the grid of `spacing`, with [`RANK_TOLERANCE`].
 pub fn analyse(
-    arm: &Arm<f64>,
-    option: ModelOption,
-    samples: &[Sample],
-) -> Result<Identifiability, CalibError> {
-    analyse_spaced(arm, option, KnotSpacing::FINEST, samples)
-}
-
-/// [`analyse`] with the servo knots on the grid of `spacing`.
-pub fn analyse_spaced(
     arm: &Arm<f64>,
     option: ModelOption,
     spacing: KnotSpacing,
@@ -182,24 +173,17 @@ pub fn analyse_spaced(
         &ids,
         &j,
         &TypicalErrors::of_arm(arm),
+        RANK_TOLERANCE,
     ))
 }
 
 /// The analysis on an already computed Jacobian whose columns are `ids`,
-/// with the typical errors of the arm it was taken at.
+/// with the typical errors of the arm it was taken at: a column is kept
+/// when its part outside the span of the kept ones exceeds `tolerance`
+/// (of its unit length; [`RANK_TOLERANCE`] but where a caller has reason
+/// for another) and a typical error moves the points by more than
+/// [`RESOLUTION_M`] along that part.
 pub fn analyse_jacobian(
-    option: ModelOption,
-    ids: &[ParamKey],
-    j: &DMatrix<f64>,
-    typical: &TypicalErrors,
-) -> Identifiability {
-    analyse_jacobian_within(option, ids, j, typical, RANK_TOLERANCE)
-}
-
-/// [`analyse_jacobian`] keeping a column when its part outside the span of
-/// the kept ones exceeds `tolerance` (of its unit length) and a typical
-/// error moves the points by more than [`RESOLUTION_M`] along that part.
-pub fn analyse_jacobian_within(
     option: ModelOption,
     ids: &[ParamKey],
     j: &DMatrix<f64>,
@@ -438,7 +422,7 @@ impl<'a> Structures<'a> {
                 approach: lrmcal_core::dataset::FROM_HOME,
             })
             .collect();
-        let kept = analyse_spaced(self.nominal, option, spacing, &grid)?.kept;
+        let kept = analyse(self.nominal, option, spacing, &grid)?.kept;
         self.known
             .borrow_mut()
             .push(((option, spacing), kept.clone()));
@@ -454,7 +438,13 @@ mod tests {
     #[test]
     fn removes_tool_rotation_and_known_redundancies() {
         let samples = small_samples(40);
-        let a = analyse(&rigid_nominal(), ModelOption::ElastoKinematic, &samples).unwrap();
+        let a = analyse(
+            &rigid_nominal(),
+            ModelOption::ElastoKinematic,
+            KnotSpacing::FINEST,
+            &samples,
+        )
+        .unwrap();
         // The tool point is the tool frame's origin: its rotation cannot be seen.
         for p in ["tool.roll", "tool.pitch", "tool.yaw"] {
             assert!(
@@ -485,12 +475,24 @@ mod tests {
     /// resolution. Two centimetres off the axis it is a lever like any other.
     #[test]
     fn every_compliance_with_a_lever_on_a_tilted_compliant_arm_is_identifiable() {
-        let on_axis = analyse(&test_arm(), ModelOption::Elastic, &small_samples(20)).unwrap();
+        let on_axis = analyse(
+            &test_arm(),
+            ModelOption::Elastic,
+            KnotSpacing::FINEST,
+            &small_samples(20),
+        )
+        .unwrap();
         assert_eq!(on_axis.removed_ids(), [name("k6")], "{:?}", on_axis.removed);
         assert!(on_axis.removed[0].confounded_with.is_empty());
         let mut off_axis = test_arm();
         off_axis.tool.xyz[0] = 0.02;
-        let a = analyse(&off_axis, ModelOption::Elastic, &small_samples(20)).unwrap();
+        let a = analyse(
+            &off_axis,
+            ModelOption::Elastic,
+            KnotSpacing::FINEST,
+            &small_samples(20),
+        )
+        .unwrap();
         assert_eq!(a.kept.len(), 7, "{:?}", a.removed);
     }
 
@@ -499,7 +501,13 @@ mod tests {
     #[test]
     fn a_pose_set_must_identify_what_the_grid_does() {
         let nominal = test_arm();
-        let one = analyse(&nominal, ModelOption::Elastic, &small_samples(1)).unwrap();
+        let one = analyse(
+            &nominal,
+            ModelOption::Elastic,
+            KnotSpacing::FINEST,
+            &small_samples(1),
+        )
+        .unwrap();
         let structures = Structures::new(&nominal, 0.0663);
         let e = structures.check(&one).unwrap_err();
         assert!(
@@ -517,7 +525,7 @@ mod tests {
                 approach: lrmcal_core::dataset::FROM_HOME,
             })
             .collect();
-        let all = analyse(&nominal, ModelOption::Elastic, &grid).unwrap();
+        let all = analyse(&nominal, ModelOption::Elastic, KnotSpacing::FINEST, &grid).unwrap();
         assert!(structures.check(&all).is_ok());
     }
 }

@@ -15,7 +15,7 @@ use nalgebra::DMatrix;
 
 use crate::calib::analysis::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use crate::calib::analysis::identifiability::{
-    Identifiability, Structures, TypicalErrors, analyse_jacobian,
+    Identifiability, RANK_TOLERANCE, Structures, TypicalErrors, analyse_jacobian,
 };
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::{ColumnScale, Observability};
@@ -136,8 +136,13 @@ impl CandidateBlocks {
         let mut ids = nominal.tool_keys();
         ids.extend(option_candidates(option, &nominal.arm, spacing));
         let j = jacobian(nominal, &ids, &samples)?;
-        let identifiability =
-            analyse_jacobian(option, &ids, &j, &TypicalErrors::of_arm(&nominal.arm));
+        let identifiability = analyse_jacobian(
+            option,
+            &ids,
+            &j,
+            &TypicalErrors::of_arm(&nominal.arm),
+            RANK_TOLERANCE,
+        );
         // The kept parameters are a subsequence of the candidates, in order.
         let cols: Vec<usize> = ids
             .iter()

@@ -44,7 +44,7 @@
 //! reduction 0.19 mm). With noise the residual hardly drops and the second
 //! round adds nothing (the default demo's figures and time are unchanged).
 
-use crate::calib::analysis::identifiability::{TypicalErrors, analyse_jacobian_within};
+use crate::calib::analysis::identifiability::{TypicalErrors, analyse_jacobian};
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::fit::identify::{Estimate, Identified, IdentifyOptions, identify};
 use crate::calib::parameters::option::{candidates, refresh_candidates};
@@ -187,7 +187,7 @@ fn joining_at(
         )
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
-    let analysis = analyse_jacobian_within(option, &ordered, &j, typical, REFRESH_TOLERANCE);
+    let analysis = analyse_jacobian(option, &ordered, &j, typical, REFRESH_TOLERANCE);
     let joining: Vec<ParamKey> = analysis
         .kept
         .iter()
@@ -294,6 +294,7 @@ mod tests {
         let keys = crate::calib::analysis::identifiability::analyse(
             &arm,
             ModelOption::Kinematic,
+            crate::calib::parameters::servo_knots::KnotSpacing::FINEST,
             &samples,
         )
         .unwrap()
