@@ -30,8 +30,11 @@ fn an_arm_description_describes_the_nominal_arm_by_its_joints() {
     let label = "`my.toml`";
     let mut same = file.nominal;
     // As the page's example writes π/2 and the limits: 6 digits.
-    same.joints[1].theta = 1.5708;
-    same.joints[0].limits = [-1.8326, 1.8326];
+    fn rounded(x: f64) -> f64 {
+        (x * 1e4).round() / 1e4
+    }
+    same.joints[1].theta = rounded(std::f64::consts::FRAC_PI_2);
+    same.joints[0].limits = same.joints[0].limits.map(rounded);
     same.base.xyz = [1.0, 2.0, 3.0];
     same.tool.xyz = [0.0, 0.0, 0.1];
     same.joints[3].compliance = 0.5;
