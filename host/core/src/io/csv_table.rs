@@ -266,8 +266,9 @@ impl<R: std::io::BufRead> LineRows<R> {
                     Some(_) => Ok(None),
                 };
             };
-            let trimmed = text.trim();
-            if trimmed.is_empty() || text.starts_with('#') {
+            // As the `csv` crate skips them: empty lines and those starting
+            // with `#` (a line of spaces is a record of one empty cell).
+            if text.is_empty() || text.starts_with('#') {
                 continue;
             }
             let record = one_record(&text, line)?;
@@ -347,22 +348,31 @@ impl<R: std::io::BufRead> LineRows<R> {
 const BOM: &[u8] = "\u{feff}".as_bytes();
 
 /// The cells of one CSV line (trimmed, as [`for_each_row`] reads them).
+///
+/// A quoted cell left open at the line's end is refused: a whole file's
+/// reader would carry it on over the next lines, a stream cannot wait for
+/// them.
 fn one_record(text: &str, line: u64) -> Result<StringRecord, InputError> {
+    let syntax =
+        |message: String| InputError::new(Location::line(line), Problem::Syntax { message });
+    // Ended by a line break and a character trimming keeps, which only an
+    // open quote takes into a cell (`text` holds no line break).
+    let ended = format!("{text}\n\u{1}");
     let mut reader = ReaderBuilder::new()
         .has_headers(false)
         .trim(Trim::All)
         .flexible(true)
-        .from_reader(text.as_bytes());
+        .from_reader(ended.as_bytes());
     let mut record = StringRecord::new();
-    match reader.read_record(&mut record) {
-        Ok(_) => Ok(record),
-        Err(e) => Err(InputError::new(
-            Location::line(line),
-            Problem::Syntax {
-                message: e.to_string(),
-            },
-        )),
+    reader
+        .read_record(&mut record)
+        .map_err(|e| syntax(e.to_string()))?;
+    if record.iter().any(|cell| cell.contains('\n')) {
+        return Err(syntax(
+            "a quoted cell is not closed on its line (each record is one line)".into(),
+        ));
     }
+    Ok(record)
 }
 
 /// Why [`LineRows`] gave no row.

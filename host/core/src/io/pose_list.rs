@@ -481,6 +481,14 @@ mod stream_tests {
             assert_eq!(streamed, whole, "cut at {cut}");
         }
         assert_eq!(whole.iter().map(|p| p.line).collect::<Vec<_>>(), [4, 6]);
+        // A line of spaces is no blank line to either.
+        let spaces = text.replace("\r\n\r\n", "\r\n  \r\n");
+        let e = all(stream(&[&spaces])).unwrap_err().report();
+        let whole = parse_listed(&spaces).unwrap_err().to_string();
+        assert!(
+            e.ends_with(&whole) && whole.starts_with("line 3:"),
+            "{e}\n{whole}"
+        );
     }
 
     #[test]
@@ -524,5 +532,16 @@ mod stream_tests {
         .unwrap_err()
         .report();
         assert!(e.contains("line 3, column `pose`"), "{e}");
+        let e = all(stream(&[
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+            "1,0,0,0,0,0,\"42\n",
+            "2,0,0,0,0,0,0\n",
+        ]))
+        .unwrap_err()
+        .report();
+        assert!(
+            e.contains("line 2: a quoted cell is not closed on its line"),
+            "{e}"
+        );
     }
 }
