@@ -178,7 +178,13 @@ pub fn for_each_row(
     schema: &Schema,
     mut each: impl FnMut(&Row<'_>) -> Result<(), InputError>,
 ) -> Result<usize, InputError> {
-    let text = crate::io::lf_line_ends(text.strip_prefix('\u{feff}').unwrap_or(text));
+    // Every leading byte order mark: a file saved by tools that each add one.
+    let mut text = crate::io::lf_line_ends(text.trim_start_matches('\u{feff}'));
+    // The `csv` crate reads a last `#` line without a line end as a record,
+    // not a comment.
+    if !text.is_empty() && !text.ends_with('\n') {
+        text.to_mut().push('\n');
+    }
     let mut reader = ReaderBuilder::new()
         .comment(Some(b'#'))
         .trim(Trim::All)
@@ -220,8 +226,8 @@ pub fn for_each_row(
 /// The rows of CSV arriving line by line (a controller's stream on standard
 /// input, a pipe), each handed over as soon as its line is complete rather
 /// than once the input ends, with the rules of [`for_each_row`]: header in
-/// any order, comments, blank lines, CRLF or lone CR line ends, a leading
-/// byte order mark. A record is one line (no line breaks inside quotes).
+/// any order, comments, blank lines, CRLF or lone CR line ends, leading
+/// byte order marks. A record is one line (no line breaks inside quotes).
 pub struct LineRows<R> {
     reader: R,
     schema: &'static Schema,
@@ -310,7 +316,7 @@ impl<R: std::io::BufRead> LineRows<R> {
         {
             return Ok(None);
         }
-        if self.line == 0 && bytes.starts_with(BOM) {
+        while self.line == 0 && bytes.starts_with(BOM) {
             bytes.drain(..BOM.len());
         }
         if bytes.last() == Some(&b'\n') {
@@ -371,6 +377,18 @@ fn one_record(text: &str, line: u64) -> Result<StringRecord, InputError> {
         return Err(syntax(
             "a quoted cell is not closed on its line (each record is one line)".into(),
         ));
+    }
+    // The `csv` crate drops a byte order mark at the start of what it reads,
+    // here every line; in a whole file only the first line's goes.
+    if text.starts_with('\u{feff}') {
+        let mut kept = StringRecord::new();
+        for (i, cell) in record.iter().enumerate() {
+            match i {
+                0 => kept.push_field(&format!("\u{feff}{cell}")),
+                _ => kept.push_field(cell),
+            }
+        }
+        return Ok(kept);
     }
     Ok(record)
 }
