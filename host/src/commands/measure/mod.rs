@@ -72,9 +72,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE", required_unless_present = "joints")]
     pub poses: Option<PathBuf>,
     /// Joint angles the arm reached, from its own controller, instead of a
-    /// pose list: CSV with the pose list's columns, one record per pose, a
-    /// file or `-` (standard input, read as each record arrives; each
-    /// record says the arm is there). Not with --port.
+    /// pose list: CSV with the pose list's columns, one record per pose;
+    /// `-` reads standard input as each record arrives, a record being the
+    /// word that the arm is there; a file's poses are announced and
+    /// confirmed as a pose list's. Not with --port.
     #[arg(long, value_name = "FILE|-", conflicts_with_all = ["poses", "hold_s"])]
     pub joints: Option<PathBuf>,
     /// The arm whose joint limits the --joints angles must lie within: a
