@@ -428,6 +428,93 @@ fn bad_input_is_named_and_nothing_is_written() {
     );
 }
 
+/// `--arm` with `--calibration` gives the joint names and bodies of the
+/// arm the calibration is of: the bundled arm by name or a copy of its file
+/// are taken, also when registration moved the nominal base and found the
+/// tool; an edited copy is refused, naming both files and the field.
+#[test]
+fn the_arm_named_beside_a_calibration_must_be_its_nominal_arm() {
+    let dir = tempfile::tempdir().unwrap();
+    let (mut nominal, calibrated) = calibrated_arm();
+    nominal.base.xyz = [1.2, 0.04, -0.3];
+    nominal.tool.xyz = [0.018, 0.002, 0.056];
+    let cal = dir.path().join("cal.json");
+    std::fs::write(
+        &cal,
+        calibration_json(&nominal, &calibrated, SCHEMA_VERSION),
+    )
+    .unwrap();
+    let bundled = include_str!("../core/arms/lrm.toml");
+    let copy = dir.path().join("copy.toml");
+    std::fs::write(&copy, bundled).unwrap();
+    let out = dir.path().join("arm.urdf");
+
+    let by_name = export(&["--calibration", s(&cal), "--arm", "lrm"]);
+    let by_copy = export(&["--calibration", s(&cal), "--arm", s(&copy)]);
+    for text in [&by_name, &by_copy] {
+        // The arm file's joint names and name, the calibration's geometry.
+        assert!(
+            text.contains("<joint name=\"shoulder\" type=\"revolute\">"),
+            "{text}"
+        );
+        assert!(text.contains("<robot name=\"lrm-like\">"), "{text}");
+    }
+
+    // Joint 2's upper arm made 5 cm shorter.
+    let edited = dir.path().join("edited.toml");
+    let shorter = bundled.replacen("a = 0.17\n", "a = 0.12\n", 1);
+    assert_ne!(shorter, bundled);
+    std::fs::write(&edited, shorter).unwrap();
+    let args = [
+        "export",
+        "--urdf",
+        "--calibration",
+        s(&cal),
+        "--arm",
+        s(&edited),
+        "--out",
+        s(&out),
+    ];
+    let run = lrmcal(&args);
+    assert_eq!(run.status.code(), Some(3), "{}", stderr(&run));
+    assert_eq!(
+        stderr(&run).trim_end(),
+        format!(
+            "error: failed to use calibration `{}`: its nominal arm is not `{}`: joint 2's a \
+             differs: 120 mm in `{}`, 170 mm in the calibration's nominal arm; pass --arm the arm \
+             description it was identified from",
+            cal.display(),
+            edited.display(),
+            edited.display()
+        )
+    );
+    assert!(!out.exists());
+
+    // Another calibration given as --arm stands for its nominal arm.
+    let other = dir.path().join("other.json");
+    let mut other_nominal = calibrated_arm().0;
+    other_nominal.joints[3].mass = 0.3;
+    std::fs::write(
+        &other,
+        calibration_json(&other_nominal, &calibrated, SCHEMA_VERSION),
+    )
+    .unwrap();
+    let run = lrmcal(&[
+        "export",
+        "--urdf",
+        "--calibration",
+        s(&cal),
+        "--arm",
+        s(&other),
+    ]);
+    assert_eq!(run.status.code(), Some(3), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("joint 4's mass differs: 0.3 kg in calibration `"),
+        "{}",
+        stderr(&run)
+    );
+}
+
 #[test]
 fn help_teaches() {
     let sub = String::from_utf8(lrmcal(&["export", "--help"]).stdout).unwrap();

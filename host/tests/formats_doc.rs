@@ -120,6 +120,7 @@ fn every_code_block_is_checked_or_marked_abridged_or_messages() {
             "checked measurements",
             "checked measurements",
             "checked pose list",
+            "checked joint stream",
             "checked predictions",
             "checked dtrack datagram",
             "messages",
@@ -145,6 +146,21 @@ fn every_checked_example_parses_as_its_kind() {
             "arm bodies" => arm_toml::parse(&format!("{}\n{text}", example("arm"))).map(|_| ()),
             "measurements" => measurements::parse(text).map(|_| ()),
             "pose list" => pose_list::parse(text).map(|_| ()),
+            "joint stream" => {
+                // Read record by record, as `measure --joints -` reads it,
+                // it is the same poses as the whole text.
+                let mut stream = pose_list::PoseStream::new(text.as_bytes(), "<stdin>");
+                let mut streamed = Vec::new();
+                while let Some(pose) = stream.next_pose().unwrap_or_else(|e| {
+                    panic!(
+                        "the joint stream example is refused: {}\n{text}",
+                        e.report()
+                    )
+                }) {
+                    streamed.push(pose);
+                }
+                pose_list::parse_listed(text).map(|whole| assert_eq!(streamed, whole))
+            }
             "predictions" => predictions::parse(text).map(|_| ()),
             "calibration" => CalibrationFile::parse(text).map(|_| ()),
             "dtrack datagram" => {
@@ -381,6 +397,15 @@ fn commands(
             "--out",
             &s(&out("measured.csv")),
         ])],
+        "joint stream" => vec![list(&[
+            "measure",
+            "--joints",
+            &f,
+            "--tracker",
+            &s(&w.path("points.txt")),
+            "--out",
+            &s(&out("measured.csv")),
+        ])],
         // Read by people and scripts, and by `measure` from a live stream.
         "predictions" | "dtrack datagram" => vec![],
         other => panic!("no commands known for `{other}` examples"),
@@ -406,12 +431,15 @@ fn every_checked_example_goes_through_every_command_that_reads_its_kind() {
     let examples = examples();
     let w = Workspace::new(&examples);
     // What commands need beside an example: the planner's candidates (to
-    // evaluate a pose list among) and a one-pose list (a take's one hold).
+    // evaluate a pose list among), a one-pose list (a take's one hold) and
+    // tracker positions (to measure a stream of joint angles with).
     let plan = lrmcal(&["plan", "--out", p(&w.path("candidates.csv"))]);
     assert!(plan.status.success(), "{}", text(&plan));
     let poses = std::fs::read_to_string(w.example("pose list")).unwrap();
     let one: Vec<&str> = poses.lines().take(2).collect();
     std::fs::write(w.path("one-pose.csv"), one.join("\n") + "\n").unwrap();
+    // Tracker positions for a stream of joint angles, one a line.
+    std::fs::write(w.path("points.txt"), "212.41 -35.02 188.77\n".repeat(20)).unwrap();
 
     let mut ran = Vec::new();
     for (i, e) in examples.iter().enumerate() {
@@ -461,6 +489,7 @@ fn every_checked_example_goes_through_every_command_that_reads_its_kind() {
             "calibration predict",
             "calibration push",
             "calibration validate",
+            "joint stream measure",
             "measurements identify",
             "measurements predict",
             "measurements validate",

@@ -41,8 +41,10 @@ pub struct Args {
     /// The arm: a bundled arm's name, an arm description `.toml` file, or a
     /// calibration `.json` file (as --calibration). With --calibration, the
     /// arm description whose joint names, bodies and name the URDF takes, the
-    /// geometry staying the calibration's [default: the bundled arm; with
-    /// --calibration, joints joint_1.. and the arm's skeleton].
+    /// geometry staying the calibration's; it must describe the
+    /// calibration's nominal arm (its joints' DH geometry, limits and
+    /// masses) [default: the bundled arm; with --calibration, joints
+    /// joint_1.. and the arm's skeleton].
     #[arg(long, value_name = "NAME|FILE")]
     pub arm: Option<ArmSource>,
     /// The robot's name in the URDF [default: the arm's name; `arm` for a
@@ -177,6 +179,12 @@ fn from_calibration(path: &Path, names: Option<&ArmSource>) -> Result<Exported, 
         ),
     };
     let described = names.map(ArmSource::load).transpose()?;
+    if let Some(d) = &described {
+        // Its names and bodies fit only the arm the calibration is of: a
+        // calibration file given as --arm stands for its own nominal arm.
+        let nominal = d.calibration.as_ref().map_or(&d.arm, |c| &c.nominal);
+        file.check_describes_nominal(nominal, &d.origin, path)?;
+    }
     let (default_name, joint_names, collision) = match described {
         Some(d) => (d.name, d.joint_names, d.collision),
         None => (

@@ -5,7 +5,9 @@
 //! Every input is written to a file and read back, and the result is held to
 //! the [`Invariant`]s: no panic; a refusal is an [`Error::Parse`] whose
 //! message names the file and a line or a key, the line inside the file;
-//! what is accepted holds finite numbers only. The valid files the
+//! what is accepted holds finite numbers only; a pose list read record by
+//! record as it arrives (`measure --joints -`) is read as the whole file
+//! is. The valid files the
 //! mutations start from ([`Corpus`]) are the bundled arm (as shipped, as
 //! `lrmcal` writes it, and with collision bodies), what the simulator
 //! writes, pose lists with and without loads, and a calibration file the
@@ -247,6 +249,9 @@ pub enum Invariant {
     LineInFile,
     /// What is accepted holds finite numbers only.
     Finite,
+    /// A pose list read record by record is accepted with the same poses,
+    /// or refused, as the whole file.
+    SameStreamed,
 }
 
 impl fmt::Display for Invariant {
@@ -258,6 +263,7 @@ impl fmt::Display for Invariant {
             Self::NamesPlace => "a refusal names a line or a key",
             Self::LineInFile => "a refusal's line is in the file",
             Self::Finite => "what is accepted is finite",
+            Self::SameStreamed => "a pose list reads the same record by record",
         })
     }
 }
@@ -311,10 +317,7 @@ pub fn check(format: Format, path: &Path, bytes: &[u8]) -> Result<Outcome, Viola
     })?;
     match result {
         Ok(None) => Ok(Outcome::Accepted),
-        Ok(Some(value)) => Err(Violation {
-            invariant: Invariant::Finite,
-            detail: value,
-        }),
+        Ok(Some(violation)) => Err(violation),
         Err(e) => refusal(path, bytes, e).map(Outcome::Refused),
     }
 }
@@ -351,9 +354,17 @@ fn refusal(path: &Path, bytes: &[u8], error: Error) -> Result<Error, Violation> 
     Ok(error)
 }
 
-/// Reads `path` as `format`: `Some` names a non-finite value that was accepted.
-fn read(format: Format, path: &Path) -> Result<Option<String>, Error> {
-    Ok(match format {
+/// Reads `path` as `format`: `Some` is an accepted file that breaks an
+/// invariant (a value that is not finite, a pose list read otherwise
+/// record by record).
+fn read(format: Format, path: &Path) -> Result<Option<Violation>, Error> {
+    let finite = |value: Option<String>| {
+        value.map(|detail| Violation {
+            invariant: Invariant::Finite,
+            detail,
+        })
+    };
+    Ok(finite(match format {
         Format::Arm => {
             let d = arm_toml::read(path)?;
             not_finite(arm_values("arm", &d.arm))
@@ -369,7 +380,11 @@ fn read(format: Format, path: &Path) -> Result<Option<String>, Error> {
             }))
         }
         Format::Poses => {
-            let rows = pose_list::read_listed(path)?;
+            let whole = pose_list::read_listed(path);
+            if let Some(violation) = streamed_otherwise(path, &whole) {
+                return Ok(Some(violation));
+            }
+            let rows = whole?;
             not_finite(rows.iter().flat_map(|l| {
                 let id = l.row.pose.id;
                 pose_values(&l.row.pose)
@@ -393,6 +408,38 @@ fn read(format: Format, path: &Path) -> Result<Option<String>, Error> {
                     .chain(file.loads_kg.iter().map(|&k| ("loads_kg".into(), k))),
             )
         }
+    }))
+}
+
+/// How the pose list at `path`, read record by record as `measure
+/// --joints` reads it, differs from `whole`, the whole file's reading: other
+/// poses, or accepted by one and refused by the other.
+fn streamed_otherwise(
+    path: &Path,
+    whole: &Result<Vec<pose_list::ListedPose>, Error>,
+) -> Option<Violation> {
+    let streamed = (|| {
+        let file = std::fs::File::open(path).map_err(|source| Error::Read {
+            path: path.to_owned(),
+            source,
+        })?;
+        let mut stream = pose_list::PoseStream::new(std::io::BufReader::new(file), path);
+        let mut poses = Vec::new();
+        while let Some(pose) = stream.next_pose()? {
+            poses.push(pose);
+        }
+        Ok::<_, Error>(poses)
+    })();
+    let detail = match (whole, &streamed) {
+        (Ok(a), Ok(b)) if a == b => return None,
+        (Err(_), Err(_)) => return None,
+        (Ok(a), Ok(b)) => format!("{} poses whole, {} record by record", a.len(), b.len()),
+        (Ok(_), Err(e)) => format!("accepted whole, refused record by record: {}", e.report()),
+        (Err(e), Ok(_)) => format!("refused whole ({}), accepted record by record", e.report()),
+    };
+    Some(Violation {
+        invariant: Invariant::SameStreamed,
+        detail,
     })
 }
 

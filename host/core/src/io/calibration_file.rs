@@ -407,6 +407,76 @@ impl CalibrationFile {
     }
 }
 
+/// How far a length of an arm description may lie from the calibration's
+/// nominal arm and still be the same arm, m: 1 µm, far below a build's
+/// tolerance, above a file's numbers rounded to 6 digits.
+const SAME_LENGTH_M: f64 = 1e-6;
+/// The same for an angle, rad (0.0006°; `1.5708` for π/2 passes).
+const SAME_ANGLE_RAD: f64 = 1e-5;
+/// The same for a link's mass, kg (1 mg).
+const SAME_MASS_KG: f64 = 1e-6;
+
+impl CalibrationFile {
+    /// Checks that `arm`, the arm description called `label` (`bundled arm
+    /// `lrm``, a path), describes this calibration's (read from `path`)
+    /// nominal arm: each joint's DH `theta`, `d`, `a`, `alpha`, its limits and
+    /// its link's mass, within 1 µm, 1e-5 rad and 1 mg. What a calibration
+    /// may rightly find elsewhere is not compared: the base and tool (found
+    /// by registration, re-taught after a tool change), the compliances and
+    /// the servo curves (which `servo-tune` may since have measured anew).
+    pub fn check_describes_nominal(
+        &self,
+        arm: &Arm<f64>,
+        label: &str,
+        path: &Path,
+    ) -> Result<(), Error> {
+        use crate::io::csv_table::format_fixed;
+        let mm = |m: f64| format!("{} mm", format_fixed(m * 1e3, 6));
+        let deg = |rad: f64| format!("{}°", format_fixed(rad.to_degrees(), 6));
+        let kg = |kg: f64| format!("{} kg", format_fixed(kg, 6));
+        type Show<'a> = &'a dyn Fn(f64) -> String;
+        for (i, (ours, theirs)) in self.nominal.joints.iter().zip(&arm.joints).enumerate() {
+            let fields: [(&str, f64, f64, f64, Show); 7] = [
+                ("theta", ours.theta, theirs.theta, SAME_ANGLE_RAD, &deg),
+                ("d", ours.d, theirs.d, SAME_LENGTH_M, &mm),
+                ("a", ours.a, theirs.a, SAME_LENGTH_M, &mm),
+                ("alpha", ours.alpha, theirs.alpha, SAME_ANGLE_RAD, &deg),
+                (
+                    "lower limit",
+                    ours.limits[0],
+                    theirs.limits[0],
+                    SAME_ANGLE_RAD,
+                    &deg,
+                ),
+                (
+                    "upper limit",
+                    ours.limits[1],
+                    theirs.limits[1],
+                    SAME_ANGLE_RAD,
+                    &deg,
+                ),
+                ("mass", ours.mass, theirs.mass, SAME_MASS_KG, &kg),
+            ];
+            for (name, ours, theirs, tolerance, show) in fields {
+                if (ours - theirs).abs() > tolerance {
+                    return Err(Error::ArmMismatch {
+                        path: path.to_owned(),
+                        problem: format!(
+                            "its nominal arm is not {label}: joint {}'s {name} differs: {} in \
+                             {label}, {} in the calibration's nominal arm; pass --arm the arm \
+                             description it was identified from",
+                            i + 1,
+                            show(theirs),
+                            show(ours)
+                        ),
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
 /// A calibration file for the unit tests of `io`.
 #[cfg(test)]
 pub(super) mod test_support {

@@ -6,14 +6,16 @@
 //! prediction joined with its poses, a spreadsheet. Other columns are
 //! ignored, except one that looks like a misspelt `load_kg`.
 
-use std::io::Write;
-use std::path::Path;
+use std::io::{BufRead, Write};
+use std::path::{Path, PathBuf};
 
 use model::Arm;
 
 use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
-use crate::io::csv_table::{Extra, PoseBook, Q_COLUMNS, Schema, for_each_row, format_deg};
+use crate::io::csv_table::{
+    Extra, LineRows, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row, format_deg,
+};
 use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
 
@@ -65,9 +67,26 @@ pub fn parse(text: &str) -> Result<Vec<PoseRow>, InputError> {
 /// pair; an id always has the same angles.
 pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
     let mut out = Vec::new();
-    let mut book = PoseBook::default();
-    let mut listed = std::collections::HashSet::new();
+    let mut book = Book::default();
     for_each_row(text, &SCHEMA, |row| {
+        out.extend(book.pose(row)?);
+        Ok(())
+    })?;
+    Ok(out)
+}
+
+/// What a pose list's reader remembers across rows.
+#[derive(Default)]
+struct Book {
+    poses: PoseBook,
+    /// (pose, load) pairs already listed from a file of several targets.
+    listed: std::collections::HashSet<(u32, Option<u64>)>,
+}
+
+impl Book {
+    /// The pose of `row`, or `None` for a further target's row of a pose
+    /// already listed.
+    fn pose(&mut self, row: &Row<'_>) -> Result<Option<ListedPose>, InputError> {
         let id = row.pose_id()?;
         let load_kg = if row.has("load_kg") {
             Some(row.non_negative("load_kg", "a load >= 0 kg")?)
@@ -80,20 +99,64 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedPose>, InputError> {
         let target = row
             .ignored_text(TARGET_COLUMN)
             .and_then(|t| TargetName::from(t).ok());
-        book.record(row, id, &q, load_kg, target)?;
-        if target.is_some() && !listed.insert((id, load_kg.map(f64::to_bits))) {
-            return Ok(());
+        self.poses.record(row, id, &q, load_kg, target)?;
+        if target.is_some() && !self.listed.insert((id, load_kg.map(f64::to_bits))) {
+            return Ok(None);
         }
-        out.push(ListedPose {
+        Ok(Some(ListedPose {
             line: row.line,
             row: PoseRow {
                 pose: Pose { id, q },
                 load_kg,
             },
-        });
-        Ok(())
-    })?;
-    Ok(out)
+        }))
+    }
+}
+
+/// A pose list read record by record as it arrives (joint angles an arm's
+/// own controller writes as it reaches each pose), with the rules of
+/// [`parse_listed`]: each pose handed over as soon as its line is complete.
+pub struct PoseStream<R> {
+    rows: LineRows<R>,
+    book: Book,
+    name: PathBuf,
+}
+
+impl<R: BufRead> PoseStream<R> {
+    /// The poses of `reader`, called `name` in errors (a path, or
+    /// `<stdin>`).
+    pub fn new(reader: R, name: impl Into<PathBuf>) -> Self {
+        Self {
+            rows: LineRows::new(reader, &SCHEMA),
+            book: Book::default(),
+            name: name.into(),
+        }
+    }
+
+    /// What errors call the input.
+    pub fn name(&self) -> &Path {
+        &self.name
+    }
+
+    /// The next pose, blocking until its line arrives; `None` at the end
+    /// (an error if the input had no poses).
+    pub fn next_pose(&mut self) -> Result<Option<ListedPose>, Error> {
+        loop {
+            let book = &mut self.book;
+            match self.rows.next_row(|row| book.pose(row)) {
+                Ok(Some(Some(pose))) => return Ok(Some(pose)),
+                Ok(Some(None)) => continue,
+                Ok(None) => return Ok(None),
+                Err(ReadError::Input(e)) => return Err(e.in_file(&self.name)),
+                Err(ReadError::Read(source)) => {
+                    return Err(Error::Read {
+                        path: self.name.clone(),
+                        source,
+                    });
+                }
+            }
+        }
+    }
 }
 
 /// How far past a limit an angle may read and still be on it, rad: files
@@ -341,5 +404,144 @@ mod tests {
             .unwrap()
             .unwrap();
         assert!(warning.starts_with("2 of the 4 rows"), "{warning}");
+    }
+}
+
+#[cfg(test)]
+mod stream_tests {
+    use std::cell::RefCell;
+    use std::collections::VecDeque;
+    use std::io::{BufReader, Read};
+    use std::rc::Rc;
+
+    use super::*;
+
+    /// A reader handing out one chunk per read, as a pipe hands out what a
+    /// writer wrote so far; counts what is still unread.
+    struct Chunks(Rc<RefCell<VecDeque<Vec<u8>>>>);
+
+    impl Read for Chunks {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let Some(chunk) = self.0.borrow_mut().pop_front() else {
+                return Ok(0);
+            };
+            buf[..chunk.len()].copy_from_slice(&chunk);
+            Ok(chunk.len())
+        }
+    }
+
+    fn chunks(chunks: &[&[u8]]) -> Chunks {
+        Chunks(Rc::new(RefCell::new(
+            chunks.iter().map(|c| c.to_vec()).collect(),
+        )))
+    }
+
+    fn stream(texts: &[&str]) -> PoseStream<BufReader<Chunks>> {
+        let bytes: Vec<&[u8]> = texts.iter().map(|t| t.as_bytes()).collect();
+        PoseStream::new(BufReader::new(chunks(&bytes)), "<stdin>")
+    }
+
+    fn all(mut s: PoseStream<impl BufRead>) -> Result<Vec<ListedPose>, Error> {
+        let mut out = Vec::new();
+        while let Some(p) = s.next_pose()? {
+            out.push(p);
+        }
+        Ok(out)
+    }
+
+    #[test]
+    fn each_pose_is_handed_over_once_its_line_has_arrived() {
+        let texts: [&[u8]; 3] = [
+            b"pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+            b"1,10,0,0,0,0,0\n",
+            b"2,0,20,0,0,0,0\n",
+        ];
+        let input = chunks(&texts);
+        let unread = Rc::clone(&input.0);
+        let mut s = PoseStream::new(BufReader::new(input), "<stdin>");
+        let first = s.next_pose().unwrap().unwrap();
+        assert_eq!((first.line, first.row.pose.id), (2, 1));
+        // The second record has not been read: a controller that has not
+        // yet written it does not hold the first one up.
+        assert_eq!(unread.borrow().len(), 1);
+        let second = s.next_pose().unwrap().unwrap();
+        assert_eq!(second.row.pose.q[1], 20f64.to_radians());
+        assert!(s.next_pose().unwrap().is_none());
+    }
+
+    #[test]
+    fn a_stream_reads_as_the_same_text_read_whole() {
+        let text = "\u{feff}# controller log\r\npose,note_t,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\r\n\
+                    \r\n4, 0.5 ,0,10,20,30,40,50,60\r\n# moving\r\n9,1.0,0.5,-10,0,15.5,0,-20,5\r\n";
+        let whole = parse_listed(text).unwrap();
+        // Split anywhere, even inside a line or the byte order mark.
+        for cut in [1, 2, 30, 75, text.len() - 1] {
+            let (a, b) = text.as_bytes().split_at(cut);
+            let streamed = all(PoseStream::new(BufReader::new(chunks(&[a, b])), "x")).unwrap();
+            assert_eq!(streamed, whole, "cut at {cut}");
+        }
+        assert_eq!(whole.iter().map(|p| p.line).collect::<Vec<_>>(), [4, 6]);
+        // A line of spaces is no blank line to either.
+        let spaces = text.replace("\r\n\r\n", "\r\n  \r\n");
+        let e = all(stream(&[&spaces])).unwrap_err().report();
+        let whole = parse_listed(&spaces).unwrap_err().to_string();
+        assert!(
+            e.ends_with(&whole) && whole.starts_with("line 3:"),
+            "{e}\n{whole}"
+        );
+    }
+
+    #[test]
+    fn a_bad_record_names_the_stream_line_and_column() {
+        let e = all(stream(&[
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+            "1,0,0,0,0,0,0\n",
+            "2,0,0,abc,0,0,0\n",
+        ]))
+        .unwrap_err()
+        .report();
+        assert_eq!(
+            e,
+            "error: failed to parse `<stdin>`: line 3, column `q3_deg`: expected a joint \
+             angle in degrees, found `abc`"
+        );
+        let e = all(stream(&[
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+            "1,0,0\n",
+        ]))
+        .unwrap_err()
+        .report();
+        assert!(e.contains("`<stdin>`: line 2") && e.contains("3"), "{e}");
+        let e = all(stream(&["pose,q1_deg,q2_deg\n"])).unwrap_err().report();
+        assert!(e.contains("line 1, column `q3_deg`"), "{e}");
+        let e = all(stream(&[
+            "# nothing yet\n",
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+        ]))
+        .unwrap_err()
+        .report();
+        assert!(
+            e.contains("line 2") && e.contains("at least one data row"),
+            "{e}"
+        );
+        let e = all(stream(&[])).unwrap_err().report();
+        assert!(e.contains("column `pose`"), "{e}");
+        let e = all(stream(&[
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\r1,0,0,0,0,0,0\r1,5,0,0,0,0,0\r",
+        ]))
+        .unwrap_err()
+        .report();
+        assert!(e.contains("line 3, column `pose`"), "{e}");
+        let e = all(stream(&[
+            "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",
+            "1,0,0,0,0,0,\"42\n",
+            "2,0,0,0,0,0,0\n",
+        ]))
+        .unwrap_err()
+        .report();
+        assert!(
+            e.contains("line 2: a quoted cell is not closed on its line"),
+            "{e}"
+        );
     }
 }

@@ -20,6 +20,69 @@ fn round_trips_and_checks_its_nominal_arm() {
     assert!(err.contains("cal.json") && err.contains("j3.a"), "{err}");
 }
 
+/// An arm description is the calibration's nominal arm when its joints'
+/// geometry, limits and masses are, rounded or not; the base, tool,
+/// compliances and servo curves may differ.
+#[test]
+fn an_arm_description_describes_the_nominal_arm_by_its_joints() {
+    let file = sample_file();
+    let path = Path::new("cal.json");
+    let label = "`my.toml`";
+    let mut same = file.nominal;
+    // As the page's example writes π/2 and the limits: 6 digits.
+    fn rounded(x: f64) -> f64 {
+        (x * 1e4).round() / 1e4
+    }
+    same.joints[1].theta = rounded(std::f64::consts::FRAC_PI_2);
+    same.joints[0].limits = same.joints[0].limits.map(rounded);
+    same.base.xyz = [1.0, 2.0, 3.0];
+    same.tool.xyz = [0.0, 0.0, 0.1];
+    same.joints[3].compliance = 0.5;
+    file.check_describes_nominal(&same, label, path).unwrap();
+
+    let mut other = file.nominal;
+    other.joints[2].a = 0.12;
+    let e = file
+        .check_describes_nominal(&other, label, path)
+        .unwrap_err();
+    assert_eq!(
+        e.report(),
+        "error: failed to use calibration `cal.json`: its nominal arm is not `my.toml`: joint \
+         3's a differs: 120 mm in `my.toml`, 0 mm in the calibration's nominal arm; pass --arm \
+         the arm description it was identified from"
+    );
+    let mut other = file.nominal;
+    other.joints[4].alpha += 1e-4;
+    let e = file
+        .check_describes_nominal(&other, label, path)
+        .unwrap_err()
+        .report();
+    assert!(
+        e.contains("joint 5's alpha differs: 90.00573° in `my.toml`, 90° in"),
+        "{e}"
+    );
+    let mut other = file.nominal;
+    other.joints[5].limits[1] = 1.5;
+    let e = file
+        .check_describes_nominal(&other, label, path)
+        .unwrap_err()
+        .report();
+    assert!(
+        e.contains("joint 6's upper limit differs: 85.943669° in `my.toml`"),
+        "{e}"
+    );
+    let mut other = file.nominal;
+    other.joints[0].mass = 0.2;
+    let e = file
+        .check_describes_nominal(&other, label, path)
+        .unwrap_err()
+        .report();
+    assert!(
+        e.contains("joint 1's mass differs: 0.2 kg in `my.toml`, 0.15 kg"),
+        "{e}"
+    );
+}
+
 /// Every option reads by its name: ours, `elasto-kinematic-servo`, the
 /// default of every lrmcal that wrote calibration files, too.
 #[test]

@@ -3,7 +3,8 @@
 //! `--port` the arm is moved by hand or by its own controller (an arm our
 //! board does not drive): each pose is announced on stderr, and its tracker
 //! line, or Enter on standard input before a DTrack reading, says it is
-//! there.
+//! there. With `--joints` the poses are the angles such an arm's controller
+//! reports it reached, one record at a time ([`joints`]).
 //!
 //! Positions come from a live ART DTrack stream (`dtrack://`, averaged once
 //! the arm holds still, see `lrmcal_engine::tracker`), from lines of a file or a pipe,
@@ -15,23 +16,26 @@
 //! interruption (Ctrl-C, unplugged board, tracker glitch) loses at most the
 //! pose in progress; running the same command again skips the recorded ones.
 
-use std::io::{BufRead, Write};
-use std::net::SocketAddr;
-use std::path::PathBuf;
-use std::time::Duration;
+mod joints;
+mod mover;
+mod tracker;
 
-use nalgebra::Vector3;
+use std::net::SocketAddr;
+use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 use crate::commands::device_args::DeviceArgs;
 use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use crate::progress::Meter;
+use joints::Reached;
 use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::{measurements, pose_list};
-use lrmcal_engine::device::{Client, Link};
 use lrmcal_engine::tracker::listen::{self, Listener};
-use lrmcal_engine::tracker::text::parse_tracker_line;
 use lrmcal_engine::tracker::{SettleOptions, Target};
+use mover::Mover;
+use tracker::{Text, Tracker};
 
 /// Drive the arm through a pose list and record tracker positions.
 #[derive(Debug, clap::Args)]
@@ -41,7 +45,8 @@ use lrmcal_engine::tracker::{SettleOptions, Target};
 lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 --body 0\n  \
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
 tracker-export | lrmcal measure --poses selected.csv --out measured.csv --tracker -\n  \
-lrmcal measure --poses selected.csv --hold-s 3    # while Motive records a take\n\n\
+lrmcal measure --poses selected.csv --hold-s 3    # while Motive records a take\n  \
+arm-controller | lrmcal measure --joints - --out measured.csv --tracker dtrack://5000 --body 0\n\n\
 With --tracker dtrack://[ADDR:]PORT, set DTrack's output to send `6d` (or \
 `3d`) by UDP to this machine and PORT. After each move and --settle-ms, the last --frames \
 frames in which the target is tracked are averaged once none lies farther than \
@@ -53,12 +58,40 @@ interruption: recorded poses are kept and skipped.\n\n\
 Without --port (and LRMCAL_PORT) lrmcal moves nothing: the arm is moved by hand or by its own \
 controller. Each pose is announced with its joint angles; with a DTrack stream, press Enter \
 (or send a line on standard input) once the arm is there, and the reading waits until it \
-holds still; a tracker line from a file, a pipe or the prompt is itself the confirmation."
+holds still; a tracker line from a file, a pipe or the prompt is itself the confirmation.\n\n\
+An arm whose controller cannot go exactly to a pose list gives, with --joints, the joint angles \
+it reached instead: CSV with the pose list's columns (pose,[load_kg,]q1_deg..q6_deg), one record \
+per pose, in place of --poses. From standard input (--joints -) each record is read as it \
+arrives and is itself the word that the arm is there: write it once the arm has reached the \
+pose, and the position is taken (a DTrack reading still waits until the arm holds still). From \
+a file the poses are announced and confirmed as a pose list's. Angles outside the joint limits \
+of --arm are refused."
 )]
 pub struct Args {
     /// Pose list CSV (`pose,[load_kg,]q1_deg..q6_deg`).
-    #[arg(long, value_name = "FILE")]
-    pub poses: PathBuf,
+    #[arg(long, value_name = "FILE", required_unless_present = "joints")]
+    pub poses: Option<PathBuf>,
+    /// Joint angles the arm reached, from its own controller, instead of a
+    /// pose list: CSV with the pose list's columns, one record per pose;
+    /// `-` reads standard input as each record arrives, a record being the
+    /// word that the arm is there; a file's poses are announced and
+    /// confirmed as a pose list's. Not with --port.
+    #[arg(long, value_name = "FILE|-", conflicts_with_all = ["poses", "hold_s"])]
+    pub joints: Option<PathBuf>,
+    /// The arm whose joint limits the --joints angles must lie within: a
+    /// bundled arm's name, an arm description `.toml` or a calibration
+    /// `.json` [default: lrm].
+    #[arg(
+        long,
+        value_name = "NAME|FILE",
+        requires = "joints",
+        conflicts_with = "poses"
+    )]
+    pub arm: Option<ArmSource>,
+    /// Record --joints angles outside the arm's joint limits too (with a
+    /// warning) instead of stopping at the first.
+    #[arg(long, requires = "joints", conflicts_with = "poses")]
+    pub allow_outside_limits: bool,
     /// Measurement CSV to write (extended if it exists).
     #[arg(long, short, value_name = "FILE", required_unless_present = "hold_s")]
     pub out: Option<PathBuf>,
@@ -164,112 +197,72 @@ pub fn remaining(poses: &[(Pose, f64)], done: &[Measurement]) -> Vec<(Pose, f64)
         .collect()
 }
 
-/// Where tracker positions come from.
-enum Tracker {
-    Text(Text),
-    DTrack {
-        listener: Listener,
-        target: Target,
-        options: SettleOptions,
-        timeout: Duration,
-    },
+/// Where the poses to measure come from, one at a time.
+enum Poses {
+    /// The pose list's poses not yet recorded, in its order.
+    List(std::vec::IntoIter<(Pose, f64)>),
+    /// The joint angles the arm's own controller reports it reached.
+    Reached(Box<Reached>),
 }
 
-/// Positions as text lines.
-enum Text {
-    Lines(Box<dyn BufRead>, String),
-    Typed,
-}
-
-impl Tracker {
-    /// The next position for `pose`.
-    fn next(&mut self, pose: u32, bar: &Meter) -> Result<Vector3<f64>, Error> {
+impl Poses {
+    /// The next pose and load to measure, `None` when there are no more.
+    fn next(&mut self, done: &[Measurement], bar: &Meter) -> Result<Option<(Pose, f64)>, Error> {
         match self {
-            Tracker::Text(text) => text.next(pose, bar),
-            Tracker::DTrack {
-                listener,
-                target,
-                options,
-                timeout,
-            } => {
-                let r = listener.read(*target, *options, *timeout)?;
-                bar.println(&format!(
-                    "pose {pose}: {} frames {}..{}, spread {:.3} mm, {} lost",
-                    r.frames,
-                    r.frame_range.0,
-                    r.frame_range.1,
-                    r.spread_m * 1e3,
-                    r.lost
-                ));
-                Ok(r.position)
-            }
-        }
-    }
-}
-
-impl Text {
-    /// The next position for `pose`.
-    fn next(&mut self, pose: u32, bar: &Meter) -> Result<Vector3<f64>, Error> {
-        loop {
-            let mut line = String::new();
-            let (n, source) = match self {
-                Text::Lines(r, name) => (r.read_line(&mut line), name.clone()),
-                Text::Typed => bar.suspend(|| {
-                    print!("pose {pose}: tracker x y z (mm)? ");
-                    let _ = std::io::stdout().flush();
-                    (
-                        std::io::stdin().lock().read_line(&mut line),
-                        "the keyboard".to_owned(),
-                    )
-                }),
-            };
-            let read_failed = |reason: String| Error::DeviceInput {
-                what: format!("read a tracker position from {source}"),
-                reason,
-            };
-            if n.map_err(|e| read_failed(e.to_string()))? == 0 {
-                return Err(read_failed(format!(
-                    "it ended before pose {pose}; the poses so far are saved"
-                )));
-            }
-            match parse_tracker_line(&line) {
-                Ok(None) => continue,
-                Ok(Some((Some(named), _))) if named != pose => {
-                    return Err(read_failed(format!(
-                        "the line names pose {named} but the arm is at pose {pose}"
-                    )));
-                }
-                Ok(Some((_, p))) => return Ok(p),
-                Err(reason) if matches!(self, Text::Typed) => bar.suspend(|| eprintln!("{reason}")),
-                Err(reason) => return Err(read_failed(reason)),
-            }
+            Self::List(todo) => Ok(todo.next()),
+            Self::Reached(reached) => reached.next(done, bar),
         }
     }
 }
 
 /// Runs `lrmcal measure`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let list = pose_list::read(&args.poses)?;
-    let poses: Vec<(Pose, f64)> = list
-        .iter()
-        .map(|r| (r.pose, args.load_kg.or(r.load_kg).unwrap_or(0.0)))
-        .collect();
-    let out = match (&args.out, args.hold_s) {
-        (_, Some(hold_s)) => return hold(args, &poses, hold_s),
-        (Some(out), None) => out,
-        (None, None) => {
+    let list = match (&args.poses, &args.joints) {
+        (Some(path), None) => Some(read_list(path, args.load_kg)?),
+        _ => None,
+    };
+    let out = match (&args.out, args.hold_s, &list, &args.poses) {
+        (_, Some(hold_s), Some(poses), Some(path)) => return hold(args, path, poses, hold_s),
+        (Some(out), None, _, _) => out,
+        _ => {
             return Err(Error::DeviceInput {
                 what: "measure".into(),
-                reason: "pass --out FILE to record positions, or --hold-s S to hold each pose for a recording tracker".into(),
+                reason: "pass --out FILE to record positions, or --hold-s S with --poses to hold \
+                         each pose for a recording tracker"
+                    .into(),
             });
         }
     };
+    let live = args.joints.as_deref() == Some(Path::new(joints::STDIN));
+    check_joints(args, live)?;
     let mut done = if out.exists() {
         measurements::read(out)?
     } else {
         Vec::new()
     };
-    let todo = remaining(&poses, &done);
+    // (the poses, how many of them: a stream's count is known only at its end)
+    let (mut poses, total) = match (list, &args.joints) {
+        (Some(list), _) => {
+            let todo = remaining(&list, &done);
+            (Poses::List(todo.into_iter()), Some(list.len()))
+        }
+        (None, Some(source)) => {
+            let arm = match &args.arm {
+                Some(source) => source.load()?.arm,
+                None => ArmSource::Bundled(DEFAULT_ARM).load()?.arm,
+            };
+            let reached = Reached::open(source, arm, args.allow_outside_limits, args.load_kg, out)?;
+            (Poses::Reached(Box::new(reached)), None)
+        }
+        (None, None) => {
+            return Err(Error::DeviceInput {
+                what: "measure".into(),
+                reason: "pass --poses FILE (a pose list) or --joints FILE|- (the angles the arm \
+                         reached)"
+                    .into(),
+            });
+        }
+    };
     let mut tracker = match &args.tracker {
         None => Tracker::Text(Text::Typed),
         Some(TrackerSource::Stdin) => Tracker::Text(Text::Lines(
@@ -292,10 +285,22 @@ pub fn run(args: &Args) -> Result<(), Error> {
             timeout: seconds(args.dtrack.tracker_timeout_s),
         },
     };
-    let mut mover = Mover::of(args)?;
-    let bar = Meter::new("measuring", poses.len() as u64, "poses");
-    bar.set_position((poses.len() - todo.len()) as u64);
-    for (pose, load_kg) in todo {
+    let mut mover = if live {
+        Mover::Reported
+    } else {
+        Mover::of(args.device.as_ref())?
+    };
+    // A stream's bar counts the poses come so far.
+    let mut measured = match &poses {
+        Poses::List(todo) => total.unwrap_or(0) - todo.len(),
+        Poses::Reached(_) => done.len(),
+    };
+    let bar = Meter::new("measuring", total.unwrap_or(measured) as u64, "poses");
+    bar.set_position(measured as u64);
+    while let Some((pose, load_kg)) = poses.next(&done, &bar)? {
+        if total.is_none() {
+            bar.set_length(measured as u64 + 1);
+        }
         bar.set_label(&format!("pose {}", pose.id));
         let confirm = matches!(tracker, Tracker::DTrack { .. });
         mover.arrive(pose, load_kg, args.settle_ms, confirm, &bar)?;
@@ -310,6 +315,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             approach: FROM_HOME,
         });
         measurements::write(out, &done)?;
+        measured += 1;
         bar.inc(1);
     }
     bar.finish();
@@ -317,8 +323,45 @@ pub fn run(args: &Args) -> Result<(), Error> {
     Ok(())
 }
 
-/// `--hold-s`: every pose of the list in order, held for `hold_s`, nothing recorded.
-fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
+/// The poses of a pose list, each with its load: `--load-kg`, else the list's, else 0.
+fn read_list(path: &Path, load_kg: Option<f64>) -> Result<Vec<(Pose, f64)>, Error> {
+    Ok(pose_list::read(path)?
+        .iter()
+        .map(|r| (r.pose, load_kg.or(r.load_kg).unwrap_or(0.0)))
+        .collect())
+}
+
+/// Refuses what cannot go with `--joints`: the board (it drives its arm to
+/// a pose list's angles itself), and with `--joints -` a tracker that also
+/// needs standard input.
+fn check_joints(args: &Args, live: bool) -> Result<(), Error> {
+    if args.joints.is_none() {
+        return Ok(());
+    }
+    let refuse = |reason: &str| {
+        Err(Error::DeviceInput {
+            what: "measure the angles of --joints".into(),
+            reason: reason.into(),
+        })
+    };
+    if args.device.is_some() {
+        return refuse(
+            "--joints is for an arm our board does not drive, whose controller reports the \
+             angles it reached; the board goes to a pose list's angles itself: pass --poses \
+             with --port, or drop --port (and unset LRMCAL_PORT)",
+        );
+    }
+    if live && matches!(args.tracker, None | Some(TrackerSource::Stdin)) {
+        return refuse(
+            "--joints - reads the angles from standard input, so the tracker positions cannot \
+             come from there too: pass --tracker dtrack://PORT or --tracker FILE",
+        );
+    }
+    Ok(())
+}
+
+/// `--hold-s`: every pose of the list `list` in order, held for `hold_s`, nothing recorded.
+fn hold(args: &Args, list: &Path, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
     let Some(device) = &args.device else {
         return Err(Error::DeviceInput {
             what: "hold the poses".into(),
@@ -343,92 +386,9 @@ fn hold(args: &Args, poses: &[(Pose, f64)], hold_s: f64) -> Result<(), Error> {
         "{} poses held {hold_s} s each; stop the take, export it as CSV and run \
          `lrmcal import-tracker --poses {}` on it",
         poses.len(),
-        args.poses.display()
+        list.display()
     );
     Ok(())
-}
-
-/// What brings the arm to each pose.
-enum Mover {
-    /// Our board, with the payload it was last told.
-    Board {
-        client: Box<Client<Box<dyn Link>>>,
-        load_now: Option<f64>,
-    },
-    /// A person or the arm's own controller, told each pose on stderr.
-    Announced,
-}
-
-impl Mover {
-    /// The board of `--port`, else the announcements.
-    fn of(args: &Args) -> Result<Self, Error> {
-        Ok(match &args.device {
-            Some(device) => Self::Board {
-                client: Box::new(device.connect()?),
-                load_now: None,
-            },
-            None => Self::Announced,
-        })
-    }
-
-    /// Brings the arm to `pose` under `load_kg`: the board moves there,
-    /// waits until it stands, then `settle_ms`; otherwise the pose is
-    /// announced and, when `confirm`, a line on standard input awaited.
-    fn arrive(
-        &mut self,
-        pose: Pose,
-        load_kg: f64,
-        settle_ms: u64,
-        confirm: bool,
-        bar: &Meter,
-    ) -> Result<(), Error> {
-        match self {
-            Self::Board { client, load_now } => {
-                if *load_now != Some(load_kg) {
-                    client.set_payload(load_kg as f32)?;
-                    *load_now = Some(load_kg);
-                }
-                client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
-                client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
-                std::thread::sleep(Duration::from_millis(settle_ms));
-                Ok(())
-            }
-            Self::Announced => {
-                let angles: Vec<String> = pose
-                    .q
-                    .iter()
-                    .map(|q| format!("{:.2}", q.to_degrees()))
-                    .collect();
-                let announce = format!(
-                    "pose {}: move the arm to q = ({}) deg with {load_kg} kg",
-                    pose.id,
-                    angles.join(", ")
-                );
-                if !confirm {
-                    bar.println(&announce);
-                    return Ok(());
-                }
-                let mut line = String::new();
-                let read = bar.suspend(|| {
-                    eprint!("{announce}, then press Enter ");
-                    std::io::stdin().lock().read_line(&mut line)
-                });
-                match read {
-                    Ok(n) if n > 0 => Ok(()),
-                    Ok(_) => Err(Error::DeviceInput {
-                        what: format!("wait for the arm at pose {}", pose.id),
-                        reason: "standard input ended before the arm was there; the poses so far \
-                                 are saved"
-                            .into(),
-                    }),
-                    Err(e) => Err(Error::DeviceInput {
-                        what: format!("wait for the arm at pose {}", pose.id),
-                        reason: format!("standard input cannot be read: {e}"),
-                    }),
-                }
-            }
-        }
-    }
 }
 
 /// A duration from a checked number of seconds (>= 0); beyond `Duration`'s range, forever.
@@ -440,6 +400,7 @@ fn seconds(s: f64) -> Duration {
 mod tests {
     use super::*;
     use model::JOINTS;
+    use nalgebra::Vector3;
 
     #[test]
     fn tracker_sources_by_their_form() {
