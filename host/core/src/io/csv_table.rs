@@ -64,6 +64,22 @@ struct Header {
     width: usize,
 }
 
+impl Header {
+    /// Refuses a record (on `line`) whose field count is not the header's.
+    fn check_width(&self, record: &StringRecord, line: u64) -> Result<(), InputError> {
+        if record.len() == self.width {
+            return Ok(());
+        }
+        Err(InputError::new(
+            Location::line(line),
+            Problem::FieldCount {
+                expected: self.width,
+                found: record.len(),
+            },
+        ))
+    }
+}
+
 /// One data row with its line number, read through the header.
 pub struct Row<'a> {
     header: &'a Header,
@@ -198,15 +214,7 @@ pub fn for_each_row(
     let mut rows = 0;
     while reader.read_record(&mut record).map_err(csv_error)? {
         let line = record_line(&text, record.position(), Some(b'#'));
-        if record.len() != header.width {
-            return Err(InputError::new(
-                Location::line(line),
-                Problem::FieldCount {
-                    expected: header.width,
-                    found: record.len(),
-                },
-            ));
-        }
+        header.check_width(&record, line)?;
         each(&Row {
             header: &header,
             record: &record,
@@ -282,16 +290,7 @@ impl<R: std::io::BufRead> LineRows<R> {
                 self.header = Some((check_header(&record, line, self.schema)?, line));
                 continue;
             };
-            if record.len() != header.width {
-                return Err(InputError::new(
-                    Location::line(line),
-                    Problem::FieldCount {
-                        expected: header.width,
-                        found: record.len(),
-                    },
-                )
-                .into());
-            }
+            header.check_width(&record, line)?;
             let value = each(&Row {
                 header,
                 record: &record,
