@@ -66,6 +66,8 @@ pub enum Command {
     Select(commands::select::Args),
     /// Check a calibration against another measurement file.
     Validate(commands::validate::Args),
+    /// Build a calibration folder's one-page report (report.html) again from its report.json.
+    Report(commands::report::Args),
     /// List the serial ports a board could be on.
     Ports(commands::ports::Args),
     /// Show the board's versions, calibration, compensation, joints and faults.
@@ -109,6 +111,7 @@ impl Command {
             Self::Identify(args) => commands::identify::run(args),
             Self::Select(args) => commands::select::run(args),
             Self::Validate(args) => commands::validate::run(args),
+            Self::Report(args) => commands::report::run(args),
             Self::Ports(args) => commands::ports::run(args),
             Self::Status(args) => commands::status::run(args),
             Self::Push(args) => commands::push::run(args),

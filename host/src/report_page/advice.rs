@@ -1,0 +1,411 @@
+//! What to do next, worked out from the report's numbers: each rule looks
+//! at one thing the run computed (the fit's outliers, the parameters it
+//! barely determined, the validation against the fit, the bounds, the
+//! registration) and speaks only when its condition holds, naming the poses,
+//! joints and figures that made it speak.
+
+use lrmcal_engine::calib::ParamKey;
+use lrmcal_engine::calib::parameters::servo_knots::FINEST_SPACING_DEG;
+use lrmcal_engine::calib::results::report::{OptionReport, Report};
+use lrmcal_engine::calib::results::summary;
+
+/// The validation error (RMS) beyond this many times the fit's own says
+/// that the calibration follows its poses more closely than the arm.
+pub const VALIDATION_OVER_FIT: f64 = 2.0;
+
+/// Each piece of advice, most pressing first: problems, then which file to push.
+pub fn advice(report: &Report) -> Vec<String> {
+    let rules: [fn(&Report) -> Vec<String>; 10] = [
+        not_converged,
+        remeasure_outliers,
+        validation_outliers,
+        validation_over_fit,
+        nothing_held_out,
+        poorly_determined,
+        springs_at_bound,
+        backlash,
+        tool_not_found,
+        push_best,
+    ];
+    rules.iter().flat_map(|rule| rule(report)).collect()
+}
+
+/// The options fitted under the run's load (the demo adds fits under the
+/// other load after them, for its cross-load check).
+fn fitted(report: &Report) -> impl Iterator<Item = &OptionReport> {
+    report
+        .options
+        .iter()
+        .filter(move |o| o.identify_load_kg == report.identify_load_kg)
+}
+
+/// `(pose, load)` pairs as `pose 12 (0.0663 kg)`, each once, in the order given.
+fn poses(pairs: impl IntoIterator<Item = (u32, f64)>) -> Vec<String> {
+    let mut named: Vec<String> = Vec::new();
+    for (pose, load) in pairs {
+        let name = format!("pose {pose} ({load} kg)");
+        if !named.contains(&name) {
+            named.push(name);
+        }
+    }
+    named
+}
+
+/// A fit that did not converge.
+fn not_converged(report: &Report) -> Vec<String> {
+    report
+        .options
+        .iter()
+        .filter(|o| !o.fit.converged)
+        .map(|o| {
+            format!(
+                "{}: the fit did not converge ({}): do not push this calibration; measure more poses or fit a smaller option.",
+                o.option, o.fit.termination
+            )
+        })
+        .collect()
+}
+
+/// The measurements the robust fit down-weighted, largest residual first.
+fn remeasure_outliers(report: &Report) -> Vec<String> {
+    let mut outliers: Vec<_> = report
+        .options
+        .iter()
+        .flat_map(|o| &o.fit.outliers)
+        .collect();
+    if outliers.is_empty() {
+        return Vec::new();
+    }
+    outliers.sort_by(|a, b| b.residual_mm.total_cmp(&a.residual_mm));
+    let named = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
+    vec![format!(
+        "{} {} wrong (far off the others, down-weighted by the fit, residual up to {:.2} mm): re-measure {}. If a pose measures the same again, the arm does something there the model does not describe.",
+        named.len(),
+        if named.len() == 1 {
+            "measurement looks"
+        } else {
+            "measurements look"
+        },
+        outliers[0].residual_mm,
+        named.join(", ")
+    )]
+}
+
+/// Held-out measurements far beyond the others' error.
+fn validation_outliers(report: &Report) -> Vec<String> {
+    let mut outliers: Vec<_> = report
+        .options
+        .iter()
+        .flat_map(|o| o.validation.iter().chain(&o.cross_load))
+        .flat_map(|v| &v.outliers)
+        .collect();
+    if outliers.is_empty() {
+        return Vec::new();
+    }
+    outliers.sort_by(|a, b| b.error_mm.total_cmp(&a.error_mm));
+    let named = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
+    vec![format!(
+        "Held out of the fit, {} far from where the calibration puts the tool (up to {:.2} mm): re-measure it, or check the tracker's view of the target there.",
+        named.join(", "),
+        outliers[0].error_mm
+    )]
+}
+
+/// A validation error much larger than the fit's.
+fn validation_over_fit(report: &Report) -> Vec<String> {
+    report
+        .options
+        .iter()
+        .filter_map(|o| {
+            let v = o.validation.as_ref()?;
+            let held_out = v.after.rms_m * 1e3;
+            let fit = o.fit.rms_after_mm;
+            (held_out > VALIDATION_OVER_FIT * fit).then(|| {
+                format!(
+                    "{}: the validation error ({held_out:.2} mm RMS on the poses held out) is {:.1} times the fit's ({fit:.2} mm RMS): the calibration follows its own poses more closely than the arm. Add poses (a larger --select), or check the tracker: a tracker or target moved between measurements does this.",
+                    o.option,
+                    held_out / fit
+                )
+            })
+        })
+        .collect()
+}
+
+/// No measured pose left to validate on.
+fn nothing_held_out(report: &Report) -> Vec<String> {
+    if report.options.is_empty() || report.options.iter().any(|o| o.validation.is_some()) {
+        return Vec::new();
+    }
+    vec!["Every measured pose was fitted and none held out: the errors above are the fit's residuals and say little about other poses. Measure more poses than you fit (--select N below the number measured) to validate the calibration.".into()]
+}
+
+/// The parameters the fit barely determined, each once, with what would determine it.
+fn poorly_determined(report: &Report) -> Vec<String> {
+    let mut names: Vec<&str> = Vec::new();
+    for name in report.options.iter().flat_map(|o| &o.fit.weak) {
+        if !names.contains(&name.as_str()) {
+            names.push(name);
+        }
+    }
+    names
+        .into_iter()
+        .map(|name| match ParamKey::from_name(name) {
+            Some(ParamKey::Backlash { joint }) => format!(
+                "Joint {}'s play ({name}) is poorly determined: add poses that reverse joint {} (reach its angles from both directions).",
+                joint + 1,
+                joint + 1
+            ),
+            Some(ParamKey::ServoKnot { joint, knot }) => {
+                let deg = -100.0 + FINEST_SPACING_DEG * f64::from(knot);
+                format!(
+                    "Joint {}'s servo curve near {deg:+.0}° ({name}) is poorly determined: add poses with joint {} near {deg:+.0}°.",
+                    joint + 1,
+                    joint + 1
+                )
+            }
+            _ => format!(
+                "{name} is poorly determined by these poses: add poses that move it (select from more varied candidates)."
+            ),
+        })
+        .collect()
+}
+
+/// Springs the fit held at a physical bound.
+fn springs_at_bound(report: &Report) -> Vec<String> {
+    report
+        .options
+        .iter()
+        .filter(|o| !o.fit.at_bound.is_empty())
+        .map(|o| {
+            format!(
+                "{}: {} held at a physical bound, the measurements asking for more: check the load given (--load-kg) and the arm file's masses and [payload] rated_kg.",
+                o.option,
+                o.fit.at_bound.join(", ")
+            )
+        })
+        .collect()
+}
+
+/// Backlash widths at the board's limit or beyond what a servo plausibly has.
+fn backlash(report: &Report) -> Vec<String> {
+    report
+        .options
+        .iter()
+        .flat_map(summary::backlash)
+        .map(|w| {
+            let w = w.strip_prefix("warning: ").unwrap_or(&w);
+            let mut w = w.to_owned();
+            w.push('.');
+            w
+        })
+        .collect()
+}
+
+/// A registration that kept the arm file's tool point.
+fn tool_not_found(report: &Report) -> Vec<String> {
+    match &report.registration {
+        Some(r) if r.tool_mm.is_none() => vec![format!(
+            "The tool point was not found with the base (the last link turns {:.2} over the poses, {:.1} needed), so the arm file's [tool] was kept: measure poses that turn the wrist further.",
+            r.tool_turn, r.tool_turn_needed
+        )],
+        _ => Vec::new(),
+    }
+}
+
+/// The calibration that predicts the held-out poses best.
+fn push_best(report: &Report) -> Vec<String> {
+    let best = fitted(report)
+        .filter(|o| o.fit.converged)
+        .filter_map(|o| Some((o, o.validation.as_ref()?)))
+        .min_by(|a, b| a.1.after.mean_m.total_cmp(&b.1.after.mean_m));
+    let Some((o, v)) = best else {
+        return Vec::new();
+    };
+    let others = fitted(report).filter(|x| x.validation.is_some()).count() - 1;
+    vec![format!(
+        "Push calibration-{}.json (lrmcal push): {} the poses held out to {:.2} mm mean, {:.1} % less than uncalibrated.",
+        o.option,
+        if others > 0 {
+            format!("of the {} options validated it predicts best,", others + 1)
+        } else {
+            "it predicts".to_owned()
+        },
+        v.after.mean_m * 1e3,
+        v.reduction_pct
+    )]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report_page::fixture;
+    use lrmcal_engine::calib::results::report::{OutlierReport, ValidationOutlier};
+
+    /// The fixture has nothing suspect: every rule but the push is silent.
+    #[test]
+    fn a_clean_run_only_says_which_file_to_push() {
+        let report = fixture::report();
+        for rule in [
+            not_converged,
+            remeasure_outliers,
+            validation_outliers,
+            validation_over_fit,
+            nothing_held_out,
+            poorly_determined,
+            springs_at_bound,
+            backlash,
+            tool_not_found,
+        ] {
+            assert_eq!(rule(&report), Vec::<String>::new());
+        }
+        assert_eq!(
+            advice(&report),
+            [
+                "Push calibration-elasto-kinematic-servo.json (lrmcal push): it predicts the poses held out to 1.03 mm mean, 97.3 % less than uncalibrated."
+            ]
+        );
+    }
+
+    #[test]
+    fn outliers_are_named_for_re_measuring_largest_first() {
+        let mut report = fixture::report();
+        let o = |pose, residual_mm| OutlierReport {
+            pose,
+            load_kg: 0.0663,
+            residual_mm,
+            weight: 0.3,
+        };
+        report.options[0].fit.outliers = vec![o(17, 3.0), o(12, 9.5), o(31, 4.0)];
+        let a = remeasure_outliers(&report);
+        assert_eq!(a.len(), 1);
+        assert!(
+            a[0].starts_with("3 measurements look wrong")
+                && a[0].contains("up to 9.50 mm")
+                && a[0].contains(
+                    "re-measure pose 12 (0.0663 kg), pose 31 (0.0663 kg), pose 17 (0.0663 kg)."
+                ),
+            "{}",
+            a[0]
+        );
+    }
+
+    #[test]
+    fn a_held_out_outlier_is_named() {
+        let mut report = fixture::report();
+        report.options[0]
+            .validation
+            .as_mut()
+            .unwrap()
+            .outliers
+            .push(ValidationOutlier {
+                pose: 9,
+                load_kg: 0.0663,
+                error_mm: 14.0,
+            });
+        let a = validation_outliers(&report);
+        assert!(
+            a.len() == 1 && a[0].contains("pose 9 (0.0663 kg)") && a[0].contains("14.00 mm"),
+            "{a:?}"
+        );
+    }
+
+    #[test]
+    fn a_validation_error_far_above_the_fit_s_says_add_poses_or_check_the_tracker() {
+        let mut report = fixture::report();
+        // 1.04 mm RMS held out against 0.9 in the fit: fine.
+        assert!(validation_over_fit(&report).is_empty());
+        report.options[0].fit.rms_after_mm = 0.4;
+        let a = validation_over_fit(&report);
+        assert!(
+            a.len() == 1
+                && a[0].contains("1.04 mm RMS")
+                && a[0].contains("2.6 times")
+                && a[0].contains("check the tracker"),
+            "{a:?}"
+        );
+    }
+
+    #[test]
+    fn a_run_without_held_out_poses_says_so_and_recommends_nothing() {
+        let mut report = fixture::report();
+        report.options[0].validation = None;
+        assert!(nothing_held_out(&report)[0].starts_with("Every measured pose was fitted"));
+        assert!(push_best(&report).is_empty());
+    }
+
+    #[test]
+    fn weak_parameters_say_which_poses_would_determine_them() {
+        let mut report = fixture::report();
+        report.options[0].fit.weak = vec!["j6.backlash".into(), "j3.servo[7]".into(), "k2".into()];
+        let a = poorly_determined(&report);
+        assert_eq!(a.len(), 3, "{a:?}");
+        assert!(
+            a[0].starts_with(
+                "Joint 6's play (j6.backlash) is poorly determined: add poses that reverse joint 6"
+            ),
+            "{}",
+            a[0]
+        );
+        assert!(
+            a[1].starts_with("Joint 3's servo curve near +50° (j3.servo[7])")
+                && a[1].contains("joint 3 near +50°"),
+            "{}",
+            a[1]
+        );
+        assert!(a[2].starts_with("k2 is poorly determined"), "{}", a[2]);
+    }
+
+    #[test]
+    fn a_fit_not_converged_or_at_a_bound_is_named() {
+        let mut report = fixture::report();
+        report.options[0].fit.converged = false;
+        report.options[0].fit.at_bound = vec!["k2".into()];
+        assert!(not_converged(&report)[0].contains("did not converge (converged)"));
+        assert!(
+            springs_at_bound(&report)[0]
+                .starts_with("elasto-kinematic-servo: k2 held at a physical bound")
+        );
+        // Not converged: not recommended.
+        assert!(push_best(&report).is_empty());
+    }
+
+    #[test]
+    fn a_worn_servo_s_play_is_named() {
+        let mut report = fixture::report();
+        report.options[0].fit.parameters[2].value = 4f64.to_radians();
+        let a = backlash(&report);
+        assert!(
+            a.len() == 1 && a[0].starts_with("joint 6's backlash fitted 4.00°"),
+            "{a:?}"
+        );
+    }
+
+    #[test]
+    fn a_tool_point_kept_asks_for_wrist_turns() {
+        let mut report = fixture::report();
+        report.registration.as_mut().unwrap().tool_mm = None;
+        let a = tool_not_found(&report);
+        assert!(
+            a.len() == 1 && a[0].contains("turns 0.80") && a[0].contains("turn the wrist"),
+            "{a:?}"
+        );
+        report.registration = None;
+        assert!(tool_not_found(&report).is_empty());
+    }
+
+    #[test]
+    fn the_best_of_several_options_is_recommended() {
+        let mut report = fixture::report();
+        let mut other = report.options[0].clone();
+        other.option = lrmcal_engine::calib::ModelOption::Kinematic;
+        other.validation.as_mut().unwrap().after.mean_m = 0.02;
+        report.options.insert(0, other);
+        let a = push_best(&report);
+        assert!(
+            a.len() == 1
+                && a[0].starts_with("Push calibration-elasto-kinematic-servo.json")
+                && a[0].contains("of the 2 options validated"),
+            "{a:?}"
+        );
+    }
+}
