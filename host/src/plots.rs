@@ -75,6 +75,8 @@ pub fn write(stem: &Path, figure: &impl Figure) -> Result<Vec<PathBuf>, Error> {
 /// Draws `figure` as SVG text, the same figure [`write`] puts in its `.svg`
 /// file; `page` names the file it is drawn for, in an error.
 pub fn svg(figure: &impl Figure, page: &Path) -> Result<String, Error> {
+    // Text is laid out with the font's metrics, in SVG too.
+    register_font();
     let mut text = String::new();
     figure
         .draw(SVGBackend::with_string(&mut text, SIZE).into_drawing_area())

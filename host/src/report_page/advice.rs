@@ -3,10 +3,16 @@
 //! barely determined, the validation against the fit, the bounds, the
 //! registration) and speaks only when its condition holds, naming the poses,
 //! joints and figures that made it speak.
+//!
+//! The measurements and parameters are judged on the calibration to push
+//! (the one that predicts the held-out poses best): a simpler option that
+//! misses every pose by centimetres names half of them as far off, which
+//! says nothing about the measurements. Without a validation every option
+//! fitted is judged.
 
 use lrmcal_engine::calib::ParamKey;
 use lrmcal_engine::calib::parameters::servo_knots::FINEST_SPACING_DEG;
-use lrmcal_engine::calib::results::report::{OptionReport, Report};
+use lrmcal_engine::calib::results::report::{OptionReport, Report, ValidationReport};
 use lrmcal_engine::calib::results::summary;
 
 /// The validation error (RMS) beyond this many times the fit's own says
@@ -39,8 +45,30 @@ fn fitted(report: &Report) -> impl Iterator<Item = &OptionReport> {
         .filter(move |o| o.identify_load_kg == report.identify_load_kg)
 }
 
-/// `(pose, load)` pairs as `pose 12 (0.0663 kg)`, each once, in the order given.
-fn poses(pairs: impl IntoIterator<Item = (u32, f64)>) -> Vec<String> {
+/// The most poses an advice names before it says how many more.
+const NAMED: usize = 12;
+
+/// The options whose measurements and parameters are judged: the best
+/// validated one ([`best`]), or every one fitted when none was validated.
+fn judged(report: &Report) -> Vec<&OptionReport> {
+    match best(report) {
+        Some((o, _)) => vec![o],
+        None => fitted(report).collect(),
+    }
+}
+
+/// The converged option fitted under the run's load with the smallest
+/// mean validation error, and its validation.
+fn best(report: &Report) -> Option<(&OptionReport, &ValidationReport)> {
+    fitted(report)
+        .filter(|o| o.fit.converged)
+        .filter_map(|o| Some((o, o.validation.as_ref()?)))
+        .min_by(|a, b| a.1.after.mean_m.total_cmp(&b.1.after.mean_m))
+}
+
+/// `(pose, load)` pairs as `pose 12 (0.0663 kg)`, each once, in the order
+/// given: how many, and the first [`NAMED`] of them with how many more.
+fn poses(pairs: impl IntoIterator<Item = (u32, f64)>) -> (usize, String) {
     let mut named: Vec<String> = Vec::new();
     for (pose, load) in pairs {
         let name = format!("pose {pose} ({load} kg)");
@@ -48,7 +76,16 @@ fn poses(pairs: impl IntoIterator<Item = (u32, f64)>) -> Vec<String> {
             named.push(name);
         }
     }
-    named
+    let count = named.len();
+    let more = count.saturating_sub(NAMED);
+    named.truncate(NAMED);
+    let mut text = named.join(", ");
+    if more > 0 {
+        text.push_str(&format!(
+            " and {more} more (the table of suspect measurements lists them)"
+        ));
+    }
+    (count, text)
 }
 
 /// A fit that did not converge.
@@ -68,34 +105,30 @@ fn not_converged(report: &Report) -> Vec<String> {
 
 /// The measurements the robust fit down-weighted, largest residual first.
 fn remeasure_outliers(report: &Report) -> Vec<String> {
-    let mut outliers: Vec<_> = report
-        .options
-        .iter()
+    let mut outliers: Vec<_> = judged(report)
+        .into_iter()
         .flat_map(|o| &o.fit.outliers)
         .collect();
     if outliers.is_empty() {
         return Vec::new();
     }
     outliers.sort_by(|a, b| b.residual_mm.total_cmp(&a.residual_mm));
-    let named = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
+    let (count, named) = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
     vec![format!(
-        "{} {} wrong (far off the others, down-weighted by the fit, residual up to {:.2} mm): re-measure {}. If a pose measures the same again, the arm does something there the model does not describe.",
-        named.len(),
-        if named.len() == 1 {
+        "{count} {} wrong (far off the others, down-weighted by the fit, residual up to {:.2} mm): re-measure {named}. If a pose measures the same again, the arm does something there the model does not describe.",
+        if count == 1 {
             "measurement looks"
         } else {
             "measurements look"
         },
         outliers[0].residual_mm,
-        named.join(", ")
     )]
 }
 
 /// Held-out measurements far beyond the others' error.
 fn validation_outliers(report: &Report) -> Vec<String> {
-    let mut outliers: Vec<_> = report
-        .options
-        .iter()
+    let mut outliers: Vec<_> = judged(report)
+        .into_iter()
         .flat_map(|o| o.validation.iter().chain(&o.cross_load))
         .flat_map(|v| &v.outliers)
         .collect();
@@ -103,11 +136,12 @@ fn validation_outliers(report: &Report) -> Vec<String> {
         return Vec::new();
     }
     outliers.sort_by(|a, b| b.error_mm.total_cmp(&a.error_mm));
-    let named = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
+    let (count, named) = poses(outliers.iter().map(|o| (o.pose, o.load_kg)));
     vec![format!(
-        "Held out of the fit, {} far from where the calibration puts the tool (up to {:.2} mm): re-measure it, or check the tracker's view of the target there.",
-        named.join(", "),
-        outliers[0].error_mm
+        "Held out of the fit, {named} {} far from where the calibration puts the tool (up to {:.2} mm): re-measure {}, or check the tracker's view of the target there.",
+        if count == 1 { "is" } else { "are" },
+        outliers[0].error_mm,
+        if count == 1 { "it" } else { "them" },
     )]
 }
 
@@ -139,35 +173,44 @@ fn nothing_held_out(report: &Report) -> Vec<String> {
     vec!["Every measured pose was fitted and none held out: the errors above are the fit's residuals and say little about other poses. Measure more poses than you fit (--select N below the number measured) to validate the calibration.".into()]
 }
 
-/// The parameters the fit barely determined, each once, with what would determine it.
+/// The parameters the fit barely determined, each once: a joint's play
+/// and a servo curve's knot each with the poses that would determine it,
+/// the others together.
 fn poorly_determined(report: &Report) -> Vec<String> {
     let mut names: Vec<&str> = Vec::new();
-    for name in report.options.iter().flat_map(|o| &o.fit.weak) {
+    for name in judged(report).into_iter().flat_map(|o| &o.fit.weak) {
         if !names.contains(&name.as_str()) {
             names.push(name);
         }
     }
-    names
-        .into_iter()
-        .map(|name| match ParamKey::from_name(name) {
-            Some(ParamKey::Backlash { joint }) => format!(
+    let mut out = Vec::new();
+    let mut others = Vec::new();
+    for name in names {
+        match ParamKey::from_name(name) {
+            Some(ParamKey::Backlash { joint }) => out.push(format!(
                 "Joint {}'s play ({name}) is poorly determined: add poses that reverse joint {} (reach its angles from both directions).",
                 joint + 1,
                 joint + 1
-            ),
+            )),
             Some(ParamKey::ServoKnot { joint, knot }) => {
                 let deg = -100.0 + FINEST_SPACING_DEG * f64::from(knot);
-                format!(
+                out.push(format!(
                     "Joint {}'s servo curve near {deg:+.0}° ({name}) is poorly determined: add poses with joint {} near {deg:+.0}°.",
                     joint + 1,
                     joint + 1
-                )
+                ));
             }
-            _ => format!(
-                "{name} is poorly determined by these poses: add poses that move it (select from more varied candidates)."
-            ),
-        })
-        .collect()
+            _ => others.push(name),
+        }
+    }
+    if !others.is_empty() {
+        out.push(format!(
+            "Poorly determined by these poses: {}. Add poses that move {} (select from more varied candidates).",
+            others.join(", "),
+            if others.len() == 1 { "it" } else { "them" }
+        ));
+    }
+    out
 }
 
 /// Springs the fit held at a physical bound.
@@ -214,11 +257,7 @@ fn tool_not_found(report: &Report) -> Vec<String> {
 
 /// The calibration that predicts the held-out poses best.
 fn push_best(report: &Report) -> Vec<String> {
-    let best = fitted(report)
-        .filter(|o| o.fit.converged)
-        .filter_map(|o| Some((o, o.validation.as_ref()?)))
-        .min_by(|a, b| a.1.after.mean_m.total_cmp(&b.1.after.mean_m));
-    let Some((o, v)) = best else {
+    let Some((o, v)) = best(report) else {
         return Vec::new();
     };
     let others = fitted(report).filter(|x| x.validation.is_some()).count() - 1;
@@ -304,7 +343,7 @@ mod tests {
             });
         let a = validation_outliers(&report);
         assert!(
-            a.len() == 1 && a[0].contains("pose 9 (0.0663 kg)") && a[0].contains("14.00 mm"),
+            a.len() == 1 && a[0].contains("pose 9 (0.0663 kg) is far") && a[0].contains("14.00 mm"),
             "{a:?}"
         );
     }
@@ -336,7 +375,12 @@ mod tests {
     #[test]
     fn weak_parameters_say_which_poses_would_determine_them() {
         let mut report = fixture::report();
-        report.options[0].fit.weak = vec!["j6.backlash".into(), "j3.servo[7]".into(), "k2".into()];
+        report.options[0].fit.weak = vec![
+            "j6.backlash".into(),
+            "j3.servo[7]".into(),
+            "k2".into(),
+            "j2.d".into(),
+        ];
         let a = poorly_determined(&report);
         assert_eq!(a.len(), 3, "{a:?}");
         assert!(
@@ -352,7 +396,13 @@ mod tests {
             "{}",
             a[1]
         );
-        assert!(a[2].starts_with("k2 is poorly determined"), "{}", a[2]);
+        assert!(
+            a[2].starts_with(
+                "Poorly determined by these poses: k2, j2.d. Add poses that move them"
+            ),
+            "{}",
+            a[2]
+        );
     }
 
     #[test]
@@ -391,6 +441,37 @@ mod tests {
         );
         report.registration = None;
         assert!(tool_not_found(&report).is_empty());
+    }
+
+    /// A simpler option's outliers and weak parameters say nothing about
+    /// the measurements when a better one was validated; many poses are
+    /// counted rather than all named.
+    #[test]
+    fn measurements_are_judged_on_the_option_to_push() {
+        let mut report = fixture::report();
+        let mut poor = report.options[0].clone();
+        poor.option = lrmcal_engine::calib::ModelOption::Kinematic;
+        poor.validation.as_mut().unwrap().after.mean_m = 0.03;
+        poor.fit.weak = vec!["j2.d".into()];
+        poor.fit.outliers = (0..20)
+            .map(|pose| OutlierReport {
+                pose,
+                load_kg: 0.0,
+                residual_mm: 30.0,
+                weight: 0.1,
+            })
+            .collect();
+        report.options.push(poor);
+        assert!(remeasure_outliers(&report).is_empty());
+        assert!(poorly_determined(&report).is_empty());
+        report.options[0].validation = None;
+        report.options[1].validation = None;
+        let a = remeasure_outliers(&report);
+        assert!(
+            a[0].starts_with("20 measurements look wrong")
+                && a[0].contains("pose 11 (0 kg) and 8 more"),
+            "{a:?}"
+        );
     }
 
     #[test]

@@ -18,7 +18,7 @@ pub fn report() -> Report {
     let per_pose: Vec<_> = [(7, 30.0, 1.0), (8, 40.0, 1.2), (9, 35.0, 0.8), (10, 50.0, 1.1)]
         .iter()
         .map(|&(pose, before, after)| {
-            json!({"pose": pose, "load_kg": 0.0663, "target": 0, "before_mm": before, "after_mm": after})
+            json!({"pose": pose, "target": 0, "before_mm": before, "after_mm": after})
         })
         .collect();
     let param = |name: &str, error: f64, std: Option<f64>| json!({"name": name, "error": error, "value": error, "std": std});

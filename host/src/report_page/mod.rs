@@ -57,11 +57,12 @@ pub fn render(report: &Report, page: &Path) -> Result<String, Error> {
         .get("source")
         .and_then(|s| s.as_str())
         .unwrap_or("-");
-    let options: Vec<String> = report
-        .options
-        .iter()
-        .map(|o| o.option.to_string())
-        .collect();
+    let mut options: Vec<String> = Vec::new();
+    for o in &report.options {
+        if !options.contains(&o.option.to_string()) {
+            options.push(o.option.to_string());
+        }
+    }
     let mut out = format!(
         "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\

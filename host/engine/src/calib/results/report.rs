@@ -232,10 +232,8 @@ pub struct ValidationReport {
 /// One validation measurement's error, in report units.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PoseErrorReport {
-    /// Pose id.
+    /// Pose id (measured under the validation's load).
     pub pose: u32,
-    /// Payload, kg.
-    pub load_kg: f64,
     /// Index of the measured target in the calibration's targets.
     pub target: usize,
     /// 3D error of the nominal model, mm.
@@ -277,7 +275,6 @@ impl ValidationReport {
                 .iter()
                 .map(|p| PoseErrorReport {
                     pose: p.pose,
-                    load_kg: p.load_kg,
                     target: p.target,
                     before_mm: p.before_m * 1e3,
                     after_mm: p.after_m * 1e3,
