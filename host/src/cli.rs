@@ -37,6 +37,7 @@ lrmcal demo                       # the whole method on a simulated arm\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal simulate --poses candidates.csv --out measurements.csv\n  \
 lrmcal identify --measurements measurements.csv --load-kg 0.0663 --select 50 --out cal\n  \
+lrmcal report cal                 # cal/report.html again from cal/report.json\n  \
 lrmcal predict --arm cal/calibration-elasto-kinematic-servo.json --poses poses.csv --out predicted.csv\n  \
 lrmcal help identify\n\n\
 Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
