@@ -173,9 +173,9 @@ fn nothing_held_out(report: &Report) -> Vec<String> {
     vec!["Every measured pose was fitted and none held out: the errors above are the fit's residuals and say little about other poses. Measure more poses than you fit (--select N below the number measured) to validate the calibration.".into()]
 }
 
-/// The parameters the fit barely determined, each once: a joint's play
-/// and a servo curve's knot each with the poses that would determine it,
-/// the others together.
+/// The parameters the fit barely determined, each once: a joint's play,
+/// and a servo curve's knots joint by joint, with the poses that would
+/// determine them; the others together.
 fn poorly_determined(report: &Report) -> Vec<String> {
     let mut names: Vec<&str> = Vec::new();
     for name in judged(report).into_iter().flat_map(|o| &o.fit.weak) {
@@ -184,6 +184,8 @@ fn poorly_determined(report: &Report) -> Vec<String> {
         }
     }
     let mut out = Vec::new();
+    // Per joint (from 0), the knot angles, degrees.
+    let mut knots: Vec<(u8, Vec<f64>)> = Vec::new();
     let mut others = Vec::new();
     for name in names {
         match ParamKey::from_name(name) {
@@ -194,15 +196,28 @@ fn poorly_determined(report: &Report) -> Vec<String> {
             )),
             Some(ParamKey::ServoKnot { joint, knot }) => {
                 let deg = -100.0 + FINEST_SPACING_DEG * f64::from(knot);
-                out.push(format!(
-                    "Joint {}'s servo curve near {deg:+.0}° ({name}) is poorly determined: add poses with joint {} near {deg:+.0}°.",
-                    joint + 1,
-                    joint + 1
-                ));
+                match knots.iter_mut().find(|(j, _)| *j == joint) {
+                    Some((_, angles)) => angles.push(deg),
+                    None => knots.push((joint, vec![deg])),
+                }
             }
             _ => others.push(name),
         }
     }
+    out.extend(knots.into_iter().map(|(joint, angles)| {
+        let angles: Vec<String> = angles.iter().map(|d| format!("{d:+.0}°")).collect();
+        format!(
+            "Joint {}'s servo curve is poorly determined near {}: add poses with joint {} at {}.",
+            joint + 1,
+            angles.join(", "),
+            joint + 1,
+            if angles.len() == 1 {
+                "that angle"
+            } else {
+                "those angles"
+            }
+        )
+    }));
     if !others.is_empty() {
         out.push(format!(
             "Poorly determined by these poses: {}. Add poses that move {} (select from more varied candidates).",
@@ -213,18 +228,31 @@ fn poorly_determined(report: &Report) -> Vec<String> {
     out
 }
 
-/// Springs the fit held at a physical bound.
+/// Parameters the fit held at the ceiling of their physical range (one held
+/// at zero, a joint without play or a spring that does not soften, says
+/// nothing wrong).
 fn springs_at_bound(report: &Report) -> Vec<String> {
-    report
-        .options
-        .iter()
-        .filter(|o| !o.fit.at_bound.is_empty())
-        .map(|o| {
-            format!(
-                "{}: {} held at a physical bound, the measurements asking for more: check the load given (--load-kg) and the arm file's masses and [payload] rated_kg.",
-                o.option,
-                o.fit.at_bound.join(", ")
-            )
+    judged(report)
+        .into_iter()
+        .filter_map(|o| {
+            let at_ceiling: Vec<&str> = o
+                .fit
+                .at_bound
+                .iter()
+                .filter(|name| {
+                    let fitted = o.fit.parameters.iter().find(|p| &p.name == *name);
+                    fitted.is_none_or(|p| p.value != 0.0)
+                })
+                .map(String::as_str)
+                .collect();
+            (!at_ceiling.is_empty()).then(|| {
+                format!(
+                    "{}: {} held at the ceiling of {} physical range, the measurements asking for more: check the load given (--load-kg) and the arm file's masses and [payload] rated_kg.",
+                    o.option,
+                    at_ceiling.join(", "),
+                    if at_ceiling.len() == 1 { "its" } else { "their" }
+                )
+            })
         })
         .collect()
 }
@@ -378,11 +406,13 @@ mod tests {
         report.options[0].fit.weak = vec![
             "j6.backlash".into(),
             "j3.servo[7]".into(),
+            "j5.servo[1]".into(),
+            "j5.servo[9]".into(),
             "k2".into(),
             "j2.d".into(),
         ];
         let a = poorly_determined(&report);
-        assert_eq!(a.len(), 3, "{a:?}");
+        assert_eq!(a.len(), 4, "{a:?}");
         assert!(
             a[0].starts_with(
                 "Joint 6's play (j6.backlash) is poorly determined: add poses that reverse joint 6"
@@ -390,31 +420,39 @@ mod tests {
             "{}",
             a[0]
         );
-        assert!(
-            a[1].starts_with("Joint 3's servo curve near +50° (j3.servo[7])")
-                && a[1].contains("joint 3 near +50°"),
-            "{}",
-            a[1]
+        assert_eq!(
+            a[1],
+            "Joint 3's servo curve is poorly determined near +50°: add poses with joint 3 at that angle."
+        );
+        assert_eq!(
+            a[2],
+            "Joint 5's servo curve is poorly determined near -100°, +100°: add poses with joint 5 at those angles."
         );
         assert!(
-            a[2].starts_with(
+            a[3].starts_with(
                 "Poorly determined by these poses: k2, j2.d. Add poses that move them"
             ),
             "{}",
-            a[2]
+            a[3]
         );
     }
 
     #[test]
     fn a_fit_not_converged_or_at_a_bound_is_named() {
         let mut report = fixture::report();
-        report.options[0].fit.converged = false;
-        report.options[0].fit.at_bound = vec!["k2".into()];
-        assert!(not_converged(&report)[0].contains("did not converge (converged)"));
-        assert!(
-            springs_at_bound(&report)[0]
-                .starts_with("elasto-kinematic-servo: k2 held at a physical bound")
+        // j6.backlash held at zero (no play) says nothing; k2 at its ceiling does.
+        report.options[0].fit.parameters[2].value = 0.0;
+        report.options[0].fit.at_bound = vec!["j6.backlash".into()];
+        assert!(springs_at_bound(&report).is_empty());
+        report.options[0].fit.at_bound.push("k2".into());
+        assert_eq!(
+            springs_at_bound(&report),
+            [
+                "elasto-kinematic-servo: k2 held at the ceiling of its physical range, the measurements asking for more: check the load given (--load-kg) and the arm file's masses and [payload] rated_kg."
+            ]
         );
+        report.options[0].fit.converged = false;
+        assert!(not_converged(&report)[0].contains("did not converge (converged)"));
         // Not converged: not recommended.
         assert!(push_best(&report).is_empty());
     }
