@@ -37,6 +37,7 @@ lrmcal demo                       # the whole method on a simulated arm\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal simulate --poses candidates.csv --out measurements.csv\n  \
 lrmcal identify --measurements measurements.csv --load-kg 0.0663 --select 50 --out cal\n  \
+lrmcal report cal                 # cal/report.html again from cal/report.json\n  \
 lrmcal predict --arm cal/calibration-elasto-kinematic-servo.json --poses poses.csv --out predicted.csv\n  \
 lrmcal help identify\n\n\
 Exit codes: 0 success, 2 usage error, 3 invalid input file, 4 file could not be read or \
@@ -66,6 +67,8 @@ pub enum Command {
     Select(commands::select::Args),
     /// Check a calibration against another measurement file.
     Validate(commands::validate::Args),
+    /// Build a calibration folder's one-page report (report.html) again from its report.json.
+    Report(commands::report::Args),
     /// List the serial ports a board could be on.
     Ports(commands::ports::Args),
     /// Show the board's versions, calibration, compensation, joints and faults.
@@ -109,6 +112,7 @@ impl Command {
             Self::Identify(args) => commands::identify::run(args),
             Self::Select(args) => commands::select::run(args),
             Self::Validate(args) => commands::validate::run(args),
+            Self::Report(args) => commands::report::run(args),
             Self::Ports(args) => commands::ports::run(args),
             Self::Status(args) => commands::status::run(args),
             Self::Push(args) => commands::push::run(args),

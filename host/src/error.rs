@@ -95,6 +95,15 @@ pub enum Error {
     /// The positioning error at the tool could not be measured (`lrmcal demo`).
     #[error("measure the positioning error through the board")]
     Positioning(#[from] sim::positioning::PositioningError),
+    /// `lrmcal report` was given a folder without a report.
+    #[error(
+        "build the page: `{}` not found; expected the report.json that `lrmcal identify` (or `lrmcal demo`) writes in its output folder",
+        path.display()
+    )]
+    NoReport {
+        /// The report file looked for.
+        path: PathBuf,
+    },
     /// A plot could not be drawn.
     #[error("draw {}: {message}", path.display())]
     Plot {
@@ -184,7 +193,7 @@ impl Error {
             | Self::Positioning(_) => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
             Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
-            Self::FlashImage { .. } => exit_codes::INVALID_INPUT,
+            Self::FlashImage { .. } | Self::NoReport { .. } => exit_codes::INVALID_INPUT,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
             Self::Tracker(e) => match e {
                 tracker::TrackerError::Take { .. } | tracker::TrackerError::Periods { .. } => {

@@ -11,6 +11,7 @@ pub mod error;
 pub mod fuzz;
 pub mod plots;
 pub mod progress;
+pub mod report_page;
 
 pub use cli::main_impl;
 pub use error::Error;

@@ -1,11 +1,13 @@
-//! The figures a person looks at first, each written as SVG and PNG:
-//! the error distribution per option before/after (box and points, like the
-//! paper's figure 2), the error of every validation pose, and O1 against the
-//! number of selected poses. [`demo_figures`] shapes a run's results into
-//! them; the drawing functions take plain series.
+//! The figures a person looks at first, each written as SVG and PNG files
+//! ([`write`]) or drawn into an SVG string for a page ([`svg`]): the error
+//! distribution per option before/after (box and points, like the paper's
+//! figure 2), the error of every validation pose, and O1 against the number
+//! of selected poses. [`demo_figures`] shapes a run's report into them; the
+//! figures ([`Boxes`], [`Lines`]) take plain series.
 //!
-//! Text is drawn with DejaVu Sans embedded in the binary (the `dejavu` crate),
-//! so plotting needs no system fonts.
+//! The PNG's text is drawn with DejaVu Sans embedded in the binary (the
+//! `dejavu` crate), so plotting needs no system fonts; an SVG names the
+//! generic `sans-serif` family and leaves the glyphs to its viewer.
 
 use std::path::{Path, PathBuf};
 use std::sync::Once;
@@ -15,9 +17,8 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::fit::pipeline::OptionResult;
-use lrmcal_engine::calib::fit::validate::Validation;
 use lrmcal_engine::calib::results::experiments::{ErrorPoint, O1Point};
+use lrmcal_engine::calib::results::report::{OptionReport, ValidationReport};
 use lrmcal_engine::sim::positioning::Positioning;
 
 use crate::Error;
@@ -48,12 +49,13 @@ pub struct Distribution {
 }
 
 /// Something drawable on any plotters backend.
-trait Figure {
+pub trait Figure {
+    /// Draws the figure on `root` and presents it; plotters' message on failure.
     fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String>;
 }
 
 /// Draws `figure` into `<stem>.svg` and `<stem>.png`; returns both paths.
-fn both(stem: &Path, figure: &impl Figure) -> Result<Vec<PathBuf>, Error> {
+pub fn write(stem: &Path, figure: &impl Figure) -> Result<Vec<PathBuf>, Error> {
     register_font();
     let svg = stem.with_extension("svg");
     let png = stem.with_extension("png");
@@ -68,6 +70,21 @@ fn both(stem: &Path, figure: &impl Figure) -> Result<Vec<PathBuf>, Error> {
         .draw(BitMapBackend::new(&png, SIZE).into_drawing_area())
         .map_err(|m| fail(&png, m))?;
     Ok(vec![svg, png])
+}
+
+/// Draws `figure` as SVG text, the same figure [`write`] puts in its `.svg`
+/// file; `page` names the file it is drawn for, in an error.
+pub fn svg(figure: &impl Figure, page: &Path) -> Result<String, Error> {
+    // Text is laid out with the font's metrics, in SVG too.
+    register_font();
+    let mut text = String::new();
+    figure
+        .draw(SVGBackend::with_string(&mut text, SIZE).into_drawing_area())
+        .map_err(|message| Error::Plot {
+            path: page.to_owned(),
+            message,
+        })?;
+    Ok(text)
 }
 
 fn quantile(sorted: &[f64], p: f64) -> f64 {
@@ -85,88 +102,82 @@ fn jitter(i: usize) -> f64 {
 }
 
 /// Box (quartiles, whiskers to min/max, median line) plus every point, per category.
-pub fn error_distribution(
-    stem: &Path,
-    title: &str,
-    boxes: &[Distribution],
-) -> Result<Vec<PathBuf>, Error> {
-    struct Fig<'a>(&'a str, &'a [Distribution]);
-    impl Figure for Fig<'_> {
-        fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
-            let Fig(title, boxes) = *self;
-            let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
-            root.fill(&WHITE).map_err(e)?;
-            let top = boxes
-                .iter()
-                .flat_map(|b| b.values_mm.iter().copied())
-                .fold(1.0, f64::max)
-                * 1.05;
-            let n = boxes.len();
-            let mut chart = ChartBuilder::on(&root)
-                .caption(title, ("sans-serif", 24))
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(-0.5..(n as f64 - 0.5), 0.0..top)
-                .map_err(e)?;
-            let labels: Vec<String> = boxes.iter().map(|b| b.label.clone()).collect();
+#[derive(Clone, Copy, Debug)]
+pub struct Boxes<'a> {
+    /// Caption.
+    pub title: &'a str,
+    /// One box per category, left to right.
+    pub boxes: &'a [Distribution],
+}
+
+impl Figure for Boxes<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
+        let Boxes { title, boxes } = *self;
+        let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+        root.fill(&WHITE).map_err(e)?;
+        let top = boxes
+            .iter()
+            .flat_map(|b| b.values_mm.iter().copied())
+            .fold(1.0, f64::max)
+            * 1.05;
+        let n = boxes.len();
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 24))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(-0.5..(n as f64 - 0.5), 0.0..top)
+            .map_err(e)?;
+        let labels: Vec<String> = boxes.iter().map(|b| b.label.clone()).collect();
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(n.max(1))
+            .x_label_formatter(&|x| {
+                let i = x.round();
+                if (x - i).abs() < 1e-6 && i >= 0.0 {
+                    labels.get(i as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            })
+            .y_desc("3D error norm (mm)")
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(e)?;
+        for (i, b) in boxes.iter().enumerate() {
+            let mut v = b.values_mm.clone();
+            v.sort_by(f64::total_cmp);
+            let x = i as f64;
+            let (q1, med, q3) = (quantile(&v, 0.25), quantile(&v, 0.5), quantile(&v, 0.75));
+            let (lo, hi) = (
+                v.first().copied().unwrap_or(0.0),
+                v.last().copied().unwrap_or(0.0),
+            );
+            let colour = Palette99::pick(i).to_rgba();
             chart
-                .configure_mesh()
-                .disable_x_mesh()
-                .x_labels(n.max(1))
-                .x_label_formatter(&|x| {
-                    let i = x.round();
-                    if (x - i).abs() < 1e-6 && i >= 0.0 {
-                        labels.get(i as usize).cloned().unwrap_or_default()
-                    } else {
-                        String::new()
-                    }
-                })
-                .y_desc("3D error norm (mm)")
-                .label_style(("sans-serif", 15))
-                .draw()
+                .draw_series(v.iter().enumerate().map(|(k, y)| {
+                    Circle::new((x + 0.3 * jitter(k), *y), 2, colour.mix(0.45).filled())
+                }))
                 .map_err(e)?;
-            for (i, b) in boxes.iter().enumerate() {
-                let mut v = b.values_mm.clone();
-                v.sort_by(f64::total_cmp);
-                let x = i as f64;
-                let (q1, med, q3) = (quantile(&v, 0.25), quantile(&v, 0.5), quantile(&v, 0.75));
-                let (lo, hi) = (
-                    v.first().copied().unwrap_or(0.0),
-                    v.last().copied().unwrap_or(0.0),
-                );
-                let colour = Palette99::pick(i).to_rgba();
-                chart
-                    .draw_series(v.iter().enumerate().map(|(k, y)| {
-                        Circle::new((x + 0.3 * jitter(k), *y), 2, colour.mix(0.45).filled())
-                    }))
-                    .map_err(e)?;
-                chart
-                    .draw_series([Rectangle::new(
-                        [(x - 0.2, q1), (x + 0.2, q3)],
-                        BLACK.stroke_width(2),
-                    )])
-                    .map_err(e)?;
-                chart
-                    .draw_series([
-                        PathElement::new(vec![(x - 0.2, med), (x + 0.2, med)], RED.stroke_width(3)),
-                        PathElement::new(vec![(x, q3), (x, hi)], BLACK.stroke_width(1)),
-                        PathElement::new(vec![(x, q1), (x, lo)], BLACK.stroke_width(1)),
-                        PathElement::new(
-                            vec![(x - 0.08, hi), (x + 0.08, hi)],
-                            BLACK.stroke_width(1),
-                        ),
-                        PathElement::new(
-                            vec![(x - 0.08, lo), (x + 0.08, lo)],
-                            BLACK.stroke_width(1),
-                        ),
-                    ])
-                    .map_err(e)?;
-            }
-            root.present().map_err(e)
+            chart
+                .draw_series([Rectangle::new(
+                    [(x - 0.2, q1), (x + 0.2, q3)],
+                    BLACK.stroke_width(2),
+                )])
+                .map_err(e)?;
+            chart
+                .draw_series([
+                    PathElement::new(vec![(x - 0.2, med), (x + 0.2, med)], RED.stroke_width(3)),
+                    PathElement::new(vec![(x, q3), (x, hi)], BLACK.stroke_width(1)),
+                    PathElement::new(vec![(x, q1), (x, lo)], BLACK.stroke_width(1)),
+                    PathElement::new(vec![(x - 0.08, hi), (x + 0.08, hi)], BLACK.stroke_width(1)),
+                    PathElement::new(vec![(x - 0.08, lo), (x + 0.08, lo)], BLACK.stroke_width(1)),
+                ])
+                .map_err(e)?;
         }
+        root.present().map_err(e)
     }
-    both(stem, &Fig(title, boxes))
 }
 
 /// A named series of (x, y) points.
@@ -179,122 +190,125 @@ pub struct Series {
 }
 
 /// Points (when `lines` is false) or lines with markers, one colour per series, with a legend.
-pub fn xy(
-    stem: &Path,
-    title: &str,
-    x_desc: &str,
-    y_desc: &str,
-    series: &[Series],
-    lines: bool,
-) -> Result<Vec<PathBuf>, Error> {
-    struct Fig<'a>((&'a str, &'a str, &'a str), &'a [Series], bool);
-    impl Figure for Fig<'_> {
-        fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
-            let Fig((title, x_desc, y_desc), series, lines) = *self;
-            let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
-            root.fill(&WHITE).map_err(e)?;
-            let all = series.iter().flat_map(|s| s.points.iter().copied());
-            let (x0, x1, y1) = all.fold(
-                (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
-                |(a, b, c), (x, y)| (a.min(x), b.max(x), c.max(y)),
-            );
-            let (x0, x1) = if x0.is_finite() && x1 > x0 {
-                (x0, x1)
-            } else {
-                (0.0, 1.0)
-            };
-            let y1 = if y1 > 0.0 { y1 * 1.08 } else { 1.0 };
-            let mut chart = ChartBuilder::on(&root)
-                .caption(title, ("sans-serif", 24))
-                .margin(12)
-                .x_label_area_size(40)
-                .y_label_area_size(60)
-                .build_cartesian_2d(x0..x1, 0.0..y1)
-                .map_err(e)?;
-            chart
-                .configure_mesh()
-                .x_desc(x_desc)
-                .y_desc(y_desc)
-                .label_style(("sans-serif", 15))
-                .draw()
-                .map_err(e)?;
-            for (i, s) in series.iter().enumerate() {
-                let colour = Palette99::pick(i).to_rgba();
-                if lines {
-                    chart
-                        .draw_series(LineSeries::new(
-                            s.points.iter().copied(),
-                            colour.stroke_width(2),
-                        ))
-                        .map_err(e)?;
-                }
+#[derive(Clone, Copy, Debug)]
+pub struct Lines<'a> {
+    /// Caption.
+    pub title: &'a str,
+    /// The x axis' label.
+    pub x_desc: &'a str,
+    /// The y axis' label.
+    pub y_desc: &'a str,
+    /// The series, one colour each.
+    pub series: &'a [Series],
+    /// Whether to join each series' points.
+    pub lines: bool,
+}
+
+impl Figure for Lines<'_> {
+    fn draw<DB: DrawingBackend>(&self, root: DrawingArea<DB, Shift>) -> Result<(), String> {
+        let Lines {
+            title,
+            x_desc,
+            y_desc,
+            series,
+            lines,
+        } = *self;
+        let e = |x: DrawingAreaErrorKind<DB::ErrorType>| x.to_string();
+        root.fill(&WHITE).map_err(e)?;
+        let all = series.iter().flat_map(|s| s.points.iter().copied());
+        let (x0, x1, y1) = all.fold(
+            (f64::INFINITY, f64::NEG_INFINITY, 0.0f64),
+            |(a, b, c), (x, y)| (a.min(x), b.max(x), c.max(y)),
+        );
+        let (x0, x1) = if x0.is_finite() && x1 > x0 {
+            (x0, x1)
+        } else {
+            (0.0, 1.0)
+        };
+        let y1 = if y1 > 0.0 { y1 * 1.08 } else { 1.0 };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 24))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, 0.0..y1)
+            .map_err(e)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_desc)
+            .y_desc(y_desc)
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(e)?;
+        for (i, s) in series.iter().enumerate() {
+            let colour = Palette99::pick(i).to_rgba();
+            if lines {
                 chart
-                    .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, colour.filled())))
-                    .map_err(e)?
-                    .label(s.label.as_str())
-                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+                    .draw_series(LineSeries::new(
+                        s.points.iter().copied(),
+                        colour.stroke_width(2),
+                    ))
+                    .map_err(e)?;
             }
             chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font(("sans-serif", 15))
-                .draw()
-                .map_err(e)?;
-            root.present().map_err(e)
+                .draw_series(s.points.iter().map(|p| Circle::new(*p, 3, colour.filled())))
+                .map_err(e)?
+                .label(s.label.as_str())
+                .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
         }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 15))
+            .draw()
+            .map_err(e)?;
+        root.present().map_err(e)
     }
-    both(stem, &Fig((title, x_desc, y_desc), series, lines))
 }
 
 /// One box per option of the validation error after calibration, after a box
 /// of the error before (taken from the first option: every option validates
 /// on the same held-out measurements); on the cross-load validations when
 /// `cross_load`.
-pub fn validation_boxes(results: &[OptionResult], cross_load: bool) -> Vec<Distribution> {
-    fn pick(r: &OptionResult, cross_load: bool) -> Option<&Validation> {
+pub fn validation_boxes(options: &[OptionReport], cross_load: bool) -> Vec<Distribution> {
+    fn pick(o: &OptionReport, cross_load: bool) -> Option<&ValidationReport> {
         if cross_load {
-            r.cross_load.as_ref().map(|c| &c.validation)
+            o.cross_load.as_ref()
         } else {
-            r.validation.as_ref()
+            o.validation.as_ref()
         }
     }
-    let mm = |v: &Validation, after: bool| -> Vec<f64> {
-        v.per_measurement
+    let mm = |v: &ValidationReport, after: bool| -> Vec<f64> {
+        v.per_pose
             .iter()
-            .map(|p| {
-                let e = if after { p.after_m } else { p.before_m };
-                e * 1e3
-            })
+            .map(|p| if after { p.after_mm } else { p.before_mm })
             .collect()
     };
-    let before = results
+    let before = options
         .first()
-        .and_then(|r| pick(r, cross_load))
+        .and_then(|o| pick(o, cross_load))
         .map(|v| Distribution {
             label: "uncalibrated".into(),
             values_mm: mm(v, false),
         });
-    let after = results.iter().filter_map(|r| {
-        pick(r, cross_load).map(|v| Distribution {
-            label: r.option().name().into(),
+    let after = options.iter().filter_map(|o| {
+        pick(o, cross_load).map(|v| Distribution {
+            label: o.option.name().into(),
             values_mm: mm(v, true),
         })
     });
     before.into_iter().chain(after).collect()
 }
 
-/// The error of every held-out pose of `result` before and after, mm against the pose id.
-pub fn per_pose_series(result: &OptionResult) -> Vec<Series> {
+/// The error of every held-out pose of `option` before and after, mm against the pose id.
+pub fn per_pose_series(option: &OptionReport) -> Vec<Series> {
     let points = |after: bool| -> Vec<(f64, f64)> {
-        result
+        option
             .validation
             .iter()
-            .flat_map(|v| &v.per_measurement)
-            .map(|p| {
-                let e = if after { p.after_m } else { p.before_m };
-                (p.pose as f64, e * 1e3)
-            })
+            .flat_map(|v| &v.per_pose)
+            .map(|p| (p.pose as f64, if after { p.after_mm } else { p.before_mm }))
             .collect()
     };
     vec![
@@ -366,63 +380,86 @@ pub fn positioning(
         })
         .collect();
     let count = rows.first().map_or(0, |r| r.errors_m.len());
-    error_distribution(
+    let title =
+        format!("Error at the tool through the board, {count} random targets, {payload_kg} kg");
+    write(
         &dir.join("positioning"),
-        &format!("Error at the tool through the board, {count} random targets, {payload_kg} kg"),
-        &boxes,
+        &Boxes {
+            title: &title,
+            boxes: &boxes,
+        },
     )
 }
 
 /// The demo's figures in `dir` (`errors`, `errors-cross-load`, `per-pose` of
 /// the elasto-kinematic option, `o1-vs-poses`, and `errors-vs-poses` when
-/// the error sweep ran); returns the files written.
+/// the error sweep ran) from the report's `options`; returns the files written.
 pub fn demo_figures(
     dir: &Path,
-    results: &[OptionResult],
+    options: &[OptionReport],
     o1: &[O1Point],
     errors: &[ErrorPoint],
 ) -> Result<Vec<PathBuf>, Error> {
-    let load = results.first().map_or(0.0, |r| r.identify_load_kg);
+    let load = options.first().map_or(0.0, |o| o.identify_load_kg);
     let mut files = Vec::new();
-    files.extend(error_distribution(
-        &dir.join("errors"),
+    let boxes = |title: &str, cross_load| -> Result<Vec<PathBuf>, Error> {
+        let boxes = validation_boxes(options, cross_load);
+        let stem = if cross_load {
+            "errors-cross-load"
+        } else {
+            "errors"
+        };
+        write(
+            &dir.join(stem),
+            &Boxes {
+                title,
+                boxes: &boxes,
+            },
+        )
+    };
+    files.extend(boxes(
         &format!("Validation error, {load} kg, poses not used for identification"),
-        &validation_boxes(results, false),
+        false,
     )?);
-    files.extend(error_distribution(
-        &dir.join("errors-cross-load"),
+    files.extend(boxes(
         &format!("Cross-load: identified with {load} kg, validated without load"),
-        &validation_boxes(results, true),
-    )?);
-    if let Some(ek) = results
-        .iter()
-        .find(|r| r.option() == ModelOption::ElastoKinematic)
-    {
-        files.extend(xy(
-            &dir.join("per-pose"),
-            "Error per validation pose (elasto-kinematic)",
-            "pose id",
-            "3D error norm (mm)",
-            &per_pose_series(ek),
-            false,
-        )?);
-    }
-    files.extend(xy(
-        &dir.join("o1-vs-poses"),
-        "O1 of DETMAX selections",
-        "number of poses",
-        "O1",
-        &o1_series(o1),
         true,
     )?);
+    if let Some(ek) = options
+        .iter()
+        .find(|o| o.option == ModelOption::ElastoKinematic)
+    {
+        files.extend(write(
+            &dir.join("per-pose"),
+            &Lines {
+                title: "Error per validation pose (elasto-kinematic)",
+                x_desc: "pose id",
+                y_desc: "3D error norm (mm)",
+                series: &per_pose_series(ek),
+                lines: false,
+            },
+        )?);
+    }
+    files.extend(write(
+        &dir.join("o1-vs-poses"),
+        &Lines {
+            title: "O1 of DETMAX selections",
+            x_desc: "number of poses",
+            y_desc: "O1",
+            series: &o1_series(o1),
+            lines: true,
+        },
+    )?);
     if !errors.is_empty() {
-        files.extend(xy(
+        files.extend(write(
             &dir.join("errors-vs-poses"),
-            &format!("Mean error against the number of poses fitted, {load} kg"),
-            "number of poses (DETMAX)",
-            "mean 3D error (mm)",
-            &error_series(errors),
-            true,
+            &Lines {
+                title: &format!("Mean error against the number of poses fitted, {load} kg"),
+                x_desc: "number of poses (DETMAX)",
+                y_desc: "mean 3D error (mm)",
+                series: &error_series(errors),
+                lines: true,
+            },
         )?);
     }
     Ok(files)
@@ -445,8 +482,13 @@ mod tests {
                 values_mm: vec![5.0, 4.0, 7.5, 6.0],
             },
         ];
-        let files =
-            error_distribution(&dir.path().join("errors"), "Validation error", &boxes).unwrap();
+        let figure = Boxes {
+            title: "Validation error",
+            boxes: &boxes,
+        };
+        let files = write(&dir.path().join("errors"), &figure).unwrap();
+        let page = svg(&figure, Path::new("page.html")).unwrap();
+        assert_eq!(std::fs::read_to_string(&files[0]).unwrap(), page);
         let svg = std::fs::read_to_string(&files[0]).unwrap();
         assert!(
             svg.contains("uncalibrated") && svg.contains("<rect"),
@@ -458,7 +500,14 @@ mod tests {
             label: "DETMAX".into(),
             points: vec![(10.0, 0.3), (50.0, 0.7)],
         }];
-        let files = xy(&dir.path().join("o1"), "O1", "poses", "O1", &series, true).unwrap();
+        let figure = Lines {
+            title: "O1",
+            x_desc: "poses",
+            y_desc: "O1",
+            series: &series,
+            lines: true,
+        };
+        let files = write(&dir.path().join("o1"), &figure).unwrap();
         assert!(
             std::fs::read_to_string(&files[0])
                 .unwrap()

@@ -213,7 +213,10 @@ fn plan_simulate_identify_validate_predict() {
     assert_documented(&cal_json, json_formats_doc(), &[], "the calibration file");
     let report_json = json(&report);
     assert_eq!(report_json["schema"], "lrmcal-report");
-    assert_eq!(report_json["schema_version"], 3);
+    assert_eq!(
+        report_json["schema_version"],
+        lrmcal_engine::calib::results::report::REPORT_SCHEMA_VERSION
+    );
     assert_documented(
         &report_json,
         json_formats_doc(),

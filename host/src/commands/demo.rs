@@ -21,6 +21,7 @@ use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::plots;
 use crate::progress::Steps;
+use crate::report_page;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::measurements;
 use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates, random_candidates};
@@ -46,7 +47,7 @@ lrmcal demo --out my-demo --seed 7\n  \
 lrmcal demo --model-only      # no unmodelled effects, no noise: a consistency check\n\n\
 Writes to the output folder: measurements.csv (every candidate under both loads), \
 off-grid.csv (the off-grid validation poses), truth.json (the simulated true arm), calibration-<option>.json (one per option, the file \
-the firmware receives), report.json, and the plots errors.svg/png (validation error \
+the firmware receives), report.json, report.html (the run on one page), and the plots errors.svg/png (validation error \
 per option), errors-cross-load.svg/png, per-pose.svg/png, o1-vs-poses.svg/png, \
 errors-vs-poses.svg/png (the paper's model and ours from 10 to 60 poses) and \
 positioning.svg/png (the error at the tool when the board drives the simulated arm to random \
@@ -187,9 +188,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
         files.push((r.option(), file));
     }
     write_text(&args.out.join("report.json"), &study.report.to_json())?;
+    report_page::write(&args.out, &study.report)?;
     let mut plot_files = plots::demo_figures(
         &args.out,
-        &study.results,
+        &study.report.options[..study.results.len()],
         &study.report.o1_vs_poses,
         &study.report.error_vs_poses,
     )?;
@@ -224,7 +226,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     }
     println!(
-        "\nwrote {} (calibration-*.json, report.json, measurements.csv, off-grid.csv, truth.json, {} plots) in {:.1} s",
+        "\nwrote {} (calibration-*.json, report.json, report.html, measurements.csv, off-grid.csv, truth.json, {} plots) in {:.1} s",
         args.out.display(),
         plot_files.len(),
         started.elapsed().as_secs_f64()

@@ -15,6 +15,7 @@ use crate::commands::helpers::OptionChoice;
 use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::progress::Steps;
+use crate::report_page;
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -40,7 +41,9 @@ With --select N, DETMAX picks N of the measured poses (D-optimal for the option)
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
 not used for the fit validate it, under every load in the file. Measurements far off the \
 others are down-weighted (Huber) and named, in the fit and in the validation. Writes \
-calibration-<option>.json (the file `lrmcal push` sends to the board) and report.json.\n\n\
+calibration-<option>.json (the file `lrmcal push` sends to the board), report.json and report.html \
+(one page: the errors, the parameters, suspect measurements and what to do next; `lrmcal report DIR` \
+builds it again from report.json).\n\n\
 The positions may be in any right-handed frame (the tracker's): the arm's base is found \
 in it from the measurements first (printed, and recorded in the calibration file), so the \
 arm file's [base] need not be known. Gravity is the arm file's `gravity` in that frame, \
@@ -191,12 +194,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
         println!("  wrote {}", path.display());
     }
     write_text(&args.out.join("report.json"), &run.report.to_json())?;
+    let page = report_page::write(&args.out, &run.report)?;
     println!(
         "\nValidation on the measured poses not used for the fit, {} kg (mean 3D error):",
         run.load_kg
     );
     print!("{}", summary::table(&run.report.options));
-    println!("wrote {}", args.out.display());
+    println!(
+        "wrote {} (the page: {})",
+        args.out.display(),
+        page.display()
+    );
     Ok(())
 }
 

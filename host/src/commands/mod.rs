@@ -22,6 +22,7 @@ pub mod ports;
 pub mod predict;
 pub mod pull;
 pub mod push;
+pub mod report;
 pub mod select;
 pub mod servo_tune;
 pub mod simulate;

@@ -9,8 +9,8 @@
 
 use std::ops::RangeInclusive;
 
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Deserializer, Serialize};
 
 use crate::error::{InputError, Location, Problem};
 
@@ -19,6 +19,19 @@ pub fn to_pretty(value: &impl Serialize) -> String {
     // The formats are plain structs of numbers, strings and vectors (no maps
     // with non-string keys), which always serialise.
     serde_json::to_string_pretty(value).expect("a file format always serialises")
+}
+
+/// Reads a number that serde_json wrote as `null` because it was NaN or
+/// infinite back as NaN (`#[serde(deserialize_with = "…")]`): a report's
+/// figure that could not be worked out reads back as not a number.
+pub fn nan_if_null<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// [`nan_if_null`] for each number of a list.
+pub fn nan_if_null_each<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let values = Vec::<Option<f64>>::deserialize(d)?;
+    Ok(values.into_iter().map(|v| v.unwrap_or(f64::NAN)).collect())
 }
 
 /// Parses the text of a JSON file of kind `schema`, version `version`.

@@ -29,7 +29,7 @@ use super::fit::tool_only::retaught;
 use super::parameters::targets::Targets;
 use super::progress::Progress;
 use super::results::export::registered_calibration_file;
-use super::results::report::Report;
+use super::results::report::{RegistrationReport, Report};
 use super::{CalibError, ModelOption};
 use lrmcal_core::dataset::{Measurement, Pose, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -238,13 +238,14 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
     if results.is_empty() && !skipped.is_empty() {
         return Err(skipped.swap_remove(0).1);
     }
-    let report = Report::new(
+    let mut report = Report::new(
         request.arm_origin.clone(),
         measured.len(),
         load,
         serde_json::json!({ "source": file, "loads_kg": loads }),
         &results,
     );
+    report.registration = registered.then(|| RegistrationReport::from(&registration));
     let files = results
         .iter()
         .map(|r| registered_calibration_file(&registration, registered, &nominal, r))

@@ -9,7 +9,7 @@
 //! comparable.
 
 use nalgebra::DMatrix;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Per-column factors that make the columns comparable.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -43,17 +43,22 @@ impl ColumnScale {
 }
 
 /// The five observability indices of one pose set.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Observability {
     /// O1 = (σ1 ⋯ σm)^(1/m) / √n: D-optimality; DETMAX maximises it.
+    #[serde(deserialize_with = "lrmcal_core::io::json::nan_if_null")]
     pub o1: f64,
     /// O2 = σmin / σmax, the inverse condition number.
+    #[serde(deserialize_with = "lrmcal_core::io::json::nan_if_null")]
     pub o2: f64,
     /// O3 = σmin, the minimum singular value.
+    #[serde(deserialize_with = "lrmcal_core::io::json::nan_if_null")]
     pub o3: f64,
     /// O4 = σmin² / σmax, the noise amplification index.
+    #[serde(deserialize_with = "lrmcal_core::io::json::nan_if_null")]
     pub o4: f64,
     /// O5 = 1 / Σ 1/σi.
+    #[serde(deserialize_with = "lrmcal_core::io::json::nan_if_null")]
     pub o5: f64,
 }
 

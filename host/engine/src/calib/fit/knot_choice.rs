@@ -16,7 +16,7 @@
 //! The finest grid and the next coarser one are fitted side by side (two
 //! cores): most fits stop there.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::calib::CalibError;
 use crate::calib::fit::identify::Identified;
@@ -24,7 +24,7 @@ use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{KnotSpacing, on_spacing, spacing_of};
 
 /// One knot spacing tried.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KnotTrial {
     /// The spacing.
     pub spacing: KnotSpacing,
@@ -35,7 +35,7 @@ pub struct KnotTrial {
 }
 
 /// The spacing chosen and the ones tried.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KnotChoice {
     /// The spacing of the calibration's curves.
     pub chosen: KnotSpacing,

@@ -38,7 +38,7 @@
 //! two model evaluations per joint instead of two per knot.
 
 use model::{Arm, JOINTS, ServoCurve};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::calib::{CalibError, Rig};
 use lrmcal_core::param_key::ParamKey;
@@ -52,7 +52,7 @@ pub const KNOTS: usize = 9;
 pub const FINEST_SPACING_DEG: f64 = 25.0;
 
 /// How far apart the identified knots of the servo curves are.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 pub enum KnotSpacing {
     /// 9 knots, every 25°.
     #[serde(rename = "25deg")]

@@ -3,7 +3,7 @@
 //! of poses, what a few gross measurement errors among the fitted poses
 //! cost a fit, and how the calibration does on the grid and off it.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use nalgebra::Vector3;
 
@@ -57,7 +57,7 @@ pub fn random_o1(blocks: &CandidateBlocks, n: usize, sets: usize) -> Vec<f64> {
 }
 
 /// DETMAX against random selections of the same size.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RandomBaseline {
     /// Option compared.
     pub option: ModelOption,
@@ -176,7 +176,7 @@ pub fn outlier_trial(
 }
 
 /// O1 of a DETMAX selection of `poses` poses for `option`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct O1Point {
     /// The option.
     pub option: ModelOption,
@@ -229,7 +229,7 @@ pub fn o1_vs_poses(
 
 /// How well a calibration of one option from a DETMAX selection of some
 /// number of poses does.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ErrorPoint {
     /// The option.
     pub option: ModelOption,
@@ -338,7 +338,7 @@ pub fn error_vs_poses(
 }
 
 /// A calibration's error on held-out grid poses and on poses off the grid.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct GridErrors {
     /// The option.
     pub option: ModelOption,

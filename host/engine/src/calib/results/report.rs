@@ -7,8 +7,12 @@
 //! diagnostics, named outliers, the validation and cross-load statistics,
 //! and the demo's experiments. Every list entry is an object with named
 //! fields. Bump [`REPORT_SCHEMA_VERSION`] when a field changes meaning or shape.
+//!
+//! [`Report::parse`] reads the report back (`lrmcal report` builds its page
+//! from it): fields added since the oldest version it reads are optional,
+//! and numbers written as `null` (not finite) read back as NaN.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::calib::ModelOption;
 use crate::calib::analysis::identifiability::Identifiability;
@@ -16,19 +20,25 @@ use crate::calib::analysis::observability::Observability;
 use crate::calib::fit::identify::{Identified, Outlier};
 use crate::calib::fit::knot_choice::KnotChoice;
 use crate::calib::fit::pipeline::OptionResult;
+use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
 use crate::calib::results::experiments::{ErrorPoint, O1Point, RandomBaseline};
+use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
+use lrmcal_core::io::json;
 
 /// Name of the report schema.
 pub const REPORT_SCHEMA: &str = "lrmcal-report";
 /// Version of the report schema (2: named list entries; 3: the fit's
 /// leave-one-out error, the knot spacing chosen, the error against the
-/// number of poses).
-pub const REPORT_SCHEMA_VERSION: u32 = 3;
+/// number of poses; 4: each validation measurement's error, the registration).
+pub const REPORT_SCHEMA_VERSION: u32 = 4;
+
+/// The oldest version [`Report::parse`] reads (its fields are all still there).
+pub const REPORT_OLDEST_READ: u32 = 3;
 
 /// A kept parameter that reproduces a removed one.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Confounder {
     /// Kept parameter name.
     pub name: String,
@@ -37,7 +47,7 @@ pub struct Confounder {
 }
 
 /// A removed parameter and what explains it.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RemovedReport {
     /// Parameter name.
     pub name: String,
@@ -67,7 +77,7 @@ impl RemovedReport {
 }
 
 /// The rank analysis of one option.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct IdentifiabilityReport {
     /// Candidates before the analysis.
     pub candidates: usize,
@@ -78,6 +88,7 @@ pub struct IdentifiabilityReport {
     /// Rank by SVD (must equal the number kept).
     pub svd_rank: usize,
     /// Condition number of the kept unit columns.
+    #[serde(deserialize_with = "json::nan_if_null")]
     pub kept_condition: f64,
 }
 
@@ -109,7 +120,7 @@ impl From<&Identifiability> for IdentifiabilityReport {
 }
 
 /// A measurement named as an outlier, in report units.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OutlierReport {
     /// Pose id.
     pub pose: u32,
@@ -133,7 +144,7 @@ impl From<&Outlier> for OutlierReport {
 }
 
 /// Solver diagnostics, in report units.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FitReport {
     /// Last LM termination reason.
     pub termination: String,
@@ -158,10 +169,12 @@ pub struct FitReport {
     /// Residual deviation per coordinate, mm.
     pub sigma_mm: f64,
     /// Condition number of the scaled Jacobian at the solution.
+    #[serde(deserialize_with = "json::nan_if_null")]
     pub condition: f64,
     /// Mean error at each fitted measurement of the fit without it
     /// (leave-one-out, `calib::identify`), mm; `null` when a measurement
     /// alone decides a parameter.
+    #[serde(deserialize_with = "json::nan_if_null")]
     pub loo_mean_mm: f64,
     /// Fitted parameters.
     pub parameters: Vec<FittedParam>,
@@ -198,7 +211,7 @@ impl From<&Identified> for FitReport {
 }
 
 /// Validation statistics of one measurement set.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValidationReport {
     /// Payload, kg.
     pub load_kg: f64,
@@ -210,10 +223,27 @@ pub struct ValidationReport {
     pub reduction_pct: f64,
     /// Measurements whose calibrated error is far beyond the others', largest first.
     pub outliers: Vec<ValidationOutlier>,
+    /// Each measurement's error before and after, in the order validated
+    /// (since version 4; empty when read from an older report).
+    #[serde(default)]
+    pub per_pose: Vec<PoseErrorReport>,
+}
+
+/// One validation measurement's error, in report units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PoseErrorReport {
+    /// Pose id (measured under the validation's load).
+    pub pose: u32,
+    /// Index of the measured target in the calibration's targets.
+    pub target: usize,
+    /// 3D error of the nominal model, mm.
+    pub before_mm: f64,
+    /// 3D error of the calibrated model, mm.
+    pub after_mm: f64,
 }
 
 /// A validation measurement named as an outlier, in report units.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ValidationOutlier {
     /// Pose id.
     pub pose: u32,
@@ -240,12 +270,22 @@ impl ValidationReport {
                     error_mm: o.after_m * 1e3,
                 })
                 .collect(),
+            per_pose: v
+                .per_measurement
+                .iter()
+                .map(|p| PoseErrorReport {
+                    pose: p.pose,
+                    target: p.target,
+                    before_mm: p.before_m * 1e3,
+                    after_mm: p.after_m * 1e3,
+                })
+                .collect(),
         }
     }
 }
 
 /// Everything about one option.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OptionReport {
     /// The option.
     pub option: ModelOption,
@@ -256,8 +296,10 @@ pub struct OptionReport {
     /// Selected pose ids.
     pub selected_poses: Vec<u32>,
     /// ln det of the selection's scaled information matrix.
+    #[serde(deserialize_with = "json::nan_if_null")]
     pub log_det: f64,
     /// ln det reached by each DETMAX start.
+    #[serde(deserialize_with = "json::nan_if_null_each")]
     pub start_log_dets: Vec<f64>,
     /// Observability indices of the selection.
     pub observability: Observability,
@@ -296,10 +338,10 @@ impl From<&OptionResult> for OptionReport {
 }
 
 /// The whole report of a run.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Report {
     /// Always [`REPORT_SCHEMA`].
-    pub schema: &'static str,
+    pub schema: String,
     /// [`REPORT_SCHEMA_VERSION`].
     pub schema_version: u32,
     /// Where the nominal arm came from.
@@ -318,6 +360,67 @@ pub struct Report {
     pub o1_vs_poses: Vec<O1Point>,
     /// The error of calibrations from DETMAX selections per number of poses, when computed.
     pub error_vs_poses: Vec<ErrorPoint>,
+    /// Where the arm was found in the measurement frame, when `identify`
+    /// registered it (since version 4).
+    #[serde(default)]
+    pub registration: Option<RegistrationReport>,
+}
+
+/// A registration of the arm in the measurement frame, in report units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RegistrationReport {
+    /// The arm's frame 0 in the measurement frame: position, mm.
+    pub base_xyz_mm: [f64; 3],
+    /// Its roll, pitch and yaw, degrees.
+    pub base_rpy_deg: [f64; 3],
+    /// Angle between frame 0's `z` and up, degrees.
+    pub base_tilt_deg: f64,
+    /// RMS distance of the nominal arm, as the arm file places it, from the measured points, mm.
+    pub before_rms_mm: f64,
+    /// RMS distance after registration over the points kept, mm.
+    pub after_rms_mm: f64,
+    /// Largest distance after registration over every point, mm.
+    pub after_max_mm: f64,
+    /// The tool point found in frame 6, mm; `None` when the arm file's was kept.
+    pub tool_mm: Option<[f64; 3]>,
+    /// How far the last link turns over the poses kept (`calib::fit::registration`).
+    pub tool_turn: f64,
+    /// The turn needed to find the tool point.
+    pub tool_turn_needed: f64,
+    /// Measurements left out of the registration as far off.
+    pub left_out: Vec<LeftOut>,
+}
+
+/// A measurement left out of the registration.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LeftOut {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+}
+
+impl From<&Registration> for RegistrationReport {
+    fn from(reg: &Registration) -> Self {
+        let base = frame_of(&reg.base);
+        let mm = |v: [f64; 3]| v.map(|x| x * 1e3);
+        Self {
+            base_xyz_mm: mm(base.xyz),
+            base_rpy_deg: base.rpy.map(f64::to_degrees),
+            base_tilt_deg: reg.base_tilt_rad.to_degrees(),
+            before_rms_mm: reg.before_rms_m * 1e3,
+            after_rms_mm: reg.after_rms_m * 1e3,
+            after_max_mm: reg.after_max_m * 1e3,
+            tool_mm: reg.tool.map(|t| mm(t.into())),
+            tool_turn: reg.tool_turn,
+            tool_turn_needed: MIN_TOOL_TURN,
+            left_out: reg
+                .trimmed
+                .iter()
+                .map(|&(pose, load_kg)| LeftOut { pose, load_kg })
+                .collect(),
+        }
+    }
 }
 
 impl Report {
@@ -333,7 +436,7 @@ impl Report {
         results: impl IntoIterator<Item = &'a OptionResult>,
     ) -> Self {
         Self {
-            schema: REPORT_SCHEMA,
+            schema: REPORT_SCHEMA.into(),
             schema_version: REPORT_SCHEMA_VERSION,
             arm,
             candidates,
@@ -343,7 +446,20 @@ impl Report {
             random_baseline: None,
             o1_vs_poses: Vec::new(),
             error_vs_poses: Vec::new(),
+            registration: None,
         }
+    }
+
+    /// Reads a report's JSON text back: versions [`REPORT_OLDEST_READ`] to
+    /// [`REPORT_SCHEMA_VERSION`], the schema header checked first.
+    pub fn parse(text: &str) -> Result<Self, InputError> {
+        json::parse_upgrading(
+            text,
+            REPORT_SCHEMA,
+            REPORT_OLDEST_READ..=REPORT_SCHEMA_VERSION,
+            // Version 3 lacks only optional fields.
+            |_, _| Ok(()),
+        )
     }
 
     /// The report as pretty JSON.
@@ -407,5 +523,50 @@ mod tests {
         .unwrap();
         assert_eq!(removed["confounded_with"][0]["name"], "j2.d");
         assert_eq!(removed["confounded_with"][0]["coefficient"], 1.0);
+    }
+
+    /// The report reads back as written (every number exactly, a `null`
+    /// as NaN); a version-3 report without the fields added since reads
+    /// with them empty; another kind of file is named by its schema.
+    #[test]
+    fn report_json_reads_back_as_written() {
+        let (nominal, poses, all) = elastic_run();
+        let inputs = Inputs::new(&nominal, &poses, &all);
+        let r =
+            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let report = Report::new("test arm".into(), poses.len(), LOAD_KG, 0.into(), [&r]);
+        let validation = report.options[0].validation.as_ref().unwrap();
+        assert_eq!(validation.per_pose.len(), validation.after.count);
+        assert_eq!(Report::parse(&report.to_json()).unwrap(), report);
+
+        let mut json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
+        json["schema_version"] = 3.into();
+        json["options"][0]["fit"]["loo_mean_mm"] = serde_json::Value::Null;
+        json["options"][0]["validation"]
+            .as_object_mut()
+            .unwrap()
+            .remove("per_pose");
+        json.as_object_mut().unwrap().remove("registration");
+        let old = Report::parse(&json.to_string()).unwrap();
+        assert!(old.options[0].fit.loo_mean_mm.is_nan());
+        assert!(
+            old.options[0]
+                .validation
+                .as_ref()
+                .unwrap()
+                .per_pose
+                .is_empty()
+        );
+
+        json["schema"] = "lrmcal-calibration".into();
+        let e = Report::parse(&json.to_string()).unwrap_err().to_string();
+        assert!(
+            e.contains("lrmcal-report") && e.contains("lrmcal-calibration"),
+            "{e}"
+        );
+        json["schema"] = REPORT_SCHEMA.into();
+        json["schema_version"] = 2.into();
+        let e = Report::parse(&json.to_string()).unwrap_err().to_string();
+        assert!(e.contains("schema_version"), "{e}");
     }
 }

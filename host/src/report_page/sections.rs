@@ -1,0 +1,351 @@
+//! The page's sections, each from the report alone: the summary table,
+//! the parameters, the suspect measurements, the selection, the knot
+//! choice and the registration. A section whose data the run did not
+//! produce says so instead of being left out, so every page has the same
+//! outline.
+
+use lrmcal_engine::calib::results::report::{OptionReport, Report};
+
+use super::html::{escape, num, opt_num, para, table};
+
+/// An option's name and the load it was fitted with, for headings.
+fn title(o: &OptionReport) -> String {
+    format!("{} (fitted with {} kg)", o.option, o.identify_load_kg)
+}
+
+/// The summary table: per option, the fit and the validation before → after.
+pub fn summary(report: &Report) -> String {
+    let rows: Vec<Vec<String>> = report
+        .options
+        .iter()
+        .map(|o| {
+            let f = &o.fit;
+            let v = o.validation.as_ref();
+            let mm = |m: f64| num(m * 1e3, 2);
+            vec![
+                o.option.to_string(),
+                o.identify_load_kg.to_string(),
+                f.parameters.len().to_string(),
+                o.selected_poses.len().to_string(),
+                format!("{} → {}", num(f.rms_before_mm, 2), num(f.rms_after_mm, 2)),
+                num(f.loo_mean_mm, 2),
+                v.map_or("–".into(), |v| v.after.count.to_string()),
+                v.map_or("–".into(), |v| {
+                    format!("{} → {}", mm(v.before.mean_m), mm(v.after.mean_m))
+                }),
+                v.map_or("–".into(), |v| {
+                    format!("{} → {}", mm(v.before.rms_m), mm(v.after.rms_m))
+                }),
+                v.map_or("–".into(), |v| {
+                    format!("{} → {}", mm(v.before.max_m), mm(v.after.max_m))
+                }),
+                v.map_or("–".into(), |v| num(v.reduction_pct, 1)),
+                o.cross_load.as_ref().map_or("–".into(), |c| {
+                    format!(
+                        "{} kg: {} → {} ({} %)",
+                        c.load_kg,
+                        mm(c.before.mean_m),
+                        mm(c.after.mean_m),
+                        num(c.reduction_pct, 1)
+                    )
+                }),
+            ]
+        })
+        .collect();
+    table(
+        "summary-table",
+        "Per model option: the fit (RMS residual on the fitted poses, leave-one-out mean) and the validation on the poses held out, before → after calibration (mm)",
+        &[
+            "option",
+            "load kg",
+            "parameters",
+            "poses fitted",
+            "fit RMS",
+            "fit leave-one-out mean",
+            "held-out measurements",
+            "held-out mean",
+            "held-out RMS",
+            "held-out max",
+            "reduction %",
+            "cross-load mean",
+        ],
+        &rows,
+    )
+}
+
+/// Each option's parameters: fitted (with their deviations), held at a
+/// bound, barely determined, and those held at nominal with why.
+pub fn parameters(report: &Report) -> String {
+    let mut out = para(
+        "Corrections and values in SI units (m, rad, rad/Nm, 1/Nm); ± one standard deviation of the correction.",
+    );
+    for (i, o) in report.options.iter().enumerate() {
+        let f = &o.fit;
+        let mut rows: Vec<Vec<String>> = f
+            .parameters
+            .iter()
+            .map(|p| {
+                let status = if p.std.is_none() || f.at_bound.contains(&p.name) {
+                    "held at its bound"
+                } else if f.weak.contains(&p.name) {
+                    "fitted, poorly determined"
+                } else {
+                    "fitted"
+                };
+                vec![
+                    p.name.clone(),
+                    format!("{:+.4e}", p.error),
+                    format!("{:.6e}", p.value),
+                    p.std.map_or("–".into(), |s| format!("{s:.2e}")),
+                    status.into(),
+                ]
+            })
+            .collect();
+        rows.extend(
+            o.identifiability
+                .removed
+                .iter()
+                .filter(|r| !f.parameters.iter().any(|p| p.name == r.name))
+                .map(|r| {
+                    vec![
+                        r.name.clone(),
+                        "0".into(),
+                        "nominal".into(),
+                        "–".into(),
+                        format!("held at nominal: {}", r.explain()),
+                    ]
+                }),
+        );
+        out.push_str(&table(
+            &format!("params-{i}"),
+            &format!("{}: {} parameters fitted", title(o), f.parameters.len()),
+            &["parameter", "correction", "value", "std", "status"],
+            &rows,
+        ));
+    }
+    out
+}
+
+/// The measurements the fit and the validation named as far off the others,
+/// and those registration left out.
+pub fn suspect(report: &Report) -> String {
+    let mut rows: Vec<Vec<String>> = Vec::new();
+    for o in &report.options {
+        rows.extend(o.fit.outliers.iter().map(|x| {
+            vec![
+                x.pose.to_string(),
+                x.load_kg.to_string(),
+                o.option.to_string(),
+                "fit: down-weighted".into(),
+                num(x.residual_mm, 2),
+                num(x.weight, 2),
+            ]
+        }));
+        for v in o.validation.iter().chain(&o.cross_load) {
+            rows.extend(v.outliers.iter().map(|x| {
+                vec![
+                    x.pose.to_string(),
+                    x.load_kg.to_string(),
+                    o.option.to_string(),
+                    "held out: far beyond the others' error".into(),
+                    num(x.error_mm, 2),
+                    "–".into(),
+                ]
+            }));
+        }
+    }
+    if let Some(r) = &report.registration {
+        rows.extend(r.left_out.iter().map(|x| {
+            vec![
+                x.pose.to_string(),
+                x.load_kg.to_string(),
+                "–".into(),
+                "left out of the registration as far off".into(),
+                "–".into(),
+                "–".into(),
+            ]
+        }));
+    }
+    let mut out = if rows.is_empty() {
+        para(
+            "No measurement was named as far off the others: the robust fit kept every one at full weight and no held-out pose stands out.",
+        )
+    } else {
+        String::new()
+    };
+    out.push_str(&table(
+        "suspect-table",
+        "Measurements far off the others (error in mm)",
+        &[
+            "pose",
+            "load kg",
+            "option",
+            "why",
+            "residual / error mm",
+            "weight",
+        ],
+        &rows,
+    ));
+    out
+}
+
+/// Each option's selection: how many poses, the observability indices, and
+/// DETMAX against random sets when the demo compared them.
+pub fn selection(report: &Report) -> String {
+    let rows: Vec<Vec<String>> = report
+        .options
+        .iter()
+        .map(|o| {
+            let b = &o.observability;
+            vec![
+                title(o),
+                o.selected_poses.len().to_string(),
+                num(b.o1, 4),
+                format!("{:.3e}", b.o2),
+                num(b.o3, 4),
+                format!("{:.3e}", b.o4),
+                num(b.o5, 4),
+                num(o.log_det, 2),
+                num(o.identifiability.kept_condition, 1),
+            ]
+        })
+        .collect();
+    let mut out = table(
+        "selection-table",
+        "The poses fitted: observability indices of the selection (O1 is what DETMAX maximises)",
+        &[
+            "option",
+            "poses",
+            "O1",
+            "O2",
+            "O3",
+            "O4",
+            "O5",
+            "ln det",
+            "condition of the kept columns",
+        ],
+        &rows,
+    );
+    if let Some(b) = &report.random_baseline {
+        out.push_str(&para(&format!(
+            "DETMAX against {} random {}-pose sets ({}): O1 {:.4} against a median of {:.4}; validation mean {:.2} mm against a median of {:.2} mm.",
+            b.sets, b.poses, b.option, b.detmax_o1, b.random_o1_median, b.detmax_mean_m * 1e3, b.random_mean_median_m * 1e3
+        )));
+    }
+    for o in &report.options {
+        let ids: Vec<String> = o.selected_poses.iter().map(u32::to_string).collect();
+        out.push_str(&format!(
+            "<details><summary>{}: the {} poses fitted</summary><p>{}</p></details>\n",
+            escape(&title(o)),
+            ids.len(),
+            escape(&ids.join(", "))
+        ));
+    }
+    out
+}
+
+/// The servo curves' knot spacing chosen and the ones compared.
+pub fn knots(report: &Report) -> String {
+    let with: Vec<(usize, &OptionReport)> = report
+        .options
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.knots.is_some())
+        .collect();
+    if with.is_empty() {
+        return para(
+            "No option of this run fits servo curves: there was no knot spacing to choose.",
+        );
+    }
+    let mut out = String::new();
+    for (i, o) in with {
+        let Some(k) = &o.knots else { continue };
+        let rows: Vec<Vec<String>> = k
+            .trials
+            .iter()
+            .map(|t| {
+                vec![
+                    format!(
+                        "every {:.0}° ({} knots)",
+                        t.spacing.degrees(),
+                        t.spacing.knots()
+                    ),
+                    opt_num(t.loo_mean_mm, 2),
+                    if t.spacing == k.chosen {
+                        "chosen".into()
+                    } else {
+                        t.failure.clone().unwrap_or_default()
+                    },
+                ]
+            })
+            .collect();
+        out.push_str(&table(
+            &format!("knots-{i}"),
+            &format!(
+                "{}: knots every {:.0}°, the spacing whose fit best predicts each fitted pose left out",
+                title(o),
+                k.chosen.degrees()
+            ),
+            &["spacing", "leave-one-out mean mm", "outcome"],
+            &rows,
+        ));
+    }
+    out
+}
+
+/// Where registration found the arm's base, and how far the arm was from the measurements.
+pub fn registration(report: &Report) -> String {
+    let Some(r) = &report.registration else {
+        return para(
+            "The arm was not registered: the arm file's base was kept (identify --no-register, or the demo's simulated arm, which stands where its file says).",
+        );
+    };
+    let v3 =
+        |v: [f64; 3], d: usize| format!("({}, {}, {})", num(v[0], d), num(v[1], d), num(v[2], d));
+    let rows = vec![
+        vec![
+            "base position in the measurement frame".into(),
+            format!("{} mm", v3(r.base_xyz_mm, 1)),
+        ],
+        vec![
+            "base roll, pitch, yaw".into(),
+            format!("{} °", v3(r.base_rpy_deg, 2)),
+        ],
+        vec![
+            "base tilt from up".into(),
+            format!("{} °", num(r.base_tilt_deg, 2)),
+        ],
+        vec![
+            "nominal arm to the measurements, as the arm file places it".into(),
+            format!("{} mm RMS", num(r.before_rms_mm, 1)),
+        ],
+        vec![
+            "after registration".into(),
+            format!(
+                "{} mm RMS, largest {} mm",
+                num(r.after_rms_mm, 1),
+                num(r.after_max_mm, 1)
+            ),
+        ],
+        vec![
+            "tool point in frame 6".into(),
+            match r.tool_mm {
+                Some(t) => format!("{} mm, found with the base", v3(t, 1)),
+                None => format!(
+                    "the arm file's, kept (the last link turns {:.2}, {:.1} needed)",
+                    r.tool_turn, r.tool_turn_needed
+                ),
+            },
+        ],
+        vec![
+            "measurements left out as far off".into(),
+            r.left_out.len().to_string(),
+        ],
+    ];
+    table(
+        "registration-table",
+        "The arm placed on the measurements before the fit",
+        &["what", "found"],
+        &rows,
+    )
+}
