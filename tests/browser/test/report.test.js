@@ -5,7 +5,8 @@
 // and no request leaving the page (only the file itself may load).
 //
 // The binary: $LRMCAL, or the debug build `cargo test` leaves in
-// ${CARGO_TARGET_DIR:-target}/debug/lrmcal.
+// ${CARGO_TARGET_DIR:-target}/debug/lrmcal. With $REPORT_SCREENSHOT set to
+// a .png path, the page's top (1100 × 1400 pixels) is saved there.
 
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
@@ -123,6 +124,11 @@ for (const javascript of [false, true]) {
   test(`the page is complete with JavaScript ${javascript ? 'on' : 'off'} and asks the network for nothing`, async () => {
     const { page, seen } = await open(join(dir, 'cal', 'report.html'), javascript);
     const found = await inventory(page);
+    if (javascript && process.env.REPORT_SCREENSHOT) {
+      // The picture of the page the README shows, as this browser drew it.
+      await page.setViewport({ width: 1100, height: 1400 });
+      await page.screenshot({ path: process.env.REPORT_SCREENSHOT });
+    }
     await page.close();
     for (const s of found.sections) {
       assert.ok(s.found && s.shown && s.heading.length > 0, `section ${JSON.stringify(s)}`);
