@@ -268,7 +268,10 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
     let out = dir.path().join("measured.csv");
     let tracker = dir.path().join("tracker.txt");
     let args = |tracker: &std::path::Path| measure::Args {
-        poses: poses.clone(),
+        poses: Some(poses.clone()),
+        joints: None,
+        arm: None,
+        allow_outside_limits: false,
         out: Some(out.clone()),
         load_kg: Some(0.0663),
         tracker: Some(measure::TrackerSource::File(tracker.to_owned())),
@@ -368,7 +371,10 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
         .local_addr()
         .unwrap();
     let args = measure::Args {
-        poses: poses.clone(),
+        poses: Some(poses.clone()),
+        joints: None,
+        arm: None,
+        allow_outside_limits: false,
         out: Some(out.clone()),
         load_kg: None,
         tracker: Some(measure::TrackerSource::parse(&format!("dtrack://{addr}")).unwrap()),
