@@ -19,21 +19,26 @@ use lrmcal_engine::calib::results::summary;
 /// that the calibration follows its poses more closely than the arm.
 pub const VALIDATION_OVER_FIT: f64 = 2.0;
 
+/// The rules that find problems, most pressing first.
+const PROBLEMS: [fn(&Report) -> Vec<String>; 9] = [
+    not_converged,
+    remeasure_outliers,
+    validation_outliers,
+    validation_over_fit,
+    nothing_held_out,
+    poorly_determined,
+    springs_at_bound,
+    backlash,
+    tool_not_found,
+];
+
 /// Each piece of advice, most pressing first: problems, then which file to push.
 pub fn advice(report: &Report) -> Vec<String> {
-    let rules: [fn(&Report) -> Vec<String>; 10] = [
-        not_converged,
-        remeasure_outliers,
-        validation_outliers,
-        validation_over_fit,
-        nothing_held_out,
-        poorly_determined,
-        springs_at_bound,
-        backlash,
-        tool_not_found,
-        push_best,
-    ];
-    rules.iter().flat_map(|rule| rule(report)).collect()
+    PROBLEMS
+        .iter()
+        .flat_map(|rule| rule(report))
+        .chain(push_best(report))
+        .collect()
 }
 
 /// The options fitted under the run's load (the demo adds fits under the
@@ -312,17 +317,7 @@ mod tests {
     #[test]
     fn a_clean_run_only_says_which_file_to_push() {
         let report = fixture::report();
-        for rule in [
-            not_converged,
-            remeasure_outliers,
-            validation_outliers,
-            validation_over_fit,
-            nothing_held_out,
-            poorly_determined,
-            springs_at_bound,
-            backlash,
-            tool_not_found,
-        ] {
+        for rule in PROBLEMS {
             assert_eq!(rule(&report), Vec::<String>::new());
         }
         assert_eq!(
