@@ -4,10 +4,7 @@
 use nalgebra::{IsometryMatrix3, Rotation3, Translation3, Vector3};
 use serde::{Deserialize, Serialize};
 
-use crate::{Real, ServoCurve};
-
-/// Number of joints of the arm.
-pub const JOINTS: usize = 6;
+use crate::{PerJoint, Real, ServoCurve};
 
 /// A rigid frame: `Trans(xyz) * Rz(yaw) * Ry(pitch) * Rx(roll)`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -39,7 +36,7 @@ impl<T: Real> Frame<T> {
 }
 
 /// One revolute joint and the link it carries, standard DH.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Real + Serialize",
     deserialize = "T: Real + Deserialize<'de>"
@@ -100,8 +97,8 @@ pub struct Arm<T> {
     /// written before it existed.
     #[serde(default = "crate::zero")]
     pub rated_payload_kg: T,
-    /// The six joints, base to tip.
-    pub joints: [Joint<T>; JOINTS],
+    /// The joints, base to tip: 1 to [`crate::MAX_JOINTS`].
+    pub joints: PerJoint<Joint<T>>,
 }
 
 impl<T: Real> Arm<T> {
@@ -136,13 +133,18 @@ impl<T: Real> Arm<T> {
         }
     }
 
+    /// Number of joints.
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
     /// Gravity as a vector, world frame.
     pub fn gravity_vector(&self) -> Vector3<T> {
         Vector3::from(self.gravity)
     }
 
     /// Whether every commanded angle lies within its joint's inclusive limits.
-    pub fn within_limits(&self, q: &[T; JOINTS]) -> bool {
+    pub fn within_limits(&self, q: &[T]) -> bool {
         self.joints
             .iter()
             .zip(q)
@@ -150,8 +152,8 @@ impl<T: Real> Arm<T> {
     }
 
     /// Clamps each commanded angle into its joint's limits.
-    pub fn clamp_to_limits(&self, q: &[T; JOINTS]) -> [T; JOINTS] {
-        core::array::from_fn(|i| {
+    pub fn clamp_to_limits(&self, q: &[T]) -> PerJoint<T> {
+        PerJoint::from_fn(self.joints.len(), |i| {
             let [lo, hi] = self.joints[i].limits;
             q[i].clamp(lo, hi)
         })

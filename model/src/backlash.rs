@@ -12,12 +12,13 @@
 //! The joint's actual angle is `q - s w / 2`, with `w` the full width of the
 //! play (`Joint::backlash`) and `s = +1` rising, `-1` falling.
 
-use crate::{JOINTS, Real, real};
+use crate::{PerJoint, Real, real};
 
 /// The way a joint last moved to reach where it stands.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Approach {
     /// Its command rose to the present one.
+    #[default]
     Rising,
     /// Its command fell to the present one.
     Falling,
@@ -60,22 +61,22 @@ pub fn command_for<T: Real>(angle: T, width: T, approach: Approach) -> T {
 /// Follows the way each joint arrives at each of a sequence of commanded poses.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ApproachTracker<T> {
-    last: [T; JOINTS],
-    approach: [Approach; JOINTS],
+    last: PerJoint<T>,
+    approach: PerJoint<Approach>,
 }
 
 impl<T: Real> ApproachTracker<T> {
     /// Starting at the commanded pose `start`, every joint taken to have
     /// reached it rising.
-    pub fn new(start: [T; JOINTS]) -> Self {
+    pub fn new(start: &[T]) -> Self {
         Self {
-            last: start,
-            approach: [Approach::Rising; JOINTS],
+            last: PerJoint::from_fn(start.len(), |j| start[j]),
+            approach: PerJoint::splat(start.len(), Approach::Rising),
         }
     }
 
     /// Moves to the commanded pose `q` and returns the way each joint arrives.
-    pub fn visit(&mut self, q: &[T; JOINTS]) -> [Approach; JOINTS] {
+    pub fn visit(&mut self, q: &[T]) -> PerJoint<Approach> {
         self.follow(q, T::zero())
     }
 
@@ -84,7 +85,7 @@ impl<T: Real> ApproachTracker<T> {
     /// more than `dead_band` (rad) from the furthest point it reached the
     /// way it was going, so jitter below it never flips the way in. With a
     /// zero dead band this is [`ApproachTracker::visit`].
-    pub fn follow(&mut self, q: &[T; JOINTS], dead_band: T) -> [Approach; JOINTS] {
+    pub fn follow(&mut self, q: &[T], dead_band: T) -> PerJoint<Approach> {
         for ((&q, last), approach) in q.iter().zip(&mut self.last).zip(&mut self.approach) {
             // Further on the way the joint was going: compared, not
             // subtracted (the usual case while moving; on the board a
@@ -111,7 +112,7 @@ impl<T: Real> ApproachTracker<T> {
     }
 
     /// The way each joint arrived at the last pose visited.
-    pub fn approach(&self) -> [Approach; JOINTS] {
+    pub fn approach(&self) -> PerJoint<Approach> {
         self.approach
     }
 }
@@ -123,7 +124,7 @@ mod tests {
 
     #[test]
     fn a_joint_keeps_its_way_in_when_it_does_not_move() {
-        let mut t = ApproachTracker::new([0.0f64; JOINTS]);
+        let mut t = ApproachTracker::new(&[0.0f64; 6]);
         assert_eq!(
             t.visit(&[0.5, 0.0, -0.5, 0.0, 0.0, 0.0]),
             [Rising, Rising, Falling, Rising, Rising, Rising]
@@ -141,8 +142,8 @@ mod tests {
 
     #[test]
     fn following_turns_round_only_beyond_the_dead_band() {
-        let mut t = ApproachTracker::new([0.0f32; JOINTS]);
-        let way = |t: &mut ApproachTracker<f32>, x: f32| t.follow(&[x; JOINTS], 1e-3)[0];
+        let mut t = ApproachTracker::new(&[0.0f32; 6]);
+        let way = |t: &mut ApproachTracker<f32>, x: f32| t.follow(&[x; 6], 1e-3)[0];
         assert_eq!(way(&mut t, 0.5), Rising);
         // Jitter below the dead band from the highest point keeps the way in.
         assert_eq!(way(&mut t, 0.4995), Rising);
@@ -155,8 +156,8 @@ mod tests {
         assert_eq!(way(&mut t, 0.2011), Rising);
         // A zero dead band visits: any move decides.
         let (mut a, mut b) = (
-            ApproachTracker::new([0.0; JOINTS]),
-            ApproachTracker::new([0.0; JOINTS]),
+            ApproachTracker::new(&[0.0; 6]),
+            ApproachTracker::new(&[0.0; 6]),
         );
         for x in [0.3, 0.3, 0.1, 0.1, 0.2, -0.4, -0.4] {
             let q = [x, -x, 0.0, x, 1.0, x * x];
@@ -198,11 +199,11 @@ mod tests {
             for &a in &values {
                 for &b in &values {
                     for start in [Rising, Falling] {
-                        let mut t = ApproachTracker::new([a; JOINTS]);
-                        t.approach = [start; JOINTS];
+                        let mut t = ApproachTracker::new(&[a; 6]);
+                        t.approach = PerJoint::splat(6, start);
                         let (mut last, mut way) = (a, start);
                         for q in [b, a, b] {
-                            t.follow(&[q; JOINTS], dead_band);
+                            t.follow(&[q; 6], dead_band);
                             by_differences(&mut last, &mut way, q, dead_band);
                             assert_eq!(t.approach[0], way, "{a} {b} {start:?} {dead_band}");
                             assert_eq!(t.last[0].to_bits(), last.to_bits());

@@ -11,7 +11,7 @@
 //! | backlash (full width of the play) | `0 ..= MAX_BACKLASH_RAD` | the board offsets every command by half of it |
 //!
 //! `tau_s` is [`Bounds::torque_nm`]: an upper bound of the gravity torque on
-//! spring `s` (0 the base tilt's, `1..=6` the joints') in any pose, with the
+//! spring `s` (0 the base tilt's, `1..=n` the joints') in any pose, with the
 //! arm's rated payload ([`Arm::rated_payload_kg`]) at the tool. It is worked
 //! out from the link lengths, masses and centres of mass alone, as the sum
 //! of each mass times the longest lever it can have about the spring's axis
@@ -23,10 +23,10 @@
 
 use nalgebra::Vector3;
 
-use crate::{Arm, JOINTS, Real, real};
+use crate::{Arm, MAX_JOINTS, Real, real};
 
-/// Springs of the model: the base tilt's (0) and the joints' (`1..=JOINTS`).
-pub const SPRINGS: usize = JOINTS + 1;
+/// The most springs an arm has: the base tilt's (0) and the joints' (`1..=n`).
+pub const MAX_SPRINGS: usize = MAX_JOINTS + 1;
 
 /// The largest angle a linear spring may yield under the largest torque it
 /// can meet, rad (about 29°): a joint that sags further is not a spring that
@@ -48,12 +48,12 @@ pub const FIT_MARGIN: f64 = 1e-5;
 /// A bounded quantity of the arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Quantity {
-    /// The compliance of a spring (0 the base's, `1..=JOINTS` the joints').
+    /// The compliance of a spring (0 the base's, `1..=n` the joints').
     Compliance {
         /// The spring.
         spring: u8,
     },
-    /// The softening of a spring (0 the base's, `1..=JOINTS` the joints').
+    /// The softening of a spring (0 the base's, `1..=n` the joints').
     Softening {
         /// The spring.
         spring: u8,
@@ -66,14 +66,15 @@ pub enum Quantity {
 }
 
 impl Quantity {
-    /// Every bounded quantity of an arm: compliances, softenings, then the plays.
-    pub fn all() -> impl Iterator<Item = Quantity> {
-        let springs = 0..SPRINGS as u8;
+    /// Every bounded quantity of an arm of `joints` joints: compliances,
+    /// softenings, then the plays.
+    pub fn all(joints: usize) -> impl Iterator<Item = Quantity> {
+        let springs = 0..=joints as u8;
         springs
             .clone()
             .map(|spring| Quantity::Compliance { spring })
             .chain(springs.map(|spring| Quantity::Softening { spring }))
-            .chain((0..JOINTS as u8).map(|joint| Quantity::Backlash { joint }))
+            .chain((0..joints as u8).map(|joint| Quantity::Backlash { joint }))
     }
 
     /// The quantity's value in `arm`; `None` for a spring or joint it lacks.
@@ -149,8 +150,9 @@ pub struct Violation<T> {
 /// The bounds of one arm's calibration (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bounds<T> {
-    /// Upper bound of each spring's gravity torque, Nm (0 the base's).
-    torque_nm: [T; SPRINGS],
+    /// Upper bound of each spring's gravity torque, Nm (0 the base's; 0
+    /// past the arm's last joint).
+    torque_nm: [T; MAX_SPRINGS],
 }
 
 impl<T: Real> Bounds<T> {
@@ -199,7 +201,7 @@ impl<T: Real> Bounds<T> {
     /// The first bounded quantity of `arm` outside its range (compliances,
     /// then softenings, then plays), if any.
     pub fn check(&self, arm: &Arm<T>) -> Result<(), Violation<T>> {
-        for quantity in Quantity::all() {
+        for quantity in Quantity::all(arm.joints.len()) {
             let Some(value) = quantity.value(arm) else {
                 continue;
             };
@@ -226,35 +228,25 @@ impl<T: Real> Bounds<T> {
 /// joint `i < j` is at most `|a_i| + Σ_(i<k<j) sqrt(d_k² + a_k²) + |w_j|`
 /// (the `d_i` offset lies along joint `i`'s axis); about the base's axis,
 /// through `o_0`, the sum runs from the first joint. The payload is a last
-/// mass at the payload's centre in frame 6.
-fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; SPRINGS] {
+/// mass at the payload's centre in the last frame.
+fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; MAX_SPRINGS] {
     let g = arm.gravity_vector().norm();
-    let step: [T; JOINTS] = core::array::from_fn(|k| {
-        let j = &arm.joints[k];
-        (j.d * j.d + j.a * j.a).sqrt()
-    });
+    let n = arm.joints.len();
+    let step = arm.joints.map(|j| (j.d * j.d + j.a * j.a).sqrt());
     // Each mass with its w (frame of its last joint) and that joint's index.
     let tool = arm.tool.isometry();
     let payload = tool.translation.vector + tool.rotation * Vector3::from(arm.payload_com);
-    let masses = (0..=JOINTS).map(|m| {
-        let k = m.min(JOINTS - 1);
+    let masses = (0..=n).map(|m| {
+        let k = m.min(n - 1);
         let j = &arm.joints[k];
         let (s, c) = j.alpha.sin_cos();
         let axis = Vector3::new(T::zero(), s, c);
-        let offset = if m < JOINTS {
-            Vector3::from(j.com)
-        } else {
-            payload
-        };
-        let mass = if m < JOINTS {
-            j.mass
-        } else {
-            arm.rated_payload_kg
-        };
+        let offset = if m < n { Vector3::from(j.com) } else { payload };
+        let mass = if m < n { j.mass } else { arm.rated_payload_kg };
         let w = axis * j.d + Vector3::new(j.a, T::zero(), T::zero()) + offset;
         (k, mass, w, axis)
     });
-    let mut torque = [T::zero(); SPRINGS];
+    let mut torque = [T::zero(); MAX_SPRINGS];
     for (k, mass, w, axis) in masses {
         // The base: every joint's step before the mass's own link.
         let before: T = step[..k].iter().fold(T::zero(), |s, &x| s + x);
@@ -276,6 +268,7 @@ fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; SPRINGS] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::TEST_ARM_JOINTS as JOINTS;
     use crate::testing::{lrm_like_arm, planar_arm};
     use crate::{Chain, SolverOptions};
     use rand::{Rng, SeedableRng};
@@ -290,7 +283,7 @@ mod tests {
             let bounds = Bounds::of(&arm);
             let chain: Chain<f64> = arm.chain();
             let mut rng = rand::rngs::StdRng::seed_from_u64(7);
-            let mut most = [0.0f64; SPRINGS];
+            let mut most = [0.0f64; MAX_SPRINGS];
             for _ in 0..20_000 {
                 let q: [f64; JOINTS] = core::array::from_fn(|_| rng.random_range(-3.2..3.2));
                 let t = chain.statics(&q, 0.0, payload).torques;
@@ -398,7 +391,7 @@ mod tests {
         let mut arm = lrm_like_arm::<f64>();
         arm.rated_payload_kg = 0.0663;
         let b = Bounds::of(&arm);
-        for q in Quantity::all() {
+        for q in Quantity::all(6) {
             let r = b.range(q).inner(FIT_MARGIN);
             for end in [r.min, r.max] {
                 if !end.is_finite() || end.abs() > 1e30 {

@@ -12,16 +12,12 @@
 //! are the same it drives to `q` exactly.
 
 use crate::backlash::{Approach, settled};
-use crate::{Arm, JOINTS, Real, ServoCurve};
+use crate::{Arm, PerJoint, Real, ServoCurve};
 
 /// The joint angles the servos of `arm` drive to when commanded `q` (rad)
 /// through the curves `sent`, rad.
-pub fn reached<T: Real>(
-    arm: &Arm<T>,
-    sent: &[ServoCurve<T>; JOINTS],
-    q: &[T; JOINTS],
-) -> [T; JOINTS] {
-    core::array::from_fn(|j| {
+pub fn reached<T: Real>(arm: &Arm<T>, sent: &[ServoCurve<T>], q: &[T]) -> PerJoint<T> {
+    PerJoint::from_fn(arm.joints.len(), |j| {
         let own = &arm.joints[j].servo;
         if sent[j] == *own {
             q[j]
@@ -37,12 +33,14 @@ pub fn reached<T: Real>(
 /// ([`crate::backlash::settled`]).
 pub fn standing<T: Real>(
     arm: &Arm<T>,
-    sent: &[ServoCurve<T>; JOINTS],
-    q: &[T; JOINTS],
-    approach: &[Approach; JOINTS],
-) -> [T; JOINTS] {
+    sent: &[ServoCurve<T>],
+    q: &[T],
+    approach: &[Approach],
+) -> PerJoint<T> {
     let reached = reached(arm, sent, q);
-    core::array::from_fn(|j| settled(reached[j], arm.joints[j].backlash, approach[j]))
+    PerJoint::from_fn(arm.joints.len(), |j| {
+        settled(reached[j], arm.joints[j].backlash, approach[j])
+    })
 }
 
 #[cfg(test)]
@@ -58,7 +56,7 @@ mod tests {
         let q = [0.1, -0.4, 0.7, 0.0, 1.2, -1.0];
         assert_eq!(reached(&arm, &sent, &q), q);
         arm.joints[2].backlash = 0.02;
-        let rising = [Approach::Rising; JOINTS];
+        let rising = [Approach::Rising; 6];
         let s = standing(&arm, &sent, &q, &rising);
         assert_eq!(s[2], q[2] - 0.01);
         assert_eq!(s[1], q[1]);

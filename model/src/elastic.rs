@@ -28,7 +28,7 @@
 use nalgebra::Vector3;
 
 use crate::kinematics::{Chain, ChainFrames};
-use crate::{JOINTS, Real, real};
+use crate::{PerJoint, Real, real};
 
 /// Stopping rules of the deflection solver (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,7 +78,7 @@ impl<T: Real> SolverOptions<T> {
 #[derive(Clone, Copy, Debug)]
 pub struct Deflection<T: Real> {
     /// Actual (deflected) joint angles, rad.
-    pub qa: [T; JOINTS],
+    pub qa: PerJoint<T>,
     /// Elastic tilt of the base about y0, rad.
     pub beta: T,
     /// Frames of the deflected chain.
@@ -147,26 +147,27 @@ impl<T: Real> Chain<T> {
     /// Deflection for commanded angles `q` (rad) and payload `payload_kg`, from `qa = q, beta = 0`.
     pub fn deflect(
         &self,
-        q: &[T; JOINTS],
+        q: &[T],
         payload_kg: T,
         options: &SolverOptions<T>,
     ) -> Result<Deflection<T>, DeflectionError> {
-        self.deflect_from(q, payload_kg, (*q, T::zero()), options)
+        let start = PerJoint::from_fn(q.len(), |i| q[i]);
+        self.deflect_from(q, payload_kg, (start, T::zero()), options)
     }
 
     /// Deflection as [`Chain::deflect`], iterating from a guess `(qa, beta)`,
     /// e.g. the previous servo frame's solution.
     pub fn deflect_from(
         &self,
-        q: &[T; JOINTS],
+        q: &[T],
         payload_kg: T,
-        (mut qa, mut beta): ([T; JOINTS], T),
+        (mut qa, mut beta): (PerJoint<T>, T),
         options: &SolverOptions<T>,
     ) -> Result<Deflection<T>, DeflectionError> {
         if self.is_rigid() {
             let frames = self.frames(q, T::zero());
             return Ok(Deflection {
-                qa: *q,
+                qa: PerJoint::from_fn(q.len(), |i| q[i]),
                 beta: T::zero(),
                 frames,
                 iterations: 0,
@@ -212,15 +213,9 @@ impl<T: Real> Chain<T> {
     /// One application of the fixed-point map: `(q + k tau, k0 tau0)` at the
     /// deflected angles `qa` and base tilt `beta` (`k (1 + s |tau|)` for `k`
     /// where a spring softens, see the module docs).
-    pub fn elastic_map(
-        &self,
-        q: &[T; JOINTS],
-        qa: &[T; JOINTS],
-        beta: T,
-        payload_kg: T,
-    ) -> ([T; JOINTS], T) {
+    pub fn elastic_map(&self, q: &[T], qa: &[T], beta: T, payload_kg: T) -> (PerJoint<T>, T) {
         let tau = self.gravity_torques(qa, beta, payload_kg);
-        let qa = core::array::from_fn(|i| {
+        let qa = PerJoint::from_fn(self.links.len(), |i| {
             let link = &self.links[i];
             q[i] + yield_of(link.compliance, link.softening, tau.joints[i])
         });
@@ -231,7 +226,7 @@ impl<T: Real> Chain<T> {
     }
 
     /// Largest violation of the fixed-point equation by a solution, rad.
-    pub fn fixed_point_residual(&self, q: &[T; JOINTS], payload_kg: T, d: &Deflection<T>) -> T {
+    pub fn fixed_point_residual(&self, q: &[T], payload_kg: T, d: &Deflection<T>) -> T {
         let (qa, beta) = self.elastic_map(q, &d.qa, d.beta, payload_kg);
         qa.iter()
             .zip(&d.qa)
@@ -241,7 +236,7 @@ impl<T: Real> Chain<T> {
     /// The measured point of the deflected arm, world frame, m.
     pub fn tool_point(
         &self,
-        q: &[T; JOINTS],
+        q: &[T],
         payload_kg: T,
         options: &SolverOptions<T>,
     ) -> Result<Vector3<T>, DeflectionError> {
@@ -255,6 +250,7 @@ impl<T: Real> Chain<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::TEST_ARM_JOINTS as JOINTS;
     use crate::testing::{lrm_like_arm, random_q, rigid_lrm_like_arm};
     use rand::{SeedableRng, rngs::StdRng};
 

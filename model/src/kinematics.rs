@@ -6,10 +6,10 @@
 
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
-use crate::{Arm, JOINTS, Real};
+use crate::{Arm, PerFrame, PerJoint, Real};
 
 /// One DH link prepared for evaluation.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Link<T: Real> {
     /// DH joint-angle offset, rad.
     pub theta: T,
@@ -39,25 +39,25 @@ pub struct Link<T: Real> {
 pub struct Chain<T: Real> {
     /// World -> frame 0, before the elastic base tilt.
     pub base: IsometryMatrix3<T>,
-    /// The measured tool point in frame 6, m.
+    /// The measured tool point in the last frame, m.
     pub tool_point: Vector3<T>,
-    /// The six links.
-    pub links: [Link<T>; JOINTS],
+    /// The links, base to tip.
+    pub links: PerJoint<Link<T>>,
     /// Base tilt compliance about y0, rad/Nm.
     pub base_compliance: T,
     /// The base's [`Link::softening`], 1/Nm.
     pub base_softening: T,
     /// Gravity in the base frame (before the elastic tilt), m/s².
     pub base_gravity: Vector3<T>,
-    /// Payload centre of mass in frame 6, m.
+    /// Payload centre of mass in the last frame, m.
     pub payload_com: Vector3<T>,
 }
 
 /// World poses of every frame of the chain for one set of actual joint angles.
 #[derive(Clone, Copy, Debug)]
 pub struct ChainFrames<T: Real> {
-    /// Frames 0..=6 in the world; frame 0 includes the elastic base tilt.
-    pub frames: [IsometryMatrix3<T>; JOINTS + 1],
+    /// Frames 0..=n in the world; frame 0 includes the elastic base tilt.
+    pub frames: PerFrame<IsometryMatrix3<T>>,
     /// The measured point (tool frame origin), world frame, m.
     pub tool_point: Vector3<T>,
 }
@@ -165,12 +165,13 @@ impl<T: Real> Arm<T> {
 
 impl<T: Real> Chain<T> {
     /// Frames of the chain at actual joint angles `qa` and elastic base tilt `beta` (rad).
-    pub fn frames(&self, qa: &[T; JOINTS], beta: T) -> ChainFrames<T> {
-        let mut frames = [self.tilted_base(tilt_sin_cos(beta)); JOINTS + 1];
+    pub fn frames(&self, qa: &[T], beta: T) -> ChainFrames<T> {
+        let base = self.tilted_base(tilt_sin_cos(beta));
+        let mut frames = PerFrame::splat(self.links.len() + 1, base);
         for (i, link) in self.links.iter().enumerate() {
             frames[i + 1] = dh_child(&frames[i], qa[i] + link.theta, link);
         }
-        let last = &frames[JOINTS];
+        let last = &frames.last_value();
         let tool_point = last.rotation * self.tool_point + last.translation.vector;
         ChainFrames { frames, tool_point }
     }
@@ -198,7 +199,7 @@ impl<T: Real> Chain<T> {
     }
 
     /// The measured point of the rigid arm (no deflection) at joint angles `q`, m.
-    pub fn rigid_tool_point(&self, q: &[T; JOINTS]) -> Vector3<T> {
+    pub fn rigid_tool_point(&self, q: &[T]) -> Vector3<T> {
         (self.base * Point3::from(self.rigid_base_point(q))).coords
     }
 
@@ -206,7 +207,7 @@ impl<T: Real> Chain<T> {
     ///
     /// Carried from the tool back to the base with [`Link::to_parent`], so no
     /// frame is built: 14 operations per joint where [`Chain::frames`] takes 48.
-    pub fn rigid_base_point(&self, q: &[T; JOINTS]) -> Vector3<T> {
+    pub fn rigid_base_point(&self, q: &[T]) -> Vector3<T> {
         let mut p = self.tool_point;
         for (link, &qi) in self.links.iter().zip(q).rev() {
             p = link.to_parent(&p, (qi + link.theta).joint_sin_cos(), (link.a, link.d));

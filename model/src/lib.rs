@@ -35,22 +35,24 @@ pub mod compensation;
 pub mod elastic;
 pub mod kinematics;
 pub mod params;
+pub mod per_joint;
 pub mod servo;
 pub mod statics;
 #[cfg(any(test, feature = "testing"))]
 pub mod testing;
 pub mod trig;
 
-pub use arm::{Arm, Frame, JOINTS, Joint};
+pub use arm::{Arm, Frame, Joint};
 pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation, Slope};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
-pub use params::{PARAM_COUNT, ParamId};
+pub use params::{MAX_PARAMS, ParamId, param_count};
+pub use per_joint::{ChainVec, MAX_JOINTS, PerFrame, PerJoint};
 pub use servo::ServoCurve;
 pub use statics::{Statics, Torques};
 
 /// The float type the model is generic over: `f32` on the MCU, `f64` on the host.
-pub trait Real: nalgebra::RealField + Copy {
+pub trait Real: nalgebra::RealField + Copy + Default {
     /// `(sin x, cos x)` of a joint angle as the model evaluates it: the float's
     /// own in f64, [`trig::sin_cos_f32`] in f32 (libm's f32 functions compute
     /// in f64, which costs the FPU-less MCU ten times more).

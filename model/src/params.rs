@@ -1,17 +1,32 @@
-//! The 43 error parameters of the method, each with a stable name.
+//! The error parameters of the method, each with a stable name, for an arm
+//! of any number of joints `n` (at most [`MAX_JOINTS`]).
 //!
-//! Order (and index): `j1.theta j1.d j1.a j1.alpha … j6.alpha` (0..24),
-//! `base.x base.y base.z base.roll base.pitch base.yaw` (24..30),
-//! `tool.x … tool.yaw` (30..36), `k1 … k6` (36..42), `k0` (42).
+//! Order of [`ParamId::all`]: `j1.theta j1.d j1.a j1.alpha … jn.alpha`,
+//! `base.x base.y base.z base.roll base.pitch base.yaw`, `tool.x … tool.yaw`,
+//! `k1 … kn`, `k0`: `5 n + 13` parameters, 43 for six joints.
+//! A parameter's id does not depend on `n` (`j3.d` is the same id for every
+//! arm), so its [`ParamId::index`] is a name's place in the table of the
+//! longest arm, not a place in [`ParamId::all`].
 //! An error is a correction *added* to the nominal value of the arm field it
 //! names; [`ParamId::value_mut`] gives that field.
 
-use crate::{Arm, Real};
+use crate::{Arm, MAX_JOINTS, Real};
 
-/// Number of error parameters.
-pub const PARAM_COUNT: usize = 43;
+/// Number of error parameters of an arm of [`MAX_JOINTS`] joints: every id there is.
+pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 13;
 
-const NAMES: [&str; PARAM_COUNT] = [
+/// Where each group of ids starts in the table.
+const BASE: usize = 4 * MAX_JOINTS;
+const TOOL: usize = BASE + 6;
+const SPRINGS: usize = TOOL + 6;
+const K0: usize = SPRINGS + MAX_JOINTS;
+
+/// Number of error parameters of an arm of `joints` joints.
+pub const fn param_count(joints: usize) -> usize {
+    5 * joints + 13
+}
+
+const NAMES: [&str; MAX_PARAMS] = [
     "j1.theta",
     "j1.d",
     "j1.a",
@@ -36,6 +51,22 @@ const NAMES: [&str; PARAM_COUNT] = [
     "j6.d",
     "j6.a",
     "j6.alpha",
+    "j7.theta",
+    "j7.d",
+    "j7.a",
+    "j7.alpha",
+    "j8.theta",
+    "j8.d",
+    "j8.a",
+    "j8.alpha",
+    "j9.theta",
+    "j9.d",
+    "j9.a",
+    "j9.alpha",
+    "j10.theta",
+    "j10.d",
+    "j10.a",
+    "j10.alpha",
     "base.x",
     "base.y",
     "base.z",
@@ -54,6 +85,10 @@ const NAMES: [&str; PARAM_COUNT] = [
     "k4",
     "k5",
     "k6",
+    "k7",
+    "k8",
+    "k9",
+    "k10",
     "k0",
 ];
 
@@ -68,22 +103,33 @@ pub enum ParamKind {
     Compliance,
 }
 
-/// One of the 43 error parameters, by index.
+/// One error parameter, by its place in the table of the longest arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct ParamId(u8);
 
 impl ParamId {
-    /// Every parameter in order.
-    pub fn all() -> impl Iterator<Item = ParamId> + Clone {
-        (0..PARAM_COUNT as u8).map(ParamId)
+    /// Every parameter of an arm of `joints` joints, in order (module docs).
+    pub fn all(joints: usize) -> impl Iterator<Item = ParamId> + Clone {
+        let n = joints.min(MAX_JOINTS);
+        (0..4 * n)
+            .chain(BASE..SPRINGS)
+            .chain(SPRINGS..SPRINGS + n)
+            .chain(K0..=K0)
+            .map(|i| ParamId(i as u8))
     }
 
-    /// The parameter at `index`, if there is one.
+    /// Every parameter of `arm`, in order.
+    pub fn of<T: Real>(arm: &Arm<T>) -> impl Iterator<Item = ParamId> + Clone {
+        Self::all(arm.joints.len())
+    }
+
+    /// The parameter at table place `index`, if there is one.
     pub fn from_index(index: usize) -> Option<Self> {
-        (index < PARAM_COUNT).then_some(ParamId(index as u8))
+        (index < MAX_PARAMS).then_some(ParamId(index as u8))
     }
 
-    /// The parameter called `name` (e.g. `j3.d`, `base.pitch`, `k0`).
+    /// The parameter called `name` (e.g. `j3.d`, `base.pitch`, `k0`), for an
+    /// arm of any length: [`ParamId::fits`] says whether a given arm has it.
     pub fn from_name(name: &str) -> Option<Self> {
         NAMES
             .iter()
@@ -91,7 +137,7 @@ impl ParamId {
             .map(|i| ParamId(i as u8))
     }
 
-    /// Position in [`ParamId::all`].
+    /// Place in the table of the longest arm (module docs).
     pub fn index(self) -> usize {
         self.0 as usize
     }
@@ -101,15 +147,32 @@ impl ParamId {
         NAMES[self.index()]
     }
 
+    /// The joint (from 0) whose geometry or spring this is; `None` for the
+    /// base, the tool and `k0`.
+    pub fn joint(self) -> Option<usize> {
+        match self.index() {
+            i if i < BASE => Some(i / 4),
+            i if (SPRINGS..K0).contains(&i) => Some(i - SPRINGS),
+            _ => None,
+        }
+    }
+
+    /// Whether an arm of `joints` joints has this parameter.
+    pub fn fits(self, joints: usize) -> bool {
+        self.joint().is_none_or(|j| j < joints)
+    }
+
     /// Physical kind.
     pub fn kind(self) -> ParamKind {
         match self.index() {
-            0..24 => match self.index() % 4 {
+            i if i < BASE => match i % 4 {
                 1 | 2 => ParamKind::Length,
                 _ => ParamKind::Angle,
             },
-            24..27 | 30..33 => ParamKind::Length,
-            27..30 | 33..36 => ParamKind::Angle,
+            i if (BASE..BASE + 3).contains(&i) || (TOOL..TOOL + 3).contains(&i) => {
+                ParamKind::Length
+            }
+            i if i < SPRINGS => ParamKind::Angle,
             _ => ParamKind::Compliance,
         }
     }
@@ -120,10 +183,13 @@ impl ParamId {
     }
 
     /// The arm field this parameter corrects.
+    ///
+    /// # Panics
+    /// If the arm lacks the parameter's joint ([`ParamId::fits`]).
     pub fn value_mut<T: Real>(self, arm: &mut Arm<T>) -> &mut T {
         let i = self.index();
         match i {
-            0..24 => {
+            _ if i < BASE => {
                 let j = &mut arm.joints[i / 4];
                 match i % 4 {
                     0 => &mut j.theta,
@@ -132,16 +198,17 @@ impl ParamId {
                     _ => &mut j.alpha,
                 }
             }
-            24..27 => &mut arm.base.xyz[i - 24],
-            27..30 => &mut arm.base.rpy[i - 27],
-            30..33 => &mut arm.tool.xyz[i - 30],
-            33..36 => &mut arm.tool.rpy[i - 33],
-            36..42 => &mut arm.joints[i - 36].compliance,
+            _ if i < BASE + 3 => &mut arm.base.xyz[i - BASE],
+            _ if i < TOOL => &mut arm.base.rpy[i - BASE - 3],
+            _ if i < TOOL + 3 => &mut arm.tool.xyz[i - TOOL],
+            _ if i < SPRINGS => &mut arm.tool.rpy[i - TOOL - 3],
+            _ if i < K0 => &mut arm.joints[i - SPRINGS].compliance,
             _ => &mut arm.base_compliance,
         }
     }
 
-    /// The current value of the field this parameter corrects.
+    /// The current value of the field this parameter corrects (panics as
+    /// [`ParamId::value_mut`]).
     pub fn value<T: Real>(self, arm: &Arm<T>) -> T {
         let mut copy = *arm;
         *self.value_mut(&mut copy)
@@ -170,9 +237,9 @@ impl<T: Real> Arm<T> {
         arm
     }
 
-    /// All 43 parameter values of this arm, in [`ParamId::all`] order.
-    pub fn param_values(&self) -> [T; PARAM_COUNT] {
-        core::array::from_fn(|i| ParamId(i as u8).value(self))
+    /// Every parameter value of this arm, in [`ParamId::of`] order.
+    pub fn param_values(&self) -> impl Iterator<Item = T> + '_ {
+        ParamId::of(self).map(|id| id.value(self))
     }
 }
 
@@ -182,21 +249,25 @@ mod tests {
 
     #[test]
     fn names_round_trip_and_are_unique() {
-        for id in ParamId::all() {
+        for id in ParamId::all(MAX_JOINTS) {
             assert_eq!(ParamId::from_name(id.name()), Some(id));
         }
+        assert_eq!(ParamId::all(MAX_JOINTS).count(), MAX_PARAMS);
         assert_eq!(ParamId::from_name("j3.d").map(ParamId::index), Some(9));
-        assert_eq!(
-            ParamId::from_name("base.pitch").map(ParamId::index),
-            Some(28)
-        );
-        assert_eq!(ParamId::from_name("k0").map(ParamId::index), Some(42));
-        assert_eq!(ParamId::from_name("j7.d"), None);
+        assert_eq!(ParamId::from_name("j11.d"), None);
+        let six: std::vec::Vec<_> = ParamId::all(6).map(ParamId::name).collect();
+        assert_eq!(six.len(), param_count(6));
+        assert_eq!(&six[22..26], ["j6.a", "j6.alpha", "base.x", "base.y"]);
+        assert_eq!(&six[40..], ["k5", "k6", "k0"]);
+        assert!(ParamId::from_name("j7.d").unwrap().fits(7));
+        assert!(!ParamId::from_name("k7").unwrap().fits(6));
+        assert!(ParamId::from_name("tool.z").unwrap().fits(1));
     }
 
     #[test]
     fn kinds_partition_36_geometric_and_7_compliances() {
-        assert_eq!(ParamId::all().filter(|p| p.is_geometric()).count(), 36);
+        assert_eq!(ParamId::all(6).filter(|p| p.is_geometric()).count(), 36);
+        assert_eq!(ParamId::all(2).filter(|p| !p.is_geometric()).count(), 3);
         assert_eq!(
             ParamId::from_name("j2.a").unwrap().kind(),
             ParamKind::Length

@@ -48,7 +48,10 @@ pub const PULSE_RANGE_US: [u16; 2] = [500, 2500];
 /// Built by [`ServoCurve::new`] (any knots, checked for their count only) or
 /// the three-point constructors; [`ServoCurve::check`] says whether it maps
 /// angle to pulse one-to-one, as the board requires.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+///
+/// Its `Default` is an empty curve, only a placeholder in [`crate::PerJoint`]'s
+/// unused slots: [`ServoCurve::check`] refuses it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(
     try_from = "Knots<T>",
     into = "Knots<T>",
@@ -140,6 +143,8 @@ pub enum CurveFault {
         /// The knot.
         knot: usize,
     },
+    /// Fewer than two knots: only the placeholder `Default` curve has them.
+    TooFewKnots,
 }
 
 impl CurveFault {
@@ -149,6 +154,7 @@ impl CurveFault {
             Self::NotFinite { knot }
             | Self::AnglesNotIncreasing { knot }
             | Self::PulsesNotMonotonic { knot } => knot,
+            Self::TooFewKnots => 0,
         }
     }
 }
@@ -167,6 +173,7 @@ impl core::fmt::Display for CurveFault {
                 knot,
                 knot + 1
             ),
+            Self::TooFewKnots => f.write_str("a curve needs at least 2 knots"),
         }
     }
 }
@@ -361,6 +368,9 @@ impl<T: Real> ServoCurve<T> {
     /// strictly increasing, pulses strictly increasing or strictly decreasing.
     pub fn check(&self) -> Result<(), CurveFault> {
         let (a, p) = (self.angles_rad(), self.pulses_us());
+        if a.len() < 2 {
+            return Err(CurveFault::TooFewKnots);
+        }
         if let Some(knot) = (0..a.len()).find(|&k| !(a[k].is_finite() && p[k].is_finite())) {
             return Err(CurveFault::NotFinite { knot });
         }

@@ -12,13 +12,13 @@
 use nalgebra::Vector3;
 
 use crate::kinematics::{Chain, tilt_sin_cos, untilt};
-use crate::{JOINTS, Real};
+use crate::{PerJoint, Real};
 
 /// Gravity torques for one configuration, Nm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Torques<T> {
-    /// Torque about joint axis z(i-1) of links i..6 and the payload.
-    pub joints: [T; JOINTS],
+    /// Torque about joint axis z(i-1) of links i..n and the payload.
+    pub joints: PerJoint<T>,
     /// Torque about the y axis of (tilted) frame 0 of the whole arm and the payload.
     pub base: T,
 }
@@ -30,13 +30,13 @@ pub struct Torques<T> {
 #[derive(Clone, Copy, Debug)]
 pub struct Statics<T: Real> {
     /// `(sin, cos)` of each joint's DH angle `qa_i + theta_i`.
-    pub joint_sin_cos: [(T, T); JOINTS],
+    pub joint_sin_cos: PerJoint<(T, T)>,
     /// `(sin, cos)` of the base tilt.
     pub tilt_sin_cos: (T, T),
     /// The tool point relative to `o_i`, in frame `i`, m.
-    pub tool_points: [Vector3<T>; JOINTS],
+    pub tool_points: PerJoint<Vector3<T>>,
     /// The load moment `v_i` of joint `i`, in frame `i`, kg·m.
-    pub moments: [Vector3<T>; JOINTS],
+    pub moments: PerJoint<Vector3<T>>,
     /// Gravity in frame 0, m/s².
     pub gravity0: Vector3<T>,
     /// The gravity torques.
@@ -46,25 +46,25 @@ pub struct Statics<T: Real> {
 impl<T: Real> Chain<T> {
     /// The statics of the arm at deflected angles `qa`, base tilt `beta` (rad)
     /// and a payload of `payload_kg` at the tool.
-    pub fn statics(&self, qa: &[T; JOINTS], beta: T, payload_kg: T) -> Statics<T> {
-        let joint_sin_cos: [(T, T); JOINTS] =
-            core::array::from_fn(|i| (qa[i] + self.links[i].theta).joint_sin_cos());
+    pub fn statics(&self, qa: &[T], beta: T, payload_kg: T) -> Statics<T> {
+        let n = self.links.len();
+        let joint_sin_cos = PerJoint::from_fn(n, |i| (qa[i] + self.links[i].theta).joint_sin_cos());
         let tilt = tilt_sin_cos(beta);
         // Gravity into frame 0, then into each joint's frame.
         let gravity0 = untilt(&self.base_gravity, tilt);
-        let mut gravity = [gravity0; JOINTS];
-        for i in 1..JOINTS {
+        let mut gravity = PerJoint::splat(n, gravity0);
+        for i in 1..n {
             gravity[i] = self.links[i - 1].rotate_to_child(&gravity[i - 1], joint_sin_cos[i - 1]);
         }
         // The tool point and the load moment, back from the tool.
-        let last = &self.links[JOINTS - 1];
+        let last = &self.links[n - 1];
         let mut point = self.tool_point;
         let mut moment = self.payload_com * payload_kg + last.mass_com;
         let mut mass = payload_kg + last.mass;
-        let mut tool_points = [point; JOINTS];
-        let mut moments = [moment; JOINTS];
-        let mut joints = [T::zero(); JOINTS];
-        for i in (0..JOINTS).rev() {
+        let mut tool_points = PerJoint::splat(n, point);
+        let mut moments = PerJoint::splat(n, moment);
+        let mut joints = PerJoint::splat(n, T::zero());
+        for i in (0..n).rev() {
             let link = &self.links[i];
             let sc = joint_sin_cos[i];
             point = link.to_parent(&point, sc, (link.a, link.d));
@@ -94,15 +94,16 @@ impl<T: Real> Chain<T> {
 
     /// Gravity torques at deflected angles `qa` and base tilt `beta` with a
     /// payload of `payload_kg` at the tool.
-    pub fn gravity_torques(&self, qa: &[T; JOINTS], beta: T, payload_kg: T) -> Torques<T> {
+    pub fn gravity_torques(&self, qa: &[T], beta: T, payload_kg: T) -> Torques<T> {
         self.statics(qa, beta, payload_kg).torques
     }
 }
 
 #[cfg(test)]
 mod tests {
+    use crate::Chain;
+    use crate::testing::TEST_ARM_JOINTS as JOINTS;
     use crate::testing::{lrm_like_arm, planar_arm, random_q};
-    use crate::{Chain, JOINTS};
     use approx::assert_relative_eq;
     use nalgebra::Vector3;
 

@@ -11,7 +11,13 @@ use core::ops::Range;
 use rand::Rng;
 
 use crate::params::ParamKind;
-use crate::{Arm, Frame, JOINTS, Joint, PARAM_COUNT, ParamId, Real, ServoCurve, real};
+use crate::{Arm, Frame, Joint, ParamId, PerJoint, Real, ServoCurve, param_count, real};
+
+/// Joints of the test arms ([`planar_arm`], [`lrm_like_arm`]).
+pub const TEST_ARM_JOINTS: usize = 6;
+
+/// Error parameters of the test arms.
+pub const TEST_ARM_PARAMS: usize = param_count(TEST_ARM_JOINTS);
 
 fn joint<T: Real>(
     theta: f64,
@@ -51,14 +57,14 @@ pub fn planar_arm<T: Real>() -> Arm<T> {
         },
         payload_com: [T::zero(); 3],
         rated_payload_kg: T::zero(),
-        joints: [
+        joints: PerJoint::from([
             joint(0.0, 0.05, 0.2, 0.0, 0.0, 0.1, [-0.1, 0.0, 0.0]),
             joint(0.0, 0.0, 0.15, 0.0, 0.0, 0.1, [-0.07, 0.0, 0.0]),
             joint(0.0, 0.0, 0.1, 0.0, 0.0, 0.1, [-0.05, 0.0, 0.0]),
             joint(0.0, 0.0, 0.0, 0.0, 0.0, 0.05, z),
             joint(0.0, 0.0, 0.0, 0.0, 0.0, 0.05, z),
             joint(0.0, 0.0, 0.0, 0.0, 0.0, 0.05, z),
-        ],
+        ]),
     }
 }
 
@@ -77,14 +83,14 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
         },
         payload_com: [T::zero(); 3],
         rated_payload_kg: T::zero(),
-        joints: [
+        joints: PerJoint::from([
             joint(0.0, 0.09, 0.0, h, 0.02, 0.15, [0.0, -0.03, 0.0]),
             joint(h, 0.0, 0.17, 0.0, 0.12, 0.12, [-0.085, 0.0, 0.01]),
             joint(h, 0.0, 0.0, h, 0.08, 0.10, [0.0, 0.0, 0.02]),
             joint(0.0, 0.17, 0.0, -h, 0.05, 0.08, [0.0, 0.08, 0.0]),
             joint(0.0, 0.0, 0.0, h, 0.06, 0.06, [0.0, 0.0, 0.01]),
             joint(0.0, 0.06, 0.0, 0.0, 0.03, 0.05, [0.0, 0.0, -0.02]),
-        ],
+        ]),
     }
 }
 
@@ -97,7 +103,7 @@ pub fn rigid_lrm_like_arm() -> Arm<f64> {
 }
 
 /// Random commanded angles within ±100°.
-pub fn random_q<T: Real>(rng: &mut impl Rng) -> [T; JOINTS] {
+pub fn random_q<T: Real>(rng: &mut impl Rng) -> [T; TEST_ARM_JOINTS] {
     core::array::from_fn(|_| real(rng.random_range(-1.745..1.745)))
 }
 
@@ -123,12 +129,12 @@ impl ErrorSizes {
     };
 }
 
-/// One random error per parameter, in [`ParamId::all`] order, each drawn
+/// One random error per parameter of the test arms, in [`ParamId::all`] order, each drawn
 /// uniformly within `sizes` for its kind (one draw per parameter, so the same
 /// generator state gives the same errors whatever the sizes).
-pub fn random_errors(rng: &mut impl Rng, sizes: &ErrorSizes) -> [f64; PARAM_COUNT] {
-    let mut errors = [0.0; PARAM_COUNT];
-    for (error, id) in errors.iter_mut().zip(ParamId::all()) {
+pub fn random_errors(rng: &mut impl Rng, sizes: &ErrorSizes) -> [f64; TEST_ARM_PARAMS] {
+    let mut errors = [0.0; TEST_ARM_PARAMS];
+    for (error, id) in errors.iter_mut().zip(ParamId::all(TEST_ARM_JOINTS)) {
         *error = match id.kind() {
             ParamKind::Length => rng.random_range(-sizes.length_m..sizes.length_m),
             ParamKind::Angle => rng.random_range(-sizes.angle_rad..sizes.angle_rad),
@@ -148,7 +154,7 @@ mod tests {
     fn random_errors_stay_within_their_sizes_and_follow_the_seed() {
         let sizes = ErrorSizes::CALIBRATED;
         let errors = random_errors(&mut StdRng::seed_from_u64(1), &sizes);
-        for (e, id) in errors.iter().zip(ParamId::all()) {
+        for (e, id) in errors.iter().zip(ParamId::all(TEST_ARM_JOINTS)) {
             let within = match id.kind() {
                 ParamKind::Length => e.abs() < sizes.length_m,
                 ParamKind::Angle => e.abs() < sizes.angle_rad,

@@ -10,9 +10,11 @@
 //! front; the board applies it only after the commit finds every byte, the
 //! CRC and [`Calibration::check`] in order.
 
+use model::Arm;
 use model::bounds::{Bounds, Quantity};
 use model::servo::CurveFault;
-use model::{Arm, JOINTS};
+
+use crate::{CHANNELS, PerChannel};
 use serde::{Deserialize, Serialize};
 
 /// Largest encoded calibration, bytes: two `Arm<f32>` are about 840 with
@@ -93,18 +95,25 @@ pub struct Calibration {
     /// The calibrated arm: servo curves, joint limits, geometry, compliances, payload COM.
     pub calibrated: Arm<f32>,
     /// The pose `motion/home` goes to, nominal joint angles, rad.
-    pub home_rad: [f32; JOINTS],
+    pub home_rad: PerChannel<f32>,
     /// How far the compensation may move each joint from its nominal
     /// target, rad: the host works it out from the calibration (the largest
     /// correction its model asks for within the limits, with a margin); a
     /// solve that asks for more is treated as failed. At most
     /// [`MAX_CORRECTION_RAD`].
-    pub max_correction_rad: [f32; JOINTS],
+    pub max_correction_rad: PerChannel<f32>,
 }
 
 /// What makes a calibration unusable.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CalibrationFault {
+    /// The arm has `joints` joints where the board drives 1 to [`CHANNELS`],
+    /// or the nominal arm, the calibrated arm, the home pose and the
+    /// corrections do not all have the same number.
+    JointCount {
+        /// The calibrated arm's joints.
+        joints: u8,
+    },
     /// A number is NaN or infinite.
     NotFinite,
     /// Joint `joint` (0-based) has lower limit ≥ upper limit.
@@ -143,6 +152,12 @@ pub enum CalibrationFault {
 impl core::fmt::Display for CalibrationFault {
     fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
         match self {
+            Self::JointCount { joints } => write!(
+                f,
+                "an arm of {joints} joints: the board drives arms of 1 to {CHANNELS} joints, \
+                 and the nominal and calibrated arms, the home pose and the corrections must \
+                 all have that many"
+            ),
             Self::NotFinite => f.write_str("a value is NaN or infinite"),
             Self::Limits { joint } => {
                 write!(f, "joint {}: lower limit not below upper limit", joint + 1)
@@ -177,6 +192,20 @@ impl Calibration {
     /// Checks that the board can run on this calibration. Both ends call it:
     /// the host before sending, the board before storing.
     pub fn check(&self) -> Result<(), CalibrationFault> {
+        let joints = self.calibrated.joints.len();
+        if !(1..=CHANNELS).contains(&joints)
+            || [
+                self.nominal.joints.len(),
+                self.home_rad.len(),
+                self.max_correction_rad.len(),
+            ]
+            .iter()
+            .any(|&n| n != joints)
+        {
+            return Err(CalibrationFault::JointCount {
+                joints: joints as u8,
+            });
+        }
         if !self.nominal.is_finite()
             || !self.calibrated.is_finite()
             || !self.home_rad.iter().all(|x| x.is_finite())

@@ -46,5 +46,10 @@ pub use messages::{
 /// Bytes of calibration data carried by one chunk frame.
 pub const CHUNK_LEN: usize = 128;
 
-/// Number of joints (and servo channels) of the arm.
-pub const JOINTS: usize = model::JOINTS;
+/// Servo channels of the board: it drives arms of 1 to this many joints,
+/// joint `i` on channel `i`; the channels past an arm's last joint stay limp.
+pub const CHANNELS: usize = 6;
+
+/// One value per joint of an arm the board drives, on the wire: as many as
+/// the arm has joints, at most [`CHANNELS`].
+pub type PerChannel<T> = model::ChainVec<T, CHANNELS>;

@@ -5,7 +5,7 @@ use heapless::Vec;
 use serde::{Deserialize, Serialize};
 
 use crate::calibration::ModelOption;
-use crate::{CHUNK_LEN, JOINTS, WireError};
+use crate::{CHANNELS, CHUNK_LEN, PerChannel, WireError};
 
 /// How long a move takes.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -40,8 +40,9 @@ pub enum Request {
     Status,
     /// `motion/move`: move every joint to a nominal target angle, rad.
     Move {
-        /// Nominal joint targets, rad (within the joint limits).
-        targets_rad: [f32; JOINTS],
+        /// Nominal joint targets, rad (within the joint limits), one per
+        /// joint of the calibration's arm.
+        targets_rad: PerChannel<f32>,
         /// Duration or speed.
         timing: Timing,
     },
@@ -190,6 +191,8 @@ pub struct DeviceInfo {
     pub protocol: u8,
     /// Firmware version.
     pub firmware: FirmwareVersion,
+    /// Servo channels: the most joints an arm it drives may have.
+    pub channels: u8,
 }
 
 /// The calibration in use.
@@ -199,6 +202,8 @@ pub struct CalibrationInfo {
     pub id: u32,
     /// Which model option it was identified with.
     pub option: ModelOption,
+    /// The arm's joints, on channels `0..joints`.
+    pub joints: u8,
     /// Flash sequence number of the stored copy (grows with each write).
     pub sequence: u32,
 }
@@ -278,11 +283,11 @@ pub struct Status {
     /// compensation (mode, payload, calibration) is still fading in.
     pub moving: bool,
     /// Nominal targets of the current (or last) move, rad.
-    pub targets_rad: [f32; JOINTS],
+    pub targets_rad: PerChannel<f32>,
     /// Nominal joint angles of this servo frame, rad.
-    pub nominal_rad: [f32; JOINTS],
+    pub nominal_rad: PerChannel<f32>,
     /// Pulses on the channels now, µs; 0 for a limp channel.
-    pub pulses_us: [u16; JOINTS],
+    pub pulses_us: [u16; CHANNELS],
     /// Fault flags.
     pub faults: Faults,
     /// Frames dropped since boot.

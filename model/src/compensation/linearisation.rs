@@ -1,10 +1,10 @@
 //! The linear model of a state's error and the step it gives.
 
-use nalgebra::{Matrix3, Vector3, Vector6};
+use nalgebra::{Matrix3, Vector3};
 
 use super::Evaluation;
-use super::slope::{Slope, tilt_column};
-use crate::{JOINTS, Real, real};
+use super::slope::{JointColumn, Slope, tilt_column};
+use crate::{PerJoint, Real, real};
 
 /// Above this position error (m), a step removes only half of the null-space
 /// offset from the nominal shape: all of it, with the large steps far from the
@@ -15,14 +15,20 @@ const HALF_PULL_ABOVE_M: f64 = 1e-4;
 impl<T: Real> Evaluation<T> {
     /// The linear model of the error around this state with `slope`, the
     /// state's own or one of a nearby state.
-    pub fn with_slope(&self, slope: &Slope<T>, q_nominal: &[T; JOINTS]) -> Linearisation<T> {
+    pub fn with_slope(&self, slope: &Slope<T>, q_nominal: &[T]) -> Linearisation<T> {
         let state = &self.state;
         let tilt_offset = slope.tilt_scale * self.beta_residual;
         Linearisation {
             slope: *slope,
             error: self.error - tilt_column(&self.statics) * tilt_offset,
             error_m: state.error_m,
-            delta: Vector6::from_fn(|i, _| state.qa[i] - q_nominal[i]),
+            delta: JointColumn::from_fn(|i, _| {
+                if i < state.qa.len() {
+                    state.qa[i] - q_nominal[i]
+                } else {
+                    T::zero()
+                }
+            }),
             tilt_offset,
             qa: state.qa,
             beta: state.beta,
@@ -40,11 +46,11 @@ pub struct Linearisation<T: Real> {
     /// The state's error measure, m.
     error_m: T,
     /// Deflected angles minus nominal command at the state, rad.
-    delta: Vector6<T>,
+    delta: JointColumn<T>,
     /// Change of beta that settles its residual at fixed `qa`, rad.
     tilt_offset: T,
     /// The state.
-    qa: [T; JOINTS],
+    qa: PerJoint<T>,
     /// The state's base tilt, rad.
     beta: T,
 }
@@ -52,9 +58,9 @@ pub struct Linearisation<T: Real> {
 impl<T: Real> Linearisation<T> {
     /// The state to try next, deflected angles and base tilt, after one step
     /// (see `step` below); `None` if the step is not finite.
-    pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<([T; JOINTS], T)> {
+    pub fn next_state(&self, rejections: u32, damping_m: T) -> Option<(PerJoint<T>, T)> {
         let step = self.step(rejections, damping_m * damping_m)?;
-        let qa = core::array::from_fn(|i| self.qa[i] + step[i]);
+        let qa = PerJoint::from_fn(self.qa.len(), |i| self.qa[i] + step[i]);
         let tilt = self.beta + self.tilt_offset + self.slope.tilt_gain.dot(&step);
         Some((qa, tilt))
     }
@@ -67,7 +73,7 @@ impl<T: Real> Linearisation<T> {
     /// reduce the error, with the damping multiplied by `4^rejections`; a
     /// damped Gauss–Newton step is a descent direction of `|e|²`, so this
     /// always makes progress once small enough.
-    fn step(&self, rejections: u32, damping2: T) -> Option<Vector6<T>> {
+    fn step(&self, rejections: u32, damping2: T) -> Option<JointColumn<T>> {
         let mut lambda2 = self.error_m * self.error_m + damping2;
         for _ in 0..rejections {
             lambda2 *= real::<T>(4.0);

@@ -50,7 +50,7 @@ use nalgebra::Vector3;
 use crate::elastic::{DeflectionError, yield_of};
 use crate::kinematics::{Chain, untilt};
 use crate::statics::Statics;
-use crate::{JOINTS, Real, real};
+use crate::{PerJoint, Real, real};
 
 /// How many steps in a row may fail to reduce the error before the solve stops.
 const MAX_REJECTIONS: u32 = 6;
@@ -82,9 +82,9 @@ impl<T: Real> Default for CompensationOptions<T> {
 #[derive(Clone, Copy, Debug)]
 pub struct Compensation<T: Real> {
     /// Joint angles to command, rad (not yet clamped to limits).
-    pub q: [T; JOINTS],
+    pub q: PerJoint<T>,
     /// The deflected joint angles of the calibrated arm commanded with `q`, rad.
-    pub qa: [T; JOINTS],
+    pub qa: PerJoint<T>,
     /// Its elastic base tilt, rad.
     pub beta: T,
     /// Remaining distance of the tool point from the target, m, plus the
@@ -121,13 +121,13 @@ impl<T: Real> Chain<T> {
     /// One sweep of [`Chain::statics`], no iteration.
     pub fn evaluate(
         &self,
-        qa: [T; JOINTS],
+        qa: &[T],
         beta: T,
         target: &Vector3<T>,
         payload_kg: T,
         tolerance_m: T,
     ) -> Result<Evaluation<T>, DeflectionError> {
-        let statics = self.statics(&qa, beta, payload_kg);
+        let statics = self.statics(qa, beta, payload_kg);
         let tau = statics.torques;
         let beta_residual = yield_of(self.base_compliance, self.base_softening, tau.base) - beta;
         // The tool point relative to the base, in frame 0, is also the tilt's lever.
@@ -139,11 +139,11 @@ impl<T: Real> Chain<T> {
             return Err(DeflectionError::NotFinite);
         }
         let state = Compensation {
-            q: core::array::from_fn(|i| {
+            q: PerJoint::from_fn(qa.len(), |i| {
                 let link = &self.links[i];
                 qa[i] - yield_of(link.compliance, link.softening, tau.joints[i])
             }),
-            qa,
+            qa: PerJoint::from_fn(qa.len(), |i| qa[i]),
             beta,
             error_m,
             iterations: 0,
@@ -167,7 +167,7 @@ impl<T: Real> Chain<T> {
     /// starts at the nominal command.
     pub fn compensate(
         &self,
-        q_nominal: &[T; JOINTS],
+        q_nominal: &[T],
         target: &Vector3<T>,
         payload_kg: T,
         warm: Option<&Compensation<T>>,
@@ -176,14 +176,17 @@ impl<T: Real> Chain<T> {
         let target = self.to_base(target);
         let (mut qa, mut beta) = match warm {
             Some(w) => (w.qa, w.beta),
-            None => (*q_nominal, T::zero()),
+            None => (
+                PerJoint::from_fn(q_nominal.len(), |i| q_nominal[i]),
+                T::zero(),
+            ),
         };
         // The last accepted state and the linear model of the error around it.
         let mut accepted: Option<(Compensation<T>, Linearisation<T>)> = None;
         let mut rejections = 0;
         let mut iterations = 0;
         loop {
-            let evaluation = self.evaluate(qa, beta, &target, payload_kg, options.tolerance_m)?;
+            let evaluation = self.evaluate(&qa, beta, &target, payload_kg, options.tolerance_m)?;
             let mut current = evaluation.state;
             current.iterations = iterations;
             if current.converged {
@@ -252,12 +255,13 @@ impl<T: Real> Evaluation<T> {
 mod tests {
     use super::*;
     use crate::params::ParamId;
+    use crate::testing::TEST_ARM_JOINTS as JOINTS;
     use crate::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q, rigid_lrm_like_arm};
     use rand::{SeedableRng, rngs::StdRng};
 
     /// A calibrated arm: the nominal one with errors on every parameter.
     fn perturbed(rng: &mut StdRng) -> crate::Arm<f64> {
-        let ids: std::vec::Vec<ParamId> = ParamId::all().collect();
+        let ids: std::vec::Vec<ParamId> = ParamId::all(6).collect();
         lrm_like_arm::<f64>().with_errors(&ids, &random_errors(rng, &ErrorSizes::CALIBRATED))
     }
 
@@ -348,7 +352,7 @@ mod tests {
         let (qa, beta, payload) = ([0.3, 0.7, -0.9, 0.4, 1.1, -0.2], 0.01, 0.0663);
         let target = Vector3::new(0.2, 0.1, 0.3);
         let linear = arm.chain();
-        let state = linear.evaluate(qa, beta, &target, payload, 1e-6).unwrap();
+        let state = linear.evaluate(&qa, beta, &target, payload, 1e-6).unwrap();
         let tau = linear.statics(&qa, beta, payload).torques;
         for (i, (joint, q)) in arm.joints.iter().zip(state.state.q).enumerate() {
             let expected = qa[i] - joint.compliance * tau.joints[i];
@@ -359,7 +363,7 @@ mod tests {
             (arm.base_compliance * tau.base - beta).to_bits()
         );
         let soft = softened(arm, 1e-3).chain();
-        let softened_state = soft.evaluate(qa, beta, &target, payload, 1e-6).unwrap();
+        let softened_state = soft.evaluate(&qa, beta, &target, payload, 1e-6).unwrap();
         // Joints under torque (joint 1's axis is vertical: none on it).
         for i in (0..JOINTS).filter(|&i| tau.joints[i].abs() > 1e-6) {
             assert_ne!(softened_state.state.q[i], state.state.q[i], "joint {i}");
@@ -474,7 +478,7 @@ mod tests {
         let chain = arm.chain();
         let (qa, beta) = ([-0.8, 0.65, -1.05, 1.6, 1.37, 1.7], 0.03);
         let evaluation = chain
-            .evaluate(qa, beta, &Vector3::zeros(), 0.05, 1e-6)
+            .evaluate(&qa, beta, &Vector3::zeros(), 0.05, 1e-6)
             .unwrap();
         let j = chain.slope(&evaluation).j;
         let in_frame0 = |qa: &[f64; 6]| chain.statics(qa, beta, 0.05).tool_points[0];
@@ -509,7 +513,7 @@ mod tests {
         let t2 = t1 + Vector3::new(-0.004, 0.002, 0.001);
         let at = |t: &Vector3<f64>| {
             chain
-                .evaluate(qa, beta, &chain.to_base(t), payload, 1e-9)
+                .evaluate(&qa, beta, &chain.to_base(t), payload, 1e-9)
                 .unwrap()
         };
         let moved = at(&t1).retarget(&(chain.to_base(&t2) - chain.to_base(&t1)));

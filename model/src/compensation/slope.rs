@@ -1,13 +1,20 @@
 //! The slope of a state's error: the position Jacobian with the base tilt's
 //! fixed point folded in, from the state's [`Statics`] (no world frames).
 
-use nalgebra::{Matrix3, Matrix3x6, Vector3, Vector6};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use super::Evaluation;
 use crate::elastic::yield_rate_of;
 use crate::kinematics::Chain;
 use crate::statics::Statics;
-use crate::{JOINTS, Real};
+use crate::{MAX_JOINTS, Real};
+
+/// `∂p/∂qa` of up to [`MAX_JOINTS`] joints, frame 0: columns past the arm's
+/// last joint are zero, so they change no product.
+pub(super) type Jacobian<T> = SMatrix<T, 3, MAX_JOINTS>;
+
+/// One value per joint as a column vector, zero past the arm's last joint.
+pub(super) type JointColumn<T> = SVector<T, MAX_JOINTS>;
 
 /// How the tool point moves with the deflected joint angles around a state,
 /// the base tilt's fixed point folded in: the part of a state's linear model
@@ -15,19 +22,21 @@ use crate::{JOINTS, Real};
 #[derive(Clone, Copy, Debug)]
 pub struct Slope<T: Real> {
     /// `∂p/∂qa` with the base tilt folded in, frame 0, m/rad.
-    pub(super) j: Matrix3x6<T>,
+    pub(super) j: Jacobian<T>,
     /// `J Jᵀ`, m².
     pub(super) jjt: Matrix3<T>,
     /// `∂beta/∂qa` of the linearised tilt.
-    pub(super) tilt_gain: Vector6<T>,
+    pub(super) tilt_gain: JointColumn<T>,
     /// `s`, how a residual of the tilt turns into a change of it.
     pub(super) tilt_scale: T,
 }
 
 impl<T: Real> Slope<T> {
     /// The change of the base tilt that goes with a change `dqa` of the deflected angles, rad.
-    pub fn tilt_change(&self, dqa: &[T; JOINTS]) -> T {
-        self.tilt_gain.dot(&Vector6::from_column_slice(dqa))
+    pub fn tilt_change(&self, dqa: &[T]) -> T {
+        dqa.iter()
+            .zip(self.tilt_gain.iter())
+            .fold(T::zero(), |sum, (&d, &g)| sum + g * d)
     }
 }
 
@@ -58,9 +67,9 @@ impl<T: Real> Chain<T> {
     /// column `c` is `z × p` in joint `c`'s own frame, `(−p_y, p_x, 0)` with
     /// `p` the tool point relative to the joint, rotated back to frame 0
     /// (`c` rotations, the first without a `z` component).
-    fn jacobian(&self, s: &Statics<T>) -> Matrix3x6<T> {
-        let mut j = Matrix3x6::zeros();
-        for c in 0..JOINTS {
+    fn jacobian(&self, s: &Statics<T>) -> Jacobian<T> {
+        let mut j = Jacobian::zeros();
+        for c in 0..self.links.len() {
             let p = &s.tool_points[c];
             let mut column = Vector3::new(-p.y, p.x, T::zero());
             if let Some(k) = c.checked_sub(1) {
@@ -82,11 +91,11 @@ impl<T: Real> Chain<T> {
     /// (`k0` for a linear spring). Turning joint `c` turns the load
     /// beyond it about its axis, so `∂τ0/∂qa_c = (z × v_c) · (g × y0)`, both
     /// in joint `c`'s frame (`g × y0` carried forward from frame 0).
-    fn tilt_gain(&self, s: &Statics<T>) -> (Vector6<T>, T) {
+    fn tilt_gain(&self, s: &Statics<T>) -> (JointColumn<T>, T) {
         let g0 = s.gravity0;
         let mut g_cross_y0 = Vector3::new(-g0.z, T::zero(), g0.x);
-        let mut dtau0_dqa = Vector6::zeros();
-        for c in 0..JOINTS {
+        let mut dtau0_dqa = JointColumn::zeros();
+        for c in 0..self.links.len() {
             if c > 0 {
                 g_cross_y0 = self.links[c - 1].rotate_to_child(&g_cross_y0, s.joint_sin_cos[c - 1]);
             }

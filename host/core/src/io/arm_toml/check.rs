@@ -437,6 +437,11 @@ impl Checker<'_> {
                     },
                 ))
             }
+            Err(CurveFault::TooFewKnots) => Err(fail(
+                format!("{key}.angles_deg"),
+                "2 to 9 knots",
+                angles_deg.len().to_string(),
+            )),
             Err(CurveFault::AnglesNotIncreasing { knot }) => Err(fail(
                 format!("{key}.angles_deg[{}]", knot + 1),
                 "knot angles (°) strictly increasing, each above the one before",
