@@ -101,7 +101,7 @@ fn main() {
 
 fn jacobian_per_pose(nominal: &model::Arm<f64>) {
     let nominal = *nominal;
-    let all_ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
+    let all_ids: Vec<ParamKey> = model::ParamId::all(6).map(ParamKey::Arm).collect();
 
     println!("identification Jacobian per pose, 43 parameters, one load:");
     let pool_small = candidates(&nominal, &PlanConfig::default())
@@ -115,7 +115,7 @@ fn jacobian_per_pose(nominal: &model::Arm<f64>) {
             q: p.q,
             load_kg: LOAD,
             target: 0,
-            approach: lrmcal_core::dataset::FROM_HOME,
+            approach: lrmcal_core::dataset::from_home(6),
         })
         .collect();
     let mut compliant = nominal;

@@ -2,7 +2,7 @@
 //! the consistency check (exact data in, exact parameters out), the demo's
 //! claims on the seeds where each holds, and DETMAX against random selection.
 
-use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_core::dataset::{Measurement, Pose, from_home};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::{IdentifyOptions, identify};
 use lrmcal_engine::calib::fit::pipeline::{
@@ -55,7 +55,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
                 q: p.q,
                 load_kg,
                 target: 0,
-                approach: FROM_HOME,
+                approach: from_home(6),
             })
         })
         .collect();
@@ -290,7 +290,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 q: p.q,
                 load_kg: LOAD,
                 target: 0,
-                approach: FROM_HOME,
+                approach: from_home(6),
             })
             .collect::<Vec<_>>(),
     )
@@ -336,7 +336,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
                 q: p.q,
                 load_kg: LOAD,
                 target: 0,
-                approach: FROM_HOME,
+                approach: from_home(6),
             })
             .collect::<Vec<_>>(),
     )

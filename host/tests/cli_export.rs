@@ -11,6 +11,7 @@
 mod common;
 
 use common::lrmcal;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 
 use std::collections::HashSet;
 use std::path::Path;
@@ -267,7 +268,7 @@ fn calibrated_arm() -> (Arm<f64>, Arm<f64>) {
         compliance: 0.02..0.1,
     };
     let errors = random_errors(&mut StdRng::seed_from_u64(7), &sizes);
-    let ids: Vec<ParamId> = ParamId::all().collect();
+    let ids: Vec<ParamId> = ParamId::all(6).collect();
     (nominal, nominal.with_errors(&ids, &errors))
 }
 

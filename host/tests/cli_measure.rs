@@ -21,7 +21,7 @@ use std::time::{Duration, Instant};
 
 use lrmcal_core::dataset::Measurement;
 use lrmcal_core::io::measurements;
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 
 fn spawn(args: &[&str]) -> Child {
     Command::new(env!("CARGO_BIN_EXE_lrmcal"))

@@ -8,7 +8,7 @@
 use std::process::{Command, Output};
 
 use lrmcal_core::io::arm_source;
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 
 fn lrmcal(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_lrmcal"))
@@ -247,7 +247,7 @@ fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits()
     assert!(with.status.success(), "{}", stderr(&with));
     let q_deg = numbers_after(&stdout(&with), "joint targets, deg: ");
     let q: [f64; JOINTS] = std::array::from_fn(|i| q_deg[i].to_radians());
-    let payload = lrmcal_engine::device::calibration::payload(&file, [0.0; JOINTS]).unwrap();
+    let payload = lrmcal_engine::device::calibration::payload(&file, [0.0; JOINTS].into()).unwrap();
     let board = Commanded::new(&payload, protocol::CompensationMode::Full, 0.0);
     let command = board.command(&q).expect("a pose the board can command");
     assert!(command[1] >= 0.0, "{command:?}");

@@ -4,7 +4,7 @@
 mod common;
 
 use common::lrmcal;
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 
 use std::path::Path;
 use std::process::Output;

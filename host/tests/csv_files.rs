@@ -5,7 +5,7 @@
 use std::f64::consts::PI;
 
 use host::error::InputError;
-use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose, PoseRow, Prediction, visiting_order};
+use lrmcal_core::dataset::{Measurement, Pose, PoseRow, Prediction, from_home, visiting_order};
 use lrmcal_core::io::{atomic, measurements, pose_list, predictions};
 use nalgebra::Vector3;
 
@@ -300,12 +300,12 @@ fn sample_measurements() -> Vec<Measurement> {
             Measurement {
                 pose: Pose {
                     id: i,
-                    q: [0.1 * f, -0.05 * f, 1.2, -1.7, 0.3 + 0.01 * f, -0.123456789],
+                    q: [0.1 * f, -0.05 * f, 1.2, -1.7, 0.3 + 0.01 * f, -0.123456789].into(),
                 },
                 load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
                 position: Vector3::new(0.2 + 0.001 * f, -0.035021, 0.1887654321),
                 target: None,
-                approach: FROM_HOME,
+                approach: from_home(6),
             }
         })
         .collect();

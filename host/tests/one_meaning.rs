@@ -17,8 +17,9 @@ use lrmcal_engine::calib::results::export::{result_calibration_file, rigs_of};
 use lrmcal_engine::calib::{Sample, parameters::option};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{ServoErrorShape, SimConfig, TrueArm};
+use model::SolverOptions;
 use model::backlash::Approach;
-use model::{JOINTS, SolverOptions};
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use protocol::CompensationMode;
 
 const LOAD_KG: f64 = 0.0663;
@@ -119,7 +120,7 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
         // servo frame by servo frame, in f32) puts the calibrated arm's tool
         // point where the nominal arm's is, to within its 5 µm tolerance
         // (plus the single precision of the arms it was sent).
-        let payload = lrmcal_engine::device::calibration::payload(&read, [0.0; JOINTS])
+        let payload = lrmcal_engine::device::calibration::payload(&read, [0.0; JOINTS].into())
             .unwrap_or_else(|f| panic!("{name}: the board refuses it: {f}"));
         let config = firmware::Config::default();
         let board = lrmcal_engine::device::commanded::Commanded::new(
@@ -147,7 +148,9 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
             let q32 = m.pose.q.map(|q| q as f32);
             let mut command = q32;
             for _ in 0..60 {
-                command = compensator.step(&q32, CompensationMode::Full, LOAD_KG as f32);
+                command = compensator
+                    .step(&q32, CompensationMode::Full, LOAD_KG as f32)
+                    .into();
                 if compensator.report().converged {
                     break;
                 }
@@ -167,7 +170,7 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
                     q: command.map(f64::from),
                     load_kg: LOAD_KG,
                     target: 0,
-                    approach: [Approach::Rising; JOINTS],
+                    approach: [Approach::Rising; JOINTS].into(),
                 })
                 .unwrap()
                 .tool_m;

@@ -69,7 +69,7 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
         .calibrated
         .joints
         .iter_mut()
-        .zip(truth.backlash_half_rad)
+        .zip(&truth.backlash_half_rad)
     {
         joint.backlash = (2.0 * half) as f32;
     }

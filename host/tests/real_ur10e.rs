@@ -27,7 +27,7 @@ use std::path::{Path, PathBuf};
 use lrmcal_core::io::predictions;
 
 /// The joint columns of the data set, base to tip.
-const JOINT_COLUMNS: [&str; model::JOINTS] = [
+const JOINT_COLUMNS: [&str; model::testing::TEST_ARM_JOINTS] = [
     "shoulder_pan_joint",
     "shoulder_lift_joint",
     "elbow_joint",
@@ -47,7 +47,7 @@ fn s(p: &Path) -> &str {
 }
 
 /// The data set's rows as (pose id, joint angles in degrees, position in mm).
-fn rows() -> Vec<(u32, [f64; model::JOINTS], [f64; 3])> {
+fn rows() -> Vec<(u32, [f64; model::testing::TEST_ARM_JOINTS], [f64; 3])> {
     let mut reader = csv::Reader::from_path(data("calibration.csv")).expect("the data set");
     let header = reader.headers().expect("a header").clone();
     let column = |name: &str| {
@@ -74,7 +74,10 @@ fn rows() -> Vec<(u32, [f64; model::JOINTS], [f64; 3])> {
 }
 
 /// Writes `rows` as an lrmcal measurement file.
-fn write_measurements(path: &Path, rows: &[(u32, [f64; model::JOINTS], [f64; 3])]) {
+fn write_measurements(
+    path: &Path,
+    rows: &[(u32, [f64; model::testing::TEST_ARM_JOINTS], [f64; 3])],
+) {
     let mut text =
         String::from("pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm\n");
     for (id, q, p) in rows {

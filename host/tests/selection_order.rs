@@ -11,13 +11,13 @@ use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
 use lrmcal_engine::calib::fit::pipeline::{CandidateBlocks, Choice, Selection};
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::plan::{PlanConfig, candidates};
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use rand::seq::SliceRandom;
 use rand::{SeedableRng, rngs::StdRng};
 
 /// A pose as a set element: its joint angles' bits.
 fn key(pose: &Pose) -> [u64; JOINTS] {
-    pose.q.map(f64::to_bits)
+    std::array::from_fn(|j| pose.q[j].to_bits())
 }
 
 /// The bundled arm's candidate file as `lrmcal plan` writes it, as text.

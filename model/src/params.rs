@@ -103,6 +103,35 @@ pub enum ParamKind {
     Compliance,
 }
 
+/// What an error parameter corrects, by part of the arm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamPart {
+    /// DH field `field` (0 theta, 1 d, 2 a, 3 alpha) of joint `joint` (from 0).
+    Dh {
+        /// The joint, from 0.
+        joint: usize,
+        /// 0 theta, 1 d, 2 a, 3 alpha.
+        field: usize,
+    },
+    /// Coordinate `axis` (0 x, 1 y, 2 z, 3 roll, 4 pitch, 5 yaw) of the base frame.
+    Base {
+        /// 0..3 translation, 3..6 roll, pitch, yaw.
+        axis: usize,
+    },
+    /// Coordinate `axis` (as [`ParamPart::Base`]) of the tool frame.
+    Tool {
+        /// 0..3 translation, 3..6 roll, pitch, yaw.
+        axis: usize,
+    },
+    /// The compliance of joint `joint` (from 0).
+    Compliance {
+        /// The joint, from 0.
+        joint: usize,
+    },
+    /// The compliance of the base tilt, `k0`.
+    BaseCompliance,
+}
+
 /// One error parameter, by its place in the table of the longest arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub struct ParamId(u8);
@@ -157,6 +186,20 @@ impl ParamId {
         }
     }
 
+    /// What the parameter corrects.
+    pub fn part(self) -> ParamPart {
+        match self.index() {
+            i if i < BASE => ParamPart::Dh {
+                joint: i / 4,
+                field: i % 4,
+            },
+            i if i < TOOL => ParamPart::Base { axis: i - BASE },
+            i if i < SPRINGS => ParamPart::Tool { axis: i - TOOL },
+            i if i < K0 => ParamPart::Compliance { joint: i - SPRINGS },
+            _ => ParamPart::BaseCompliance,
+        }
+    }
+
     /// Whether an arm of `joints` joints has this parameter.
     pub fn fits(self, joints: usize) -> bool {
         self.joint().is_none_or(|j| j < joints)
@@ -187,23 +230,22 @@ impl ParamId {
     /// # Panics
     /// If the arm lacks the parameter's joint ([`ParamId::fits`]).
     pub fn value_mut<T: Real>(self, arm: &mut Arm<T>) -> &mut T {
-        let i = self.index();
-        match i {
-            _ if i < BASE => {
-                let j = &mut arm.joints[i / 4];
-                match i % 4 {
+        match self.part() {
+            ParamPart::Dh { joint, field } => {
+                let j = &mut arm.joints[joint];
+                match field {
                     0 => &mut j.theta,
                     1 => &mut j.d,
                     2 => &mut j.a,
                     _ => &mut j.alpha,
                 }
             }
-            _ if i < BASE + 3 => &mut arm.base.xyz[i - BASE],
-            _ if i < TOOL => &mut arm.base.rpy[i - BASE - 3],
-            _ if i < TOOL + 3 => &mut arm.tool.xyz[i - TOOL],
-            _ if i < SPRINGS => &mut arm.tool.rpy[i - TOOL - 3],
-            _ if i < K0 => &mut arm.joints[i - SPRINGS].compliance,
-            _ => &mut arm.base_compliance,
+            ParamPart::Base { axis } if axis < 3 => &mut arm.base.xyz[axis],
+            ParamPart::Base { axis } => &mut arm.base.rpy[axis - 3],
+            ParamPart::Tool { axis } if axis < 3 => &mut arm.tool.xyz[axis],
+            ParamPart::Tool { axis } => &mut arm.tool.rpy[axis - 3],
+            ParamPart::Compliance { joint } => &mut arm.joints[joint].compliance,
+            ParamPart::BaseCompliance => &mut arm.base_compliance,
         }
     }
 

@@ -8,7 +8,7 @@
 //! (`docs/FORMATS.md`): that order says which way each joint arrived at each
 //! pose ([`visiting_order`]), which the backlash of the joints depends on.
 
-use model::JOINTS;
+use model::PerJoint;
 use model::backlash::{Approach, ApproachTracker};
 use nalgebra::Vector3;
 
@@ -17,8 +17,8 @@ use nalgebra::Vector3;
 pub struct Pose {
     /// Integer id of the configuration; the same id is the same configuration.
     pub id: u32,
-    /// Commanded joint angles, rad.
-    pub q: [f64; model::JOINTS],
+    /// Commanded joint angles, rad, one per joint of the arm.
+    pub q: PerJoint<f64>,
 }
 
 /// Longest target name, in bytes.
@@ -45,21 +45,25 @@ pub struct Measurement {
     pub target: Option<TargetName>,
     /// The way each joint arrived at the pose, from the rows' order
     /// ([`visiting_order`]); not a column of the file.
-    pub approach: [Approach; JOINTS],
+    pub approach: PerJoint<Approach>,
 }
 
-/// The approach of a joint that has not moved since home: the arm starts
-/// there, every joint taken to have arrived rising.
-pub const FROM_HOME: [Approach; JOINTS] = [Approach::Rising; JOINTS];
+/// The approach of the `joints` joints of an arm that has not moved since
+/// home: the arm starts there, every joint taken to have arrived rising.
+pub fn from_home(joints: usize) -> PerJoint<Approach> {
+    PerJoint::splat(joints, Approach::Rising)
+}
 
 /// The way each joint arrives at each of the commanded poses `qs`, visited
 /// in order from home (`q = 0`, every joint rising,
 /// [`model::backlash::ApproachTracker`]): the one definition the simulator,
 /// identification and validation share. A pose repeated (another load or
 /// target at the same pose) moves no joint and keeps the approaches.
-pub fn approaches<'a>(qs: impl IntoIterator<Item = &'a [f64; JOINTS]>) -> Vec<[Approach; JOINTS]> {
-    let mut tracker = ApproachTracker::new([0.0; JOINTS]);
-    qs.into_iter().map(|q| tracker.visit(q)).collect()
+pub fn approaches<'a>(qs: impl IntoIterator<Item = &'a PerJoint<f64>>) -> Vec<PerJoint<Approach>> {
+    let mut qs = qs.into_iter().peekable();
+    let joints = qs.peek().map_or(0, |q| q.len());
+    let mut tracker = ApproachTracker::new(&PerJoint::splat(joints, 0.0));
+    qs.map(|q| tracker.visit(q)).collect()
 }
 
 /// Sets every row's approach from the rows' order, the visiting order.
@@ -110,13 +114,13 @@ mod tests {
     use super::*;
     use Approach::{Falling, Rising};
 
-    fn row(q: [f64; JOINTS], load_kg: f64) -> Measurement {
+    fn row(q: [f64; 6], load_kg: f64) -> Measurement {
         Measurement {
-            pose: Pose { id: 0, q },
+            pose: Pose { id: 0, q: q.into() },
             load_kg,
             position: Vector3::zeros(),
             target: None,
-            approach: FROM_HOME,
+            approach: from_home(6),
         }
     }
 

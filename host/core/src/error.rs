@@ -220,8 +220,8 @@ pub enum Problem {
         /// The joint's limits, degrees.
         limits_deg: [f64; 2],
     },
-    /// The arm file does not have exactly six joints.
-    #[error("expected exactly 6 [[joint]] tables, found {found}")]
+    /// The arm file has no joints or more than [`model::MAX_JOINTS`].
+    #[error("expected 1 to {} [[joint]] tables, found {found}", model::MAX_JOINTS)]
     JointCount {
         /// How many there are.
         found: usize,

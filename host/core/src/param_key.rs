@@ -1,7 +1,7 @@
 //! The names of the quantities a calibration may correct: [`ParamKey`], the
 //! one vocabulary of parameter names that calibration files, reports and
 //! messages write (`j3.d`, `k0`, `s2`, `tool[2].x`, `j3.servo[5]`,
-//! `j3.backlash`). The model names its own 43 parameters
+//! `j3.backlash`). The model names its own error parameters
 //! ([`model::ParamId`]); the rest are named here. Joints and knots are
 //! counted from 1 in names, from 0 in code.
 
@@ -15,7 +15,7 @@ use model::params::ParamKind;
 /// A quantity the calibration may correct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum ParamKey {
-    /// One of the model's 43 error parameters: a field of the arm.
+    /// One of the model's error parameters: a field of the arm.
     Arm(ParamId),
     /// Coordinate `axis` (0 x, 1 y, 2 z) of the tool point of measured
     /// target `target` (1 or more; target 0's is the arm's `tool.x/y/z`),
@@ -38,9 +38,9 @@ pub enum ParamKey {
         knot: u8,
     },
     /// How spring `spring`'s compliance grows with its torque, 1/Nm (0 the
-    /// base's, `k0`'s; 1..=6 the joints'), `model::Arm::base_softening` and `model::Joint::softening`.
+    /// base's, `k0`'s; 1..=n the joints'), `model::Arm::base_softening` and `model::Joint::softening`.
     Softening {
-        /// Spring, as the compliances `k0..k6` count them.
+        /// Spring, as the compliances `k0..kn` count them.
         spring: u8,
     },
     /// The full width of joint `joint`'s (from 0) play, rad
@@ -79,7 +79,7 @@ impl ParamKey {
         if let Some(id) = ParamId::from_name(name) {
             return Some(Self::Arm(id));
         }
-        // Both fit a u8: at most 6 joints and MAX_KNOTS knots.
+        // Both fit a u8: at most MAX_JOINTS joints and MAX_KNOTS knots.
         if let Some((joint, knot)) = servo_knot_from_name(name) {
             return Some(Self::ServoKnot {
                 joint: joint as u8,
@@ -92,7 +92,7 @@ impl ParamKey {
         if let Some(spring) = name
             .strip_prefix('s')
             .and_then(|n| n.parse::<u8>().ok())
-            .filter(|s| usize::from(*s) <= model::JOINTS && name.len() == 2)
+            .filter(|s| usize::from(*s) <= model::MAX_JOINTS && name == format!("s{s}"))
         {
             return Some(Self::Softening { spring });
         }
@@ -117,6 +117,22 @@ impl ParamKey {
         }
     }
 
+    /// The joint (from 0) this key belongs to, if it belongs to one: its
+    /// geometry, spring, servo or play.
+    pub fn joint(self) -> Option<usize> {
+        match self {
+            Self::Arm(id) => id.joint(),
+            Self::ServoKnot { joint, .. } | Self::Backlash { joint } => Some(joint.into()),
+            Self::Softening { spring } => usize::from(spring).checked_sub(1),
+            Self::TargetTool { .. } => None,
+        }
+    }
+
+    /// Whether an arm of `joints` joints has this quantity.
+    pub fn fits(self, joints: usize) -> bool {
+        self.joint().is_none_or(|j| j < joints)
+    }
+
     /// Physical kind, which sets the unit and the scale of steps and typical errors.
     pub fn kind(self) -> ParamKind {
         match self {
@@ -132,7 +148,7 @@ impl ParamKey {
     pub fn quantity(self) -> Option<Quantity> {
         match self {
             Self::Arm(id) if id.kind() == ParamKind::Compliance => {
-                // k0 is the base's spring, k1..k6 the joints'.
+                // k0 is the base's spring, k1..kn the joints'.
                 let spring = id.name().strip_prefix('k')?.parse::<u8>().ok()?;
                 Some(Quantity::Compliance { spring })
             }
@@ -176,7 +192,7 @@ fn servo_knot_from_name(name: &str) -> Option<(usize, usize)> {
     let knot = rest.strip_suffix(']')?;
     let joint: usize = joint.parse().ok()?;
     let knot: usize = knot.parse().ok()?;
-    ((1..=model::JOINTS).contains(&joint) && (1..=model::servo::MAX_KNOTS).contains(&knot))
+    ((1..=model::MAX_JOINTS).contains(&joint) && (1..=model::servo::MAX_KNOTS).contains(&knot))
         .then(|| (joint - 1, knot - 1))
 }
 
@@ -193,7 +209,7 @@ fn backlash_from_name(name: &str) -> Option<usize> {
         .strip_suffix(".backlash")?
         .parse()
         .ok()?;
-    (1..=model::JOINTS).contains(&joint).then(|| joint - 1)
+    (1..=model::MAX_JOINTS).contains(&joint).then(|| joint - 1)
 }
 
 /// The name of joint `joint`'s (from 0) backlash width.
@@ -211,7 +227,7 @@ mod tests {
         assert_eq!(servo_knot_name(2, 4), "j3.servo[5]");
         for bad in [
             "j0.servo[1]",
-            "j7.servo[1]",
+            "j11.servo[1]",
             "j1.servo[0]",
             "j1.servo[10]",
             "j1.servo[]",
@@ -226,7 +242,7 @@ mod tests {
     fn backlash_names_round_trip_and_refuse_what_is_out_of_range() {
         assert_eq!(backlash_from_name("j6.backlash"), Some(5));
         assert_eq!(backlash_name(5), "j6.backlash");
-        for bad in ["j0.backlash", "j7.backlash", "j.backlash", "j1.backlash2"] {
+        for bad in ["j0.backlash", "j11.backlash", "j.backlash", "j1.backlash2"] {
             assert_eq!(backlash_from_name(bad), None, "{bad}");
         }
     }

@@ -77,7 +77,7 @@ fn benches(c: &mut Criterion) {
     let mut g = c.benchmark_group("grid");
     g.sample_size(10).measurement_time(Duration::from_secs(20));
     for levels in [3, 4, 5] {
-        let grid: Vec<Pose> = Levels::even(levels).expect("levels").grid().collect();
+        let grid: Vec<Pose> = Levels::even(levels).expect("levels").grid(6).collect();
         let grid_blocks =
             CandidateBlocks::build(&nominal.into(), ek, &grid, &[LOAD]).expect("blocks");
         g.bench_with_input(

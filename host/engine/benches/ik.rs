@@ -15,7 +15,7 @@ use std::hint::black_box;
 use criterion::{Criterion, criterion_group, criterion_main};
 use lrmcal_engine::ik::{IkOptions, solve_position};
 use lrmcal_engine::plan::PlanConfig;
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -9,10 +9,11 @@
     reason = "the criterion macros generate an undocumented public function"
 )]
 
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use model::{Arm, CompensationOptions, JOINTS, SolverOptions};
+use model::{Arm, CompensationOptions, SolverOptions};
 
 /// A pose away from singularities, with every joint loaded.
 const Q: [f64; JOINTS] = [0.3, 0.9, -0.6, 0.4, -0.8, 0.2];

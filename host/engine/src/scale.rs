@@ -42,7 +42,7 @@ pub fn torque_ratio_to_bundled(arm: &Arm<f64>) -> [f64; 2] {
 pub fn largest_gravity_torques(arm: &Arm<f64>) -> [f64; 2] {
     let chain = arm.chain();
     let mut largest = [0.0f64; 2];
-    for pose in Levels::paper().grid() {
+    for pose in Levels::paper().grid(arm.joints.len()) {
         let t = chain.gravity_torques(&pose.q, 0.0, 0.0);
         let joint = t.joints.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         largest[0] = largest[0].max(joint);

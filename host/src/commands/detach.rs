@@ -2,7 +2,7 @@
 
 use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use model::JOINTS;
+use protocol::CHANNELS;
 
 /// Stop the pulses of one joint or all, so the servos go limp; `--attach` undoes it.
 #[derive(Debug, clap::Args)]
@@ -11,8 +11,8 @@ use model::JOINTS;
 lrmcal detach 3          # joint 3 only\n  lrmcal detach --attach   # hold all joints where they are"
 )]
 pub struct Args {
-    /// Joint 1..6 [default: all].
-    #[arg(value_parser = clap::value_parser!(u8).range(1..=JOINTS as i64))]
+    /// Joint (servo channel) 1..6 [default: all].
+    #[arg(value_parser = clap::value_parser!(u8).range(1..=CHANNELS as i64))]
     pub joint: Option<u8>,
     /// Drive the joint(s) again, holding the current position.
     #[arg(long)]

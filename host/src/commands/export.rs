@@ -1,7 +1,7 @@
 //! `lrmcal export --urdf`: an arm's rigid geometry (calibrated or nominal) as a
 //! URDF for ROS tools, with what URDF cannot hold said in the file.
 
-use model::JOINTS;
+use protocol::{CHANNELS, PerChannel};
 use std::path::{Path, PathBuf};
 
 use model::Arm;
@@ -87,7 +87,7 @@ pub struct Args {
 /// The arm to export, with what the file's header says about it.
 struct Exported {
     arm: Arm<f64>,
-    joint_names: [String; JOINTS],
+    joint_names: Vec<String>,
     collision: CollisionSpec,
     /// What the arm is called in messages.
     label: String,
@@ -167,7 +167,8 @@ fn from_calibration(path: &Path, names: Option<&ArmSource>) -> Result<Exported, 
     check_limits(&file.arm, path)?;
     // `lrmcal push` without --home-deg sends the all-zero home pose, and the
     // home pose is part of what the id covers.
-    let id = match calibration::payload(&file, [0.0; JOINTS]) {
+    let home = PerChannel::splat(file.arm.joints.len().min(CHANNELS), 0.0);
+    let id = match calibration::payload(&file, home) {
         Ok(payload) => format!(
             "Calibration id {:08x}: what `lrmcal status` shows once `lrmcal push` has stored it \
              (default home pose).",
@@ -189,7 +190,9 @@ fn from_calibration(path: &Path, names: Option<&ArmSource>) -> Result<Exported, 
         Some(d) => (d.name, d.joint_names, d.collision),
         None => (
             "arm".to_owned(),
-            std::array::from_fn(|i| format!("joint_{}", i + 1)),
+            (1..=file.arm.joints.len())
+                .map(|i| format!("joint_{i}"))
+                .collect(),
             CollisionSpec::default(),
         ),
     };

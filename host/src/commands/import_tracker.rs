@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
-use lrmcal_core::dataset::{FROM_HOME, Measurement};
+use lrmcal_core::dataset::{Measurement, from_home};
 use lrmcal_core::io::{measurements, pose_list, read_text};
 use lrmcal_engine::tracker::TrackerError;
 use lrmcal_engine::tracker::axes::Up;
@@ -114,7 +114,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             target: None,
             // The take's still periods are in the order the poses were
             // visited; the file's readers work the approach out from it.
-            approach: FROM_HOME,
+            approach: from_home(row.pose.q.len()),
         })
         .collect();
     measurements::write(&args.out, &rows)?;

@@ -4,8 +4,9 @@
 
 use std::time::Duration;
 
-use model::{Arm, JOINTS};
+use model::{Arm, MAX_JOINTS, PerJoint};
 use nalgebra::Vector3;
+use protocol::{CHANNELS, PerChannel};
 use protocol::{CompensationMode, Timing};
 
 use crate::commands::device_args::DeviceArgs;
@@ -49,9 +50,9 @@ bodies at fault (exit code 3), before anything moves.\n\n\
 nominal arm of --calibration, whose compensation (full, with --load-kg) it then keeps to."
 )]
 pub struct Args {
-    /// Six joint angles, degrees, base to tip.
+    /// One angle per joint of the board's arm, degrees, base to tip.
     #[arg(
-        num_args = JOINTS,
+        num_args = 1..=CHANNELS,
         value_name = "DEG",
         allow_negative_numbers = true,
         required_unless_present = "xyz",
@@ -71,10 +72,10 @@ pub struct Args {
     /// Solve --xyz and print the joint targets, without a board.
     #[arg(long, requires = "xyz", conflicts_with = "angles_deg")]
     pub dry_run: bool,
-    /// The pose --dry-run starts from, six angles in degrees [default: all 0].
+    /// The pose --dry-run starts from, one angle per joint, degrees [default: all 0].
     #[arg(
         long,
-        num_args = JOINTS,
+        num_args = 1..=MAX_JOINTS,
         value_name = "DEG",
         allow_negative_numbers = true,
         requires = "dry_run",
@@ -152,33 +153,43 @@ pub fn run(args: &Args) -> Result<(), Error> {
             move_to_point(args, target_mm)
         };
     }
-    let angles_deg = numbers::<JOINTS>(&args.angles_deg, "joint angles")?;
+    let targets = PerChannel::from_fn(args.angles_deg.len().min(CHANNELS), |j| {
+        args.angles_deg[j].to_radians() as f32
+    });
     let mut client = board(args)?.connect()?;
-    send(&mut client, angles_deg.map(|a| a.to_radians() as f32), args)
+    send(&mut client, targets, args)
 }
 
 /// `lrmcal move --xyz … --dry-run`: solve from --from-deg on --arm and print.
 fn dry_run(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
-    let start = match &args.from_deg {
-        Some(deg) => numbers::<JOINTS>(deg, "--from-deg")?.map(f64::to_radians),
-        None => [0.0; JOINTS],
+    let start_for = |joints: usize| match &args.from_deg {
+        Some(deg) => PerJoint::from_fn(deg.len(), |j| deg[j].to_radians()),
+        None => PerJoint::splat(joints, 0.0),
     };
-    let (solution, origin) = match &args.calibration {
+    let (solution, origin, start) = match &args.calibration {
         Some(path) => {
             let file = CalibrationFile::read(path)?;
+            let joints = file.arm.joints.len();
+            let home = PerChannel::splat(joints.min(CHANNELS), 0.0);
             let payload =
-                calibration::payload(&file, [0.0; JOINTS]).map_err(|fault| Error::DeviceInput {
+                calibration::payload(&file, home).map_err(|fault| Error::DeviceInput {
                     what: format!("use `{}` for --xyz", path.display()),
                     reason: calibration::explain(fault, &file.arm),
                 })?;
             let board = Commanded::new(&payload, CompensationMode::Full, args.load_kg);
             let arm = within_board(&payload.nominal.map(f64::from), Some(&payload));
             let origin = format!("nominal arm of `{}`", path.display());
-            (solve(args, &arm, target_mm, &start, Some(&board))?, origin)
+            let start = start_for(joints);
+            (
+                solve(args, &arm, target_mm, &start, Some(&board))?,
+                origin,
+                start,
+            )
         }
         None => {
             let (arm, origin) = nominal_arm(args.arm.as_ref())?;
-            (solve(args, &arm, target_mm, &start, None)?, origin)
+            let start = start_for(arm.joints.len());
+            (solve(args, &arm, target_mm, &start, None)?, origin, start)
         }
     };
     print!(
@@ -218,14 +229,17 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
     };
     // The board refuses targets outside its ranges: keep the solution inside.
     let arm = within_board(&arm, calibration.as_ref());
-    let start = status.nominal_rad.map(f64::from);
+    let start = PerJoint::from_fn(status.nominal_rad.len(), |j| {
+        f64::from(status.nominal_rad[j])
+    });
     let solution = solve(args, &arm, target_mm, &start, board_model.as_ref())?;
     print!(
         "{}",
         report(&origin, "the board's pose", &start, target_mm, &solution)
     );
     // Rounding to f32 keeps the order, so an in-limit angle stays in the board's f32 limits.
-    send(&mut client, solution.q.map(|q| q as f32), args)
+    let targets = PerChannel::from_fn(solution.q.len().min(CHANNELS), |j| solution.q[j] as f32);
+    send(&mut client, targets, args)
 }
 
 /// Solves the target with the collision settings of the command line, among
@@ -234,7 +248,7 @@ fn solve(
     args: &Args,
     arm: &Arm<f64>,
     target_mm: [f64; 3],
-    start: &[f64; JOINTS],
+    start: &[f64],
     board: Option<&Commanded>,
 ) -> Result<IkSolution, Error> {
     let options = IkOptions {
@@ -245,7 +259,7 @@ fn solve(
         }),
         ..IkOptions::default()
     };
-    let admit = |q: &[f64; JOINTS]| match board {
+    let admit = |q: &[f64]| match board {
         Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
         None => Ok(()),
     };
@@ -262,7 +276,7 @@ fn solve(
 /// Sends the targets and, unless --no-wait, waits until the arm stands still.
 fn send<L: Link>(
     client: &mut Client<L>,
-    targets_rad: [f32; JOINTS],
+    targets_rad: PerChannel<f32>,
     args: &Args,
 ) -> Result<(), Error> {
     client.move_to(targets_rad, timing(args.duration_ms, args.speed_deg_s))?;
@@ -311,11 +325,11 @@ fn numbers<const N: usize>(values: &[f64], what: &str) -> Result<[f64; N], Error
 fn report(
     origin: &str,
     start_from: &str,
-    start: &[f64; JOINTS],
+    start: &[f64],
     target_mm: [f64; 3],
     s: &IkSolution,
 ) -> String {
-    let deg = |q: &[f64; JOINTS]| {
+    let deg = |q: &[f64]| {
         let list: Vec<String> = q
             .iter()
             .map(|a| format!("{:.4}", (a.to_degrees() * 1e4).round() / 1e4 + 0.0))

@@ -1,6 +1,5 @@
 //! `lrmcal pull`: read the calibration stored on the board.
 
-use model::JOINTS;
 use std::path::PathBuf;
 
 use protocol::Calibration;
@@ -27,7 +26,7 @@ struct Pulled<'a> {
     schema: &'static str,
     id: String,
     option: &'static str,
-    home_deg: [f32; JOINTS],
+    home_deg: Vec<f32>,
     nominal: &'a model::Arm<f32>,
     calibrated: &'a model::Arm<f32>,
 }
@@ -40,7 +39,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         schema: "lrmcal-board-calibration",
         id: format!("{:08x}", c.id),
         option: c.option.name(),
-        home_deg: c.home_rad.map(f32::to_degrees),
+        home_deg: c.home_rad.iter().map(|a| a.to_degrees()).collect(),
         nominal: &c.nominal,
         calibrated: &c.calibrated,
     };

@@ -1,7 +1,7 @@
 //! `lrmcal push`: send a calibration file to the board, which stores it in
 //! flash and uses it from then on.
 
-use model::JOINTS;
+use protocol::{CHANNELS, PerChannel};
 use std::path::PathBuf;
 
 use crate::commands::device_args::DeviceArgs;
@@ -31,8 +31,8 @@ the payload and prints what would be sent, without a board."
 pub struct Args {
     /// Calibration file written by `lrmcal identify` or `lrmcal demo`.
     pub calibration: PathBuf,
-    /// Home pose for `lrmcal home` and start-up, six angles in degrees [default: all 0].
-    #[arg(long, num_args = JOINTS, value_name = "DEG", allow_negative_numbers = true)]
+    /// Home pose for `lrmcal home` and start-up, one angle per joint, degrees [default: all 0].
+    #[arg(long, num_args = 1..=CHANNELS, value_name = "DEG", allow_negative_numbers = true)]
     pub home_deg: Option<Vec<f64>>,
     /// The measured target the board compensates (its tool point goes where
     /// the nominal arm's would be) [default: the calibration's first].
@@ -50,6 +50,17 @@ pub struct Args {
 /// Runs `lrmcal push`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let file = CalibrationFile::read(&args.calibration)?;
+    let joints = file.arm.joints.len();
+    if joints > CHANNELS {
+        return Err(Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason: format!(
+                "its arm has {joints} joints and the board drives arms of 1 to {CHANNELS} \
+                 servo joints: this calibration is for the host only (`lrmcal predict`, \
+                 `validate`, `export`)"
+            ),
+        });
+    }
     if let Some(joint) = joint_without_servo(&file.arm) {
         return Err(Error::DeviceInput {
             what: format!("prepare `{}` for the board", args.calibration.display()),
@@ -61,8 +72,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
             ),
         });
     }
-    let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; JOINTS]);
-    let home_rad: [f32; JOINTS] = std::array::from_fn(|i| home[i].to_radians() as f32);
+    let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; joints]);
+    if home.len() != joints {
+        return Err(Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason: format!(
+                "--home-deg gives {} angles; the arm has {joints} joints, one angle each",
+                home.len()
+            ),
+        });
+    }
+    let home_rad = PerChannel::from_fn(joints, |i| home[i].to_radians() as f32);
     let (nominal, arm) = file
         .arms_for_target(args.target.as_deref())
         .map_err(|reason| Error::DeviceInput {

@@ -4,7 +4,7 @@
 //! record each, and write the curve through them into the arm file and onto
 //! the board.
 
-use model::JOINTS;
+use protocol::CHANNELS;
 use std::path::PathBuf;
 
 use crossterm::event::{self, Event, KeyCode, KeyEvent, KeyEventKind};
@@ -28,8 +28,8 @@ one); q quits and leaves the servo limp. The board clamps every pulse to its saf
 Points not recorded keep the pulse the arm file's curve gives at their angle."
 )]
 pub struct Args {
-    /// Joint 1..6.
-    #[arg(value_parser = clap::value_parser!(u8).range(1..=JOINTS as i64))]
+    /// Joint (servo channel) 1..6.
+    #[arg(value_parser = clap::value_parser!(u8).range(1..=CHANNELS as i64))]
     pub joint: u8,
     /// Tuning angles, evenly spaced from -100° to +100° (3 to 9; odd counts include 0°).
     #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u8).range(3..=9))]

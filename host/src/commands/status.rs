@@ -1,6 +1,6 @@
 //! `lrmcal status`: what the board runs on and what it is doing.
 
-use model::JOINTS;
+use protocol::CHANNELS;
 use protocol::{CompensationMode, Faults, Status};
 
 use crate::commands::device_args::DeviceArgs;
@@ -34,9 +34,10 @@ pub fn render(s: &Status) -> String {
     match s.calibration {
         Some(c) => {
             out += &format!(
-                "calibration {:08x} ({}), flash sequence {}\n",
+                "calibration {:08x} ({}, {} joints), flash sequence {}\n",
                 c.id,
                 c.option.name(),
+                c.joints,
                 c.sequence
             )
         }
@@ -65,16 +66,21 @@ pub fn render(s: &Status) -> String {
     };
     out += &format!("motion {}\n", if s.moving { "running" } else { "still" });
     out += "joint  target°   now°      pulse µs\n";
-    for i in 0..JOINTS {
+    for i in 0..CHANNELS {
         let pulse = match s.pulses_us[i] {
             0 => "limp".to_owned(),
             p => p.to_string(),
         };
+        // A channel past the arm's last joint has no target: it stays limp.
+        let angle = |v: &[f32]| {
+            v.get(i)
+                .map_or("-".to_owned(), |a| format!("{:.2}", a.to_degrees()))
+        };
         out += &format!(
-            "{:>5}  {:>8.2}  {:>8.2}  {pulse:>8}\n",
+            "{:>5}  {:>8}  {:>8}  {pulse:>8}\n",
             i + 1,
-            s.targets_rad[i].to_degrees(),
-            s.nominal_rad[i].to_degrees()
+            angle(&s.targets_rad),
+            angle(&s.nominal_rad)
         );
     }
     let faults: Vec<&str> = Faults::NAMED
@@ -97,7 +103,7 @@ pub fn render(s: &Status) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use model::JOINTS;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
     use protocol::{CalibrationInfo, CompensationReport, DeviceInfo, FirmwareVersion, ModelOption};
 
     #[test]
@@ -110,10 +116,12 @@ mod tests {
                     minor: 1,
                     patch: 0,
                 },
+                channels: 6,
             },
             calibration: Some(CalibrationInfo {
                 id: 0xABC,
                 option: ModelOption::Elastic,
+                joints: 6,
                 sequence: 4,
             }),
             mode: CompensationMode::Full,
@@ -125,8 +133,8 @@ mod tests {
             },
             payload_kg: 0.0663,
             moving: false,
-            targets_rad: [0.5; JOINTS],
-            nominal_rad: [0.5; JOINTS],
+            targets_rad: [0.5; JOINTS].into(),
+            nominal_rad: [0.5; JOINTS].into(),
             pulses_us: [1865, 0, 1865, 1865, 1865, 1865],
             faults: Faults::LIMIT_CLAMPED,
             frames_dropped: 2,
@@ -134,7 +142,7 @@ mod tests {
         };
         let text = render(&s);
         assert!(
-            text.contains("calibration 00000abc (elastic), flash sequence 4"),
+            text.contains("calibration 00000abc (elastic, 6 joints), flash sequence 4"),
             "{text}"
         );
         assert!(text.contains(

@@ -203,7 +203,7 @@ fn spread_poses(arm: &Arm<f64>) -> Vec<Pose> {
     (0..12u32)
         .map(|id| Pose {
             id: id * 7 + 3,
-            q: std::array::from_fn(|j| {
+            q: model::PerJoint::from_fn(arm.joints.len(), |j| {
                 let [lo, hi] = arm.joints[j].limits;
                 let f = fractions[(id as usize + 2 * j) % fractions.len()];
                 lo + (hi - lo) * (f + 1.0) / 2.0

@@ -5,23 +5,24 @@
 use std::fmt;
 use std::str::FromStr;
 
-use model::JOINTS;
+use model::MAX_JOINTS;
 
 /// A frame of the arm a body is fixed to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FrameRef {
-    /// DH frame `i`: 0 is the base frame (`base` or `j0`), 6 the flange (`j6`).
+    /// DH frame `i`: 0 is the base frame (`base` or `j0`), n the flange (`jn`).
     Dh(usize),
-    /// The tool frame (`tool`): frame 6 moved by the arm's `[tool]` offset.
+    /// The tool frame (`tool`): frame n moved by the arm's `[tool]` offset.
     Tool,
 }
 
 impl FrameRef {
-    /// The DH frame the reference moves with (the tool frame moves with frame 6).
-    pub fn dh_index(self) -> usize {
+    /// The DH frame the reference moves with on an arm of `joints` joints
+    /// (the tool frame moves with the last frame).
+    pub fn dh_index(self, joints: usize) -> usize {
         match self {
             Self::Dh(i) => i,
-            Self::Tool => JOINTS,
+            Self::Tool => joints,
         }
     }
 }
@@ -29,9 +30,10 @@ impl FrameRef {
 impl FromStr for FrameRef {
     type Err = String;
 
-    /// `base`, `j0` … `j6` or `tool`.
+    /// `base`, `j0` … `j10` or `tool` (whether the arm has the frame is
+    /// checked where the body is placed on it).
     fn from_str(name: &str) -> Result<Self, String> {
-        let dh = |digits: &str| digits.parse::<usize>().ok().filter(|&i| i <= JOINTS);
+        let dh = |digits: &str| digits.parse::<usize>().ok().filter(|&i| i <= MAX_JOINTS);
         match name {
             "base" => Ok(Self::Dh(0)),
             "tool" => Ok(Self::Tool),
@@ -40,7 +42,9 @@ impl FromStr for FrameRef {
                 .and_then(dh)
                 .map(Self::Dh)
                 .ok_or_else(|| {
-                    format!("expected a frame name (base, j0 … j6 or tool), found `{name}`")
+                    format!(
+                        "expected a frame name (base, j0 … j{MAX_JOINTS} or tool), found `{name}`"
+                    )
                 }),
         }
     }
@@ -80,10 +84,11 @@ impl PointSpec {
     /// A point of DH frame `i` moves with link `i`; if it lies on the frame's
     /// z axis it lies on joint `i + 1`'s axis, which that joint turns about,
     /// so it moves with link `i + 1` as well.
-    pub fn links(&self) -> [usize; 2] {
-        let i = self.frame.dh_index();
+    /// On an arm of `joints` joints.
+    pub fn links(&self, joints: usize) -> [usize; 2] {
+        let i = self.frame.dh_index(joints);
         let on_axis = self.frame != FrameRef::Tool && self.xyz_m[0] == 0.0 && self.xyz_m[1] == 0.0;
-        if on_axis && i < JOINTS {
+        if on_axis && i < joints {
             [i, i + 1]
         } else {
             [i, i]
@@ -235,19 +240,19 @@ mod tests {
             assert_eq!(name.parse::<FrameRef>().unwrap().to_string(), name);
         }
         assert_eq!("j0".parse::<FrameRef>(), Ok(FrameRef::Dh(0)));
-        for bad in ["j7", "J1", "flange", "j", "j-1"] {
+        for bad in ["j11", "J1", "flange", "j", "j-1"] {
             let e = bad.parse::<FrameRef>().unwrap_err();
-            assert!(e.contains(bad) && e.contains("j0 … j6"), "{e}");
+            assert!(e.contains(bad) && e.contains("j0 … j10"), "{e}");
         }
     }
 
     #[test]
     fn points_on_a_frames_z_axis_move_with_two_links() {
         let p = |frame, xyz_m| PointSpec { frame, xyz_m };
-        assert_eq!(PointSpec::origin(FrameRef::Dh(0)).links(), [0, 1]);
-        assert_eq!(p(FrameRef::Dh(2), [0.0, 0.0, 0.1]).links(), [2, 3]);
-        assert_eq!(p(FrameRef::Dh(2), [0.01, 0.0, 0.1]).links(), [2, 2]);
-        assert_eq!(PointSpec::origin(FrameRef::Dh(6)).links(), [6, 6]);
-        assert_eq!(PointSpec::origin(FrameRef::Tool).links(), [6, 6]);
+        assert_eq!(PointSpec::origin(FrameRef::Dh(0)).links(6), [0, 1]);
+        assert_eq!(p(FrameRef::Dh(2), [0.0, 0.0, 0.1]).links(6), [2, 3]);
+        assert_eq!(p(FrameRef::Dh(2), [0.01, 0.0, 0.1]).links(6), [2, 2]);
+        assert_eq!(PointSpec::origin(FrameRef::Dh(6)).links(6), [6, 6]);
+        assert_eq!(PointSpec::origin(FrameRef::Tool).links(6), [6, 6]);
     }
 }

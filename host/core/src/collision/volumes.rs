@@ -15,7 +15,7 @@
 
 use std::fmt;
 
-use model::{Arm, ChainFrames, JOINTS};
+use model::{Arm, ChainFrames, PerJoint};
 use nalgebra::{Isometry3, IsometryMatrix3, Point3, Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::shape::{Capsule, Cuboid};
 use serde::Serialize;
@@ -156,25 +156,28 @@ impl fmt::Display for Contact {
 /// The arm's skeleton in one pose: frame origins, the foot of each link's
 /// `d` offset, and how far along the arm each lies.
 struct Skeleton {
-    /// Origin of DH frame i, world.
-    origins: [Vector3<f64>; JOINTS + 1],
+    /// The arm's joints, n.
+    joints: usize,
+    /// Origin of DH frame i (0..=n), world.
+    origins: Vec<Vector3<f64>>,
     /// For link i (1-based), the point `d_i` along frame i-1's z axis, world.
-    feet: [Vector3<f64>; JOINTS + 1],
+    feet: Vec<Vector3<f64>>,
     /// `d_i` of link i, m (signed, along frame i-1's z).
-    d_m: [f64; JOINTS + 1],
+    d_m: Vec<f64>,
     /// Distance along the skeleton from the base origin to origin i, m.
-    arc_m: [f64; JOINTS + 1],
-    /// The tool point in frame 6, m.
+    arc_m: Vec<f64>,
+    /// The tool point in frame n, m.
     tool_in_flange: Vector3<f64>,
 }
 
 impl Skeleton {
     fn of(frames: &ChainFrames<f64>) -> Self {
-        let origins = frames.frames.map(|f| f.translation.vector);
-        let mut feet = origins;
-        let mut d_m = [0.0; JOINTS + 1];
-        let mut arc_m = [0.0; JOINTS + 1];
-        for i in 1..=JOINTS {
+        let joints = frames.frames.len() - 1;
+        let origins: Vec<_> = frames.frames.iter().map(|f| f.translation.vector).collect();
+        let mut feet = origins.clone();
+        let mut d_m = vec![0.0; joints + 1];
+        let mut arc_m = vec![0.0; joints + 1];
+        for i in 1..=joints {
             let z = frames.frames[i - 1]
                 .rotation
                 .matrix()
@@ -184,10 +187,11 @@ impl Skeleton {
             feet[i] = origins[i - 1] + z * d_m[i];
             arc_m[i] = arc_m[i - 1] + d_m[i].abs() + (origins[i] - feet[i]).norm();
         }
-        let tool_in_flange = frames.frames[JOINTS]
+        let tool_in_flange = frames.frames[joints]
             .inverse_transform_point(&Point3::from(frames.tool_point))
             .coords;
         Self {
+            joints,
             origins,
             feet,
             d_m,
@@ -198,14 +202,14 @@ impl Skeleton {
 
     /// The summed lengths of the links' offsets, m.
     fn length_m(&self) -> f64 {
-        self.arc_m[JOINTS]
+        self.arc_m[self.joints]
     }
 
     /// How far along the skeleton a point of `frame` is (its frame origin's distance), m.
     fn arc_of(&self, frame: FrameRef) -> f64 {
         match frame {
             FrameRef::Dh(i) => self.arc_m[i],
-            FrameRef::Tool => self.arc_m[JOINTS] + self.tool_in_flange.norm(),
+            FrameRef::Tool => self.arc_m[self.joints] + self.tool_in_flange.norm(),
         }
     }
 }
@@ -227,7 +231,8 @@ impl BodySet {
         let radius_m = radius_m.unwrap_or(SKELETON_RADIUS_PER_LENGTH * s.length_m());
         let anchor = |frame, offset_m| Anchor { frame, offset_m };
         let mut bodies = Vec::new();
-        for i in 1..=JOINTS {
+        let n = s.joints;
+        for i in 1..=n {
             let origin = anchor(i - 1, Vector3::zeros());
             let foot = anchor(i - 1, Vector3::new(0.0, 0.0, s.d_m[i]));
             let end = anchor(i, Vector3::zeros());
@@ -260,12 +265,12 @@ impl BodySet {
             bodies.push(Body {
                 name: "tool".into(),
                 shapes: vec![Shape::Capsule {
-                    from: anchor(JOINTS, Vector3::zeros()),
-                    to: anchor(JOINTS, s.tool_in_flange),
+                    from: anchor(n, Vector3::zeros()),
+                    to: anchor(n, s.tool_in_flange),
                     radius_m: radius_m / 2.0,
                 }],
-                links: [JOINTS, JOINTS],
-                span_m: [s.arc_m[JOINTS], s.arc_of(FrameRef::Tool)],
+                links: [n, n],
+                span_m: [s.arc_m[n], s.arc_of(FrameRef::Tool)],
                 floor: true,
             });
         }
@@ -276,7 +281,9 @@ impl BodySet {
     /// The bodies of `spec` placed on `arm` (its skeleton when `spec` lists
     /// none), and the pairs to test.
     pub fn for_arm(arm: &Arm<f64>, spec: &CollisionSpec) -> Result<Self, SpecError> {
-        let frames = arm.chain().frames(&[0.0; JOINTS], 0.0);
+        let frames = arm
+            .chain()
+            .frames(&PerJoint::splat(arm.joints.len(), 0.0), 0.0);
         let mut set = if spec.bodies.is_empty() {
             if let Some(r) = spec.skeleton_radius_m {
                 non_negative(r, SpecPlace::Collision { key: "radius" })?;
@@ -413,7 +420,7 @@ fn non_negative(value: f64, place: SpecPlace) -> Result<f64, SpecError> {
 }
 
 /// A spec point as an anchor on a DH frame (tool points move into frame 6).
-fn anchor_of(point: &PointSpec, tool: &IsometryMatrix3<f64>) -> Anchor {
+fn anchor_of(point: &PointSpec, tool: &IsometryMatrix3<f64>, joints: usize) -> Anchor {
     let p = Point3::from(point.xyz_m);
     match point.frame {
         FrameRef::Dh(frame) => Anchor {
@@ -421,7 +428,7 @@ fn anchor_of(point: &PointSpec, tool: &IsometryMatrix3<f64>) -> Anchor {
             offset_m: p.coords,
         },
         FrameRef::Tool => Anchor {
-            frame: JOINTS,
+            frame: joints,
             offset_m: (tool * p).coords,
         },
     }
@@ -435,10 +442,21 @@ fn place(
     skeleton: &Skeleton,
 ) -> Result<Body, SpecError> {
     let at = |key| SpecPlace::Body { index, key };
+    let joints = skeleton.joints;
+    let frames = match spec.shape {
+        ShapeSpec::Capsule { from, to, .. } => [from.frame, to.frame],
+        ShapeSpec::Box { frame, .. } => [frame, frame],
+    };
+    if let Some(frame) = frames.iter().find(|f| f.dh_index(joints) > joints) {
+        return Err(SpecError::new(
+            at("frame"),
+            format!("expected a frame of the arm (base, j0 … j{joints} or tool), found `{frame}`"),
+        ));
+    }
     let (shape, ends, links) = match spec.shape {
         ShapeSpec::Capsule { from, to, radius_m } => {
             non_negative(radius_m, at("capsule.radius"))?;
-            let [from_links, to_links] = [from.links(), to.links()];
+            let [from_links, to_links] = [from.links(joints), to.links(joints)];
             let links = [
                 from_links[0].max(to_links[0]),
                 from_links[1].min(to_links[1]),
@@ -457,8 +475,8 @@ fn place(
                 ));
             }
             let shape = Shape::Capsule {
-                from: anchor_of(&from, tool),
-                to: anchor_of(&to, tool),
+                from: anchor_of(&from, tool, joints),
+                to: anchor_of(&to, tool, joints),
                 radius_m,
             };
             (shape, [from.frame, to.frame], links)
@@ -485,7 +503,7 @@ fn place(
                 IsometryMatrix3::from_parts(Translation3::from(centre), Default::default());
             let (dh, placement) = match frame {
                 FrameRef::Dh(i) => (i, in_frame),
-                FrameRef::Tool => (JOINTS, tool * in_frame),
+                FrameRef::Tool => (joints, tool * in_frame),
             };
             let shape = Shape::Box {
                 frame: dh,

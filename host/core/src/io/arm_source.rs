@@ -10,7 +10,7 @@ use std::fmt;
 use std::path::{Path, PathBuf};
 use std::str::FromStr;
 
-use model::{Arm, JOINTS};
+use model::Arm;
 
 use crate::collision::CollisionSpec;
 use crate::error::Error;
@@ -45,7 +45,7 @@ pub struct LoadedArm {
     pub arm: Arm<f64>,
     /// Its joints' names, base to tip: the arm file's (`joint_1` … for a
     /// calibration file, which holds none).
-    pub joint_names: [String; JOINTS],
+    pub joint_names: Vec<String>,
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
     pub collision: CollisionSpec,
@@ -106,7 +106,9 @@ impl ArmSource {
                 let file = CalibrationFile::read(path)?;
                 let d = ArmDescription {
                     name: format!("calibrated, {} model", file.option.name()),
-                    joint_names: std::array::from_fn(|i| format!("joint_{}", i + 1)),
+                    joint_names: (1..=file.arm.joints.len())
+                        .map(|i| format!("joint_{i}"))
+                        .collect(),
                     arm: file.arm,
                     collision: CollisionSpec::default(),
                 };

@@ -380,14 +380,24 @@ impl CalibrationFile {
     /// found it, not the arm file's, so the base is not compared then; nor
     /// the tool point when registration found that too.
     pub fn check_nominal(&self, nominal: &Arm<f64>, path: &Path) -> Result<(), Error> {
-        let ours = self.nominal.param_values();
-        let theirs = nominal.param_values();
+        if self.nominal.joints.len() != nominal.joints.len() {
+            return Err(Error::ArmMismatch {
+                path: path.to_owned(),
+                problem: format!(
+                    "it calibrates an arm of {} joints, the arm given has {}",
+                    self.nominal.joints.len(),
+                    nominal.joints.len()
+                ),
+            });
+        }
+        let ours: Vec<f64> = self.nominal.param_values().collect();
+        let theirs: Vec<f64> = nominal.param_values().collect();
         let registered = self.registration.as_ref().is_some_and(|r| r.registered);
         let tool_found = self
             .registration
             .as_ref()
             .is_some_and(|r| r.tool_m.is_some());
-        for (id, (a, b)) in ParamId::all().zip(ours.iter().zip(&theirs)) {
+        for (id, (a, b)) in ParamId::of(nominal).zip(ours.iter().zip(&theirs)) {
             let name = id.name();
             if (registered && name.starts_with("base."))
                 || (tool_found && ["tool.x", "tool.y", "tool.z"].contains(&name))

@@ -15,6 +15,8 @@ use std::collections::HashMap;
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
+use model::PerJoint;
+
 use crate::dataset::TargetName;
 use crate::error::{InputError, Location, Problem};
 use crate::io::record_line;
@@ -22,9 +24,18 @@ use crate::io::record_line;
 /// Columns starting with this are ignored by every reader.
 pub const NOTE_PREFIX: &str = "note_";
 
-/// The joint angle columns, in joint order.
-pub const Q_COLUMNS: [&str; model::JOINTS] =
-    ["q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg"];
+/// The joint angle columns, in joint order: a file has the first `n`, one
+/// per joint of its arm.
+pub const Q_COLUMNS: [&str; model::MAX_JOINTS] = [
+    "q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg", "q7_deg", "q8_deg", "q9_deg",
+    "q10_deg",
+];
+
+/// The joint-angle columns that may be absent: all but the first (a file
+/// of an arm of `n` joints has `q1_deg` to `qn_deg`).
+pub const OPTIONAL_Q_COLUMNS: [&str; model::MAX_JOINTS - 1] = [
+    "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg", "q7_deg", "q8_deg", "q9_deg", "q10_deg",
+];
 
 /// The position columns.
 pub const XYZ_COLUMNS: [&str; 3] = ["x_mm", "y_mm", "z_mm"];
@@ -51,8 +62,20 @@ pub enum Extra {
 }
 
 impl Schema {
+    /// The columns for messages, the joint angles as one run `q1_deg..qn_deg`.
     fn expected(&self) -> String {
-        self.columns.join(",")
+        let mut names: Vec<&str> = Vec::new();
+        for c in self.columns {
+            if Q_COLUMNS[1..].contains(c) {
+                continue;
+            }
+            names.push(if *c == Q_COLUMNS[0] {
+                "q1_deg..qn_deg (one per joint)"
+            } else {
+                c
+            });
+        }
+        names.join(",")
     }
 }
 
@@ -62,6 +85,8 @@ struct Header {
     /// The columns the schema ignores ([`Extra::Ignore`]), by name.
     ignored: HashMap<String, usize>,
     width: usize,
+    /// How many joint-angle columns the file has (`q1_deg` to `qn_deg`).
+    joints: usize,
 }
 
 impl Header {
@@ -175,9 +200,9 @@ impl Row<'_> {
         })
     }
 
-    /// The six `q*_deg` columns, converted to radians.
-    pub fn joint_angles_rad(&self) -> Result<[f64; model::JOINTS], InputError> {
-        let mut q = [0.0; model::JOINTS];
+    /// The `q*_deg` columns, converted to radians.
+    pub fn joint_angles_rad(&self) -> Result<PerJoint<f64>, InputError> {
+        let mut q = PerJoint::splat(self.header.joints, 0.0);
         for (qi, column) in q.iter_mut().zip(Q_COLUMNS) {
             *qi = self
                 .number(column, "a joint angle in degrees")?
@@ -465,10 +490,29 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
             },
         ));
     }
+    // The joint angles: q1_deg to qn_deg, none missing in between.
+    let joints = Q_COLUMNS
+        .iter()
+        .take_while(|c| index.contains_key(*c))
+        .count();
+    if schema.columns.contains(&Q_COLUMNS[0])
+        && let Some(&after) = Q_COLUMNS[joints..].iter().find(|c| index.contains_key(*c))
+    {
+        return Err(InputError::new(
+            at(Q_COLUMNS[joints]),
+            Problem::Invalid {
+                message: format!(
+                    "missing from the header while `{after}` is there: the joint angles are \
+                     q1_deg to qn_deg, one column per joint of the arm"
+                ),
+            },
+        ));
+    }
     Ok(Header {
         index,
         ignored,
         width: record.len(),
+        joints,
     })
 }
 
@@ -497,7 +541,7 @@ fn csv_error(error: csv::Error) -> InputError {
 #[derive(Default)]
 pub struct PoseBook {
     seen_load: HashMap<(u32, Option<u64>, Option<TargetName>), u64>,
-    seen_q: HashMap<u32, ([f64; model::JOINTS], u64)>,
+    seen_q: HashMap<u32, (PerJoint<f64>, u64)>,
 }
 
 impl PoseBook {
@@ -508,7 +552,7 @@ impl PoseBook {
         &mut self,
         row: &Row<'_>,
         pose: u32,
-        q: &[f64; model::JOINTS],
+        q: &PerJoint<f64>,
         load_kg: Option<f64>,
         target: Option<TargetName>,
     ) -> Result<(), InputError> {

@@ -9,11 +9,12 @@ use std::path::Path;
 use nalgebra::Vector3;
 
 use crate::dataset::{
-    FROM_HOME, MAX_TARGETS, Measurement, Pose, TARGET_NAME_MAX, TargetName, visiting_order,
+    MAX_TARGETS, Measurement, Pose, TARGET_NAME_MAX, TargetName, from_home, visiting_order,
 };
 use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
-    Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg, format_mm,
+    Extra, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg,
+    format_mm,
 };
 use crate::io::{atomic, read_text};
 
@@ -22,7 +23,7 @@ pub const TARGET_COLUMN: &str = "target";
 
 /// The columns of a measurement file, in the order they are written
 /// ([`TARGET_COLUMN`] last, when the rows name targets).
-pub const COLUMNS: [&str; 12] = [
+pub const COLUMNS: [&str; 16] = [
     "pose",
     "load_kg",
     Q_COLUMNS[0],
@@ -31,6 +32,10 @@ pub const COLUMNS: [&str; 12] = [
     Q_COLUMNS[3],
     Q_COLUMNS[4],
     Q_COLUMNS[5],
+    Q_COLUMNS[6],
+    Q_COLUMNS[7],
+    Q_COLUMNS[8],
+    Q_COLUMNS[9],
     XYZ_COLUMNS[0],
     XYZ_COLUMNS[1],
     XYZ_COLUMNS[2],
@@ -39,7 +44,18 @@ pub const COLUMNS: [&str; 12] = [
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
-    optional: &[TARGET_COLUMN],
+    optional: &[
+        OPTIONAL_Q_COLUMNS[0],
+        OPTIONAL_Q_COLUMNS[1],
+        OPTIONAL_Q_COLUMNS[2],
+        OPTIONAL_Q_COLUMNS[3],
+        OPTIONAL_Q_COLUMNS[4],
+        OPTIONAL_Q_COLUMNS[5],
+        OPTIONAL_Q_COLUMNS[6],
+        OPTIONAL_Q_COLUMNS[7],
+        OPTIONAL_Q_COLUMNS[8],
+        TARGET_COLUMN,
+    ],
     extra: Extra::Refuse,
 };
 
@@ -116,7 +132,7 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedMeasurement>, InputError> {
             load_kg,
             position: Vector3::from(mm) / 1000.0,
             target,
-            approach: FROM_HOME,
+            approach: from_home(q.len()),
         });
         Ok(())
     })?;
@@ -138,13 +154,15 @@ pub fn write(path: &Path, rows: &[Measurement]) -> Result<(), Error> {
 /// row names its target, so a one-target file keeps the plain header.
 pub fn write_to(w: &mut dyn Write, rows: &[Measurement]) -> std::io::Result<()> {
     let named = rows.iter().any(|m| m.target.is_some());
-    let columns = if named {
-        &COLUMNS[..]
-    } else {
-        &COLUMNS[..COLUMNS.len() - 1]
-    };
+    let joints = rows.first().map_or(0, |m| m.pose.q.len());
+    let columns: Vec<&str> = COLUMNS
+        .iter()
+        .copied()
+        .filter(|c| !Q_COLUMNS[joints.max(1)..].contains(c))
+        .filter(|&c| named || c != TARGET_COLUMN)
+        .collect();
     let mut csv = csv::Writer::from_writer(w);
-    csv.write_record(columns)?;
+    csv.write_record(&columns)?;
     for m in rows {
         let mut record = vec![m.pose.id.to_string(), m.load_kg.to_string()];
         record.extend(m.pose.q.iter().map(|q| format_deg(*q)));

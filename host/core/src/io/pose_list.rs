@@ -14,13 +14,14 @@ use model::Arm;
 use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{
-    Extra, LineRows, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row, format_deg,
+    Extra, LineRows, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row,
+    format_deg,
 };
 use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
 
 /// The columns of a pose list, in the order they are written (`load_kg` only if any row has one).
-pub const COLUMNS: [&str; 8] = [
+pub const COLUMNS: [&str; 12] = [
     "pose",
     "load_kg",
     Q_COLUMNS[0],
@@ -29,11 +30,26 @@ pub const COLUMNS: [&str; 8] = [
     Q_COLUMNS[3],
     Q_COLUMNS[4],
     Q_COLUMNS[5],
+    Q_COLUMNS[6],
+    Q_COLUMNS[7],
+    Q_COLUMNS[8],
+    Q_COLUMNS[9],
 ];
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
-    optional: &["load_kg"],
+    optional: &[
+        "load_kg",
+        OPTIONAL_Q_COLUMNS[0],
+        OPTIONAL_Q_COLUMNS[1],
+        OPTIONAL_Q_COLUMNS[2],
+        OPTIONAL_Q_COLUMNS[3],
+        OPTIONAL_Q_COLUMNS[4],
+        OPTIONAL_Q_COLUMNS[5],
+        OPTIONAL_Q_COLUMNS[6],
+        OPTIONAL_Q_COLUMNS[7],
+        OPTIONAL_Q_COLUMNS[8],
+    ],
     extra: Extra::Ignore,
 };
 
@@ -172,6 +188,13 @@ pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
     rows.iter()
         .filter_map(|listed| {
             let pose = &listed.row.pose;
+            if pose.q.len() != arm.joints.len() {
+                return Some(joint_count_error(
+                    listed.line,
+                    pose.q.len(),
+                    arm.joints.len(),
+                ));
+            }
             let (i, (joint, &q)) =
                 arm.joints
                     .iter()
@@ -194,6 +217,20 @@ pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
         .collect()
 }
 
+/// The error of a row of `found` joint angles for an arm of `joints` joints.
+fn joint_count_error(line: u64, found: usize, joints: usize) -> InputError {
+    let column = Q_COLUMNS[found.min(joints)];
+    InputError::new(
+        Location::column(line, column),
+        Problem::Invalid {
+            message: format!(
+                "the file has {found} joint-angle columns (q1_deg..q{found}_deg) where the arm \
+                 has {joints} joints: one column per joint"
+            ),
+        },
+    )
+}
+
 /// Checks the poses read from `path` against `arm`'s joint limits.
 ///
 /// A pose outside them is an error naming the file, line, joint, angle and
@@ -205,6 +242,11 @@ pub fn check_within_limits(
     rows: &[ListedPose],
     allow: bool,
 ) -> Result<Option<String>, Error> {
+    // A row of another arm is never "used anyway".
+    if let Some(listed) = rows.iter().find(|l| l.row.pose.q.len() != arm.joints.len()) {
+        let error = joint_count_error(listed.line, listed.row.pose.q.len(), arm.joints.len());
+        return Err(error.in_file(path));
+    }
     let outside = outside_limits(arm, rows);
     match outside.first() {
         None => Ok(None),
@@ -245,9 +287,11 @@ pub fn write(path: &Path, rows: &[PoseRow]) -> Result<(), Error> {
 pub fn write_to(w: &mut dyn Write, rows: &[PoseRow]) -> std::io::Result<()> {
     let with_load = rows.iter().any(|r| r.load_kg.is_some());
     let mut csv = csv::Writer::from_writer(w);
+    let joints = rows.first().map_or(0, |r| r.pose.q.len());
     let columns: Vec<&str> = COLUMNS
         .iter()
         .copied()
+        .filter(|c| !Q_COLUMNS[joints.max(1)..].contains(c))
         .filter(|&c| with_load || c != "load_kg")
         .collect();
     csv.write_record(&columns)?;

@@ -29,7 +29,7 @@
 
 use std::path::Path;
 
-use model::{Arm, Frame, JOINTS};
+use model::{Arm, Frame, PerJoint};
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
 use crate::collision::{BodySet, Shape};
@@ -54,7 +54,7 @@ pub struct UrdfOptions {
     /// Velocity limit of every joint, rad/s.
     pub velocity_rad_s: f64,
     /// The joints' names, base to tip (the arm file's).
-    pub joint_names: [String; JOINTS],
+    pub joint_names: Vec<String>,
     /// The arm's bodies, placed on it: the links' visual and collision
     /// geometry, and how thick each link is.
     pub bodies: Option<BodySet>,
@@ -77,7 +77,9 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
     let mut out = String::from("<?xml version=\"1.0\"?>\n");
     out += &header(options);
     out += &format!("<robot name=\"{}\">\n", attribute(&options.robot_name));
-    let zero = arm.chain().frames(&[0.0; JOINTS], 0.0);
+    let zero = arm
+        .chain()
+        .frames(&PerJoint::splat(arm.joints.len(), 0.0), 0.0);
     let geometry = Geometry::of(options.bodies.as_ref(), &zero);
     if options.world {
         out += "  <link name=\"world\"/>\n";
@@ -253,8 +255,8 @@ impl Geometry {
     /// moves with, placed with the arm's frames `zero` at the zero pose.
     fn of(bodies: Option<&BodySet>, zero: &model::ChainFrames<f64>) -> Self {
         let mut geometry = Self {
-            elements: vec![String::new(); JOINTS + 1],
-            thickness_m: vec![None; JOINTS + 1],
+            elements: vec![String::new(); zero.frames.len()],
+            thickness_m: vec![None; zero.frames.len()],
         };
         // Link i's frame at the zero pose: DH frame i-1 (turned by q_i = 0).
         let link_frame = |k: usize| zero.frames[k.saturating_sub(1)];
@@ -549,7 +551,7 @@ mod tests {
             provenance: vec!["calibration `cal--v2.json`-".into()],
             effort_nm: 1.0,
             velocity_rad_s: 1.5,
-            joint_names: std::array::from_fn(|i| format!("j{i} <&>")),
+            joint_names: (0..6).map(|i| format!("j{i} <&>")).collect(),
             bodies: None,
             world: true,
             payload_kg: None,

@@ -40,13 +40,13 @@ pub struct Sample {
     /// Pose id, for messages.
     pub id: u32,
     /// Commanded joint angles, rad.
-    pub q: [f64; model::JOINTS],
+    pub q: model::PerJoint<f64>,
     /// Payload at the tool, kg.
     pub load_kg: f64,
     /// Index of the measured target in its [`Rig`] (0: the arm's tool point).
     pub target: usize,
     /// The way each joint arrived at the pose (its backlash's side).
-    pub approach: [model::backlash::Approach; model::JOINTS],
+    pub approach: model::PerJoint<model::backlash::Approach>,
 }
 
 /// A measurement as a sample of target 0; `targets::Targets::samples` gives

@@ -2,8 +2,8 @@
 //! so that every parameter is identifiable, and a few poses, so the tests stay
 //! fast in debug builds. Integration tests use the bundled arm.
 
-use model::testing::{ErrorSizes, lrm_like_arm, random_errors, random_q};
-use model::{Arm, PARAM_COUNT};
+use model::testing::{ErrorSizes, TEST_ARM_PARAMS, lrm_like_arm, random_errors, random_q};
+use model::{Arm, PerJoint};
 use rand::{SeedableRng, rngs::StdRng};
 
 use super::analysis::detmax::DetmaxOptions;
@@ -36,7 +36,7 @@ pub fn rigid_nominal() -> Arm<f64> {
 
 /// Errors of a "true" arm relative to [`rigid_nominal`]: mm and degree level
 /// geometry, compliances 1e-2..2e-1 rad/Nm (the nominal arm's are zero).
-pub fn true_errors(seed: u64) -> [f64; PARAM_COUNT] {
+pub fn true_errors(seed: u64) -> [f64; TEST_ARM_PARAMS] {
     let sizes = ErrorSizes {
         length_m: 2e-3,
         angle_rad: 0.02,
@@ -49,7 +49,7 @@ pub fn true_errors(seed: u64) -> [f64; PARAM_COUNT] {
 /// visited in order (each joint's approach follows it).
 pub fn small_samples(n: usize) -> Vec<Sample> {
     let mut rng = StdRng::seed_from_u64(11);
-    let qs: Vec<[f64; model::JOINTS]> = (0..n).map(|_| random_q(&mut rng)).collect();
+    let qs: Vec<PerJoint<f64>> = (0..n).map(|_| random_q(&mut rng).into()).collect();
     qs.iter()
         .zip(lrmcal_core::dataset::approaches(&qs))
         .enumerate()

@@ -3,7 +3,8 @@
 //! apply to each joint worked out from the calibration
 //! ([`max_corrections`]).
 
-use model::{Arm, CompensationOptions, JOINTS};
+use model::{Arm, CompensationOptions, PerJoint};
+use protocol::PerChannel;
 use protocol::calibration::{MAX_CALIBRATION_LEN, MAX_CORRECTION_RAD};
 use protocol::{Calibration, CalibrationFault};
 use rand::{Rng, SeedableRng};
@@ -25,8 +26,16 @@ const CORRECTION_SLACK_RAD: f64 = 0.052_359_877_559_829_89;
 /// The payload for `file`, in single precision, with the home pose `home_rad`.
 pub fn payload(
     file: &CalibrationFile,
-    home_rad: [f32; JOINTS],
+    home_rad: PerChannel<f32>,
 ) -> Result<Calibration, CalibrationFault> {
+    // An arm the board cannot drive is refused here, before the corrections
+    // of its joints are worked out.
+    let joints = file.arm.joints.len();
+    if joints > protocol::CHANNELS || home_rad.len() != joints {
+        return Err(CalibrationFault::JointCount {
+            joints: joints.min(usize::from(u8::MAX)) as u8,
+        });
+    }
     identified(Calibration {
         id: 0,
         option: file.option,
@@ -45,29 +54,30 @@ pub fn payload(
 /// [`CORRECTION_SLACK_RAD`], at most `protocol`'s cap. A solve that asks
 /// the board for more is a failed one (it falls back to the last good
 /// correction).
-pub fn max_corrections(nominal: &Arm<f64>, calibrated: &Arm<f64>) -> [f32; JOINTS] {
+pub fn max_corrections(nominal: &Arm<f64>, calibrated: &Arm<f64>) -> PerChannel<f32> {
+    let n = calibrated.joints.len().min(protocol::CHANNELS);
     let limits = calibrated.joints.map(|j| j.limits);
     let levels = |j: usize| {
         let [lo, hi] = limits[j];
         [lo, 0.5 * (lo + hi), hi]
     };
-    let grid = (0..3usize.pow(JOINTS as u32)).map(|mut k| {
-        std::array::from_fn(|j| {
+    let grid = (0..3usize.pow(n as u32)).map(|mut k| {
+        PerJoint::from_fn(n, |j| {
             let level = k % 3;
             k /= 3;
             levels(j)[level]
         })
     });
     let mut rng = ChaCha8Rng::seed_from_u64(POSES_SEED);
-    let random: Vec<[f64; JOINTS]> = (0..RANDOM_POSES)
-        .map(|_| std::array::from_fn(|j| rng.random_range(limits[j][0]..=limits[j][1])))
+    let random: Vec<PerJoint<f64>> = (0..RANDOM_POSES)
+        .map(|_| PerJoint::from_fn(n, |j| rng.random_range(limits[j][0]..=limits[j][1])))
         .collect();
     let (nominal_chain, chain) = (nominal.chain(), calibrated.chain());
     let options = CompensationOptions {
         max_iterations: 30,
         ..CompensationOptions::default()
     };
-    let mut largest = [0.0f64; JOINTS];
+    let mut largest = PerChannel::splat(n, 0.0f64);
     for q in grid.chain(random) {
         for load in [0.0, nominal.rated_payload_kg] {
             let Ok(target) = nominal_chain.tool_point(&q, load, &Default::default()) else {
@@ -77,7 +87,7 @@ pub fn max_corrections(nominal: &Arm<f64>, calibrated: &Arm<f64>) -> [f32; JOINT
                 continue;
             };
             if c.converged {
-                for j in 0..JOINTS {
+                for j in 0..n {
                     largest[j] = largest[j].max((c.q[j] - q[j]).abs());
                 }
             }

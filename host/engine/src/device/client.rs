@@ -6,7 +6,6 @@
 //! when the board answered and refused; a calibration the board would refuse
 //! is not sent at all ([`ClientError::Invalid`]).
 
-use model::JOINTS;
 use std::io::ErrorKind;
 use std::time::{Duration, Instant};
 
@@ -245,7 +244,7 @@ impl<L: Link> Client<L> {
     /// `motion/move`.
     pub fn move_to(
         &mut self,
-        targets_rad: [f32; JOINTS],
+        targets_rad: protocol::PerChannel<f32>,
         timing: Timing,
     ) -> Result<(), ClientError> {
         self.done(Request::Move {

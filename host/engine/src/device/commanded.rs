@@ -7,7 +7,7 @@
 //! positioning choose, among the nominal solutions for a tool point, one the
 //! board can command without clamping or falling back.
 
-use model::{Arm, Chain, CompensationOptions, JOINTS};
+use model::{Arm, Chain, CompensationOptions, PerJoint};
 use protocol::{Calibration, CompensationMode};
 
 /// The share of a joint's largest correction a pose may use: the board's
@@ -18,13 +18,15 @@ pub const HEADROOM: f64 = 0.8;
 /// The joint ranges a board accepts move targets in, rad: its calibration's
 /// limits cut to the hard range, or the default range without one, as the
 /// firmware decides them (its own function and configuration).
-pub fn board_limits(calibration: Option<&Calibration>) -> [[f32; 2]; JOINTS] {
+pub fn board_limits(calibration: Option<&Calibration>) -> Vec<[f32; 2]> {
     let config = firmware::Config::default();
-    firmware::servo::joint_limits(
+    let limits = firmware::servo::joint_limits(
         calibration.map(|c| &c.calibrated),
         config.hard_limits_rad,
         config.default_limits_rad,
-    )
+    );
+    let joints = calibration.map_or(limits.len(), |c| c.calibrated.joints.len());
+    limits.into_iter().take(joints).collect()
 }
 
 /// `arm` with its joint limits cut to the ranges the board accepts targets
@@ -46,11 +48,11 @@ pub struct Commanded {
     nominal: Chain<f64>,
     calibrated: Chain<f64>,
     /// The joint ranges the board enforces, rad.
-    limits: [[f64; 2]; JOINTS],
+    limits: Vec<[f64; 2]>,
     /// Half of each joint's play: the board's offset in the way of motion, rad.
-    half_play: [f64; JOINTS],
+    half_play: PerJoint<f64>,
     /// The calibration's largest corrections, cut to the board's cap, times [`HEADROOM`], rad.
-    max_correction: [f64; JOINTS],
+    max_correction: Vec<f64>,
     mode: CompensationMode,
     payload_kg: f64,
 }
@@ -127,14 +129,16 @@ impl Commanded {
         Self {
             nominal: calibration.nominal.map(f64::from).chain(),
             calibrated: calibration.calibrated.map(f64::from).chain(),
-            limits: limits.map(|r| r.map(f64::from)),
+            limits: limits.iter().map(|r| r.map(f64::from)).collect(),
             half_play: calibration
                 .calibrated
                 .joints
                 .map(|j| 0.5 * f64::from(j.backlash)),
             max_correction: calibration
                 .max_correction_rad
-                .map(|m| HEADROOM * f64::from(m.min(config.max_correction_rad))),
+                .iter()
+                .map(|m| HEADROOM * f64::from(m.min(config.max_correction_rad)))
+                .collect(),
             mode,
             payload_kg,
         }
@@ -142,9 +146,9 @@ impl Commanded {
 
     /// The joint commands for the nominal targets `q_nominal` (before the
     /// play's offset), or why the board could not send them as meant.
-    pub fn command(&self, q_nominal: &[f64; JOINTS]) -> Result<[f64; JOINTS], Refusal> {
+    pub fn command(&self, q_nominal: &[f64]) -> Result<PerJoint<f64>, Refusal> {
         let q = match self.mode {
-            CompensationMode::Off => *q_nominal,
+            CompensationMode::Off => PerJoint::from_fn(q_nominal.len(), |j| q_nominal[j]),
             CompensationMode::ElasticOnly => {
                 self.solve(q_nominal, self.calibrated.rigid_tool_point(q_nominal))?
             }
@@ -158,7 +162,7 @@ impl Commanded {
                 self.solve(q_nominal, target)?
             }
         };
-        for j in 0..JOINTS {
+        for j in 0..q.len() {
             let correction = (q[j] - q_nominal[j]).abs();
             if correction > self.max_correction[j] {
                 return Err(Refusal::TooLarge {
@@ -183,9 +187,9 @@ impl Commanded {
 
     fn solve(
         &self,
-        q_nominal: &[f64; JOINTS],
+        q_nominal: &[f64],
         target: nalgebra::Vector3<f64>,
-    ) -> Result<[f64; JOINTS], Refusal> {
+    ) -> Result<PerJoint<f64>, Refusal> {
         let options = CompensationOptions {
             max_iterations: 30,
             ..CompensationOptions::default()
@@ -214,7 +218,7 @@ mod tests {
             option: protocol::ModelOption::ElastoKinematic,
             nominal: nominal.map(|x| x as f32),
             calibrated: calibrated.map(|x| x as f32),
-            home_rad: [0.0; JOINTS],
+            home_rad: [0.0; 6].into(),
             max_correction_rad: max_corrections(&nominal, &calibrated),
         }
     }
@@ -234,7 +238,7 @@ mod tests {
         let c = board.command(&q).unwrap();
         assert!(c[1] < q[1] - 1e-3, "{c:?}");
         // Upright, at its lower limit, there is no room below it.
-        let at_limit = [0.0; JOINTS];
+        let at_limit = [0.0; 6];
         match board.command(&at_limit) {
             Err(Refusal::OutsideRange { joint: 2, .. }) => {}
             other => panic!("{other:?}"),
@@ -248,6 +252,6 @@ mod tests {
         }
         // Without compensation the nominal targets go as they are.
         let off = Commanded::new(&cal, CompensationMode::Off, 0.0663);
-        assert_eq!(off.command(&at_limit), Ok(at_limit));
+        assert_eq!(off.command(&at_limit), Ok(at_limit.into()));
     }
 }

@@ -203,7 +203,7 @@ mod tests {
         let mut client = Client::new(MemoryBoard::default(), Duration::from_millis(1), 0);
         assert!(client.status().unwrap().calibration.is_none());
         client
-            .move_to([0.2, 0.0, 0.0, 0.0, 0.0, 0.0], Timing::DurationMs(0))
+            .move_to([0.2, 0.0, 0.0, 0.0, 0.0, 0.0].into(), Timing::DurationMs(0))
             .unwrap();
         let first = client.link_mut().frame();
         assert!(first.iter().all(Option::is_some), "{first:?}");

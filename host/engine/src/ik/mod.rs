@@ -39,7 +39,7 @@ mod solver;
 use std::f64::consts::{PI, TAU};
 use std::fmt;
 
-use model::{Arm, JOINTS};
+use model::{Arm, PerJoint};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -83,7 +83,7 @@ impl Default for IkOptions {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkSolution {
     /// Nominal joint angles, rad, within the arm's limits.
-    pub q: [f64; JOINTS],
+    pub q: PerJoint<f64>,
     /// Where the nominal arm puts its tool point at `q`, world frame, m.
     pub tool_m: Vector3<f64>,
     /// Distance of `tool_m` from the target, m (at most the tolerance).
@@ -156,7 +156,7 @@ pub enum IkError {
         /// Its distance from the target, m.
         residual_m: f64,
         /// The pose that reaches it, rad.
-        q: [f64; JOINTS],
+        q: PerJoint<f64>,
     },
     /// Poses reach the target, but only with joints beyond their limits.
     OutsideLimits {
@@ -164,14 +164,14 @@ pub enum IkError {
         /// (smallest sum of overshoots), base to tip.
         violations: Vec<LimitViolation>,
         /// That pose, each angle the turn nearest its joint's range, rad.
-        q: [f64; JOINTS],
+        q: PerJoint<f64>,
     },
     /// Every pose found that reaches the target within the limits collides.
     Colliding {
         /// What they hit, each once, the nearest pose's first.
         contacts: Vec<Contact>,
         /// The pose nearest the start, rad.
-        q: [f64; JOINTS],
+        q: PerJoint<f64>,
     },
     /// Every clear pose found that reaches the target within the limits was
     /// refused by the caller's test (`solve_position_admitted`).
@@ -179,7 +179,7 @@ pub enum IkError {
         /// Why the nearest one was refused.
         reason: String,
         /// That pose, rad.
-        q: [f64; JOINTS],
+        q: PerJoint<f64>,
         /// How many clear poses were tried.
         tried: usize,
     },
@@ -257,7 +257,7 @@ impl fmt::Display for IkError {
 impl std::error::Error for IkError {}
 
 /// Angles in degrees for messages: `12.3, -45.0, …`.
-fn degrees(q: &[f64; JOINTS]) -> String {
+fn degrees(q: &[f64]) -> String {
     let list: Vec<String> = q.iter().map(|a| tenths(a.to_degrees())).collect();
     list.join(", ")
 }
@@ -284,7 +284,7 @@ pub fn reach_m(arm: &Arm<f64>) -> f64 {
 pub fn solve_position(
     arm: &Arm<f64>,
     target_m: &Vector3<f64>,
-    start_q: &[f64; JOINTS],
+    start_q: &[f64],
     options: &IkOptions,
 ) -> Result<IkSolution, IkError> {
     solve_position_admitted(arm, target_m, start_q, options, &|_| Ok(()))
@@ -297,9 +297,9 @@ pub fn solve_position(
 pub fn solve_position_admitted(
     arm: &Arm<f64>,
     target_m: &Vector3<f64>,
-    start_q: &[f64; JOINTS],
+    start_q: &[f64],
     options: &IkOptions,
-    admit: &dyn Fn(&[f64; JOINTS]) -> Result<(), String>,
+    admit: &dyn Fn(&[f64]) -> Result<(), String>,
 ) -> Result<IkSolution, IkError> {
     check(arm, target_m, start_q, options)?;
     let distance_m = (target_m - arm.base.isometry().translation.vector).norm();
@@ -316,7 +316,7 @@ pub fn solve_position_admitted(
         max_iterations: options.max_iterations,
     };
     let on_target = |l: &Local| l.error_m <= options.tolerance_m;
-    let limits: Limits = arm.joints.map(|j| j.limits);
+    let limits: Vec<[f64; 2]> = arm.joints.iter().map(|j| j.limits).collect();
     // Every pose met on the target is a candidate, not only where each solve
     // ended: when that collides, a pose it passed through may be clear.
     let within: Vec<Local> = search(
@@ -330,13 +330,13 @@ pub fn solve_position_admitted(
     // limits from reach (and to catch a solution one turn away from the range).
     let mut beyond = Vec::new();
     if candidates.is_empty() {
-        let free = [[f64::NEG_INFINITY, f64::INFINITY]; JOINTS];
-        let turn = [[-PI, PI]; JOINTS];
+        let free = vec![[f64::NEG_INFINITY, f64::INFINITY]; limits.len()];
+        let turn = vec![[-PI, PI]; limits.len()];
         let ends = search(&chain, target_m, start_q, &free, &turn, settings, options)
             .into_iter()
             .filter_map(|path| path.last().copied());
         for local in ends.filter(on_target) {
-            let q: [f64; JOINTS] = std::array::from_fn(|i| nearest_turn(local.q[i], limits[i]));
+            let q = PerJoint::from_fn(limits.len(), |i| nearest_turn(local.q[i], limits[i]));
             let violations = violations(&q, &limits);
             if violations.is_empty() {
                 candidates.push(Local { q, ..local });
@@ -348,7 +348,7 @@ pub fn solve_position_admitted(
     candidates
         .sort_by(|a, b| joint_distance(&a.q, start_q).total_cmp(&joint_distance(&b.q, start_q)));
     let mut contacts = Vec::new();
-    let mut refused: Option<(String, [f64; JOINTS])> = None;
+    let mut refused: Option<(String, PerJoint<f64>)> = None;
     let mut tried = 0;
     for c in &candidates {
         let contact = options
@@ -416,11 +416,18 @@ pub fn solve_position_admitted(
 fn check(
     arm: &Arm<f64>,
     target_m: &Vector3<f64>,
-    start_q: &[f64; JOINTS],
+    start_q: &[f64],
     options: &IkOptions,
 ) -> Result<(), IkError> {
     if !target_m.iter().all(|x| x.is_finite()) {
         return Err(IkError::NotFinite { what: "target" });
+    }
+    if start_q.len() != arm.joints.len() {
+        return Err(IkError::Setting {
+            field: "start pose",
+            expected: "one angle per joint of the arm",
+            found: format!("{} angles for {} joints", start_q.len(), arm.joints.len()),
+        });
     }
     if !start_q.iter().all(|x| x.is_finite()) {
         return Err(IkError::NotFinite { what: "start pose" });
@@ -458,17 +465,18 @@ fn check(
 fn search(
     chain: &model::Chain<f64>,
     target_m: &Vector3<f64>,
-    start_q: &[f64; JOINTS],
+    start_q: &[f64],
     limits: &Limits,
     spread: &Limits,
     settings: Settings,
     options: &IkOptions,
 ) -> Vec<Vec<Local>> {
     let mut rng = ChaCha8Rng::seed_from_u64(RESTART_SEED);
-    let restarts = (0..options.restarts).map(|_| -> [f64; JOINTS] {
-        std::array::from_fn(|i| rng.random_range(spread[i][0]..=spread[i][1]))
+    let n = start_q.len();
+    let restarts = (0..options.restarts).map(|_| -> PerJoint<f64> {
+        PerJoint::from_fn(n, |i| rng.random_range(spread[i][0]..=spread[i][1]))
     });
-    std::iter::once(*start_q)
+    std::iter::once(PerJoint::from_fn(n, |i| start_q[i]))
         .chain(restarts)
         .map(|start| solver::solve_from(chain, target_m, &start, start_q, limits, settings))
         .collect()
@@ -481,8 +489,8 @@ fn nearest_turn(angle: f64, [lo, hi]: [f64; 2]) -> f64 {
 }
 
 /// The joints of `q` outside their limits, base to tip.
-fn violations(q: &[f64; JOINTS], limits: &Limits) -> Vec<LimitViolation> {
-    (0..JOINTS)
+fn violations(q: &[f64], limits: &Limits) -> Vec<LimitViolation> {
+    (0..q.len())
         .filter_map(|i| {
             let [lo, hi] = limits[i];
             let limit_rad = if q[i] < lo {

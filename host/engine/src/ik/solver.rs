@@ -4,7 +4,7 @@
 //! Both kinds of step come from one linear problem: of the joint angles whose
 //! linearised tool point moves by `shift`, take the one nearest a reference,
 //! over the joints free to move, with the joints that would leave their
-//! limits held at the limit (an active set, at most six passes). With the
+//! limits held at the limit (an active set, at most one pass per joint). With the
 //! current pose as reference and the error as shift it is the minimum-norm
 //! correction; with the pose to stay near as reference and no shift it is
 //! the move along the solutions that removes all of `q − q_ref` the tool
@@ -16,11 +16,11 @@
 //! ends on the target and nearer the reference, so the distance never grows
 //! and the solve cannot wander.
 
-use model::{Chain, JOINTS};
-use nalgebra::{Matrix3, Matrix3x6, Vector3};
+use model::{Chain, PerJoint};
+use nalgebra::{Matrix3, Matrix3xX, Vector3};
 
-/// Inclusive joint ranges a solve keeps to, rad.
-pub(super) type Limits = [[f64; 2]; JOINTS];
+/// Inclusive joint ranges a solve keeps to, rad, one per joint.
+pub(super) type Limits = [[f64; 2]];
 
 /// Least damping λ₀ of the least-squares steps, m: keeps a step finite at a
 /// singular pose and, squared, biases a converged solution by ~1e-11 m.
@@ -55,7 +55,7 @@ pub(super) struct Settings {
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Local {
     /// Joint angles, rad, within the limits of the solve.
-    pub q: [f64; JOINTS],
+    pub q: PerJoint<f64>,
     /// Distance of the tool point from the target, m.
     pub error_m: f64,
 }
@@ -69,8 +69,8 @@ pub(super) struct Local {
 pub(super) fn solve_from(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
-    start: &[f64; JOINTS],
-    reference: &[f64; JOINTS],
+    start: &[f64],
+    reference: &[f64],
     limits: &Limits,
     settings: Settings,
 ) -> Vec<Local> {
@@ -101,7 +101,7 @@ pub(super) fn solve_from(
 fn correct(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
-    q: [f64; JOINTS],
+    q: PerJoint<f64>,
     limits: &Limits,
     settings: Settings,
     budget: &mut u32,
@@ -115,12 +115,13 @@ fn correct(
     let mut slope = None;
     while best.error_m > settings.tolerance_m && *budget > 0 && gain <= MAX_DAMPING_GAIN {
         *budget -= 1;
-        let (tool, j) = *slope.get_or_insert_with(|| position_jacobian(chain, &best.q));
+        let (tool, j) = slope.get_or_insert_with(|| position_jacobian(chain, &best.q));
+        let (tool, j) = (*tool, &*j);
         let e = target - tool;
         let damping_sq = gain * (e.norm_squared() + DAMPING_FLOOR_M * DAMPING_FLOOR_M);
         let next = within_step(
             &best.q,
-            nearest_step(&j, &best.q, &e, &best.q, damping_sq, limits),
+            nearest_step(j, &best.q, &e, &best.q, damping_sq, limits),
             MAX_STEP_RAD,
         );
         let error_m = (target - chain.rigid_tool_point(&next)).norm();
@@ -144,7 +145,7 @@ fn approach(
     chain: &Chain<f64>,
     target: &Vector3<f64>,
     on_target: Local,
-    reference: &[f64; JOINTS],
+    reference: &[f64],
     limits: &Limits,
     settings: Settings,
     budget: &mut u32,
@@ -193,20 +194,21 @@ fn approach(
 /// reference is the damped minimum-norm `u = J_Fᵀ (J_F J_Fᵀ + λ² I)⁻¹ r` with
 /// `r = shift + J_F (q_F − ref_F) − J_X (held_X − q_X)`.
 fn nearest_step(
-    j: &Matrix3x6<f64>,
-    q: &[f64; JOINTS],
+    j: &Matrix3xX<f64>,
+    q: &[f64],
     shift: &Vector3<f64>,
-    reference: &[f64; JOINTS],
+    reference: &[f64],
     damping_sq: f64,
     limits: &Limits,
-) -> [f64; JOINTS] {
-    let mut held = [false; JOINTS];
-    let mut next = *q;
+) -> PerJoint<f64> {
+    let n = q.len();
+    let mut held = PerJoint::splat(n, false);
+    let mut next = PerJoint::from_fn(n, |i| q[i]);
     // Each pass either holds one more joint or ends; the last has none free.
-    for _ in 0..=JOINTS {
-        let mut free_j = *j;
+    for _ in 0..=n {
+        let mut free_j = j.clone();
         let mut rhs = *shift;
-        for i in 0..JOINTS {
+        for i in 0..n {
             if held[i] {
                 rhs -= j.column(i) * (next[i] - q[i]);
                 free_j.column_mut(i).fill(0.0);
@@ -214,14 +216,14 @@ fn nearest_step(
                 rhs += j.column(i) * (q[i] - reference[i]);
             }
         }
-        let normal = free_j * free_j.transpose() + Matrix3::identity() * damping_sq;
+        let normal = &free_j * free_j.transpose() + Matrix3::identity() * damping_sq;
         let Some(factor) = normal.cholesky() else {
             // Only a non-finite Jacobian gets here: stay put.
-            return *q;
+            return PerJoint::from_fn(n, |i| q[i]);
         };
         let u = free_j.transpose() * factor.solve(&rhs);
         let mut newly_held = false;
-        for i in 0..JOINTS {
+        for i in 0..n {
             if held[i] {
                 continue;
             }
@@ -243,14 +245,11 @@ fn nearest_step(
 /// The tool point and its Jacobian at `q`, world frame: column `i` is
 /// `zᵢ₋₁ × (p − oᵢ₋₁)`, joint `i` turning about the `z` axis of frame `i − 1`
 /// through its origin (standard DH), the frames being the model's own.
-pub(super) fn position_jacobian(
-    chain: &Chain<f64>,
-    q: &[f64; JOINTS],
-) -> (Vector3<f64>, Matrix3x6<f64>) {
+pub(super) fn position_jacobian(chain: &Chain<f64>, q: &[f64]) -> (Vector3<f64>, Matrix3xX<f64>) {
     let frames = chain.frames(q, 0.0);
     let tool = frames.tool_point();
-    let mut j = Matrix3x6::zeros();
-    for (i, frame) in frames.frames[..JOINTS].iter().enumerate() {
+    let mut j = Matrix3xX::zeros(q.len());
+    for (i, frame) in frames.frames[..q.len()].iter().enumerate() {
         let axis = frame.rotation.matrix().column(2).into_owned();
         j.set_column(i, &axis.cross(&(tool - frame.translation.vector)));
     }
@@ -259,17 +258,17 @@ pub(super) fn position_jacobian(
 
 /// `to`, or the point on the way from `from` to it where no joint has
 /// changed by more than `max_rad`. Within the limits if both ends are.
-fn within_step(from: &[f64; JOINTS], to: [f64; JOINTS], max_rad: f64) -> [f64; JOINTS] {
+fn within_step(from: &[f64], to: PerJoint<f64>, max_rad: f64) -> PerJoint<f64> {
     let change = max_change(from, &to);
     if change <= max_rad {
         return to;
     }
     let s = max_rad / change;
-    std::array::from_fn(|i| from[i] + (to[i] - from[i]) * s)
+    PerJoint::from_fn(to.len(), |i| from[i] + (to[i] - from[i]) * s)
 }
 
 /// The largest change of any one joint from `a` to `b`, rad.
-fn max_change(a: &[f64; JOINTS], b: &[f64; JOINTS]) -> f64 {
+fn max_change(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| (x - y).abs())
@@ -277,7 +276,7 @@ fn max_change(a: &[f64; JOINTS], b: &[f64; JOINTS]) -> f64 {
 }
 
 /// Euclidean distance between two poses in joint space, rad.
-pub(super) fn joint_distance(a: &[f64; JOINTS], b: &[f64; JOINTS]) -> f64 {
+pub(super) fn joint_distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| (x - y) * (x - y))
@@ -286,8 +285,8 @@ pub(super) fn joint_distance(a: &[f64; JOINTS], b: &[f64; JOINTS]) -> f64 {
 }
 
 /// Each angle clamped into its joint's limits.
-pub(super) fn clamp(q: &[f64; JOINTS], limits: &Limits) -> [f64; JOINTS] {
-    std::array::from_fn(|i| q[i].clamp(limits[i][0], limits[i][1]))
+pub(super) fn clamp(q: &[f64], limits: &Limits) -> PerJoint<f64> {
+    PerJoint::from_fn(q.len(), |i| q[i].clamp(limits[i][0], limits[i][1]))
 }
 
 #[cfg(test)]
@@ -295,6 +294,7 @@ mod tests {
     use super::*;
     use crate::sim::test_support::bundled_arm;
     use approx::assert_relative_eq;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
 
     /// The analytic Jacobian is the central difference of the model's tool point.
     #[test]

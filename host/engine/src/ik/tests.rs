@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::sim::test_support::bundled_arm;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use nalgebra::{Matrix3x6, Vector6};
 
 /// A pose drawn within `margin_rad` of every limit of `arm`.
@@ -71,7 +72,8 @@ fn a_nearby_target_gets_a_nearby_pose_and_the_locally_nearest() {
             "{} > {delta_norm}",
             s.distance_rad
         );
-        let (_, j): (_, Matrix3x6<f64>) = solver::position_jacobian(&chain, &s.q);
+        let (_, j) = solver::position_jacobian(&chain, &s.q);
+        let j: Matrix3x6<f64> = j.fixed_columns::<JOINTS>(0).into_owned();
         let away = Vector6::from_fn(|i, _| s.q[i] - q0[i]);
         let normal = j.transpose() * (j * j.transpose()).cholesky().unwrap().solve(&(j * away));
         assert!(
@@ -204,7 +206,7 @@ fn a_colliding_nearest_pose_gives_way_to_a_clear_one() {
     let arm = bundled_arm();
     let chain = arm.chain();
     let config = PlanConfig::default();
-    let contact = |q: &[f64; JOINTS]| config.contact(&chain.frames(q, 0.0));
+    let contact = |q: &[f64]| config.contact(&chain.frames(q, 0.0));
     let mut rng = ChaCha8Rng::seed_from_u64(13);
     let mut tried = 0;
     while tried < 5 {

@@ -1,10 +1,10 @@
-//! The candidate grid: every joint at every level, `L^6` poses, each with a
-//! stable id.
+//! The candidate grid: every joint at every level, `L^n` poses for an arm
+//! of `n` joints, each with a stable id.
 
 use std::fmt;
 use std::str::FromStr;
 
-use model::JOINTS;
+use model::PerJoint;
 
 use lrmcal_core::dataset::Pose;
 
@@ -42,15 +42,8 @@ impl Levels {
         if let Some(w) = degrees.windows(2).find(|w| w[0] == w[1]) {
             return Err(LevelsError::Repeated { degrees: w[0] });
         }
-        let count = degrees.len();
-        if count == 0 {
+        if degrees.is_empty() {
             return Err(LevelsError::Empty);
-        }
-        if count
-            .checked_pow(JOINTS as u32)
-            .is_none_or(|n| n > MAX_GRID_POSES)
-        {
-            return Err(LevelsError::TooMany { count });
         }
         Ok(Self(degrees.into_iter().map(f64::to_radians).collect()))
     }
@@ -60,19 +53,26 @@ impl Levels {
         &self.0
     }
 
-    /// Number of grid poses, `levels^6`.
-    pub fn grid_size(&self) -> usize {
-        self.0.len().pow(JOINTS as u32)
+    /// Number of grid poses for an arm of `joints` joints, `levels^joints`,
+    /// or the error when it is more than [`MAX_GRID_POSES`].
+    pub fn grid_size(&self, joints: usize) -> Result<usize, LevelsError> {
+        let count = self.0.len();
+        count
+            .checked_pow(joints as u32)
+            .filter(|&n| n <= MAX_GRID_POSES)
+            .ok_or(LevelsError::TooMany { count, joints })
     }
 
-    /// Every pose of the grid. The id is the pose's index with joint 1 as the
-    /// most significant digit and joint 6 the least: in the 3-level grid pose
-    /// 0 is all joints at -100°, 364 all at 0°, 728 all at +100°.
-    pub fn grid(&self) -> impl Iterator<Item = Pose> + '_ {
+    /// Every pose of the grid of an arm of `joints` joints (none when it is
+    /// too large, [`Levels::grid_size`]). The id is the pose's index with
+    /// joint 1 as the most significant digit and the last joint the least:
+    /// in the 3-level grid of six joints pose 0 is all joints at -100°, 364
+    /// all at 0°, 728 all at +100°.
+    pub fn grid(&self, joints: usize) -> impl Iterator<Item = Pose> + '_ {
         let n = self.0.len();
-        (0..self.grid_size()).map(move |index| {
+        (0..self.grid_size(joints).unwrap_or(0)).map(move |index| {
             let mut rest = index;
-            let mut q = [0.0; JOINTS];
+            let mut q = PerJoint::splat(joints, 0.0);
             for qi in q.iter_mut().rev() {
                 *qi = self.0[rest % n];
                 rest /= n;
@@ -161,22 +161,27 @@ pub enum LevelsError {
         degrees: f64,
     },
     /// The grid would be too large.
-    #[error("{count} levels make {count}^6 poses; expected at most {MAX_GRID_POSES} (10 levels)")]
+    #[error(
+        "{count} levels make {count}^{joints} poses for an arm of {joints} joints; expected at most {MAX_GRID_POSES}"
+    )]
     TooMany {
         /// The number of levels.
         count: usize,
+        /// The arm's joints.
+        joints: usize,
     },
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
 
     #[test]
     fn paper_grid_has_729_poses_with_stable_ids() {
         let levels: Levels = "-100,0,100".parse().unwrap();
         assert_eq!(levels, Levels::paper());
-        let poses: Vec<Pose> = levels.grid().collect();
+        let poses: Vec<Pose> = levels.grid(6).collect();
         assert_eq!(poses.len(), 729);
         let h = 100f64.to_radians();
         assert_eq!(poses[0].q, [-h; JOINTS]);
@@ -192,7 +197,7 @@ mod tests {
     fn a_count_gives_an_even_grid() {
         let levels: Levels = "5".parse().unwrap();
         assert_eq!(levels.to_string(), "-100,-50,0,50,100");
-        assert_eq!(levels.grid_size(), 15625);
+        assert_eq!(levels.grid_size(6), Ok(15625));
         assert_eq!("2".parse::<Levels>().unwrap().to_string(), "-100,100");
         assert_eq!(
             " 0, -45 ,45".parse::<Levels>().unwrap().to_string(),

@@ -213,6 +213,9 @@ pub enum PlanError {
     /// The nominal arm has a NaN or infinite number.
     #[error("the nominal arm has a non-finite number")]
     NominalNotFinite,
+    /// The grid of these levels is too large for the arm.
+    #[error("planner setting `levels`")]
+    Levels(#[from] LevelsError),
 }
 
 impl PlanConfig {
@@ -284,9 +287,13 @@ fn placed(
     if !arm.is_finite() {
         return Err(PlanError::NominalNotFinite);
     }
+    config.levels.grid_size(arm.joints.len())?;
     let bodies = match &config.bodies {
         Some(b) => b.clone(),
-        None => BodySet::skeleton(&chain.frames(&[0.0; model::JOINTS], 0.0), None),
+        None => BodySet::skeleton(
+            &chain.frames(&model::PerJoint::splat(arm.joints.len(), 0.0), 0.0),
+            None,
+        ),
     };
     Ok(PlanConfig {
         bodies: Some(bodies),
@@ -318,11 +325,11 @@ pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, Pla
     let placed = placed(arm, &chain, config)?;
     let config = &placed;
     let mut report = PlanReport {
-        grid_size: config.levels.grid_size(),
+        grid_size: config.levels.grid_size(arm.joints.len())?,
         kept: Vec::new(),
         dropped: Vec::new(),
     };
-    for pose in config.levels.grid() {
+    for pose in config.levels.grid(arm.joints.len()) {
         match check_pose(arm, &chain, config, &pose.q) {
             None => report.kept.push(pose),
             Some(reason) => report.dropped.push(Dropped { pose, reason }),
@@ -345,7 +352,7 @@ fn check_pose(
     arm: &Arm<f64>,
     chain: &model::Chain<f64>,
     config: &PlanConfig,
-    q: &[f64; model::JOINTS],
+    q: &[f64],
 ) -> Option<DropReason> {
     if !arm.within_limits(q) {
         // Name the first joint out of its (inclusive) limits.

@@ -11,7 +11,7 @@ use rand_chacha::ChaCha8Rng;
 
 use super::{PlanConfig, check_pose};
 use lrmcal_core::dataset::Pose;
-use model::{Arm, JOINTS};
+use model::{Arm, PerJoint};
 
 /// Half the span of the angles drawn, degrees: the tuned range of the curves.
 pub const RANGE_DEG: f64 = 100.0;
@@ -37,7 +37,7 @@ pub(super) fn random_poses(
         if out.len() == count {
             break;
         }
-        let q: [f64; JOINTS] = std::array::from_fn(|j| {
+        let q = PerJoint::from_fn(arm.joints.len(), |j| {
             let [lo, hi] = arm.joints[j].limits;
             rng.random_range(lo.max(-span)..=hi.min(span))
         });

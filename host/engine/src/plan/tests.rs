@@ -3,7 +3,7 @@
 use super::*;
 use crate::sim::test_support::bundled_arm;
 use lrmcal_core::collision::{Body, BodySpec, FrameRef, PointSpec, Shape, ShapeSpec};
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 
 fn deg(q: [f64; JOINTS]) -> [f64; JOINTS] {
     q.map(f64::to_radians)
@@ -75,7 +75,7 @@ fn skeleton_yardstick_kept(arm: &Arm<f64>) -> usize {
     let chain = arm.chain();
     let id = nalgebra::Isometry3::identity();
     Levels::paper()
-        .grid()
+        .grid(6)
         .filter(|pose| {
             let f = chain.frames(&pose.q, 0.0);
             let mut points: Vec<_> = f.frames.iter().map(|fr| fr.translation.vector).collect();

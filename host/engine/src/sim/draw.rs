@@ -4,7 +4,8 @@
 //! order, and only then scaled by it: switching an effect off (or changing its
 //! size) never changes the geometry drawn for the same seed.
 
-use model::{Arm, JOINTS, PARAM_COUNT, ParamId, params::ParamKind};
+use model::params::{ParamKind, ParamPart};
+use model::{Arm, ParamId};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
@@ -30,12 +31,12 @@ pub struct TrueArm {
     pub nominal: Arm<f64>,
     /// The true arm in the model's terms: `nominal.with_errors(all, errors)`.
     pub arm: Arm<f64>,
-    /// The 43 true errors (true minus nominal), in [`ParamId::all`] order.
-    pub errors: [f64; PARAM_COUNT],
+    /// The true errors (true minus nominal), in [`ParamId::of`] order.
+    pub errors: Vec<f64>,
     /// Each servo's smooth angle error (zero amplitude when switched off).
-    pub servo_errors: [ServoError; JOINTS],
+    pub servo_errors: Vec<ServoError>,
     /// Each joint's half width of direction-dependent play, rad (0 when off).
-    pub backlash_half_rad: [f64; JOINTS],
+    pub backlash_half_rad: Vec<f64>,
 }
 
 impl TrueArm {
@@ -52,43 +53,51 @@ impl TrueArm {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(DRAW_STREAM);
 
-        let errors: [f64; PARAM_COUNT] = core::array::from_fn(|i| {
-            let id = ParamId::from_index(i).expect("index below PARAM_COUNT");
-            let normal: f64 = rng.sample(StandardNormal);
-            let unit: f64 = rng.random();
-            let dh = i < 4 * JOINTS;
-            match id.kind() {
-                ParamKind::Length if dh => normal * config.dh_length_sigma_m,
-                ParamKind::Length => normal * config.frame_length_sigma_m,
-                ParamKind::Angle if dh => normal * config.dh_angle_sigma_rad,
-                ParamKind::Angle => normal * config.frame_angle_sigma_rad,
-                ParamKind::Compliance => {
-                    let range = if id.name() == "k0" {
-                        config.base_compliance
-                    } else {
-                        config.joint_compliance
-                    };
-                    log_uniform(range, unit) - id.value(nominal)
+        let ids: Vec<ParamId> = ParamId::of(nominal).collect();
+        let joints = nominal.joints.len();
+        let errors: Vec<f64> = ids
+            .iter()
+            .map(|&id| {
+                let normal: f64 = rng.sample(StandardNormal);
+                let unit: f64 = rng.random();
+                let dh = matches!(id.part(), ParamPart::Dh { .. });
+                match id.kind() {
+                    ParamKind::Length if dh => normal * config.dh_length_sigma_m,
+                    ParamKind::Length => normal * config.frame_length_sigma_m,
+                    ParamKind::Angle if dh => normal * config.dh_angle_sigma_rad,
+                    ParamKind::Angle => normal * config.frame_angle_sigma_rad,
+                    ParamKind::Compliance => {
+                        let range = if id.name() == "k0" {
+                            config.base_compliance
+                        } else {
+                            config.joint_compliance
+                        };
+                        log_uniform(range, unit) - id.value(nominal)
+                    }
                 }
-            }
-        });
+            })
+            .collect();
 
-        let mut servo_errors: [ServoError; JOINTS] = core::array::from_fn(|_| {
-            let (u, v, w, phase): (f64, f64, f64, f64) =
-                (rng.random(), rng.random(), rng.random(), rng.random());
-            let amplitude = config.servo_error_rad;
-            ServoError {
-                sine_rad: amplitude * (0.5 + 0.5 * u),
-                omega: 1.5 + 1.5 * w,
-                phase_rad: std::f64::consts::TAU * phase,
-                cubic_rad: amplitude * (v - 0.5),
-                harmonics: [Harmonic::default(); 2],
-            }
-        });
-        let backlash_half_rad = core::array::from_fn(|_| {
-            let u: f64 = rng.random();
-            0.5 * config.backlash_rad * (0.5 + u)
-        });
+        let mut servo_errors: Vec<ServoError> = (0..joints)
+            .map(|_| {
+                let (u, v, w, phase): (f64, f64, f64, f64) =
+                    (rng.random(), rng.random(), rng.random(), rng.random());
+                let amplitude = config.servo_error_rad;
+                ServoError {
+                    sine_rad: amplitude * (0.5 + 0.5 * u),
+                    omega: 1.5 + 1.5 * w,
+                    phase_rad: std::f64::consts::TAU * phase,
+                    cubic_rad: amplitude * (v - 0.5),
+                    harmonics: [Harmonic::default(); 2],
+                }
+            })
+            .collect();
+        let backlash_half_rad = (0..joints)
+            .map(|_| {
+                let u: f64 = rng.random();
+                0.5 * config.backlash_rad * (0.5 + u)
+            })
+            .collect();
         // Drawn last, so everything drawn before them is what it always was.
         for servo in &mut servo_errors {
             let (u2, u3, phase2, phase3): (f64, f64, f64, f64) =
@@ -105,11 +114,13 @@ impl TrueArm {
             }
         }
 
-        let ids: Vec<ParamId> = ParamId::all().collect();
         let arm = nominal.with_errors(&ids, &errors);
         // `with_errors` clamps compliances at 0; recompute so `errors` stays exactly true - nominal.
-        let (truth, nominal_values) = (arm.param_values(), nominal.param_values());
-        let errors = core::array::from_fn(|i| truth[i] - nominal_values[i]);
+        let errors = arm
+            .param_values()
+            .zip(nominal.param_values())
+            .map(|(truth, nominal)| truth - nominal)
+            .collect();
         Ok(Self {
             seed,
             config: *config,
@@ -121,9 +132,9 @@ impl TrueArm {
         })
     }
 
-    /// The 43 true errors with their stable names, in [`ParamId::all`] order.
+    /// The true errors with their stable names, in [`ParamId::of`] order.
     pub fn named_errors(&self) -> impl Iterator<Item = (ParamId, f64)> + '_ {
-        ParamId::all().zip(self.errors)
+        ParamId::of(&self.nominal).zip(self.errors.iter().copied())
     }
 }
 
@@ -197,9 +208,8 @@ mod tests {
         let config = SimConfig::default();
         for seed in 0..20 {
             let t = TrueArm::draw(&nominal, seed, &config).unwrap();
-            let (truth, nom) = (t.arm.param_values(), nominal.param_values());
             for (id, e) in t.named_errors() {
-                assert_eq!(truth[id.index()] - nom[id.index()], e, "{id}");
+                assert_eq!(id.value(&t.arm) - id.value(&nominal), e, "{id}");
             }
             for j in &t.arm.joints {
                 assert!((0.05..=0.2).contains(&j.compliance), "{}", j.compliance);

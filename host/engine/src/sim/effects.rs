@@ -7,7 +7,7 @@
 //! model's own deflection with compliances that depend on the torques the
 //! model computes. No kinematics is written here.
 
-use model::{Arm, Deflection, DeflectionError, JOINTS, SolverOptions};
+use model::{Arm, Deflection, DeflectionError, SolverOptions};
 use serde::{Deserialize, Serialize};
 
 /// Which shape the simulator gives each servo's smooth angle error
@@ -135,7 +135,7 @@ const SPRING_MAX_ITERATIONS: u32 = 100;
 /// [`spring_deflection`].
 pub fn softened_deflection(
     arm: &Arm<f64>,
-    q: &[f64; JOINTS],
+    q: &[f64],
     payload_kg: f64,
     softening_per_nm: f64,
 ) -> Result<(Deflection<f64>, Arm<f64>), DeflectionError> {
@@ -161,7 +161,7 @@ pub fn softened_deflection(
 /// for every joint and the base tilt likewise.
 pub fn spring_deflection(
     arm: &Arm<f64>,
-    q: &[f64; JOINTS],
+    q: &[f64],
     payload_kg: f64,
     spring: Spring,
 ) -> Result<(Deflection<f64>, Arm<f64>), DeflectionError> {
@@ -203,6 +203,7 @@ pub fn spring_deflection(
 mod tests {
     use super::*;
     use crate::sim::test_support::bundled_arm;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
 
     #[test]
     fn servo_error_is_not_piecewise_linear() {

@@ -12,7 +12,7 @@
 
 use std::collections::HashSet;
 
-use model::{JOINTS, SolverOptions};
+use model::{PerJoint, SolverOptions};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -35,8 +35,8 @@ pub struct Simulation {
 impl TrueArm {
     /// The angle each servo really drives to when commanded `q`, having
     /// arrived the way `approach` says, rad.
-    pub fn driven_angles(&self, q: &[f64; JOINTS], approach: &[Approach; JOINTS]) -> [f64; JOINTS] {
-        core::array::from_fn(|i| {
+    pub fn driven_angles(&self, q: &[f64], approach: &[Approach]) -> PerJoint<f64> {
+        PerJoint::from_fn(q.len(), |i| {
             settled(
                 q[i] + self.servo_errors[i].at(q[i]),
                 2.0 * self.backlash_half_rad[i],
@@ -50,7 +50,7 @@ impl TrueArm {
     /// stiffening off) this is exactly the model's prediction for the true arm.
     pub fn tool_point(
         &self,
-        driven: &[f64; JOINTS],
+        driven: &[f64],
         load_kg: f64,
     ) -> Result<Vector3<f64>, model::DeflectionError> {
         match self.config.spring() {

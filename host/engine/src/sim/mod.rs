@@ -110,7 +110,7 @@ pub(crate) mod test_support {
 mod tests {
     use super::*;
     use lrmcal_core::dataset::Pose;
-    use model::JOINTS;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
     use test_support::bundled_arm;
 
     fn grid_poses() -> Vec<Pose> {
@@ -120,7 +120,7 @@ mod tests {
             .step_by(7)
             .map(|id| {
                 let mut n = id;
-                let q = core::array::from_fn(|_| {
+                let q = model::PerJoint::from_fn(6, |_| {
                     let level = levels[(n % 3) as usize];
                     n /= 3;
                     level
@@ -319,16 +319,16 @@ mod tests {
         let truth = TrueArm::draw(&bundled_arm(), 4, &config).unwrap();
         let target = Pose {
             id: 0,
-            q: [0.2; JOINTS],
+            q: [0.2; JOINTS].into(),
         };
         let (below, above) = (
             Pose {
                 id: 1,
-                q: [-0.5; JOINTS],
+                q: [-0.5; JOINTS].into(),
             },
             Pose {
                 id: 2,
-                q: [0.9; JOINTS],
+                q: [0.9; JOINTS].into(),
             },
         );
         let from_below = truth.measure(&[below, target], &[0.0]).unwrap()[1];
@@ -349,7 +349,7 @@ mod tests {
         let truth = TrueArm::draw(&bundled_arm(), 1, &SimConfig::default()).unwrap();
         let p = Pose {
             id: 4,
-            q: [0.0; JOINTS],
+            q: [0.0; JOINTS].into(),
         };
         let err = truth.measure(&[p, p], &[0.0]).unwrap_err();
         assert_eq!(err, SimError::DuplicatePose { pose: 4 });
@@ -359,7 +359,7 @@ mod tests {
         assert!(err.contains("only once"), "{err}");
         let nan = Pose {
             id: 9,
-            q: [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0],
+            q: [0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0].into(),
         };
         assert_eq!(
             truth.measure(&[nan], &[0.0]).unwrap_err(),
@@ -378,7 +378,7 @@ mod tests {
             .measure(
                 &[Pose {
                     id: 17,
-                    q: [0.0, 1.5, 0.0, 0.0, 0.0, 0.0],
+                    q: [0.0, 1.5, 0.0, 0.0, 0.0, 0.0].into(),
                 }],
                 &[1.0],
             )

@@ -34,9 +34,9 @@
 use std::time::Duration;
 
 use firmware::{CHANNELS, Config};
-use model::{Arm, JOINTS};
+use model::{Arm, PerJoint};
 use nalgebra::Vector3;
-use protocol::{Calibration, CompensationMode, Faults, Timing};
+use protocol::{Calibration, CompensationMode, Faults, PerChannel, Timing};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -61,6 +61,12 @@ const SAMPLES_PER_TARGET: usize = 50;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum PositioningError {
+    /// The board drives at most [`CHANNELS`] joints.
+    #[error("an arm of {joints} joints: the board drives arms of up to {CHANNELS} joints")]
+    TooManyJoints {
+        /// The arm's joints.
+        joints: usize,
+    },
     /// Too few clear, reachable targets were found.
     #[error("found {found} of {wanted} clear, reachable targets in {tries} random poses")]
     Targets {
@@ -122,7 +128,7 @@ pub struct Target {
     pub point_m: Vector3<f64>,
     /// The nominal arm's joint targets for it, one per board (in the order
     /// of the boards), each nearest that board's previous target's, rad.
-    pub q: Vec<[f64; JOINTS]>,
+    pub q: Vec<PerJoint<f64>>,
 }
 
 /// The targets of a comparison, and how many random tool points were left
@@ -150,6 +156,11 @@ pub fn targets(
     boards: &[(String, Option<Calibration>)],
     payload_kg: f64,
 ) -> Result<Targets, PositioningError> {
+    if nominal.joints.len() > CHANNELS {
+        return Err(PositioningError::TooManyJoints {
+            joints: nominal.joints.len(),
+        });
+    }
     let config = Config::default();
     let board =
         firmware::servo::joint_limits(None, config.hard_limits_rad, config.default_limits_rad);
@@ -175,13 +186,13 @@ pub fn targets(
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let mut found = Vec::with_capacity(count);
     let mut left_out = 0;
-    let mut from = vec![[0.0; JOINTS]; boards.len().max(1)];
+    let mut from = vec![PerJoint::splat(arm.joints.len(), 0.0); boards.len().max(1)];
     let tries = count * SAMPLES_PER_TARGET;
     for _ in 0..tries {
         if found.len() == count {
             break;
         }
-        let q: [f64; JOINTS] = std::array::from_fn(|i| {
+        let q = PerJoint::from_fn(arm.joints.len(), |i| {
             let [lo, hi] = arm.joints[i].limits;
             rng.random_range(lo..=hi)
         });
@@ -191,7 +202,7 @@ pub fn targets(
         let point_m = chain.rigid_tool_point(&q);
         let mut solved = Vec::with_capacity(from.len());
         for (b, start) in from.iter().enumerate() {
-            let admit = |q: &[f64; JOINTS]| match commanded.get(b).and_then(Option::as_ref) {
+            let admit = |q: &[f64]| match commanded.get(b).and_then(Option::as_ref) {
                 Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
                 None => Ok(()),
             };
@@ -248,14 +259,14 @@ fn board(
 struct TrueServos<'a> {
     truth: &'a TrueArm,
     /// Each joint's angle, rad; `None` until its servo got a pulse.
-    joints: [Option<f64>; JOINTS],
+    joints: PerJoint<Option<f64>>,
 }
 
 impl<'a> TrueServos<'a> {
     fn new(truth: &'a TrueArm) -> Self {
         Self {
             truth,
-            joints: [None; JOINTS],
+            joints: PerJoint::splat(truth.arm.joints.len(), None),
         }
     }
 
@@ -264,7 +275,8 @@ impl<'a> TrueServos<'a> {
     /// the play (at rest at start-up as if it had arrived rising, as
     /// [`super::approach_directions`] takes it).
     fn drive(&mut self, pulses: &[Option<u16>; CHANNELS]) {
-        for (i, pulse) in pulses.iter().enumerate() {
+        // The channels past the arm's last joint move nothing.
+        for (i, pulse) in pulses.iter().enumerate().take(self.joints.len()) {
             let Some(pulse) = pulse else { continue };
             let commanded = self.truth.arm.joints[i].servo.angle(f64::from(*pulse));
             let motor = commanded + self.truth.servo_errors[i].at(commanded);
@@ -312,8 +324,15 @@ pub fn errors(
     let mut fell_back = 0;
     let mut fallback_frames = 0;
     for (index, target) in targets.iter().enumerate() {
-        let q = target.q.get(board_index).copied().unwrap_or_default();
-        board.move_to(q.map(|q| q as f32), Timing::DurationMs(0))?;
+        let joints = truth.arm.joints.len();
+        let q = target
+            .q
+            .get(board_index)
+            .copied()
+            .unwrap_or_else(|| PerJoint::splat(joints, 0.0));
+        // The board drives at most CHANNELS joints; `targets` refuses longer arms.
+        let sent = PerChannel::from_fn(q.len().min(CHANNELS), |j| q[j] as f32);
+        board.move_to(sent, Timing::DurationMs(0))?;
         let mut frames = 0;
         let mut clamped_here = false;
         let status = loop {
@@ -411,13 +430,14 @@ pub fn demo_boards(
         let Some((_, file)) = calibrations.iter().find(|(o, _)| *o == option) else {
             continue;
         };
-        let calibration =
-            crate::device::calibration::payload(file, [0.0; JOINTS]).map_err(|fault| {
-                PositioningError::Calibration {
-                    label: label.clone(),
-                    fault,
-                }
-            })?;
+        let calibration = crate::device::calibration::payload(
+            file,
+            PerChannel::splat(file.arm.joints.len(), 0.0),
+        )
+        .map_err(|fault| PositioningError::Calibration {
+            label: label.clone(),
+            fault,
+        })?;
         boards.push((label, Some(calibration)));
     }
     Ok(boards)
@@ -490,7 +510,7 @@ mod tests {
             option: ModelOption::ElastoKinematic,
             nominal: nominal.map(|x| x as f32),
             calibrated: calibrated.map(|x| x as f32),
-            home_rad: [0.0; JOINTS],
+            home_rad: [0.0; 6].into(),
             max_correction_rad: crate::device::calibration::max_corrections(&nominal, &calibrated),
         })
         .unwrap();
@@ -525,7 +545,7 @@ mod tests {
         assert!(e.errors_m.iter().all(|&e| e < 2e-3), "{e:?}");
         assert_eq!((e.clamped, e.fell_back, e.fallback_frames), (0, 0, 0));
         // Play of a few degrees, uncompensated, throws the tool by millimetres.
-        exact.backlash_half_rad = [1.5f64.to_radians(); JOINTS];
+        exact.backlash_half_rad = vec![1.5f64.to_radians(); 6];
         let played = errors(&exact, &t, 0, None, 0.0).unwrap();
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         assert!(

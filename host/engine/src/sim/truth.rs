@@ -5,7 +5,7 @@ use serde::Serialize;
 use serde::ser::SerializeMap;
 
 use super::{ServoError, SimConfig, TrueArm};
-use model::{Arm, JOINTS, ParamId};
+use model::{Arm, ParamId};
 
 /// Version of the truth file's layout; bumped on any change a reader would notice.
 /// 2: servo curves as knots (`angles_rad`, `pulses_us`) inside the arms.
@@ -18,15 +18,15 @@ struct TruthFile<'a> {
     units: &'static str,
     seed: u64,
     config: &'a SimConfig,
-    /// True minus nominal, by stable parameter name, in `ParamId::all` order.
+    /// True minus nominal, by stable parameter name, in `ParamId::of` order.
     errors: NamedErrors<'a>,
     true_arm: &'a Arm<f64>,
     nominal_arm: &'a Arm<f64>,
-    servo_errors: &'a [ServoError; JOINTS],
-    backlash_half_rad: &'a [f64; JOINTS],
+    servo_errors: &'a [ServoError],
+    backlash_half_rad: &'a [f64],
 }
 
-/// The 43 errors as a JSON object whose keys keep the parameters' order.
+/// The errors as a JSON object whose keys keep the parameters' order.
 struct NamedErrors<'a>(&'a TrueArm);
 
 impl Serialize for NamedErrors<'_> {

@@ -29,7 +29,7 @@ use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use crate::progress::Meter;
 use joints::Reached;
-use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_core::dataset::{Measurement, Pose, from_home};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::tracker::listen::{self, Listener};
@@ -312,7 +312,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             load_kg,
             position,
             target: None,
-            approach: FROM_HOME,
+            approach: from_home(pose.q.len()),
         });
         measurements::write(out, &done)?;
         measured += 1;
@@ -399,7 +399,7 @@ fn seconds(s: f64) -> Duration {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use model::JOINTS;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
     use nalgebra::Vector3;
 
     #[test]
@@ -421,7 +421,7 @@ mod tests {
     fn resuming_skips_recorded_pose_and_load_pairs() {
         let pose = |id| Pose {
             id,
-            q: [0.0; JOINTS],
+            q: [0.0; JOINTS].into(),
         };
         let poses = vec![(pose(1), 0.0), (pose(2), 0.0), (pose(1), 0.0663)];
         let done = vec![Measurement {
@@ -429,7 +429,7 @@ mod tests {
             load_kg: 0.0,
             position: Vector3::zeros(),
             target: None,
-            approach: FROM_HOME,
+            approach: from_home(JOINTS),
         }];
         let left: Vec<(u32, f64)> = remaining(&poses, &done)
             .iter()

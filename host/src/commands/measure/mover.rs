@@ -54,7 +54,9 @@ impl Mover {
                     client.set_payload(load_kg as f32)?;
                     *load_now = Some(load_kg);
                 }
-                client.move_to(pose.q.map(|q| q as f32), protocol::Timing::DurationMs(0))?;
+                let joints = pose.q.len().min(protocol::CHANNELS);
+                let targets = protocol::PerChannel::from_fn(joints, |j| pose.q[j] as f32);
+                client.move_to(targets, protocol::Timing::DurationMs(0))?;
                 client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
                 std::thread::sleep(Duration::from_millis(settle_ms));
                 Ok(())

@@ -5,7 +5,7 @@
 use std::ops::Range;
 
 use model::servo::{CurveFault, MAX_KNOTS, PULSE_RANGE_US};
-use model::{Arm, Frame, JOINTS, ServoCurve};
+use model::{Arm, Frame, MAX_JOINTS, PerJoint, ServoCurve};
 use toml::{Spanned, Value};
 
 use super::raw::*;
@@ -472,7 +472,7 @@ impl RawArm {
     pub(super) fn check(self, lines: &LineIndex) -> Result<ArmDescription, InputError> {
         let c = Checker { lines };
         let raw_joints = self.joint.get_ref();
-        if raw_joints.len() != JOINTS {
+        if !(1..=MAX_JOINTS).contains(&raw_joints.len()) {
             return Err(c.fail(
                 "joint",
                 self.joint.span(),
@@ -481,7 +481,7 @@ impl RawArm {
                 },
             ));
         }
-        let mut joints = Vec::with_capacity(JOINTS);
+        let mut joints = Vec::with_capacity(raw_joints.len());
         for (i, raw) in raw_joints.iter().enumerate() {
             joints.push(c.joint(&format!("joint[{}]", i + 1), raw)?);
         }
@@ -500,7 +500,7 @@ impl RawArm {
                 Some(kg) => c.non_negative("payload.rated_kg", kg, "a payload >= 0 kg")?,
                 None => 0.0,
             },
-            joints: joints.try_into().expect("length checked above"),
+            joints: PerJoint::from_slice(&joints).expect("length checked above"),
         };
         // The nominal compliances within the physical bounds (`model::bounds`).
         let bounds = model::bounds::Bounds::of(&arm);
@@ -519,7 +519,7 @@ impl RawArm {
                 crate::io::bounds::problem(&v, &bounds, arm.rated_payload_kg),
             ));
         }
-        let joint_names = std::array::from_fn(|i| raw_joints[i].name.clone());
+        let joint_names = raw_joints.iter().map(|r| r.name.clone()).collect();
         let collision = c.collision(self.collision.as_ref(), &self.body)?;
         // Names, links and pairs are only known on the arm: place the bodies once to check them.
         BodySet::for_arm(&arm, &collision)

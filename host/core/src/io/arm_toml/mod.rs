@@ -20,7 +20,7 @@
 use std::ops::Range;
 use std::path::Path;
 
-use model::{Arm, JOINTS, ServoCurve};
+use model::{Arm, ServoCurve};
 
 use crate::collision::CollisionSpec;
 use crate::error::{Error, Field, InputError, Location, Problem};
@@ -37,7 +37,7 @@ pub struct ArmDescription {
     /// The arm's name (`name` key).
     pub name: String,
     /// The joints' names, base to tip (`joint[i].name`).
-    pub joint_names: [String; JOINTS],
+    pub joint_names: Vec<String>,
     /// The arm's parameters; a joint without a `servo` table has [`no_servo`].
     pub arm: Arm<f64>,
     /// The bodies, floor and clearance the planner tests (`[collision]`, `[[body]]`).

@@ -413,13 +413,13 @@ impl<'a> Structures<'a> {
             return Ok(kept.clone());
         }
         let grid: Vec<Sample> = crate::plan::Levels::paper()
-            .grid()
+            .grid(self.nominal.joints.len())
             .map(|p| Sample {
                 id: p.id,
                 q: p.q,
                 load_kg: self.load_kg,
                 target: 0,
-                approach: lrmcal_core::dataset::FROM_HOME,
+                approach: lrmcal_core::dataset::from_home(p.q.len()),
             })
             .collect();
         let kept = analyse(self.nominal, option, spacing, &grid)?.kept;
@@ -516,13 +516,13 @@ mod tests {
         );
         assert!(e.to_string().contains("undetermined"), "{e}");
         let grid: Vec<Sample> = crate::plan::Levels::paper()
-            .grid()
+            .grid(6)
             .map(|p| Sample {
                 id: p.id,
                 q: p.q,
                 load_kg: 0.0663,
                 target: 0,
-                approach: lrmcal_core::dataset::FROM_HOME,
+                approach: lrmcal_core::dataset::from_home(6),
             })
             .collect();
         let all = analyse(&nominal, ModelOption::Elastic, KnotSpacing::FINEST, &grid).unwrap();

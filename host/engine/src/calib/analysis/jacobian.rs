@@ -37,9 +37,9 @@
 //! The test module checks every column against central differences of the
 //! model itself.
 
-use model::params::ParamKind;
-use model::{JOINTS, SolverOptions};
-use nalgebra::{DMatrix, IsometryMatrix3, Matrix3x6, Matrix3xX, SMatrix, Vector3};
+use model::params::{ParamKind, ParamPart};
+use model::{PerFrame, SolverOptions};
+use nalgebra::{DMatrix, DVector, IsometryMatrix3, Matrix3xX, Vector3};
 use rayon::prelude::*;
 
 use crate::calib::parameters::joint_columns;
@@ -48,14 +48,8 @@ use crate::calib::parameters::servo_knots::fit_start;
 use crate::calib::parameters::targets::{chain_of, deflection_error, target_chains};
 use crate::calib::{CalibError, Rig, Sample};
 
-/// The deflected state's seven coordinates: the six joint angles, then the base tilt.
-const STATE: usize = JOINTS + 1;
-
 /// Samples per share of the work on another core (a few ms of it).
 const PARALLEL_CHUNK: usize = 1024;
-
-/// Bodies that carry weight: links 1..6, then the payload (index 7).
-const PAYLOAD: usize = JOINTS + 1;
 
 /// The exact slopes of the measured points of a set of samples.
 #[derive(Clone, Debug, PartialEq)]
@@ -63,9 +57,9 @@ pub struct Slopes {
     /// `3 n × m`: rows `3k..3k+3` for sample `k` (x y z), a column per key
     /// asked for, m per unit of the key.
     pub params: DMatrix<f64>,
-    /// Per sample, the measured point's derivative with respect to the six
-    /// commanded joint angles, the deflection included, m/rad.
-    pub joints: Vec<Matrix3x6<f64>>,
+    /// Per sample, the measured point's derivative with respect to the
+    /// commanded joint angles (`3 × n`), the deflection included, m/rad.
+    pub joints: Vec<Matrix3xX<f64>>,
 }
 
 /// The `3 n × m` Jacobian of the measured points of `samples` (rows `3k..3k+3`
@@ -87,7 +81,7 @@ pub fn slopes(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Result<Slopes,
     // Servo-knot keys move the curves on their grid (the same map).
     let rig = &fit_start(rig, ids);
     let chains = target_chains(rig);
-    let per_sample: Vec<(Matrix3xX<f64>, Matrix3x6<f64>)> = samples
+    let per_sample: Vec<(Matrix3xX<f64>, Matrix3xX<f64>)> = samples
         .par_iter()
         .with_min_len(PARALLEL_CHUNK)
         .map(|s| pose_slopes(rig, chain_of(&chains, s)?, ids, s))
@@ -109,8 +103,8 @@ struct Twist {
     w: Vector3<f64>,
     /// Velocity of the point at the world origin, m per unit.
     v: Vector3<f64>,
-    /// Frames `from..=6` and bodies `max(from, 1)..` move; [`PAYLOAD`]: the
-    /// payload alone (a tool frame parameter).
+    /// Frames `from..=n` and bodies `max(from, 1)..` move; `n + 1`
+    /// ([`State::payload`]): the payload alone (a tool frame parameter).
     from: usize,
 }
 
@@ -152,68 +146,82 @@ fn rpy_axes([_, pitch, yaw]: [f64; 3]) -> [Vector3<f64>; 3] {
 }
 
 /// One deflected state as the derivatives see it, world frame.
+///
+/// Its `n + 1` coordinates are the `n` joint angles, then the base tilt;
+/// the bodies that carry weight are links `1..=n`, then the payload (`n + 1`).
 struct State {
-    /// Frames 0 (tilted base) ..= 6.
-    frames: [IsometryMatrix3<f64>; JOINTS + 1],
+    /// The arm's joints, n.
+    joints: usize,
+    /// Frames 0 (tilted base) ..= n.
+    frames: PerFrame<IsometryMatrix3<f64>>,
     /// Gravity, m/s².
     gravity: Vector3<f64>,
     /// Axis and origin of each state coordinate's torque: joint `i + 1`
     /// about `z(i)` through `o(i)`, then the base tilt about `y(0)` through `o(0)`.
-    axes: [(Vector3<f64>, Vector3<f64>); STATE],
-    /// `M_s`: mass of bodies `s..=7` (index 0 unused, 8 none), kg.
-    mass: [f64; PAYLOAD + 2],
-    /// `C_s`: `Σ m c` over bodies `s..=7`, world, kg·m.
-    moment: [Vector3<f64>; PAYLOAD + 2],
-    /// The compliances in state order (`k1..k6`, `k0`), rad/Nm.
-    compliance: [f64; STATE],
+    axes: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// `M_s`: mass of bodies `s..=n+1` (index 0 unused, n + 2 none), kg.
+    mass: Vec<f64>,
+    /// `C_s`: `Σ m c` over bodies `s..=n+1`, world, kg·m.
+    moment: Vec<Vector3<f64>>,
+    /// The compliances in state order (`k1..kn`, `k0`), rad/Nm.
+    compliance: Vec<f64>,
     /// The springs' softenings in state order, 1/Nm.
-    softening: [f64; STATE],
+    softening: Vec<f64>,
     /// The springs' rates at their torques, `k (1 + 2 s |τ|)`, rad/Nm.
-    rate: [f64; STATE],
+    rate: Vec<f64>,
 }
 
 impl State {
     fn new(
         chain: &model::Chain<f64>,
         rig: &Rig,
-        frames: [IsometryMatrix3<f64>; 7],
+        frames: PerFrame<IsometryMatrix3<f64>>,
         load: f64,
     ) -> Self {
-        let mut mass = [0.0; PAYLOAD + 2];
-        let mut moment = [Vector3::zeros(); PAYLOAD + 2];
-        let last = &frames[JOINTS];
-        mass[PAYLOAD] = load;
-        moment[PAYLOAD] = (last.rotation * chain.payload_com + last.translation.vector) * load;
-        for j in (1..=JOINTS).rev() {
+        let n = frames.len() - 1;
+        let payload = n + 1;
+        let mut mass = vec![0.0; n + 3];
+        let mut moment = vec![Vector3::zeros(); n + 3];
+        let last = &frames[n];
+        mass[payload] = load;
+        moment[payload] = (last.rotation * chain.payload_com + last.translation.vector) * load;
+        for j in (1..=n).rev() {
             let link = &chain.links[j - 1];
             let f = &frames[j];
             mass[j] = mass[j + 1] + link.mass;
             moment[j] =
                 moment[j + 1] + f.rotation * link.mass_com + f.translation.vector * link.mass;
         }
-        let axes = std::array::from_fn(|e| {
-            let (frame, column) = if e < JOINTS { (e, 2) } else { (0, 1) };
-            let f = &frames[frame];
-            (
-                f.rotation.matrix().column(column).into_owned(),
-                f.translation.vector,
-            )
-        });
-        let compliance = std::array::from_fn(|e| {
-            if e < JOINTS {
-                chain.links[e].compliance
-            } else {
-                chain.base_compliance
-            }
-        });
-        let softening = std::array::from_fn(|e| {
-            if e < JOINTS {
-                chain.links[e].softening
-            } else {
-                chain.base_softening
-            }
-        });
+        let axes = (0..=n)
+            .map(|e| {
+                let (frame, column) = if e < n { (e, 2) } else { (0, 1) };
+                let f = &frames[frame];
+                (
+                    f.rotation.matrix().column(column).into_owned(),
+                    f.translation.vector,
+                )
+            })
+            .collect();
+        let compliance: Vec<f64> = (0..=n)
+            .map(|e| {
+                if e < n {
+                    chain.links[e].compliance
+                } else {
+                    chain.base_compliance
+                }
+            })
+            .collect();
+        let softening: Vec<f64> = (0..=n)
+            .map(|e| {
+                if e < n {
+                    chain.links[e].softening
+                } else {
+                    chain.base_softening
+                }
+            })
+            .collect();
         let mut state = Self {
+            joints: n,
             frames,
             gravity: rig.arm.gravity_vector(),
             axes,
@@ -221,45 +229,55 @@ impl State {
             moment,
             compliance,
             softening,
-            rate: compliance,
+            rate: Vec::new(),
         };
         let tau = state.torques();
-        state.rate =
-            std::array::from_fn(|e| compliance[e] * (1.0 + 2.0 * softening[e] * tau[e].abs()));
+        state.rate = (0..=n)
+            .map(|e| state.compliance[e] * (1.0 + 2.0 * state.softening[e] * tau[e].abs()))
+            .collect();
         state
+    }
+
+    /// The index of the payload among the bodies, n + 1.
+    fn payload(&self) -> usize {
+        self.joints + 1
     }
 
     /// The bodies whose weight loads state coordinate `e`'s torque, from
     /// the first, and the frame its axis is fixed in.
-    fn reach(e: usize) -> (usize, usize) {
-        if e < JOINTS { (e + 1, e) } else { (1, 0) }
+    fn reach(&self, e: usize) -> (usize, usize) {
+        if e < self.joints { (e + 1, e) } else { (1, 0) }
     }
 
     /// The gravity torques in state order, Nm.
-    fn torques(&self) -> [f64; STATE] {
-        std::array::from_fn(|e| {
-            let (first, _) = Self::reach(e);
-            let (axis, origin) = &self.axes[e];
-            let r = self.moment[first] - origin * self.mass[first];
-            axis.dot(&r.cross(&self.gravity))
-        })
+    fn torques(&self) -> Vec<f64> {
+        (0..=self.joints)
+            .map(|e| {
+                let (first, _) = self.reach(e);
+                let (axis, origin) = &self.axes[e];
+                let r = self.moment[first] - origin * self.mass[first];
+                axis.dot(&r.cross(&self.gravity))
+            })
+            .collect()
     }
 
     /// How the torques change under `t` (module docs).
-    fn torque_slopes(&self, t: &Twist) -> [f64; STATE] {
+    fn torque_slopes(&self, t: &Twist) -> Vec<f64> {
         let turned_gravity = t.w.cross(&self.gravity);
-        std::array::from_fn(|e| {
-            let (first, axis_frame) = Self::reach(e);
-            let (axis, origin) = &self.axes[e];
-            if t.from <= axis_frame {
-                let r = self.moment[first] - origin * self.mass[first];
-                -axis.dot(&r.cross(&turned_gravity))
-            } else {
-                let from = t.from.max(first);
-                let moved = t.w.cross(&self.moment[from]) + t.v * self.mass[from];
-                axis.dot(&moved.cross(&self.gravity))
-            }
-        })
+        (0..=self.joints)
+            .map(|e| {
+                let (first, axis_frame) = self.reach(e);
+                let (axis, origin) = &self.axes[e];
+                if t.from <= axis_frame {
+                    let r = self.moment[first] - origin * self.mass[first];
+                    -axis.dot(&r.cross(&turned_gravity))
+                } else {
+                    let from = t.from.max(first);
+                    let moved = t.w.cross(&self.moment[from]) + t.v * self.mass[from];
+                    axis.dot(&moved.cross(&self.gravity))
+                }
+            })
+            .collect()
     }
 
     /// Whether nothing yields: the deflection does not respond to anything.
@@ -271,7 +289,7 @@ impl State {
     /// its axis, the base tilts about `y(0)`.
     fn state_twist(&self, e: usize) -> Twist {
         let (axis, origin) = &self.axes[e];
-        Twist::about(*axis, origin, if e < JOINTS { e + 1 } else { 0 })
+        Twist::about(*axis, origin, if e < self.joints { e + 1 } else { 0 })
     }
 }
 
@@ -282,7 +300,7 @@ fn pose_slopes(
     chain: &model::Chain<f64>,
     ids: &[ParamKey],
     sample: &Sample,
-) -> Result<(Matrix3xX<f64>, Matrix3x6<f64>), CalibError> {
+) -> Result<(Matrix3xX<f64>, Matrix3xX<f64>), CalibError> {
     let d = chain
         .deflect(
             &rig.standing_angles(sample),
@@ -292,15 +310,16 @@ fn pose_slopes(
         .map_err(|e| deflection_error(sample, e.to_string()))?;
     let point = d.tool_point();
     let state = State::new(chain, rig, d.frames.frames, sample.load_kg);
-    let twists: [Twist; STATE] = std::array::from_fn(|e| state.state_twist(e));
+    let n = state.joints;
+    let twists: Vec<Twist> = (0..=n).map(|e| state.state_twist(e)).collect();
     // P: how the point moves per unit of each state coordinate.
-    let p = SMatrix::<f64, 3, STATE>::from_fn(|r, e| twists[e].velocity(&point)[r]);
+    let p = Matrix3xX::from_fn(n + 1, |r, e| twists[e].velocity(&point)[r]);
     // W = P (I − D ∂T/∂s)⁻¹ carries a change of the state's right-hand side
     // to the point.
     let w = if state.rigid() {
         p
     } else {
-        let mut h = SMatrix::<f64, STATE, STATE>::identity();
+        let mut h = DMatrix::<f64>::identity(n + 1, n + 1);
         for (e, t) in twists.iter().enumerate() {
             for (row, slope) in state.torque_slopes(t).iter().enumerate() {
                 h[(row, e)] -= state.rate[row] * slope;
@@ -316,45 +335,46 @@ fn pose_slopes(
         wt.transpose()
     };
     let torques = state.torques();
-    let frame6 = &state.frames[JOINTS];
-    let in_frame6 = |axis: usize| frame6.rotation.matrix().column(axis).into_owned();
+    let last = &state.frames[n];
+    let in_last = |axis: usize| last.rotation.matrix().column(axis).into_owned();
     let mut out = Matrix3xX::zeros(ids.len());
     for (col, id) in ids.iter().enumerate() {
         let slope = match *id {
             ParamKey::Arm(pid) => {
-                let i = pid.index();
+                let part = pid.part();
                 match pid.kind() {
                     ParamKind::Compliance => {
-                        // k1..k6 then k0, as the state.
-                        let e = i - 36;
+                        // k1..kn then k0, as the state.
+                        let e = match part {
+                            ParamPart::Compliance { joint } => joint,
+                            _ => n,
+                        };
                         w.column(e) * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
                     }
                     ParamKind::Length | ParamKind::Angle => {
-                        let (twist, direct) = arm_twist(rig, &state, i, sample.target);
+                        let (twist, direct) = arm_twist(rig, &state, part, sample.target);
                         let direct = direct.unwrap_or_else(|| twist.velocity(&point));
                         if state.rigid() {
                             direct
                         } else {
                             let dt = state.torque_slopes(&twist);
-                            let rhs = nalgebra::SVector::<f64, STATE>::from_fn(|e, _| {
-                                state.rate[e] * dt[e]
-                            });
-                            direct + w * rhs
+                            let rhs = DVector::from_fn(n + 1, |e, _| state.rate[e] * dt[e]);
+                            direct + &w * rhs
                         }
                     }
                 }
             }
             ParamKey::TargetTool { target, axis } => {
                 if usize::from(target) == sample.target {
-                    in_frame6(usize::from(axis))
+                    in_last(usize::from(axis))
                 } else {
                     Vector3::zeros()
                 }
             }
             ParamKey::Softening { spring } => {
-                // s0 is the base's (state 6), s1..s6 the joints'.
+                // s0 is the base's (state n), s1..sn the joints'.
                 let e = match usize::from(spring) {
-                    0 => JOINTS,
+                    0 => n,
                     j => j - 1,
                 };
                 w.column(e) * (state.compliance[e] * torques[e].abs() * torques[e])
@@ -368,22 +388,28 @@ fn pose_slopes(
         };
         out.set_column(col, &slope);
     }
-    Ok((out, w.fixed_columns::<JOINTS>(0).into_owned()))
+    Ok((out, w.columns(0, n).into_owned()))
 }
 
-/// The rigid motion of the arm's geometric parameter of index `i`
-/// (`model::params` order) at `state`, and the measured point's own motion
-/// when it is not the twist's (the tool frame's parameters move the payload,
-/// and the point of target 0 only by its translation).
-fn arm_twist(rig: &Rig, state: &State, i: usize, target: usize) -> (Twist, Option<Vector3<f64>>) {
+/// The rigid motion of the arm's geometric parameter `part` at `state`,
+/// and the measured point's own motion when it is not the twist's (the tool
+/// frame's parameters move the payload, and the point of target 0 only by
+/// its translation).
+fn arm_twist(
+    rig: &Rig,
+    state: &State,
+    part: ParamPart,
+    target: usize,
+) -> (Twist, Option<Vector3<f64>>) {
     let f = &state.frames;
+    let n = state.joints;
     let column = |frame: usize, axis: usize| f[frame].rotation.matrix().column(axis).into_owned();
-    match i {
-        0..24 => {
-            let k = i / 4 + 1;
+    match part {
+        ParamPart::Dh { joint, field } => {
+            let k = joint + 1;
             let (z, before) = (column(k - 1, 2), f[k - 1].translation.vector);
             let x = column(k, 0);
-            let twist = match i % 4 {
+            let twist = match field {
                 0 => Twist::about(z, &before, k),
                 1 => Twist::along(z, k),
                 2 => Twist::along(x, k),
@@ -391,26 +417,29 @@ fn arm_twist(rig: &Rig, state: &State, i: usize, target: usize) -> (Twist, Optio
             };
             (twist, None)
         }
-        24..27 => (Twist::along(Vector3::ith(i - 24, 1.0), 0), None),
-        27..30 => {
-            let axis = rpy_axes(rig.arm.base.rpy)[i - 27];
+        ParamPart::Base { axis } if axis < 3 => (Twist::along(Vector3::ith(axis, 1.0), 0), None),
+        ParamPart::Base { axis } => {
+            let axis = rpy_axes(rig.arm.base.rpy)[axis - 3];
             let origin = Vector3::from(rig.arm.base.xyz);
             (Twist::about(axis, &origin, 0), None)
         }
-        30..33 => {
-            let axis = column(JOINTS, i - 30);
+        ParamPart::Tool { axis } if axis < 3 => {
+            let axis = column(n, axis);
             let direct = if target == 0 { axis } else { Vector3::zeros() };
-            (Twist::along(axis, PAYLOAD), Some(direct))
+            (Twist::along(axis, state.payload()), Some(direct))
         }
-        _ => {
-            let frame6 = &f[JOINTS];
-            let local = rpy_axes(rig.arm.tool.rpy)[i - 33];
-            let origin =
-                frame6.rotation * Vector3::from(rig.arm.tool.xyz) + frame6.translation.vector;
+        ParamPart::Tool { axis } => {
+            let last = &f[n];
+            let local = rpy_axes(rig.arm.tool.rpy)[axis - 3];
+            let origin = last.rotation * Vector3::from(rig.arm.tool.xyz) + last.translation.vector;
             (
-                Twist::about(frame6.rotation * local, &origin, PAYLOAD),
+                Twist::about(last.rotation * local, &origin, state.payload()),
                 Some(Vector3::zeros()),
             )
+        }
+        // A spring moves nothing rigidly: its column comes from the state.
+        ParamPart::Compliance { .. } | ParamPart::BaseCompliance => {
+            (Twist::along(Vector3::zeros(), 0), Some(Vector3::zeros()))
         }
     }
 }
@@ -423,6 +452,7 @@ mod tests {
     use crate::calib::parameters::targets::Targets;
     use crate::calib::testing::{small_samples, test_arm};
     use lrmcal_core::dataset::TargetName;
+    use model::testing::TEST_ARM_JOINTS as JOINTS;
 
     /// Central differences of the model itself, the reference the exact
     /// slopes are held to: step `h = eps^(1/3) · max(|value|, typical)`
@@ -489,7 +519,7 @@ mod tests {
     }
 
     fn all_keys(rig: &Rig) -> Vec<ParamKey> {
-        let mut ids: Vec<ParamKey> = model::ParamId::all().map(ParamKey::Arm).collect();
+        let mut ids: Vec<ParamKey> = model::ParamId::all(JOINTS).map(ParamKey::Arm).collect();
         ids.extend(rig.tool_keys());
         ids
     }
@@ -536,6 +566,7 @@ mod tests {
         );
         ids.extend(crate::calib::parameters::option::refresh_candidates(
             ModelOption::ElastoKinematicServo,
+            &lively.arm,
         ));
         ids.extend((0..JOINTS as u8).map(|joint| ParamKey::Backlash { joint }));
         ids.extend(lively.tool_keys());

@@ -29,7 +29,7 @@ use crate::calib::parameters::servo_knots::KnotSpacing;
 use crate::calib::parameters::targets::Targets;
 use crate::calib::progress::Progress;
 use crate::calib::{CalibError, ModelOption, Rig, Sample};
-use lrmcal_core::dataset::{FROM_HOME, Measurement, Pose};
+use lrmcal_core::dataset::{Measurement, Pose, from_home};
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the
 /// identifiable parameters of one option.
@@ -124,7 +124,7 @@ impl CandidateBlocks {
                         load_kg,
                         target,
                         // No backlash is analysed here (`calib::backlash`).
-                        approach: FROM_HOME,
+                        approach: from_home(p.q.len()),
                     })
                 })
             })

@@ -182,7 +182,7 @@ fn joining_at(
                 servo_knots::spacing_of(keys).unwrap_or(KnotSpacing::FINEST),
             )
             .into_iter()
-            .chain(refresh_candidates(option))
+            .chain(refresh_candidates(option, &first.rig.arm))
             .filter(|k| !keys.contains(k)),
         )
         .collect();

@@ -26,7 +26,6 @@ use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::fit_start;
 use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
-use model::JOINTS;
 use model::backlash::Approach;
 
 /// Widest play a working hobby servo's joint has, rad (3°): wider means the
@@ -41,9 +40,9 @@ pub const FIT_MAX_RAD: f64 = model::bounds::MAX_BACKLASH_RAD * (1.0 - model::bou
 /// its width is fitted.
 pub const MIN_EACH_WAY: usize = 3;
 
-/// The width keys of every joint.
-pub fn keys() -> impl Iterator<Item = ParamKey> {
-    (0..JOINTS).map(|joint| ParamKey::Backlash { joint: joint as u8 })
+/// The width keys of every joint of an arm of `joints` joints.
+pub fn keys(joints: usize) -> impl Iterator<Item = ParamKey> {
+    (0..joints).map(|joint| ParamKey::Backlash { joint: joint as u8 })
 }
 
 /// `kept` (the option's parameters the candidates' analysis kept) with the
@@ -67,7 +66,7 @@ pub fn with_widths(
             .count();
         rising >= MIN_EACH_WAY && samples.len() - rising >= MIN_EACH_WAY
     };
-    let widths: Vec<ParamKey> = keys()
+    let widths: Vec<ParamKey> = keys(nominal.arm.joints.len())
         .enumerate()
         .filter(|(joint, _)| both_ways(*joint))
         .map(|(_, k)| k)

@@ -48,10 +48,10 @@ pub fn fits_backlash(option: ModelOption) -> bool {
 /// knots is its `theta` (the base yaw for joint 1), which the paper's model
 /// already has, so the knot that only repeats it is the one removed.
 pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> Vec<ParamKey> {
-    let compliances = ParamId::all().filter(|p| !p.is_geometric());
+    let compliances = ParamId::of(arm).filter(|p| !p.is_geometric());
     let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
-    let frames = ParamId::all().filter(is_frame);
-    let dh = ParamId::all().filter(move |p| p.is_geometric() && !is_frame(p));
+    let frames = ParamId::of(arm).filter(is_frame);
+    let dh = ParamId::of(arm).filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
         ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
@@ -73,11 +73,11 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
 /// rigid springs and vanishes wherever the fit takes the compliance to
 /// zero: only at the estimate can the analysis and the fit's deviations
 /// tell whether the poses determine it.
-pub fn refresh_candidates(option: ModelOption) -> Vec<ParamKey> {
+pub fn refresh_candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> {
     if !fits_servo_curves(option) {
         return Vec::new();
     }
-    (0..=model::JOINTS as u8)
+    (0..=arm.joints.len() as u8)
         .map(|spring| ParamKey::Softening { spring })
         .collect()
 }
@@ -99,10 +99,10 @@ mod tests {
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
         assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
         assert_eq!(
-            refresh_candidates(ModelOption::ElastoKinematicServo).len(),
+            refresh_candidates(ModelOption::ElastoKinematicServo, &arm).len(),
             7
         );
-        assert!(refresh_candidates(ModelOption::ElastoKinematic).is_empty());
+        assert!(refresh_candidates(ModelOption::ElastoKinematic, &arm).is_empty());
         assert_eq!(
             ours[..43],
             candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..]

@@ -37,7 +37,7 @@
 //! the knot's weight at that pose ([`knot_weight`], `calib::joint_columns`):
 //! two model evaluations per joint instead of two per knot.
 
-use model::{Arm, JOINTS, ServoCurve};
+use model::{Arm, ServoCurve};
 use serde::{Deserialize, Serialize};
 
 use crate::calib::{CalibError, Rig};
@@ -154,7 +154,7 @@ pub fn curve_index(curve: &ServoCurve<f64>, knot: usize) -> Option<usize> {
 /// option adds to the paper's 43. A joint without one (an arm moved by its
 /// own controller, whose file has no `servo` table) has no curve to correct.
 pub fn keys(arm: &Arm<f64>, spacing: KnotSpacing) -> impl Iterator<Item = ParamKey> + '_ {
-    (0..JOINTS)
+    (0..arm.joints.len())
         .filter(|&joint| has_curve(&arm.joints[joint].servo))
         .flat_map(move |joint| {
             (0..KNOTS)

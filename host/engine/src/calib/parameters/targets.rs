@@ -23,7 +23,7 @@
 //! refused ([`Targets::check_poses`]).
 
 use model::bounds::Bounds;
-use model::{Arm, Deflection, JOINTS, ServoCurve, SolverOptions};
+use model::{Arm, Deflection, PerJoint, ServoCurve, SolverOptions};
 use nalgebra::Vector3;
 
 use crate::calib::{CalibError, Sample};
@@ -39,14 +39,14 @@ pub const MIN_TARGET_POSES: usize = 3;
 pub struct Rig {
     /// The arm; its tool point is target 0's.
     pub arm: Arm<f64>,
-    /// Tool points of targets 1, 2, … in frame 6, m.
+    /// Tool points of targets 1, 2, … in the last frame, m.
     pub tools: Vec<Vector3<f64>>,
     /// The targets' names, as many as tool points.
     pub targets: Targets,
     /// The servo curves the measurements were commanded through (the
     /// nominal arm's); where the arm's own curves differ, a command stands
     /// elsewhere (`model::command::reached`).
-    pub command_curves: [ServoCurve<f64>; JOINTS],
+    pub command_curves: PerJoint<ServoCurve<f64>>,
     /// The physical bounds of its parameters: those of the nominal arm the
     /// rig was first made from, whatever the fit changes after.
     pub bounds: Bounds<f64>,
@@ -57,7 +57,7 @@ pub struct Rig {
 pub struct Evaluated {
     /// The joint angles the arm stands at before it deflects, rad
     /// ([`Rig::standing_angles`]).
-    pub standing: [f64; JOINTS],
+    pub standing: PerJoint<f64>,
     /// Its deflected state under the load (deflected angles, base tilt).
     pub deflection: Deflection<f64>,
     /// Where the sample's target goes, world frame, m.
@@ -94,7 +94,7 @@ impl Rig {
     /// The joint angles the arm stands at when `sample` was commanded: where
     /// its servos drive the command sent through [`Rig::command_curves`],
     /// short of it or beyond by half the play the way each joint arrived.
-    pub fn standing_angles(&self, sample: &Sample) -> [f64; JOINTS] {
+    pub fn standing_angles(&self, sample: &Sample) -> PerJoint<f64> {
         model::command::standing(&self.arm, &self.command_curves, &sample.q, &sample.approach)
     }
 
@@ -481,7 +481,7 @@ mod tests {
             &sizes,
         );
         let mut truth = Rig::new(
-            nominal.with_errors(&model::ParamId::all().collect::<Vec<_>>(), &errors),
+            nominal.with_errors(&model::ParamId::of(&nominal).collect::<Vec<_>>(), &errors),
             names(&["m0", "m30", "m60"]),
         );
         // The arm's own tool rotation is invisible; keep the truth's tool frame nominal.

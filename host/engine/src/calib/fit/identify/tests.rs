@@ -353,7 +353,7 @@ fn robust_fit_names_and_ignores_an_outlier() {
 #[test]
 fn too_few_and_rank_deficient_sets_are_refused() {
     let nominal = Rig::from(rigid_nominal());
-    let all: Vec<ParamKey> = ParamId::all().map(ParamKey::Arm).collect();
+    let all: Vec<ParamKey> = ParamId::all(6).map(ParamKey::Arm).collect();
     let meas = measure(
         &with_errors(&nominal, &all, &true_errors(1)).arm,
         &small_samples(20),

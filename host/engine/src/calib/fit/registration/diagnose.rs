@@ -3,7 +3,7 @@
 //! refuse measurements registration cannot use.
 
 use model::Arm;
-use model::JOINTS;
+use model::PerJoint;
 use nalgebra::Vector3;
 
 use crate::calib::CalibError;
@@ -27,7 +27,7 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
     let chain = nominal.chain();
     let measured: Vec<Vector3<f64>> = measurements.iter().map(|m| m.position).collect();
     let misfit =
-        |qs: &dyn Fn(&[f64; JOINTS]) -> [f64; JOINTS], scale: f64, proper: bool| -> Option<f64> {
+        |qs: &dyn Fn(&PerJoint<f64>) -> PerJoint<f64>, scale: f64, proper: bool| -> Option<f64> {
             let points: Vec<Vector3<f64>> = measurements
                 .iter()
                 .map(|m| chain.rigid_tool_point(&qs(&m.pose.q)))
@@ -40,7 +40,7 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
                 .filter(|(_, k)| **k)
                 .map(|(e, _)| *e)))
         };
-    let same = |q: &[f64; JOINTS]| *q;
+    let same = |q: &PerJoint<f64>| *q;
     let given = misfit(&same, 1.0, true)?;
     let mut tries: Vec<(f64, String)> = Vec::new();
     let mut attempt = |fit: Option<f64>, what: String| {
@@ -58,14 +58,15 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
     );
     // Radians in the degree columns were read as degrees: the angles used are
     // the intended ones divided by 180/π.
-    let radians_read_as_degrees = |q: &[f64; JOINTS]| q.map(f64::to_degrees);
+    let radians_read_as_degrees = |q: &PerJoint<f64>| q.map(f64::to_degrees);
     attempt(
         misfit(&radians_read_as_degrees, 1.0, true),
-        "the joint angles look like radians in degree columns (q1_deg..q6_deg): multiply them by 180/π (57.2958)".into(),
+        "the joint angles look like radians in degree columns (q1_deg..qn_deg): multiply them by 180/π (57.2958)".into(),
     );
-    for a in 0..JOINTS {
-        for b in a + 1..6 {
-            let swapped = |q: &[f64; JOINTS]| {
+    let joints = nominal.joints.len();
+    for a in 0..joints {
+        for b in a + 1..joints {
+            let swapped = |q: &PerJoint<f64>| {
                 let mut q = *q;
                 q.swap(a, b);
                 q
@@ -80,8 +81,8 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
             );
         }
     }
-    for j in 0..JOINTS {
-        let flipped = |q: &[f64; JOINTS]| {
+    for j in 0..joints {
+        let flipped = |q: &PerJoint<f64>| {
             let mut q = *q;
             q[j] = -q[j];
             q

@@ -136,10 +136,10 @@ fn the_tool_point_is_found_when_the_last_link_turns() {
     let pan: Vec<Sample> = (0..12)
         .map(|i| Sample {
             id: i,
-            q: [0.3 * i as f64 - 1.5, 0.3, -0.4, 0.2, 0.5, 0.1],
+            q: [0.3 * i as f64 - 1.5, 0.3, -0.4, 0.2, 0.5, 0.1].into(),
             load_kg: 0.0,
             target: 0,
-            approach: lrmcal_core::dataset::FROM_HOME,
+            approach: lrmcal_core::dataset::from_home(6),
         })
         .collect();
     let reg = register(&nominal, &measure(&truth, &pan), Gravity::LevelBase(G)).unwrap();
