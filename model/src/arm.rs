@@ -35,7 +35,24 @@ impl<T: Real> Frame<T> {
     }
 }
 
-/// One revolute joint and the link it carries, standard DH.
+/// How a joint moves.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum JointKind {
+    /// It turns about its axis: the joint value is an angle, rad.
+    #[default]
+    Revolute,
+    /// It slides along its axis: the joint value is a length, m.
+    Prismatic,
+}
+
+/// One joint and the link it carries, standard DH with Hayati's twist:
+/// `T(i-1,i) = Rz(theta + q) Tz(d) Tx(a) Rx(alpha) Ry(beta)` for a revolute
+/// joint, `Rz(theta) Tz(d + q) Tx(a) Rx(alpha) Ry(beta)` for a prismatic one.
+///
+/// `beta` is 0 in every nominal arm (DH describes any chain); it carries the
+/// small tilt between two nominally parallel axes, which no finite change
+/// of the DH parameters can ([`crate::params`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(bound(
     serialize = "T: Real + Serialize",
@@ -50,9 +67,15 @@ pub struct Joint<T> {
     pub a: T,
     /// DH twist about x(i), rad.
     pub alpha: T,
-    /// Joint compliance, rad/Nm (never negative).
+    /// Hayati's twist about y(i), after `alpha`, rad; 0 in files written before it existed.
+    #[serde(default = "crate::zero")]
+    pub beta: T,
+    /// Revolute or prismatic; revolute in files written before it existed.
+    #[serde(default)]
+    pub kind: JointKind,
+    /// Joint compliance, rad/Nm (m/N for a prismatic joint; never negative).
     pub compliance: T,
-    /// Inclusive limits of the commanded angle, rad.
+    /// Inclusive limits of the commanded joint value, rad (m for a prismatic joint).
     pub limits: [T; 2],
     /// Mass of link i, kg.
     pub mass: T,
@@ -122,6 +145,8 @@ impl<T: Real> Arm<T> {
                 d: f(j.d),
                 a: f(j.a),
                 alpha: f(j.alpha),
+                beta: f(j.beta),
+                kind: j.kind,
                 compliance: f(j.compliance),
                 limits: j.limits.map(f),
                 mass: f(j.mass),

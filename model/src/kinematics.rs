@@ -6,7 +6,7 @@
 
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, Rotation3, Translation3, Vector3};
 
-use crate::{Arm, PerFrame, PerJoint, Real};
+use crate::{Arm, JointKind, PerFrame, PerJoint, Real};
 
 /// One DH link prepared for evaluation.
 #[derive(Clone, Copy, Debug, Default)]
@@ -21,7 +21,14 @@ pub struct Link<T: Real> {
     pub sin_alpha: T,
     /// cos(alpha).
     pub cos_alpha: T,
-    /// Joint compliance, rad/Nm.
+    /// sin(beta), Hayati's twist; exactly 0 for a DH link.
+    pub sin_beta: T,
+    /// cos(beta); exactly 1 for a DH link.
+    pub cos_beta: T,
+    /// Whether the joint slides (its value adds to `d`) rather than turns
+    /// (its value adds to `theta`).
+    pub prismatic: bool,
+    /// Joint compliance, rad/Nm (m/N for a prismatic joint).
     pub compliance: T,
     /// How the compliance changes with the torque, 1/Nm: the joint yields
     /// `compliance (1 + softening |tau|)` rad per Nm at torque `tau`
@@ -69,14 +76,16 @@ impl<T: Real> ChainFrames<T> {
     }
 }
 
-/// Frame i from frame i-1: `parent · Rz(angle) Tz(d) Tx(a) Rx(alpha)`.
+/// Frame i from frame i-1: `parent · Rz(angle) Tz(d) Tx(a) Rx(alpha) Ry(beta)`,
+/// `angle` and `d` the link's at its joint value ([`Link::placement`]).
 ///
 /// Worked column by column (`Rz` mixes the first two columns, `Rx` the last
-/// two): 36 multiplications where a general product of poses takes 63.
+/// two, `Ry` the first and last): 36 multiplications where a general product
+/// of poses takes 63, 12 more for a link with Hayati's twist.
 #[inline]
 pub fn dh_child<T: Real>(
     parent: &IsometryMatrix3<T>,
-    angle: T,
+    (angle, d): (T, T),
     link: &Link<T>,
 ) -> IsometryMatrix3<T> {
     let (st, ct) = angle.joint_sin_cos();
@@ -86,50 +95,107 @@ pub fn dh_child<T: Real>(
     let y1 = y * ct - x * st;
     let y2 = y1 * link.cos_alpha + z * link.sin_alpha;
     let z2 = z * link.cos_alpha - y1 * link.sin_alpha;
-    let t = parent.translation.vector + z * link.d + x1 * link.a;
+    let t = parent.translation.vector + z * d + x1 * link.a;
+    let (x3, z3) = if link.sin_beta == T::zero() {
+        (x1, z2)
+    } else {
+        (
+            x1 * link.cos_beta - z2 * link.sin_beta,
+            x1 * link.sin_beta + z2 * link.cos_beta,
+        )
+    };
     IsometryMatrix3::from_parts(
         Translation3::from(t),
-        Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x1, y2, z2])),
+        Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[x3, y2, z3])),
     )
 }
 
 impl<T: Real> Link<T> {
-    /// A point or moment of frame i+1 in frame i: `Rz(angle) (Rx(alpha) v + (x, 0, z))`,
-    /// with `(x, z)` the link's `(a, d)` for a point or `m (a, d)` for a moment
-    /// of mass `m`; `(sin, cos)` of the joint's DH angle. 14 operations.
+    /// The link's DH angle and offset `(theta, d)` at joint value `q`: `q`
+    /// turns a revolute joint and slides a prismatic one.
+    #[inline]
+    pub fn placement(&self, q: T) -> (T, T) {
+        if self.prismatic {
+            (self.theta, self.d + q)
+        } else {
+            (self.theta + q, self.d)
+        }
+    }
+
+    /// `Ry(beta) v`, exactly `v` for a DH link.
+    #[inline]
+    fn twist_y(&self, v: &Vector3<T>) -> Vector3<T> {
+        if self.sin_beta == T::zero() {
+            *v
+        } else {
+            Vector3::new(
+                self.cos_beta * v.x + self.sin_beta * v.z,
+                v.y,
+                self.cos_beta * v.z - self.sin_beta * v.x,
+            )
+        }
+    }
+
+    /// `Ry(beta)ᵀ v`, exactly `v` for a DH link.
+    #[inline]
+    fn untwist_y(&self, v: &Vector3<T>) -> Vector3<T> {
+        if self.sin_beta == T::zero() {
+            *v
+        } else {
+            Vector3::new(
+                self.cos_beta * v.x - self.sin_beta * v.z,
+                v.y,
+                self.cos_beta * v.z + self.sin_beta * v.x,
+            )
+        }
+    }
+
+    /// A point or moment of frame i+1 in frame i: `Rz(angle) (Rx(alpha)
+    /// Ry(beta) v + (x, 0, z))`, with `(x, z)` the link's `(a, d)` for a
+    /// point or `m (a, d)` for a moment of mass `m`; `(sin, cos)` of the
+    /// joint's DH angle. 14 operations for a DH link.
     #[inline]
     pub fn to_parent(&self, v: &Vector3<T>, (s, c): (T, T), (x, z): (T, T)) -> Vector3<T> {
+        let v = self.twist_y(v);
         let wx = v.x + x;
         let wy = v.y * self.cos_alpha - v.z * self.sin_alpha;
         let wz = v.y * self.sin_alpha + v.z * self.cos_alpha + z;
         Vector3::new(c * wx - s * wy, s * wx + c * wy, wz)
     }
 
-    /// A direction of frame i+1 in frame i: `Rz(angle) Rx(alpha) v`. 12 operations.
+    /// A direction of frame i+1 in frame i: `Rz(angle) Rx(alpha) Ry(beta) v`.
+    /// 12 operations for a DH link.
     #[inline]
     pub fn rotate_to_parent(&self, v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {
+        let v = self.twist_y(v);
         let wy = v.y * self.cos_alpha - v.z * self.sin_alpha;
         let wz = v.y * self.sin_alpha + v.z * self.cos_alpha;
         Vector3::new(c * v.x - s * wy, s * v.x + c * wy, wz)
     }
 
-    /// [`Link::rotate_to_parent`] of a direction `(x, y, 0)`. 8 operations.
+    /// [`Link::rotate_to_parent`] of a direction `(x, y, 0)`. 8 operations
+    /// for a DH link.
     #[inline]
-    pub fn rotate_to_parent_xy(&self, x: T, y: T, (s, c): (T, T)) -> Vector3<T> {
+    pub fn rotate_to_parent_xy(&self, x: T, y: T, sc: (T, T)) -> Vector3<T> {
+        if self.sin_beta != T::zero() {
+            return self.rotate_to_parent(&Vector3::new(x, y, T::zero()), sc);
+        }
+        let (s, c) = sc;
         let wy = y * self.cos_alpha;
         Vector3::new(c * x - s * wy, s * x + c * wy, y * self.sin_alpha)
     }
 
-    /// A direction of frame i in frame i+1: `Rx(alpha)ᵀ Rz(angle)ᵀ v`. 12 operations.
+    /// A direction of frame i in frame i+1: `Ry(beta)ᵀ Rx(alpha)ᵀ Rz(angle)ᵀ v`.
+    /// 12 operations for a DH link.
     #[inline]
     pub fn rotate_to_child(&self, v: &Vector3<T>, (s, c): (T, T)) -> Vector3<T> {
         let hx = c * v.x + s * v.y;
         let hy = c * v.y - s * v.x;
-        Vector3::new(
+        self.untwist_y(&Vector3::new(
             hx,
             hy * self.cos_alpha + v.z * self.sin_alpha,
             v.z * self.cos_alpha - hy * self.sin_alpha,
-        )
+        ))
     }
 }
 
@@ -143,12 +209,21 @@ impl<T: Real> Arm<T> {
             tool_point: tool.translation.vector,
             links: self.joints.map(|j| {
                 let (sin_alpha, cos_alpha) = j.alpha.sin_cos();
+                // Exactly (0, 1) for a DH link, so it costs no rotation.
+                let (sin_beta, cos_beta) = if j.beta == T::zero() {
+                    (T::zero(), T::one())
+                } else {
+                    j.beta.sin_cos()
+                };
                 Link {
                     theta: j.theta,
                     d: j.d,
                     a: j.a,
                     sin_alpha,
                     cos_alpha,
+                    sin_beta,
+                    cos_beta,
+                    prismatic: j.kind == JointKind::Prismatic,
                     compliance: j.compliance,
                     softening: j.softening,
                     mass: j.mass,
@@ -169,7 +244,7 @@ impl<T: Real> Chain<T> {
         let base = self.tilted_base(tilt_sin_cos(beta));
         let mut frames = PerFrame::splat(self.links.len() + 1, base);
         for (i, link) in self.links.iter().enumerate() {
-            frames[i + 1] = dh_child(&frames[i], qa[i] + link.theta, link);
+            frames[i + 1] = dh_child(&frames[i], link.placement(qa[i]), link);
         }
         let last = &frames.last_value();
         let tool_point = last.rotation * self.tool_point + last.translation.vector;
@@ -210,7 +285,8 @@ impl<T: Real> Chain<T> {
     pub fn rigid_base_point(&self, q: &[T]) -> Vector3<T> {
         let mut p = self.tool_point;
         for (link, &qi) in self.links.iter().zip(q).rev() {
-            p = link.to_parent(&p, (qi + link.theta).joint_sin_cos(), (link.a, link.d));
+            let (angle, d) = link.placement(qi);
+            p = link.to_parent(&p, angle.joint_sin_cos(), (link.a, d));
         }
         p
     }
@@ -284,12 +360,48 @@ mod tests {
     #[test]
     fn rigid_tool_point_matches_the_frames() {
         let chain = crate::testing::lrm_like_arm::<f64>().chain();
+        let lift = crate::testing::lift_arm::<f64>().chain();
         let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(5);
         for _ in 0..100 {
             let q = crate::testing::random_q(&mut rng);
             let frames = chain.frames(&q, 0.0).tool_point();
             assert_relative_eq!(chain.rigid_tool_point(&q), frames, epsilon = 1e-14);
+            let q = crate::testing::random_lift_q(&mut rng);
+            let frames = lift.frames(&q, 0.0).tool_point();
+            assert_relative_eq!(lift.rigid_tool_point(&q), frames, epsilon = 1e-14);
         }
+    }
+
+    /// Hand-derived: a prismatic joint lifts the whole arm along its axis by
+    /// its value, and Hayati's twist tilts the next axis about y.
+    #[test]
+    fn a_lift_moves_the_arm_along_its_axis_and_beta_tilts_about_y() {
+        let mut arm = planar_arm::<f64>();
+        arm.joints[0].kind = crate::JointKind::Prismatic;
+        let chain = arm.chain();
+        let q = [0.0, 0.4, -0.3, 0.2, 0.0, 0.0];
+        let mut lifted = q;
+        lifted[0] = 0.07;
+        let (p, up) = (chain.rigid_tool_point(&q), chain.rigid_tool_point(&lifted));
+        assert_relative_eq!(up - p, Vector3::new(0.0, 0.0, 0.07), epsilon = 1e-14);
+        // One link of length a along x, then a point 0.1 up its z: tilting
+        // the link's frame by beta about y moves the point by 0.1 sin(beta) in x.
+        let mut arm = planar_arm::<f64>();
+        for j in &mut arm.joints {
+            *j = crate::Joint {
+                a: 0.0,
+                d: 0.0,
+                ..*j
+            };
+        }
+        arm.tool.xyz = [0.0, 0.0, 0.1];
+        arm.joints[5].beta = 0.2;
+        let p = arm.chain().rigid_tool_point(&[0.0; 6]);
+        assert_relative_eq!(
+            p,
+            Vector3::new(0.1 * 0.2f64.sin(), 0.0, 0.1 * 0.2f64.cos()),
+            epsilon = 1e-14
+        );
     }
 
     #[test]

@@ -42,7 +42,7 @@ pub mod statics;
 pub mod testing;
 pub mod trig;
 
-pub use arm::{Arm, Frame, Joint};
+pub use arm::{Arm, Frame, Joint, JointKind};
 pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation, Slope};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};

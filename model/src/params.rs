@@ -3,7 +3,11 @@
 //!
 //! Order of [`ParamId::all`]: `j1.theta j1.d j1.a j1.alpha … jn.alpha`,
 //! `base.x base.y base.z base.roll base.pitch base.yaw`, `tool.x … tool.yaw`,
-//! `k1 … kn`, `k0`: `5 n + 13` parameters, 43 for six joints.
+//! `k1 … kn`, `k0`: `5 n + 13` parameters, 43 for six joints. Hayati's
+//! twists `j1.beta … jn.beta` ([`ParamId::beta`]) come after every other
+//! id: a calibration adds the one of a link whose two joint axes are
+//! nominally parallel ([`crate::arm::Joint::beta`]), where DH has no
+//! parameter for their tilt.
 //! A parameter's id does not depend on `n` (`j3.d` is the same id for every
 //! arm), so its [`ParamId::index`] is a name's place in the table of the
 //! longest arm, not a place in [`ParamId::all`].
@@ -12,21 +16,26 @@
 
 use crate::{Arm, MAX_JOINTS, Real};
 
-/// Number of error parameters of an arm of [`MAX_JOINTS`] joints: every id there is.
+/// Number of error parameters of an arm of [`MAX_JOINTS`] joints in
+/// [`ParamId::all`], Hayati's twists not counted.
 pub const MAX_PARAMS: usize = 5 * MAX_JOINTS + 13;
+
+/// Every id there is: [`MAX_PARAMS`] and one Hayati twist per joint.
+const IDS: usize = MAX_PARAMS + MAX_JOINTS;
 
 /// Where each group of ids starts in the table.
 const BASE: usize = 4 * MAX_JOINTS;
 const TOOL: usize = BASE + 6;
 const SPRINGS: usize = TOOL + 6;
 const K0: usize = SPRINGS + MAX_JOINTS;
+const BETA: usize = K0 + 1;
 
 /// Number of error parameters of an arm of `joints` joints.
 pub const fn param_count(joints: usize) -> usize {
     5 * joints + 13
 }
 
-const NAMES: [&str; MAX_PARAMS] = [
+const NAMES: [&str; IDS] = [
     "j1.theta",
     "j1.d",
     "j1.a",
@@ -90,6 +99,16 @@ const NAMES: [&str; MAX_PARAMS] = [
     "k9",
     "k10",
     "k0",
+    "j1.beta",
+    "j2.beta",
+    "j3.beta",
+    "j4.beta",
+    "j5.beta",
+    "j6.beta",
+    "j7.beta",
+    "j8.beta",
+    "j9.beta",
+    "j10.beta",
 ];
 
 /// What physical quantity a parameter is, which sets its unit and scale.
@@ -106,11 +125,12 @@ pub enum ParamKind {
 /// What an error parameter corrects, by part of the arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamPart {
-    /// DH field `field` (0 theta, 1 d, 2 a, 3 alpha) of joint `joint` (from 0).
+    /// Link field `field` (0 theta, 1 d, 2 a, 3 alpha, 4 Hayati's beta) of
+    /// joint `joint` (from 0).
     Dh {
         /// The joint, from 0.
         joint: usize,
-        /// 0 theta, 1 d, 2 a, 3 alpha.
+        /// 0 theta, 1 d, 2 a, 3 alpha, 4 beta.
         field: usize,
     },
     /// Coordinate `axis` (0 x, 1 y, 2 z, 3 roll, 4 pitch, 5 yaw) of the base frame.
@@ -154,7 +174,12 @@ impl ParamId {
 
     /// The parameter at table place `index`, if there is one.
     pub fn from_index(index: usize) -> Option<Self> {
-        (index < MAX_PARAMS).then_some(ParamId(index as u8))
+        (index < IDS).then_some(ParamId(index as u8))
+    }
+
+    /// Hayati's twist `j<joint + 1>.beta` of joint `joint` (from 0).
+    pub fn beta(joint: usize) -> Option<Self> {
+        (joint < MAX_JOINTS).then_some(ParamId((BETA + joint) as u8))
     }
 
     /// The parameter called `name` (e.g. `j3.d`, `base.pitch`, `k0`), for an
@@ -182,6 +207,7 @@ impl ParamId {
         match self.index() {
             i if i < BASE => Some(i / 4),
             i if (SPRINGS..K0).contains(&i) => Some(i - SPRINGS),
+            i if i >= BETA => Some(i - BETA),
             _ => None,
         }
     }
@@ -196,7 +222,11 @@ impl ParamId {
             i if i < TOOL => ParamPart::Base { axis: i - BASE },
             i if i < SPRINGS => ParamPart::Tool { axis: i - TOOL },
             i if i < K0 => ParamPart::Compliance { joint: i - SPRINGS },
-            _ => ParamPart::BaseCompliance,
+            K0 => ParamPart::BaseCompliance,
+            i => ParamPart::Dh {
+                joint: i - BETA,
+                field: 4,
+            },
         }
     }
 
@@ -215,7 +245,7 @@ impl ParamId {
             i if (BASE..BASE + 3).contains(&i) || (TOOL..TOOL + 3).contains(&i) => {
                 ParamKind::Length
             }
-            i if i < SPRINGS => ParamKind::Angle,
+            i if i < SPRINGS || i >= BETA => ParamKind::Angle,
             _ => ParamKind::Compliance,
         }
     }
@@ -237,7 +267,8 @@ impl ParamId {
                     0 => &mut j.theta,
                     1 => &mut j.d,
                     2 => &mut j.a,
-                    _ => &mut j.alpha,
+                    3 => &mut j.alpha,
+                    _ => &mut j.beta,
                 }
             }
             ParamPart::Base { axis } if axis < 3 => &mut arm.base.xyz[axis],
@@ -304,6 +335,11 @@ mod tests {
         assert!(ParamId::from_name("j7.d").unwrap().fits(7));
         assert!(!ParamId::from_name("k7").unwrap().fits(6));
         assert!(ParamId::from_name("tool.z").unwrap().fits(1));
+        let beta = ParamId::from_name("j3.beta").unwrap();
+        assert_eq!(ParamId::beta(2), Some(beta));
+        assert_eq!(beta.part(), ParamPart::Dh { joint: 2, field: 4 });
+        assert!(beta.fits(3) && !beta.fits(2) && beta.is_geometric());
+        assert!(ParamId::all(MAX_JOINTS).all(|id| id != beta));
     }
 
     #[test]

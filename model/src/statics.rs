@@ -6,7 +6,10 @@
 //! moment are carried back from the tool (14 and 16). The load moment of joint
 //! `i`, `v_i = Σ m (c − o_i)` over the links beyond it and the payload, is the
 //! next joint's plus the mass between them; in frame `i` the joint's axis is
-//! `z`, so its gravity torque `z · (v_i × g_i)` is `v_x g_y − v_y g_x`.
+//! `z`, so its gravity torque `z · (v_i × g_i)` is `v_x g_y − v_y g_x`. A
+//! prismatic joint's is the force along its axis, `M_i g_z` with `M_i` the
+//! mass beyond it (the generalised force of its value, as the torque is a
+//! revolute joint's).
 //! About 50 operations per joint, where world frames and world sums take 90.
 
 use nalgebra::Vector3;
@@ -17,7 +20,8 @@ use crate::{PerJoint, Real};
 /// Gravity torques for one configuration, Nm.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Torques<T> {
-    /// Torque about joint axis z(i-1) of links i..n and the payload.
+    /// Torque about joint axis z(i-1) of links i..n and the payload, Nm;
+    /// for a prismatic joint the force along the axis, N.
     pub joints: PerJoint<T>,
     /// Torque about the y axis of (tilted) frame 0 of the whole arm and the payload.
     pub base: T,
@@ -29,8 +33,13 @@ pub struct Torques<T> {
 /// `i`, through the frame's origin `o_i`; frame 0 is the tilted base frame.
 #[derive(Clone, Copy, Debug)]
 pub struct Statics<T: Real> {
-    /// `(sin, cos)` of each joint's DH angle `qa_i + theta_i`.
+    /// `(sin, cos)` of each joint's DH angle (`qa_i + theta_i`, or
+    /// `theta_i` for a prismatic joint).
     pub joint_sin_cos: PerJoint<(T, T)>,
+    /// Each joint's DH offset (`d_i`, or `d_i + qa_i` for a prismatic joint), m.
+    pub joint_d: PerJoint<T>,
+    /// The mass beyond each joint, the payload included, kg.
+    pub masses: PerJoint<T>,
     /// `(sin, cos)` of the base tilt.
     pub tilt_sin_cos: (T, T),
     /// The tool point relative to `o_i`, in frame `i`, m.
@@ -48,7 +57,9 @@ impl<T: Real> Chain<T> {
     /// and a payload of `payload_kg` at the tool.
     pub fn statics(&self, qa: &[T], beta: T, payload_kg: T) -> Statics<T> {
         let n = self.links.len();
-        let joint_sin_cos = PerJoint::from_fn(n, |i| (qa[i] + self.links[i].theta).joint_sin_cos());
+        let placements = PerJoint::from_fn(n, |i| self.links[i].placement(qa[i]));
+        let joint_sin_cos = placements.map(|(angle, _)| angle.joint_sin_cos());
+        let joint_d = placements.map(|(_, d)| d);
         let tilt = tilt_sin_cos(beta);
         // Gravity into frame 0, then into each joint's frame.
         let gravity0 = untilt(&self.base_gravity, tilt);
@@ -64,13 +75,19 @@ impl<T: Real> Chain<T> {
         let mut tool_points = PerJoint::splat(n, point);
         let mut moments = PerJoint::splat(n, moment);
         let mut joints = PerJoint::splat(n, T::zero());
+        let mut masses = PerJoint::splat(n, T::zero());
         for i in (0..n).rev() {
             let link = &self.links[i];
-            let sc = joint_sin_cos[i];
-            point = link.to_parent(&point, sc, (link.a, link.d));
-            let v = link.to_parent(&moment, sc, (link.a * mass, link.d * mass));
+            let (sc, d) = (joint_sin_cos[i], joint_d[i]);
+            point = link.to_parent(&point, sc, (link.a, d));
+            let v = link.to_parent(&moment, sc, (link.a * mass, d * mass));
             let g = &gravity[i];
-            joints[i] = v.x * g.y - v.y * g.x;
+            joints[i] = if link.prismatic {
+                mass * g.z
+            } else {
+                v.x * g.y - v.y * g.x
+            };
+            masses[i] = mass;
             tool_points[i] = point;
             moments[i] = v;
             if i > 0 {
@@ -84,6 +101,8 @@ impl<T: Real> Chain<T> {
         let base = v0.z * g0.x - v0.x * g0.z;
         Statics {
             joint_sin_cos,
+            joint_d,
+            masses,
             tilt_sin_cos: tilt,
             tool_points,
             moments,
@@ -103,7 +122,7 @@ impl<T: Real> Chain<T> {
 mod tests {
     use crate::Chain;
     use crate::testing::TEST_ARM_JOINTS as JOINTS;
-    use crate::testing::{lrm_like_arm, planar_arm, random_q};
+    use crate::testing::{lift_arm, lrm_like_arm, planar_arm, random_lift_q, random_q};
     use approx::assert_relative_eq;
     use nalgebra::Vector3;
 
@@ -145,9 +164,9 @@ mod tests {
     }
 
     /// Gravity's potential energy −Σ m g·c, from the world frames.
-    fn potential(chain: &Chain<f64>, qa: &[f64; JOINTS], beta: f64, payload: f64) -> f64 {
+    fn potential(chain: &Chain<f64>, qa: &[f64], beta: f64, payload: f64) -> f64 {
         let f = chain.frames(qa, beta);
-        let last = &f.frames[JOINTS];
+        let last = &f.frames.last_value();
         let mut weighted = (last.rotation * chain.payload_com + last.translation.vector) * payload;
         for (i, link) in chain.links.iter().enumerate() {
             let frame = &f.frames[i + 1];
@@ -161,11 +180,20 @@ mod tests {
     /// angle, and the tool point is the frames'.
     #[test]
     fn torques_are_the_potential_energy_gradient() {
-        let chain = lrm_like_arm::<f64>().chain();
         let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(12);
-        let h = 1e-6;
         for _ in 0..50 {
             let qa: [f64; JOINTS] = random_q(&mut rng);
+            check_gradient(&lrm_like_arm::<f64>().chain(), &qa);
+            // A prismatic joint's force and Hayati's twists too.
+            check_gradient(&lift_arm::<f64>().chain(), &random_lift_q::<f64>(&mut rng));
+        }
+    }
+
+    fn check_gradient(chain: &Chain<f64>, qa: &[f64]) {
+        let h = 1e-6;
+        let chain = *chain;
+        let qa: crate::PerJoint<f64> = crate::PerJoint::from_slice(qa).unwrap();
+        {
             let (beta, payload) = (0.02, 0.0663);
             let s = chain.statics(&qa, beta, payload);
             let f = chain.frames(&qa, beta);
@@ -174,7 +202,7 @@ mod tests {
                 nalgebra::Point3::from(f.tool_point()),
                 epsilon = 1e-14
             );
-            for i in 0..JOINTS {
+            for i in 0..qa.len() {
                 let (mut up, mut down) = (qa, qa);
                 up[i] += h;
                 down[i] -= h;

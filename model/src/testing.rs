@@ -33,6 +33,8 @@ fn joint<T: Real>(
         d: real(d),
         a: real(a),
         alpha: real(alpha),
+        beta: T::zero(),
+        kind: crate::JointKind::Revolute,
         compliance: real(k),
         limits: [real(-1.75), real(1.75)],
         mass: real(mass),
@@ -92,6 +94,38 @@ pub fn lrm_like_arm<T: Real>() -> Arm<T> {
             joint(0.0, 0.06, 0.0, 0.0, 0.03, 0.05, [0.0, 0.0, -0.02]),
         ]),
     }
+}
+
+/// A seven-joint arm with a lifting column: a prismatic joint (0.2 m lift
+/// range) carrying [`lrm_like_arm`]'s six joints, Hayati's twist on the
+/// parallel shoulder and elbow (0.01 rad) and on the wrist; compliant
+/// everywhere, the lift too (m/N).
+pub fn lift_arm<T: Real>() -> Arm<T> {
+    let mut arm = lrm_like_arm::<T>();
+    let mut lift = joint::<T>(0.3, 0.1, 0.02, 0.0, 2e-4, 0.4, [0.0, 0.0, -0.05]);
+    lift.kind = crate::JointKind::Prismatic;
+    lift.limits = [real(0.0), real(0.2)];
+    let mut joints = [lift; LIFT_ARM_JOINTS];
+    joints[1..].copy_from_slice(&arm.joints);
+    joints[2].beta = real(0.01);
+    joints[5].beta = real(-0.02);
+    arm.joints = PerJoint::from(joints);
+    arm
+}
+
+/// Joints of [`lift_arm`].
+pub const LIFT_ARM_JOINTS: usize = 7;
+
+/// Random joint values of [`lift_arm`]: the lift within its range, the
+/// angles within ±100°.
+pub fn random_lift_q<T: Real>(rng: &mut impl Rng) -> [T; LIFT_ARM_JOINTS] {
+    core::array::from_fn(|j| {
+        if j == 0 {
+            real(rng.random_range(0.0..0.2))
+        } else {
+            real(rng.random_range(-1.745..1.745))
+        }
+    })
 }
 
 /// [`lrm_like_arm`] with every joint and the base stiff.

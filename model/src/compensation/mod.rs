@@ -294,6 +294,51 @@ mod tests {
         }
     }
 
+    /// An arm with a compliant lift (a prismatic joint) and Hayati's twists,
+    /// off by errors on every DH parameter and compliance, reaches the
+    /// nominal point too: the slope's prismatic column and tilt response.
+    #[test]
+    fn a_lift_arm_with_twists_reaches_the_nominal_point() {
+        use crate::testing::{LIFT_ARM_JOINTS, lift_arm, random_lift_q};
+        let mut rng = StdRng::seed_from_u64(4);
+        let nominal_arm = lift_arm::<f64>();
+        let ids: std::vec::Vec<ParamId> = ParamId::all(LIFT_ARM_JOINTS).collect();
+        let errors: std::vec::Vec<f64> = ids
+            .iter()
+            .map(|id| match id.kind() {
+                crate::params::ParamKind::Compliance => 0.0,
+                _ => rand::Rng::random_range(&mut rng, -2e-3..2e-3),
+            })
+            .collect();
+        let mut calibrated = nominal_arm.with_errors(&ids, &errors);
+        calibrated.joints[0].compliance = 5e-4;
+        let (nominal, calibrated) = (nominal_arm.chain(), calibrated.chain());
+        let opts = CompensationOptions::default();
+        let mut solved = 0;
+        while solved < 200 {
+            let q: [f64; LIFT_ARM_JOINTS] = random_lift_q(&mut rng);
+            if q[3].abs() < 0.3 {
+                continue;
+            }
+            solved += 1;
+            let target = nominal
+                .tool_point(&q, 0.0663, &crate::SolverOptions::default())
+                .unwrap();
+            let c = calibrated
+                .compensate(&q, &target, 0.0663, None, &opts)
+                .unwrap();
+            assert!(
+                c.converged,
+                "error {} m after {} iterations at {q:?}",
+                c.error_m, c.iterations
+            );
+            let reached = calibrated
+                .tool_point(&c.q, 0.0663, &crate::SolverOptions::default())
+                .unwrap();
+            assert!((reached - target).norm() < 2e-6, "{q:?}");
+        }
+    }
+
     /// The calibrated arm with every spring, the base's too, softening by `s` 1/Nm.
     fn softened(mut arm: crate::Arm<f64>, s: f64) -> crate::Arm<f64> {
         arm.base_softening = s;

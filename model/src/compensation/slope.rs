@@ -65,15 +65,25 @@ impl<T: Real> Chain<T> {
 
     /// Jacobian of the tool point with the base tilt held, in frame 0:
     /// column `c` is `z × p` in joint `c`'s own frame, `(−p_y, p_x, 0)` with
-    /// `p` the tool point relative to the joint, rotated back to frame 0
-    /// (`c` rotations, the first without a `z` component).
+    /// `p` the tool point relative to the joint (`z`, `(0, 0, 1)`, for a
+    /// prismatic joint), rotated back to frame 0 (`c` rotations, the first
+    /// without a `z` component).
     fn jacobian(&self, s: &Statics<T>) -> Jacobian<T> {
         let mut j = Jacobian::zeros();
         for c in 0..self.links.len() {
             let p = &s.tool_points[c];
-            let mut column = Vector3::new(-p.y, p.x, T::zero());
+            let prismatic = self.links[c].prismatic;
+            let mut column = if prismatic {
+                Vector3::z()
+            } else {
+                Vector3::new(-p.y, p.x, T::zero())
+            };
             if let Some(k) = c.checked_sub(1) {
-                column = self.links[k].rotate_to_parent_xy(-p.y, p.x, s.joint_sin_cos[k]);
+                column = if prismatic {
+                    self.links[k].rotate_to_parent(&column, s.joint_sin_cos[k])
+                } else {
+                    self.links[k].rotate_to_parent_xy(-p.y, p.x, s.joint_sin_cos[k])
+                };
                 for k in (0..k).rev() {
                     column = self.links[k].rotate_to_parent(&column, s.joint_sin_cos[k]);
                 }
@@ -90,7 +100,9 @@ impl<T: Real> Chain<T> {
     /// `s = 1 / (1 − y' ∂τ0/∂beta)` and `y' = k0 (1 + 2 s0 |τ0|)` its rate
     /// (`k0` for a linear spring). Turning joint `c` turns the load
     /// beyond it about its axis, so `∂τ0/∂qa_c = (z × v_c) · (g × y0)`, both
-    /// in joint `c`'s frame (`g × y0` carried forward from frame 0).
+    /// in joint `c`'s frame (`g × y0` carried forward from frame 0); sliding
+    /// a prismatic one moves the mass `M_c` beyond it along `z`:
+    /// `M_c z · (g × y0)`.
     fn tilt_gain(&self, s: &Statics<T>) -> (JointColumn<T>, T) {
         let g0 = s.gravity0;
         let mut g_cross_y0 = Vector3::new(-g0.z, T::zero(), g0.x);
@@ -100,7 +112,11 @@ impl<T: Real> Chain<T> {
                 g_cross_y0 = self.links[c - 1].rotate_to_child(&g_cross_y0, s.joint_sin_cos[c - 1]);
             }
             let v = &s.moments[c];
-            dtau0_dqa[c] = v.x * g_cross_y0.y - v.y * g_cross_y0.x;
+            dtau0_dqa[c] = if self.links[c].prismatic {
+                s.masses[c] * g_cross_y0.z
+            } else {
+                v.x * g_cross_y0.y - v.y * g_cross_y0.x
+            };
         }
         // τ0 = (v0 × g0)_y and g0 turns with the tilt: ∂τ0/∂beta = −(y0 × g0)·(y0 × v0).
         let v0 = &s.moments[0];

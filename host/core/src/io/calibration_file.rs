@@ -264,6 +264,21 @@ impl CalibrationFile {
                 _ => Ok(()),
             },
         )?;
+        // Both arms of the same joints, at least one.
+        let joints = file.nominal.joints.len();
+        if joints == 0 || file.arm.joints.len() != joints {
+            return Err(InputError::new(
+                Location::key(None, "arm.joints"),
+                Problem::Invalid {
+                    message: format!(
+                        "expected the calibrated arm to have the nominal arm's joints (1 to {}), \
+                         found {} and {joints}",
+                        model::MAX_JOINTS,
+                        file.arm.joints.len()
+                    ),
+                },
+            ));
+        }
         // Both arms' rated payloads, and their compliances, softenings and
         // plays within the physical bounds worked out from the nominal arm
         // (`model::bounds`): what the fit keeps to and the board checks.
@@ -286,15 +301,21 @@ impl CalibrationFile {
                 Some(ParamKey::TargetTool { target, .. }) => {
                     usize::from(target) < file.targets.len()
                 }
-                Some(_) => true,
+                Some(key) => key.fits(joints),
                 None => false,
             };
             if !known || repeated {
+                let n = joints;
                 return Err(InputError::new(
                     Location::key(None, format!("parameters[{}].name", i + 1)),
-                    Problem::OutOfRange {
-                        expected: "a parameter name (j1.theta … j6.alpha, base.x … tool.yaw, k0 … k6, j1.servo[1] … j6.servo[9], j1.backlash … j6.backlash, s0 … s6, tool[N].x … tool[N].z of a listed target), each once",
-                        found: format!("`{}`", p.name),
+                    Problem::Invalid {
+                        message: format!(
+                            "expected a parameter name of this arm of {n} joints (j1.theta … \
+                             j{n}.alpha, base.x … tool.yaw, k0 … k{n}, j1.servo[1] … \
+                             j{n}.servo[9], j1.backlash … j{n}.backlash, s0 … s{n}, tool[N].x … \
+                             tool[N].z of a listed target), each once, found `{}`",
+                            p.name
+                        ),
                     },
                 ));
             }

@@ -556,8 +556,8 @@ mod stream_tests {
         .unwrap_err()
         .report();
         assert!(e.contains("`<stdin>`: line 2") && e.contains("3"), "{e}");
-        let e = all(stream(&["pose,q1_deg,q2_deg\n"])).unwrap_err().report();
-        assert!(e.contains("line 1, column `q3_deg`"), "{e}");
+        let e = all(stream(&["pose,q1_deg,q3_deg\n"])).unwrap_err().report();
+        assert!(e.contains("line 1, column `q2_deg`"), "{e}");
         let e = all(stream(&[
             "# nothing yet\n",
             "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n",

@@ -8,7 +8,7 @@ use model::PerJoint;
 
 use lrmcal_core::dataset::Pose;
 
-/// The most poses a grid may have: 10 levels (10^6 poses) is already more than
+/// The most poses a grid may have: 10 levels of six joints (10^6 poses) is already more than
 /// pose selection can use, and more would only fill memory.
 pub const MAX_GRID_POSES: usize = 1_000_000;
 
@@ -213,7 +213,10 @@ mod tests {
         assert!(err("-100,,100").contains("found ``"));
         assert!(err("0,0").contains("given twice"));
         assert!(err("nan,1").contains("finite"));
-        assert!(err("11").contains("at most"));
+        let eleven: Levels = "11".parse().unwrap();
+        let e = eleven.grid_size(6).unwrap_err().to_string();
+        assert!(e.contains("11^6") && e.contains("at most"), "{e}");
+        assert_eq!(eleven.grid_size(5), Ok(161_051));
         assert!(err("").contains("level count"));
     }
 }

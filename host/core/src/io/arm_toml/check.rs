@@ -14,7 +14,7 @@ use crate::collision::{
     BodySet, BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
 };
 use crate::error::{InputError, Location, Problem};
-use model::Joint;
+use model::{Joint, JointKind};
 
 /// What a point of a body may be written as, for messages.
 pub(super) const POINT_FORMS: &str =
@@ -118,10 +118,16 @@ impl Checker<'_> {
             d: self.finite(&k("d"), &raw.d)?,
             a: self.finite(&k("a"), &raw.a)?,
             alpha: self.finite(&k("alpha"), &raw.alpha)?,
+            // A nominal arm is DH: Hayati's twist is found by calibration.
+            beta: 0.0,
+            kind: raw.kind,
             compliance: self.non_negative(
                 &k("compliance"),
                 &raw.compliance,
-                "a compliance >= 0 rad/Nm",
+                match raw.kind {
+                    JointKind::Revolute => "a compliance >= 0 rad/Nm",
+                    JointKind::Prismatic => "a compliance >= 0 m/N",
+                },
             )?,
             limits,
             mass: self.non_negative(&k("mass"), &raw.mass, "a mass >= 0 kg")?,

@@ -1,8 +1,8 @@
 //! The arm file as TOML holds it: the raw tables with their spans, and
 //! the way back from a description to them.
 
-use model::ServoCurve;
 use model::servo::{MAX_KNOTS, PULSE_RANGE_US};
+use model::{JointKind, ServoCurve};
 use serde::{Deserialize, Serialize};
 use toml::{Spanned, Value};
 
@@ -52,6 +52,9 @@ pub(super) struct RawPayload {
 #[serde(deny_unknown_fields)]
 pub(super) struct RawJoint {
     pub(super) name: String,
+    /// `revolute` (the default) or `prismatic`.
+    #[serde(rename = "type", default, skip_serializing_if = "is_revolute")]
+    pub(super) kind: JointKind,
     pub(super) theta: Spanned<f64>,
     pub(super) d: Spanned<f64>,
     pub(super) a: Spanned<f64>,
@@ -181,6 +184,7 @@ impl RawArm {
                     .zip(&d.joint_names)
                     .map(|(j, name)| RawJoint {
                         name: name.clone(),
+                        kind: j.kind,
                         theta: unspanned(j.theta),
                         d: unspanned(j.d),
                         a: unspanned(j.a),
@@ -284,4 +288,9 @@ impl RawBody {
             cuboid,
         }
     }
+}
+
+/// Whether a joint is revolute, the kind the file leaves out.
+fn is_revolute(kind: &JointKind) -> bool {
+    *kind == JointKind::Revolute
 }

@@ -54,9 +54,11 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
     let dh = ParamId::of(arm).filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
     let ids: Vec<ParamId> = match option {
-        ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
-            compliances.chain(geometric).collect()
-        }
+        ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
+        ModelOption::ElastoKinematicServo => compliances
+            .chain(geometric)
+            .chain(parallel_twists(arm))
+            .collect(),
         ModelOption::Kinematic => geometric.collect(),
         ModelOption::Elastic => compliances.collect(),
     };
@@ -65,6 +67,24 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
         .into_iter()
         .flatten();
     ids.into_iter().map(ParamKey::Arm).chain(knots).collect()
+}
+
+/// How near 0 or π a link's twist `alpha` is for its two joint axes to be
+/// parallel, rad: arms read from a URDF have their nearly parallel axes
+/// made exactly parallel within 1e-5 rad.
+const PARALLEL_RAD: f64 = 1e-5;
+
+/// Hayati's twist `beta` of every link of `arm` whose two joint axes are
+/// nominally parallel (`alpha` 0 or π, the last link's not counted: its
+/// frame carries no joint): the tilt of two parallel axes that no DH
+/// parameter holds (a tilt of `alpha` turns one axis about the common
+/// normal, `beta` about the other direction across them). Ours only: the
+/// paper's options keep the paper's parameters.
+fn parallel_twists(arm: &Arm<f64>) -> impl Iterator<Item = ParamId> + '_ {
+    let n = arm.joints.len();
+    (0..n.saturating_sub(1))
+        .filter(|&i| arm.joints[i].alpha.sin().abs() < PARALLEL_RAD)
+        .filter_map(ParamId::beta)
 }
 
 /// Parameters of `option` that only the refresh proposes, at the estimate
@@ -90,14 +110,17 @@ mod tests {
     const FINEST: KnotSpacing = KnotSpacing::FINEST;
 
     #[test]
-    fn candidate_counts_are_43_36_7_and_97() {
+    fn candidate_counts_are_43_36_7_and_98() {
         let arm = test_arm();
         assert_eq!(
             candidates(ModelOption::ElastoKinematic, &arm, FINEST).len(),
             43
         );
+        // Ours adds Hayati's twist of link 2, whose joint axes (2 and 3) are
+        // parallel, after the paper's 43.
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
-        assert_eq!(ours.len(), 43 + 6 * servo_knots::KNOTS);
+        assert_eq!(ours.len(), 44 + 6 * servo_knots::KNOTS);
+        assert_eq!(ours[43].name(), "j2.beta");
         assert_eq!(
             refresh_candidates(ModelOption::ElastoKinematicServo, &arm).len(),
             7
@@ -146,7 +169,7 @@ mod tests {
             ),
         ] {
             let ours = candidates(ModelOption::ElastoKinematicServo, &arm, spacing);
-            assert_eq!(ours.len(), 43 + 6 * knots, "{spacing}");
+            assert_eq!(ours.len(), 44 + 6 * knots, "{spacing}");
             let names: Vec<String> = names.iter().map(|n| n.to_string()).collect();
             let joint2: Vec<String> = ours
                 .iter()
@@ -170,7 +193,7 @@ mod tests {
         let mut arm = test_arm();
         arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
-        assert_eq!(ours.len(), 43 + 5 * servo_knots::KNOTS);
+        assert_eq!(ours.len(), 44 + 5 * servo_knots::KNOTS);
         assert!(
             !ours
                 .iter()

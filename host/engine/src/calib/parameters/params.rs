@@ -293,7 +293,8 @@ mod tests {
             assert_eq!(k.kind(), id.kind());
             assert_eq!(k.quantity().is_some(), !id.is_geometric());
         }
-        assert_eq!(ParamKey::from_name("j7.d"), None);
+        assert_eq!(ParamKey::from_name("j11.d"), None);
+        assert!(!ParamKey::from_name("j7.d").unwrap().fits(6));
         let knot = ParamKey::ServoKnot { joint: 2, knot: 4 };
         assert_eq!(knot.name(), "j3.servo[5]");
         assert_eq!(ParamKey::from_name("j3.servo[5]"), Some(knot));
@@ -393,8 +394,8 @@ mod tests {
             .unwrap();
         assert_eq!(back, v);
         assert_eq!(
-            ParamVector::<ParamKey>::from_named([("k9", 0.0)]),
-            Err(ParamError::UnknownName("k9".into()))
+            ParamVector::<ParamKey>::from_named([("k11", 0.0)]),
+            Err(ParamError::UnknownName("k11".into()))
         );
         assert_eq!(
             ParamVector::<ParamKey>::from_named([("k1", 0.0), ("k1", 1.0)]),
