@@ -1,6 +1,7 @@
 //! Reading and writing the files users exchange with `lrmcal` (each described
-//! in `docs/FORMATS.md`): arm descriptions (TOML), measurements, pose lists and
-//! predictions (CSV), and the calibration file (JSON).
+//! in `docs/FORMATS.md`): arm descriptions (TOML, or a URDF's serial chain),
+//! measurements, pose lists and predictions (CSV), and the calibration file
+//! (JSON).
 //!
 //! Parsers take text and return an [`InputError`](crate::error::InputError)
 //! naming line and key or column; the `read` functions add the file name.
@@ -22,6 +23,7 @@ pub mod model_option;
 pub mod pose_list;
 pub mod predictions;
 pub mod urdf;
+pub mod urdf_chain;
 
 use std::path::Path;
 
