@@ -16,6 +16,7 @@ use clap::{Parser, Subcommand};
 
 use crate::commands;
 use crate::error::Error;
+use lrmcal_core::io::arm_source::ArmSource;
 
 /// Calibrate a cheap 6-DOF arm (3D-printed links, hobby servos) from measured
 /// 3D tool positions, and predict where it really goes.
@@ -48,6 +49,41 @@ pub struct Cli {
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
+    /// With a URDF --arm: the link its serial chain starts at [default: the
+    /// file's one root link].
+    #[arg(long, global = true, value_name = "LINK")]
+    pub base_link: Option<String>,
+    /// With a URDF --arm: the link the chain ends at, whose origin is the
+    /// measured point's frame [default: the one link without children below
+    /// the base link].
+    #[arg(long, global = true, value_name = "LINK")]
+    pub tip_link: Option<String>,
+}
+
+impl Cli {
+    /// Hands --base-link and --tip-link to the command's URDF --arm; refuses
+    /// them for any other arm.
+    fn with_chain_links(mut self) -> Result<Command, Error> {
+        if self.base_link.is_none() && self.tip_link.is_none() {
+            return Ok(self.command);
+        }
+        match self.command.arm_mut() {
+            Some(ArmSource::Urdf {
+                base_link,
+                tip_link,
+                ..
+            }) => {
+                *base_link = self.base_link.take();
+                *tip_link = self.tip_link.take();
+                Ok(self.command)
+            }
+            other => Err(Error::Usage(format!(
+                "--base-link and --tip-link choose the chain of a URDF --arm (a .urdf file); \
+                 the arm here is {}",
+                other.map_or("not given".to_owned(), |a| a.to_string())
+            ))),
+        }
+    }
 }
 
 /// The subcommands of `lrmcal`, one file each under `src/commands/`.
@@ -102,6 +138,23 @@ pub enum Command {
 }
 
 impl Command {
+    /// The command's --arm, if it takes one and it is given.
+    fn arm_mut(&mut self) -> Option<&mut ArmSource> {
+        match self {
+            Self::Predict(args) => Some(&mut args.arm),
+            Self::Simulate(args) => Some(&mut args.arm),
+            Self::Plan(args) => Some(&mut args.arm),
+            Self::Demo(args) => Some(&mut args.arm),
+            Self::Identify(args) => Some(&mut args.arm),
+            Self::Select(args) => Some(&mut args.arm),
+            Self::Validate(args) => args.arm.as_mut(),
+            Self::Move(args) => args.arm.as_mut(),
+            Self::Measure(args) => args.arm.as_mut(),
+            Self::Export(args) => args.arm.as_mut(),
+            _ => None,
+        }
+    }
+
     /// Runs the chosen subcommand.
     pub fn run(&self) -> Result<(), Error> {
         match self {
@@ -135,8 +188,8 @@ impl Command {
 /// Parses the process arguments, runs the command and turns its outcome into an
 /// exit code, printing any error with its causes to stderr.
 pub fn main_impl() -> ExitCode {
-    let cli = Cli::parse();
-    match cli.command.run() {
+    let outcome = Cli::parse().with_chain_links().and_then(|c| c.run());
+    match outcome {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
             eprintln!("{}", error.report());

@@ -32,6 +32,9 @@ pub mod exit_codes {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum Error {
+    /// Options that do not go together, found after clap's own checks.
+    #[error("use lrmcal: {0}")]
+    Usage(String),
     /// A file could not be read, written or used.
     #[error(transparent)]
     File(#[from] lrmcal_core::Error),
@@ -184,6 +187,7 @@ impl Error {
     /// The process exit code for this error (see [`exit_codes`]).
     pub fn exit_code(&self) -> u8 {
         match self {
+            Self::Usage(_) => exit_codes::USAGE,
             Self::File(e) if e.is_access() => exit_codes::FILE_ACCESS,
             Self::File(_)
             | Self::AmbiguousLoad { .. }

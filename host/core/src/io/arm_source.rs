@@ -1,6 +1,8 @@
 //! Which arm a command works on, as given by `--arm`: the name of a bundled arm
 //! (`lrm`, the default, so a new user needs no files) or a file whose extension
-//! says what it holds: `.toml` a nominal arm description, `.json` a calibration
+//! says what it holds: `.toml` a nominal arm description, `.urdf` a robot
+//! description whose serial chain is the arm (between the links `--base-link`
+//! and `--tip-link` name, or its one root and one end), `.json` a calibration
 //! file written by `lrmcal identify` or `lrmcal demo` (its corrected arm is used).
 //!
 //! To accept another kind of file, add a variant to [`ArmSource`], its
@@ -15,6 +17,7 @@ use model::Arm;
 use crate::collision::CollisionSpec;
 use crate::error::Error;
 use crate::io::arm_toml::{self, ArmDescription};
+use crate::io::arm_urdf;
 use crate::io::calibration_file::CalibrationFile;
 
 /// The arms shipped inside the binary: (name, TOML text).
@@ -30,6 +33,16 @@ pub enum ArmSource {
     Bundled(&'static str),
     /// A nominal arm description file (TOML).
     Description(PathBuf),
+    /// A URDF's serial chain from a base link to a tip link (its one root
+    /// and one end when not named).
+    Urdf {
+        /// The URDF file.
+        path: PathBuf,
+        /// The chain's first link, `--base-link`.
+        base_link: Option<String>,
+        /// The link whose origin is the measured point's frame, `--tip-link`.
+        tip_link: Option<String>,
+    },
     /// A calibration file (JSON): the calibrated arm it carries.
     Calibration(PathBuf),
 }
@@ -68,10 +81,15 @@ impl FromStr for ArmSource {
         }
         match path.extension().and_then(|e| e.to_str()) {
             Some("toml") => Ok(Self::Description(path.to_owned())),
+            Some("urdf") => Ok(Self::Urdf {
+                path: path.to_owned(),
+                base_link: None,
+                tip_link: None,
+            }),
             Some("json") => Ok(Self::Calibration(path.to_owned())),
             _ => Err(format!(
                 "expected the name of a bundled arm ({}), an arm description file ending in .toml \
-                 or a calibration file ending in .json, found `{spec}`",
+                 or .urdf, or a calibration file ending in .json, found `{spec}`",
                 BUNDLED
                     .iter()
                     .map(|(n, _)| *n)
@@ -87,6 +105,22 @@ impl fmt::Display for ArmSource {
         match self {
             Self::Bundled(name) => write!(f, "bundled arm `{name}`"),
             Self::Description(path) => write!(f, "`{}`", path.display()),
+            Self::Urdf {
+                path,
+                base_link,
+                tip_link,
+            } => {
+                write!(f, "`{}`", path.display())?;
+                match (base_link, tip_link) {
+                    (None, None) => Ok(()),
+                    _ => write!(
+                        f,
+                        " from `{}` to `{}`",
+                        base_link.as_deref().unwrap_or("its root"),
+                        tip_link.as_deref().unwrap_or("its end")
+                    ),
+                }
+            }
             Self::Calibration(path) => write!(f, "calibration `{}`", path.display()),
         }
     }
@@ -102,6 +136,14 @@ impl ArmSource {
         let (d, calibration) = match self {
             Self::Bundled(name) => (bundled(name)?, None),
             Self::Description(path) => (arm_toml::read(path)?, None),
+            Self::Urdf {
+                path,
+                base_link,
+                tip_link,
+            } => (
+                arm_urdf::read(path, base_link.as_deref(), tip_link.as_deref())?,
+                None,
+            ),
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
                 let d = ArmDescription {

@@ -13,6 +13,7 @@
 
 pub mod arm_source;
 pub mod arm_toml;
+pub mod arm_urdf;
 pub mod atomic;
 pub mod bounds;
 pub mod calibration_file;

@@ -158,6 +158,74 @@ impl<'a> Tree<'a> {
         self.parent[link]
     }
 
+    /// The base and tip links of the chain when the user names them or not:
+    /// the base defaults to the file's one root link, the tip to the one
+    /// link below the base that has no children. Where there are several,
+    /// the error lists them.
+    pub fn ends_or_defaults(
+        &self,
+        base: Option<&str>,
+        tip: Option<&str>,
+    ) -> Result<(String, String), InputError> {
+        let name = |link: usize| self.link(link).name.clone();
+        let list = |links: &[usize]| {
+            links
+                .iter()
+                .map(|&l| format!("`{}`", self.link(l).name))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let base = match base {
+            Some(b) => self.find_link(b, "base")?,
+            None => {
+                let roots: Vec<usize> = (0..self.robot.links.len())
+                    .filter(|&l| self.parent[l].is_none())
+                    .collect();
+                match roots[..] {
+                    [root] => root,
+                    _ => {
+                        return Err(self.source.error(
+                            None,
+                            format!(
+                                "expected one root link to start the chain at, found {} ({}): \
+                                 name the base link (--base-link)",
+                                roots.len(),
+                                list(&roots)
+                            ),
+                        ));
+                    }
+                }
+            }
+        };
+        if let Some(t) = tip {
+            return Ok((name(base), name(self.find_link(t, "tip")?)));
+        }
+        let mut leaves = Vec::new();
+        let mut stack = vec![base];
+        while let Some(link) = stack.pop() {
+            if self.children[link].is_empty() {
+                leaves.push(link);
+            }
+            stack.extend(self.children[link].iter().map(|&j| self.ends[j].1));
+            if leaves.len() + stack.len() > self.robot.links.len() {
+                break;
+            }
+        }
+        leaves.sort_unstable();
+        match leaves[..] {
+            [leaf] if leaf != base => Ok((name(base), name(leaf))),
+            _ => Err(self.source.error(
+                None,
+                format!(
+                    "expected one chain below the base link `{}`, found the ends {}: name the \
+                     tip link, the one whose origin is the measured point's frame (--tip-link)",
+                    name(base),
+                    list(&leaves)
+                ),
+            )),
+        }
+    }
+
     /// The chain from `base` down to `tip`, its joints checked.
     pub fn select(&self, base: &str, tip: &str) -> Result<Chain, InputError> {
         let base_index = self.find_link(base, "base")?;

@@ -168,6 +168,26 @@ pub fn read(path: &Path, base_link: &str, tip_link: &str) -> Result<DhChain, Err
     parse(&text, base_link, tip_link).map_err(|e| e.in_file(path))
 }
 
+/// The base and tip links of `text`'s chain: as given, else the file's one
+/// root link and the one link without children below the base (the error
+/// lists the choices where there are several).
+pub fn chain_ends(
+    text: &str,
+    base_link: Option<&str>,
+    tip_link: Option<&str>,
+) -> Result<(String, String), InputError> {
+    let robot = urdf_rs::read_from_string(text).map_err(|e| {
+        InputError::new(
+            Location::default(),
+            Problem::Syntax {
+                message: format!("expected a URDF robot description: {e}"),
+            },
+        )
+    })?;
+    let source = Source { text };
+    chain::Tree::new(&robot, &source)?.ends_or_defaults(base_link, tip_link)
+}
+
 /// Reads the chain from `base_link` to `tip_link` of a URDF's text.
 pub fn parse(text: &str, base_link: &str, tip_link: &str) -> Result<DhChain, InputError> {
     let syntax =
