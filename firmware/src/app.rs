@@ -58,10 +58,13 @@ pub enum SystemAction {
     RebootToBootloader,
 }
 
-/// The calibration in use, prepared.
+/// The calibration in use, prepared: what the servo frame and the handlers
+/// need of it (its two arms live on in the compensator's chains and the
+/// curves and limits below, and in flash for `calib/read`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Active {
-    pub calibration: Calibration,
+    /// The pose `motion/home` goes to, one angle per joint, rad.
+    pub home_rad: PerChannel<f32>,
     pub info: CalibrationInfo,
     pub compensator: Compensator,
     /// The calibrated arm's joints, on channels `0..joints`.
@@ -262,7 +265,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                     .map(|way| backlash::command_for(0.0, j.backlash, way)),
                 None => [0.0; 2],
             }),
-            calibration,
+            home_rad: calibration.home_rad,
         });
     }
 
@@ -334,7 +337,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
     pub(crate) fn home(&self) -> PerChannel<f32> {
         self.active
             .as_ref()
-            .map_or(PerChannel::splat(CHANNELS, 0.0), |a| a.calibration.home_rad)
+            .map_or(PerChannel::splat(CHANNELS, 0.0), |a| a.home_rad)
     }
 
     /// Joint ranges in force per channel, rad ([`servo::joint_limits`]; the
