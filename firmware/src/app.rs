@@ -12,11 +12,18 @@
 //! which costs a reversal per move and room beyond the limits. The offset
 //! changes at the correction's bounded rate. `docs/METHOD.md` gives the reasons.
 //!
+//! Joints and channels (crate docs): the arm in force has [`Device::joints`]
+//! joints, the calibration's or [`CHANNELS`] without one; the per-joint state
+//! (positions, corrections, commands) has one value per joint, and every
+//! channel past the last joint is [`Channel::Limp`] whatever happens. A
+//! calibration of another size refits that state ([`Device::switch_calibration`]).
+//!
 //! This module imports neither the handlers nor the dispatch table: the
 //! handlers (`handlers.rs`) work on the [`Device`] defined here, and the
 //! table (`dispatch.rs`) names the handlers, so the modules form a line
 //! `app` ← `handlers` ← `dispatch` with no way back.
 
+use model::PerJoint;
 use model::backlash::{self, Approach, ApproachTracker};
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::PROTOCOL_VERSION;
@@ -29,7 +36,7 @@ use crate::float::ordered;
 use crate::motion::{MotionLimits, Profile};
 use crate::servo::{self, PreparedCurve, pulse_for};
 use crate::storage::Storage;
-use crate::{CHANNELS, Config, FlashStorage, ServoBus};
+use crate::{CHANNELS, Config, FlashStorage, PerChannel, ServoBus};
 
 /// A command that changes by less than this from one frame to the next has settled, rad.
 const SETTLED_RAD: f32 = 1e-6;
@@ -51,26 +58,34 @@ pub enum SystemAction {
     RebootToBootloader,
 }
 
-/// The calibration in use, prepared.
+/// The calibration in use, prepared: what the servo frame and the handlers
+/// need of it (its two arms live on in the compensator's chains and the
+/// curves and limits below, and in flash for `calib/read`).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Active {
-    pub calibration: Calibration,
+    /// The pose `motion/home` goes to, one angle per joint, rad.
+    pub home_rad: PerChannel<f32>,
     pub info: CalibrationInfo,
     pub compensator: Compensator,
-    /// The calibrated servo curves, ready for the servo frame.
+    /// The calibrated arm's joints, on channels `0..joints`.
+    pub joints: usize,
+    /// The calibrated servo curves, ready for the servo frame; past the last
+    /// joint (channels never driven) the uncalibrated curve.
     pub curves: [PreparedCurve; CHANNELS],
     /// The joint ranges in force: the calibration's, cut to the hard range
-    /// (worked out once, not per servo frame), rad.
+    /// (worked out once, not per servo frame), rad; the default range past
+    /// the last joint.
     pub limits: [[f32; 2]; CHANNELS],
     /// Each joint's backlash offset arriving rising and falling, rad (worked
-    /// out once: the servo frame only picks one).
+    /// out once: the servo frame only picks one); none past the last joint.
     pub play_offsets: [[f32; 2]; CHANNELS],
 }
 
 /// What one servo channel does, with the pulse it puts out.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Channel {
-    /// No pulses: the servo is limp (at power-on and after `servo/detach`).
+    /// No pulses: the servo is limp (at power-on, after `servo/detach`, and
+    /// always past the arm's last joint).
     Limp,
     /// Driven by the motion and the compensation; the pulse of the last
     /// servo frame, µs (`None` until the first frame after attaching).
@@ -111,15 +126,15 @@ pub struct Device<B, F> {
     pub(crate) mode: CompensationMode,
     pub(crate) payload_kg: f32,
     pub(crate) motion: Profile,
-    /// Nominal joint angles of the last servo frame, rad.
-    pub(crate) position: [f32; CHANNELS],
+    /// Nominal joint angles of the last servo frame, rad, one per joint.
+    pub(crate) position: PerChannel<f32>,
     pub(crate) moving: bool,
     /// Whether the correction is still fading towards the wanted one, or the
     /// compensation still converging (the servos still move although the
     /// motion is over).
     pub(crate) settling: bool,
-    /// The compensated commands of the last servo frame, rad.
-    pub(crate) wanted: [f32; CHANNELS],
+    /// The compensated commands of the last servo frame, rad, one per joint.
+    pub(crate) wanted: PerJoint<f32>,
     pub(crate) channels: [Channel; CHANNELS],
     pub(crate) faults: Faults,
     pub(crate) frames_dropped: u32,
@@ -127,13 +142,14 @@ pub struct Device<B, F> {
     pub(crate) boot_us: u64,
     pub(crate) now_us: u64,
     pub(crate) pending: Option<SystemAction>,
-    /// Correction (command minus nominal) on the servos now, rad.
-    pub(crate) applied_correction: [f32; CHANNELS],
+    /// Correction (command minus nominal) on the servos now, rad, one per joint.
+    pub(crate) applied_correction: PerChannel<f32>,
     /// The way each joint's command last moved (the side of its play it rests on).
     pub(crate) approach: ApproachTracker<f32>,
     /// Backlash offset on the servos now, rad: half the calibration's play in
-    /// the direction of motion, changing at the correction's bounded rate.
-    pub(crate) applied_play: [f32; CHANNELS],
+    /// the direction of motion, changing at the correction's bounded rate;
+    /// one per joint.
+    pub(crate) applied_play: PerChannel<f32>,
     /// Time of the last servo frame, µs.
     pub(crate) last_frame_us: u64,
     /// The servo curve without a calibration, ready for the servo frame.
@@ -147,6 +163,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
     pub fn new(bus: B, flash: F, config: Config, now_us: u64) -> Self {
         let mut storage = Storage::new(flash);
         let report = storage.load();
+        let zeros = PerChannel::splat(CHANNELS, 0.0);
         let mut device = Self {
             config,
             bus,
@@ -154,11 +171,11 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             active: None,
             mode: CompensationMode::Off,
             payload_kg: 0.0,
-            motion: Profile::hold([0.0; CHANNELS]),
-            position: [0.0; CHANNELS],
+            motion: Profile::hold(zeros),
+            position: zeros,
             moving: false,
             settling: false,
-            wanted: [0.0; CHANNELS],
+            wanted: PerJoint::splat(CHANNELS, 0.0),
             channels: [Channel::Limp; CHANNELS],
             faults: Faults::default(),
             frames_dropped: 0,
@@ -166,10 +183,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             boot_us: now_us,
             now_us,
             pending: None,
-            applied_correction: [0.0; CHANNELS],
+            applied_correction: zeros,
             // Every joint taken to rest at home having arrived rising (as the host's tracker does).
-            approach: ApproachTracker::new([0.0; CHANNELS]),
-            applied_play: [0.0; CHANNELS],
+            approach: ApproachTracker::new(&zeros),
+            applied_play: zeros,
             last_frame_us: now_us,
             uncalibrated: PreparedCurve::new(config.uncalibrated_curve),
             pulse_range_us: config.pulse_range_us.map(f32::from),
@@ -178,8 +195,12 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         if let Some(loaded) = report.loaded {
             device.apply(loaded.calibration, loaded.sequence);
         }
+        let joints = device.joints();
         device.position = device.home();
-        device.approach = ApproachTracker::new(device.position);
+        device.wanted = PerJoint::splat(joints, 0.0);
+        device.applied_correction = PerChannel::splat(joints, 0.0);
+        device.applied_play = PerChannel::splat(joints, 0.0);
+        device.approach = ApproachTracker::new(&device.position);
         device.motion = Profile::hold(device.position);
         for channel in 0..CHANNELS {
             device.bus.set_pulse(channel, None);
@@ -219,42 +240,47 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         }
     }
 
-    /// Makes `calibration` (stored under `sequence`) the one in use.
+    /// Makes `calibration` (stored under `sequence`, checked: 1 to
+    /// [`CHANNELS`] joints) the one in use.
     pub(crate) fn apply(&mut self, calibration: Calibration, sequence: u32) {
         let c = &self.config;
+        let arm = &calibration.calibrated;
+        let joints = arm.joint_count().min(CHANNELS);
         self.active = Some(Active {
             info: CalibrationInfo {
                 id: calibration.id,
                 option: calibration.option,
+                joints: joints as u8,
                 sequence,
             },
             compensator: Compensator::new(&calibration, c.compensation, c.max_correction_rad),
-            curves: calibration
-                .calibrated
-                .joints
-                .map(|j| PreparedCurve::new(j.servo)),
-            limits: servo::joint_limits(
-                Some(&calibration.calibrated),
-                c.hard_limits_rad,
-                c.default_limits_rad,
-            ),
-            play_offsets: calibration.calibrated.joints.map(|j| {
-                [Approach::Rising, Approach::Falling]
-                    .map(|way| backlash::command_for(0.0, j.backlash, way))
+            joints,
+            curves: core::array::from_fn(|i| match arm.joints.get(i) {
+                Some(j) => PreparedCurve::new(j.servo),
+                None => self.uncalibrated,
             }),
-            calibration,
+            limits: servo::joint_limits(Some(arm), c.hard_limits_rad, c.default_limits_rad),
+            play_offsets: core::array::from_fn(|i| match arm.joints.get(i) {
+                Some(j) => [Approach::Rising, Approach::Falling]
+                    .map(|way| backlash::command_for(0.0, j.backlash, way)),
+                None => [0.0; 2],
+            }),
+            home_rad: calibration.home_rad,
         });
     }
 
     /// Replaces the calibration in use without a step on the servos: what the
     /// new curves would change in a driven joint's pulse is folded into the
-    /// correction, which then fades out at the bounded rate.
+    /// correction, which then fades out at the bounded rate. An arm of
+    /// another size refits the per-joint state first ([`Device::fit_joints`]).
     pub(crate) fn switch_calibration(&mut self, next: Option<(Calibration, u32)>) {
         match next {
             Some((calibration, sequence)) => self.apply(calibration, sequence),
             None => self.active = None,
         }
-        for (i, [lo, hi]) in self.limits().into_iter().enumerate() {
+        self.fit_joints();
+        let joints = self.joints();
+        for (i, [lo, hi]) in self.limits().into_iter().enumerate().take(joints) {
             let Channel::Held(Some(pulse)) = self.channels[i] else {
                 continue;
             };
@@ -267,14 +293,55 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         }
     }
 
-    /// The pose `motion/home` goes to and the one assumed at start-up, rad.
-    pub(crate) fn home(&self) -> [f32; CHANNELS] {
-        self.active
-            .as_ref()
-            .map_or([0.0; CHANNELS], |a| a.calibration.home_rad)
+    /// The per-joint state fitted to the arm in force, after a calibration of
+    /// another number of joints (or none) replaced the last: the joints both
+    /// arms have keep their position, correction and play offset; a joint the
+    /// last arm did not have, whose channel is limp, is taken to rest at the
+    /// home pose (as at start-up) with no correction. The way each joint
+    /// arrived starts afresh (rising, as at start-up), the motion holds, and
+    /// every channel past the last joint goes limp at once.
+    fn fit_joints(&mut self) {
+        let joints = self.joints();
+        if self.position.len() == joints {
+            return;
+        }
+        let home = self.home();
+        let kept = |v: &PerChannel<f32>, i: usize| v.get(i).copied();
+        let position = PerChannel::from_fn(joints, |i| kept(&self.position, i).unwrap_or(home[i]));
+        self.applied_correction =
+            PerChannel::from_fn(joints, |i| kept(&self.applied_correction, i).unwrap_or(0.0));
+        self.applied_play =
+            PerChannel::from_fn(joints, |i| kept(&self.applied_play, i).unwrap_or(0.0));
+        self.wanted = PerJoint::from_fn(joints, |i| match self.wanted.get(i) {
+            Some(&w) => w,
+            None => position[i],
+        });
+        self.position = position;
+        self.approach = ApproachTracker::new(&position);
+        self.motion = Profile::hold(position);
+        for (i, channel) in self.channels.iter_mut().enumerate().skip(joints) {
+            if *channel != Channel::Limp {
+                *channel = Channel::Limp;
+                self.bus.set_pulse(i, None);
+            }
+        }
     }
 
-    /// Joint ranges in force, rad ([`servo::joint_limits`]).
+    /// The arm's joints, on channels `0..joints`: the calibration's arm, or
+    /// one joint per channel without a calibration.
+    pub fn joints(&self) -> usize {
+        self.active.as_ref().map_or(CHANNELS, |a| a.joints)
+    }
+
+    /// The pose `motion/home` goes to and the one assumed at start-up, rad.
+    pub(crate) fn home(&self) -> PerChannel<f32> {
+        self.active
+            .as_ref()
+            .map_or(PerChannel::splat(CHANNELS, 0.0), |a| a.home_rad)
+    }
+
+    /// Joint ranges in force per channel, rad ([`servo::joint_limits`]; the
+    /// default range past the arm's last joint).
     pub(crate) fn limits(&self) -> [[f32; 2]; CHANNELS] {
         match &self.active {
             Some(a) => a.limits,
@@ -296,16 +363,18 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         }
     }
 
-    /// Versions, for `link/hello` and `status/get`.
+    /// Versions and channels, for `link/hello` and `status/get`.
     pub(crate) fn device_info(&self) -> DeviceInfo {
         DeviceInfo {
             protocol: PROTOCOL_VERSION,
             firmware: self.config.firmware,
+            channels: CHANNELS as u8,
         }
     }
 
     /// One servo frame at `now_us`: advance the motion, compensate, and put a
-    /// pulse (or none) on every channel.
+    /// pulse (or none) on every channel: the arm's joints', and none on the
+    /// channels past its last joint.
     pub fn servo_frame(&mut self, now_us: u64) {
         self.now_us = now_us;
         let (q_nominal, done) = self.motion.at(now_us);
@@ -315,7 +384,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         let (mode, payload) = (self.mode, self.payload_kg);
         let wanted = match &mut self.active {
             Some(a) if driven => a.compensator.step(&q_nominal, mode, payload),
-            _ => q_nominal,
+            _ => PerJoint::from_fn(q_nominal.len(), |i| q_nominal[i]),
         };
         // Fade the correction towards the wanted one at a bounded rate; a limp
         // arm starts again from none.
@@ -326,7 +395,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         self.last_frame_us = now_us;
         let step = self.config.max_correction_rate_rad_s * dt_s;
         let mut settling = false;
-        let command: [f32; CHANNELS] = core::array::from_fn(|i| {
+        let command = PerChannel::from_fn(q_nominal.len(), |i| {
             let target = if driven {
                 wanted[i] - q_nominal[i]
             } else {
@@ -346,7 +415,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         // way the command last moved. Held channels only: a limp joint follows nothing.
         let approach = self.approach.follow(&command, APPROACH_DEAD_BAND_RAD);
         let offsets = self.active.as_ref().map(|a| &a.play_offsets);
-        let command: [f32; CHANNELS] = core::array::from_fn(|i| {
+        let command = PerChannel::from_fn(command.len(), |i| {
             let offset = match (offsets, self.channels[i], approach[i]) {
                 (Some(o), Channel::Held(_), Approach::Rising) => o[i][0],
                 (Some(o), Channel::Held(_), Approach::Falling) => o[i][1],
@@ -389,13 +458,19 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         // Fields, not `self.curve()`: the channels change in the same loop.
         let curves = self.active.as_ref().map(|a| &a.curves);
         for (i, channel) in self.channels.iter_mut().enumerate() {
-            let pulse = match *channel {
-                Channel::Limp => None,
-                Channel::Raw(us) => Some(us),
-                Channel::Held(last) => {
+            let pulse = match (*channel, command.get(i)) {
+                // Past the arm's last joint: limp, whatever asked otherwise
+                // (no handler does).
+                (_, None) => {
+                    *channel = Channel::Limp;
+                    None
+                }
+                (Channel::Limp, _) => None,
+                (Channel::Raw(us), _) => Some(us),
+                (Channel::Held(last), Some(&command)) => {
                     let pulse = match pulse_for(
                         curves.map_or(&self.uncalibrated, |c| &c[i]),
-                        command[i],
+                        command,
                         limits[i],
                         self.pulse_range_us,
                     ) {

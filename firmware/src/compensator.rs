@@ -34,11 +34,9 @@
 //! one stalls too, the solve ends on its best command, reported as not
 //! converged.
 
-use model::{Chain, CompensationOptions, Evaluation, Slope};
+use model::{Chain, CompensationOptions, Evaluation, PerJoint, Slope};
 use nalgebra::{IsometryMatrix3, Point3, Vector3};
 use protocol::{Calibration, CompensationMode, CompensationReport};
-
-use crate::CHANNELS;
 
 /// How many failed steps in a row raise the damping (by 4× each).
 const MAX_REJECTIONS: u32 = 6;
@@ -52,7 +50,7 @@ const STALLED_STEPS: u32 = 3;
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Inputs {
-    q_nominal: [f32; CHANNELS],
+    q_nominal: PerJoint<f32>,
     mode: CompensationMode,
     payload_kg: f32,
 }
@@ -64,23 +62,25 @@ struct Accepted {
     slope: Slope<f32>,
     target: Vector3<f32>,
     /// The nominal targets it was solved for.
-    q_nominal: [f32; CHANNELS],
+    q_nominal: PerJoint<f32>,
     /// Deflected angles minus nominal targets of the step taken from it, rad.
-    correction: [f32; CHANNELS],
+    correction: PerJoint<f32>,
 }
 
 /// The state the next frame evaluates, before it is moved along with the targets.
 #[derive(Clone, Copy, Debug)]
 struct Next {
-    qa: [f32; CHANNELS],
+    qa: PerJoint<f32>,
     beta: f32,
     /// The nominal targets it was stepped for.
-    q_nominal: [f32; CHANNELS],
+    q_nominal: PerJoint<f32>,
     /// How much the correction changed over the last frame, rad.
-    correction_rate: [f32; CHANNELS],
+    correction_rate: PerJoint<f32>,
 }
 
-/// The compensation state carried from one servo frame to the next.
+/// The compensation state carried from one servo frame to the next, for an
+/// arm of any number of joints: every joint vector in and out has one value
+/// per joint of the calibration's arm.
 #[derive(Clone, Copy, Debug)]
 pub struct Compensator {
     nominal: Chain<f32>,
@@ -90,7 +90,7 @@ pub struct Compensator {
     rigid_nominal_base: Option<IsometryMatrix3<f32>>,
     options: CompensationOptions<f32>,
     /// How far a joint may be corrected: the calibration's, cut to the board's cap, rad.
-    max_correction_rad: [f32; CHANNELS],
+    max_correction_rad: PerJoint<f32>,
     accepted: Option<Accepted>,
     next: Option<Next>,
     rejections: u32,
@@ -103,9 +103,9 @@ pub struct Compensator {
     /// Inputs of the last frame that solved.
     last_inputs: Option<Inputs>,
     /// Inputs of the last frame that ended the solve (converged or stalled) and the command it gave.
-    settled: Option<(Inputs, [f32; CHANNELS])>,
+    settled: Option<(Inputs, PerJoint<f32>)>,
     /// Command minus nominal of the last accepted frame, rad.
-    last_correction: [f32; CHANNELS],
+    last_correction: PerJoint<f32>,
     fell_back: bool,
     report: CompensationReport,
 }
@@ -115,6 +115,7 @@ impl Compensator {
     /// corrected by more than the calibration's largest correction or `cap_rad`.
     pub fn new(calibration: &Calibration, options: CompensationOptions<f32>, cap_rad: f32) -> Self {
         let (nominal, calibrated) = (calibration.nominal.chain(), calibration.calibrated.chain());
+        let joints = calibration.calibrated.joint_count();
         Self {
             nominal,
             calibrated,
@@ -122,7 +123,9 @@ impl Compensator {
                 .is_rigid()
                 .then(|| calibrated.base.inverse() * nominal.base),
             options,
-            max_correction_rad: calibration.max_correction_rad.map(|m| m.min(cap_rad)),
+            max_correction_rad: PerJoint::from_fn(joints, |i| {
+                calibration.max_correction_rad[i].min(cap_rad)
+            }),
             accepted: None,
             next: None,
             rejections: 0,
@@ -131,10 +134,15 @@ impl Compensator {
             steps: 0,
             last_inputs: None,
             settled: None,
-            last_correction: [0.0; CHANNELS],
+            last_correction: PerJoint::splat(joints, 0.0),
             fell_back: false,
             report: CompensationReport::default(),
         }
+    }
+
+    /// The calibrated arm's joints: the length of every joint vector in and out.
+    pub fn joints(&self) -> usize {
+        self.max_correction_rad.len()
     }
 
     /// How the last step went.
@@ -164,7 +172,7 @@ impl Compensator {
         self.fresh_while_holding = false;
         self.last_inputs = None;
         self.settled = None;
-        self.last_correction = [0.0; CHANNELS];
+        self.last_correction = PerJoint::splat(self.joints(), 0.0);
         self.fell_back = false;
     }
 
@@ -172,7 +180,7 @@ impl Compensator {
     /// arm's base frame, or `None` when off.
     fn target(
         &self,
-        q_nominal: &[f32; CHANNELS],
+        q_nominal: &[f32],
         mode: CompensationMode,
         payload_kg: f32,
     ) -> Option<Vector3<f32>> {
@@ -195,37 +203,39 @@ impl Compensator {
 
     /// The state to evaluate this frame: the last step's result moved along
     /// with the targets and the correction's rate, or the nominal targets.
-    fn guess(&self, q_nominal: &[f32; CHANNELS]) -> ([f32; CHANNELS], f32) {
+    fn guess(&self, q_nominal: &[f32]) -> (PerJoint<f32>, f32) {
+        let n = q_nominal.len();
         match (&self.next, &self.accepted) {
             (Some(next), Some(accepted)) => {
                 // The correction goes on changing only while the targets move.
-                let rate = if *q_nominal == next.q_nominal {
-                    [0.0; CHANNELS]
+                let rate = if *q_nominal == *next.q_nominal {
+                    PerJoint::splat(n, 0.0)
                 } else {
                     next.correction_rate
                 };
-                let shift: [f32; CHANNELS] =
-                    core::array::from_fn(|i| q_nominal[i] - next.q_nominal[i] + rate[i]);
-                let qa = core::array::from_fn(|i| next.qa[i] + shift[i]);
+                let shift = PerJoint::from_fn(n, |i| q_nominal[i] - next.q_nominal[i] + rate[i]);
+                let qa = PerJoint::from_fn(n, |i| next.qa[i] + shift[i]);
                 (qa, next.beta + accepted.slope.tilt_change(&shift))
             }
-            _ => (*q_nominal, 0.0),
+            _ => (joint_vector(q_nominal), 0.0),
         }
     }
 
-    /// One servo frame: the joint commands for `q_nominal` (not yet clamped to limits).
+    /// One servo frame: the joint commands for `q_nominal`, one target per
+    /// joint of the calibration's arm (not yet clamped to limits). Targets
+    /// of another length (which the board never passes) get no compensation.
     pub fn step(
         &mut self,
-        q_nominal: &[f32; CHANNELS],
+        q_nominal: &[f32],
         mode: CompensationMode,
         payload_kg: f32,
-    ) -> [f32; CHANNELS] {
-        if mode == CompensationMode::Off {
+    ) -> PerJoint<f32> {
+        if mode == CompensationMode::Off || q_nominal.len() != self.joints() {
             self.reset();
-            return *q_nominal;
+            return joint_vector(q_nominal);
         }
         let inputs = Inputs {
-            q_nominal: *q_nominal,
+            q_nominal: joint_vector(q_nominal),
             mode,
             payload_kg,
         };
@@ -249,7 +259,7 @@ impl Compensator {
         // move of it a copy on the board.
         let evaluated = self
             .calibrated
-            .evaluate(qa, beta, &target, payload_kg, tolerance);
+            .evaluate(&qa, beta, &target, payload_kg, tolerance);
         let within = |e: &Evaluation<f32>| {
             e.state
                 .q
@@ -276,7 +286,8 @@ impl Compensator {
                     error_um: state.error_m * 1e6,
                     fallbacks: self.report.fallbacks,
                 };
-                self.last_correction = core::array::from_fn(|i| state.q[i] - q_nominal[i]);
+                self.last_correction =
+                    PerJoint::from_fn(q_nominal.len(), |i| state.q[i] - q_nominal[i]);
                 self.fell_back = false;
                 let slow = holding && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
                 self.slow_steps = if slow { self.slow_steps + 1 } else { 0 };
@@ -292,7 +303,7 @@ impl Compensator {
                 let previous = self
                     .accepted
                     .as_ref()
-                    .filter(|a| a.q_nominal != *q_nominal)
+                    .filter(|a| *a.q_nominal != *q_nominal)
                     .map(|a| a.correction);
                 self.take_step(evaluation, &slope, target, q_nominal, previous);
                 state.q
@@ -347,8 +358,8 @@ impl Compensator {
         evaluation: &Evaluation<f32>,
         slope: &Slope<f32>,
         target: Vector3<f32>,
-        q_nominal: &[f32; CHANNELS],
-        previous_correction: Option<[f32; CHANNELS]>,
+        q_nominal: &[f32],
+        previous_correction: Option<PerJoint<f32>>,
     ) {
         let next = evaluation
             .with_slope(slope, q_nominal)
@@ -358,11 +369,13 @@ impl Compensator {
             self.next = None;
             return;
         };
-        let correction = core::array::from_fn(|i| qa[i] - q_nominal[i]);
+        let n = q_nominal.len();
+        let correction = PerJoint::from_fn(n, |i| qa[i] - q_nominal[i]);
         let correction_rate = match previous_correction {
-            Some(p) => core::array::from_fn(|i| correction[i] - p[i]),
-            None => [0.0; CHANNELS],
+            Some(p) => PerJoint::from_fn(n, |i| correction[i] - p[i]),
+            None => PerJoint::splat(n, 0.0),
         };
+        let q_nominal = joint_vector(q_nominal);
         // Overwritten field by field while there is one (every frame of a
         // solve): built and moved in whole, its 500 bytes would be copied
         // twice more on the board.
@@ -371,7 +384,7 @@ impl Compensator {
                 a.evaluation = *evaluation;
                 a.slope = *slope;
                 a.target = target;
-                a.q_nominal = *q_nominal;
+                a.q_nominal = q_nominal;
                 a.correction = correction;
             }
             None => {
@@ -379,7 +392,7 @@ impl Compensator {
                     evaluation: *evaluation,
                     slope: *slope,
                     target,
-                    q_nominal: *q_nominal,
+                    q_nominal,
                     correction,
                 });
             }
@@ -387,16 +400,22 @@ impl Compensator {
         self.next = Some(Next {
             qa,
             beta,
-            q_nominal: *q_nominal,
+            q_nominal,
             correction_rate,
         });
     }
 
     /// Commands the nominal targets plus the last good correction and says so.
-    fn fall_back(&mut self, q_nominal: &[f32; CHANNELS]) -> [f32; CHANNELS] {
+    fn fall_back(&mut self, q_nominal: &[f32]) -> PerJoint<f32> {
         self.fell_back = true;
         self.report.converged = false;
         self.report.fallbacks = self.report.fallbacks.saturating_add(1);
-        core::array::from_fn(|i| q_nominal[i] + self.last_correction[i])
+        PerJoint::from_fn(q_nominal.len(), |i| q_nominal[i] + self.last_correction[i])
     }
+}
+
+/// `q` as a joint vector (at most `model::MAX_JOINTS` values: the board's
+/// arms have at most six).
+fn joint_vector(q: &[f32]) -> PerJoint<f32> {
+    PerJoint::from_fn(q.len(), |i| q[i])
 }

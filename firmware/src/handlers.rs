@@ -1,6 +1,12 @@
 //! One function per endpoint of the `protocol` table, called by the table in
 //! `dispatch.rs`. Each checks its input completely before it changes
 //! anything, so a refused request leaves the board as it was.
+//!
+//! Joints and channels: moves, `motion/home` and attaching all drive the
+//! arm's joints' channels, `0..joints`; a move must give one target per
+//! joint (`TargetCount` otherwise); attaching, or a raw pulse on, a channel
+//! past the last joint is refused (`UnusedChannel`): it stays limp. Detaching
+//! any channel is allowed (one past the last joint is limp already).
 
 use heapless::Vec;
 use protocol::calibration::MAX_CALIBRATION_LEN;
@@ -12,7 +18,7 @@ use protocol::{
 
 use crate::app::{Channel, Reply, SystemAction, Transfer};
 use crate::motion::{PlanError, Profile};
-use crate::{CHANNELS, Device, FlashStorage, ServoBus};
+use crate::{CHANNELS, Device, FlashStorage, PerChannel, ServoBus};
 
 /// `link/hello`: the versions, first thing after connecting.
 pub(crate) fn hello<B: ServoBus, F: FlashStorage>(d: &Device<B, F>) -> Reply {
@@ -70,13 +76,17 @@ fn hold<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, channel: usize) {
     };
 }
 
-/// `motion/move`: attach every joint and start a move.
+/// `motion/move`: attach every joint and start a move; one target per joint.
 pub(crate) fn move_to<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
-    targets: [f32; CHANNELS],
+    targets: PerChannel<f32>,
     timing: Timing,
 ) -> Reply {
     d.ensure_idle()?;
+    let joints = d.joints();
+    if targets.len() != joints {
+        return Err(WireError::TargetCount);
+    }
     if !targets.iter().all(|t| t.is_finite()) {
         return Err(WireError::NotFinite);
     }
@@ -100,7 +110,7 @@ pub(crate) fn move_to<B: ServoBus, F: FlashStorage>(
             PlanError::NotFinite => WireError::NotFinite,
             PlanError::OutOfRange => WireError::OutOfRange,
         })?;
-    for i in 0..CHANNELS {
+    for i in 0..joints {
         hold(d, i);
     }
     d.position = start;
@@ -117,22 +127,26 @@ pub(crate) fn home<B: ServoBus, F: FlashStorage>(d: &mut Device<B, F>, timing: T
     move_to(d, d.home(), timing)
 }
 
-/// The channels a request names: one, or all for `None`.
-fn channels(channel: Option<u8>) -> Result<core::ops::Range<usize>, WireError> {
-    match channel {
-        None => Ok(0..CHANNELS),
-        Some(c) if (c as usize) < CHANNELS => Ok(c as usize..c as usize + 1),
+/// The channels a request names among the first `count`: one, or all for
+/// `None`. A channel past the board's is out of range; one past `count` (a
+/// board's channel with no joint on it) is unused.
+fn channels(channel: Option<u8>, count: usize) -> Result<core::ops::Range<usize>, WireError> {
+    match channel.map(usize::from) {
+        None => Ok(0..count),
+        Some(c) if c < count => Ok(c..c + 1),
+        Some(c) if c < CHANNELS => Err(WireError::UnusedChannel),
         Some(_) => Err(WireError::OutOfRange),
     }
 }
 
 /// `servo/attach`: hold at the current position; refused mid-motion, where
-/// holding would be an abrupt stop.
+/// holding would be an abrupt stop. Only the arm's joints' channels: all of
+/// them for `None`, and one past the last joint is refused.
 pub(crate) fn attach<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     channel: Option<u8>,
 ) -> Reply {
-    let range = channels(channel)?;
+    let range = channels(channel, d.joints())?;
     d.ensure_idle()?;
     for i in range {
         hold(d, i);
@@ -142,12 +156,13 @@ pub(crate) fn attach<B: ServoBus, F: FlashStorage>(
 }
 
 /// `servo/detach`: stops any motion (a limp joint cannot follow it) and, at
-/// once rather than at the next servo frame, the pulses.
+/// once rather than at the next servo frame, the pulses. Any of the board's
+/// channels, or all of them.
 pub(crate) fn detach<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     channel: Option<u8>,
 ) -> Reply {
-    for i in channels(channel)? {
+    for i in channels(channel, CHANNELS)? {
         d.channels[i] = Channel::Limp;
         d.bus.set_pulse(i, None);
     }
@@ -159,17 +174,14 @@ pub(crate) fn detach<B: ServoBus, F: FlashStorage>(
     Ok(Response::Done)
 }
 
-/// `servo/raw`: a clamped raw pulse on one channel, on the servo at once
-/// (as `servo/detach` stops the pulses at once), not at the next frame.
+/// `servo/raw`: a clamped raw pulse on one joint's channel, on the servo at
+/// once (as `servo/detach` stops the pulses at once), not at the next frame.
 pub(crate) fn raw_pulse<B: ServoBus, F: FlashStorage>(
     d: &mut Device<B, F>,
     channel: u8,
     pulse_us: u16,
 ) -> Reply {
-    let i = channel as usize;
-    if i >= CHANNELS {
-        return Err(WireError::OutOfRange);
-    }
+    let i = channels(Some(channel), d.joints())?.start;
     d.ensure_idle()?;
     let [lo, hi] = d.config.pulse_range_us;
     let applied = pulse_us.clamp(lo, hi);

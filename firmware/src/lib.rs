@@ -30,6 +30,16 @@
 //! the arm rests at the calibration's home pose (all zeros without a
 //! calibration) and moves smoothly from there: park the arm at home
 //! (`lrmcal home`, then `lrmcal detach`) before switching it off.
+//!
+//! Joints and channels: the board drives the calibration's arm, of 1 to
+//! [`CHANNELS`] joints, joint `i` on channel `i`; without a calibration, an
+//! arm of [`CHANNELS`] joints on the data-sheet curve (as before arms of any
+//! other size existed). The channels past the arm's last joint are always
+//! limp: moves, `motion/home` and attaching all leave them alone, attaching
+//! one or a raw pulse on one is refused (`UnusedChannel`), and a calibration
+//! of fewer joints makes them limp as it is applied. Joint vectors (targets,
+//! positions, corrections) are [`PerChannel`]s of the arm's length; what is
+//! per channel (servo curves, limits, pulses) stays a `[_; CHANNELS]` array.
 #![cfg_attr(not(any(test, feature = "sim")), no_std)]
 
 pub mod app;
@@ -52,8 +62,7 @@ mod tests;
 
 pub use app::{Device, SystemAction};
 pub use config::Config;
+/// The board's servo channels, and one value per joint of the arm it drives.
+pub use protocol::{CHANNELS, PerChannel};
 pub use servo::ServoBus;
 pub use storage::FlashStorage;
-
-/// Number of servo channels, one per joint.
-pub const CHANNELS: usize = model::JOINTS;

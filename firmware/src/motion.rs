@@ -6,8 +6,11 @@
 //! and a duration `T ≥ 2√(D/a)`, its peak speed is the smaller root of
 //! `D = v (T − v/a)`, i.e. `v = (aT − √(a²T² − 4aD)) / 2`; the other joints
 //! move by the same fraction of their way at every instant.
+//!
+//! A profile moves the arm's joints, however many: one value per joint in
+//! each [`PerChannel`].
 
-use crate::CHANNELS;
+use crate::PerChannel;
 use crate::float::{clamp, ordered};
 use protocol::Timing;
 
@@ -25,11 +28,12 @@ pub struct MotionLimits {
 pub enum PlanError {
     /// A target, speed or the limits are not finite.
     NotFinite,
-    /// A speed is not positive, or the move would take longer than allowed.
+    /// A speed is not positive, the move would take longer than allowed, or
+    /// start and end have different numbers of joints.
     OutOfRange,
 }
 
-/// One planned move from `start` to `end`, starting at `t0_us`.
+/// One planned move from `start` to `end`, starting at `t0_us`, of every joint of the arm.
 ///
 /// What the servo frame's [`Profile::at`] needs and only changes per move
 /// (each joint's way, the trapezoid's area) is worked out once, here, and
@@ -37,10 +41,10 @@ pub enum PlanError {
 /// float subtraction or comparison is a call.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Profile {
-    start: [f32; CHANNELS],
-    end: [f32; CHANNELS],
+    start: PerChannel<f32>,
+    end: PerChannel<f32>,
     /// `end - start`, per joint.
-    way: [f32; CHANNELS],
+    way: PerChannel<f32>,
     t0_us: u64,
     /// Total duration, s.
     duration_s: f32,
@@ -53,14 +57,15 @@ pub struct Profile {
 
 impl Profile {
     /// Standing still at `q`.
-    pub fn hold(q: [f32; CHANNELS]) -> Self {
+    pub fn hold(q: PerChannel<f32>) -> Self {
         Self::new(q, q, 0, 0.0, 0.0)
     }
 
-    /// The move from `start` to `end` over `duration_s` from `t0_us`, with ramps of `ramp_s`.
+    /// The move from `start` to `end` (as many joints) over `duration_s`
+    /// from `t0_us`, with ramps of `ramp_s`.
     fn new(
-        start: [f32; CHANNELS],
-        end: [f32; CHANNELS],
+        start: PerChannel<f32>,
+        end: PerChannel<f32>,
         t0_us: u64,
         duration_s: f32,
         ramp_s: f32,
@@ -68,7 +73,7 @@ impl Profile {
         Self {
             start,
             end,
-            way: core::array::from_fn(|i| end[i] - start[i]),
+            way: PerChannel::from_fn(end.len(), |i| end[i] - start[i]),
             t0_us,
             duration_s,
             ramp_s,
@@ -79,13 +84,16 @@ impl Profile {
     /// Plans a move; the duration is the requested one or the shortest the
     /// limits allow, whichever is longer, and at most `max_duration_s`.
     pub fn plan(
-        start: [f32; CHANNELS],
-        end: [f32; CHANNELS],
+        start: PerChannel<f32>,
+        end: PerChannel<f32>,
         t0_us: u64,
         timing: Timing,
         limits: MotionLimits,
         max_duration_s: f32,
     ) -> Result<Self, PlanError> {
+        if start.len() != end.len() {
+            return Err(PlanError::OutOfRange);
+        }
         let a = limits.max_accel_rad_s2;
         let finite = start.iter().chain(&end).all(|x| x.is_finite());
         if !finite || !a.is_finite() || !limits.max_speed_rad_s.is_finite() {
@@ -124,7 +132,7 @@ impl Profile {
     }
 
     /// Where every joint is at `now_us`, and whether the move is over.
-    pub fn at(&self, now_us: u64) -> ([f32; CHANNELS], bool) {
+    pub fn at(&self, now_us: u64) -> (PerChannel<f32>, bool) {
         let t = now_us.saturating_sub(self.t0_us) as f32 * 1e-6;
         // Times are never NaN.
         if ordered(t) >= ordered(self.duration_s) {
@@ -139,7 +147,7 @@ impl Profile {
     }
 
     /// Where the move ends.
-    pub fn end(&self) -> [f32; CHANNELS] {
+    pub fn end(&self) -> PerChannel<f32> {
         self.end
     }
 
@@ -176,7 +184,7 @@ mod tests {
     const FRAME_US: u64 = 20_000;
 
     /// Samples a profile every servo frame until it is over.
-    fn samples(p: &Profile) -> Vec<[f32; CHANNELS]> {
+    fn samples(p: &Profile) -> Vec<PerChannel<f32>> {
         let mut out = vec![];
         for k in 0.. {
             let (q, done) = p.at(1_000 + k * FRAME_US);
@@ -188,14 +196,19 @@ mod tests {
         out
     }
 
-    fn check_limits(start: [f32; 6], end: [f32; 6], timing: Timing) -> Vec<[f32; 6]> {
+    fn check_limits<const N: usize>(
+        start: [f32; N],
+        end: [f32; N],
+        timing: Timing,
+    ) -> Vec<PerChannel<f32>> {
+        let (start, end) = (PerChannel::from(start), PerChannel::from(end));
         let p = Profile::plan(start, end, 1_000, timing, LIMITS, 600.0).unwrap();
         let mut q = vec![start];
         q.extend(samples(&p));
         let dt = FRAME_US as f32 * 1e-6;
         for w in q.windows(3) {
             let [a, b, c] = [w[0], w[1], w[2]];
-            for j in 0..6 {
+            for j in 0..N {
                 let v1 = (b[j] - a[j]) / dt;
                 let v2 = (c[j] - b[j]) / dt;
                 assert!(
@@ -247,8 +260,8 @@ mod tests {
     #[test]
     fn requested_duration_and_speed_are_honoured() {
         let p = Profile::plan(
-            [0.0; 6],
-            [0.5; 6],
+            [0.0; 6].into(),
+            [0.5; 6].into(),
             0,
             Timing::DurationMs(3000),
             LIMITS,
@@ -259,8 +272,8 @@ mod tests {
         assert!(!p.at(2_990_000).1 && p.at(3_000_000).1);
         // 1 rad at 0.5 rad/s: 2 s cruising plus one ramp of 0.125 s.
         let p = Profile::plan(
-            [0.0; 6],
-            [1.0; 6],
+            [0.0; 6].into(),
+            [1.0; 6].into(),
             0,
             Timing::SpeedRadPerS(0.5),
             LIMITS,
@@ -269,14 +282,21 @@ mod tests {
         .unwrap();
         assert!((p.duration_s() - 2.125).abs() < 1e-5, "{}", p.duration_s());
         // Too short a duration is stretched to what the limits allow.
-        let p =
-            Profile::plan([0.0; 6], [1.5; 6], 0, Timing::DurationMs(10), LIMITS, 600.0).unwrap();
+        let p = Profile::plan(
+            [0.0; 6].into(),
+            [1.5; 6].into(),
+            0,
+            Timing::DurationMs(10),
+            LIMITS,
+            600.0,
+        )
+        .unwrap();
         assert!((p.duration_s() - (1.0 + 1.5 / 4.0)).abs() < 1e-5);
     }
 
     #[test]
     fn bad_timings_are_refused() {
-        let plan = |t| Profile::plan([0.0; 6], [1.0; 6], 0, t, LIMITS, 600.0);
+        let plan = |t| Profile::plan([0.0; 6].into(), [1.0; 6].into(), 0, t, LIMITS, 600.0);
         assert_eq!(plan(Timing::SpeedRadPerS(0.0)), Err(PlanError::OutOfRange));
         assert_eq!(
             plan(Timing::SpeedRadPerS(f32::NAN)),
@@ -287,13 +307,35 @@ mod tests {
             Err(PlanError::OutOfRange)
         );
         let nan_target = Profile::plan(
-            [0.0; 6],
-            [f32::NAN; 6],
+            [0.0; 6].into(),
+            [f32::NAN; 6].into(),
             0,
             Timing::DurationMs(0),
             LIMITS,
             600.0,
         );
         assert_eq!(nan_target, Err(PlanError::NotFinite));
+        let mismatched = Profile::plan(
+            [0.0; 6].into(),
+            [1.0; 5].into(),
+            0,
+            Timing::DurationMs(0),
+            LIMITS,
+            600.0,
+        );
+        assert_eq!(mismatched, Err(PlanError::OutOfRange));
+    }
+
+    /// An arm of fewer joints moves the same way: five joints, and one.
+    #[test]
+    fn arms_of_fewer_joints_keep_the_limits_and_arrive_together() {
+        let q = check_limits(
+            [0.0, 0.2, -0.4, 0.1, 0.0],
+            [1.2, 0.25, 0.4, -0.1, 0.7],
+            Timing::DurationMs(0),
+        );
+        assert!(q.iter().all(|q| q.len() == 5));
+        let q = check_limits([0.3], [-1.1], Timing::SpeedRadPerS(1.0));
+        assert!(q.len() > 50 && q.iter().all(|q| q.len() == 1));
     }
 }

@@ -21,7 +21,7 @@ use model::servo::{MAX_KNOTS, Slopes};
 use crate::CHANNELS;
 use crate::float::{clamp, is_nan, ordered, round_u16};
 
-/// The six PWM outputs.
+/// The board's [`CHANNELS`] PWM outputs.
 pub trait ServoBus {
     /// Puts `pulse_us` on `channel` from the next PWM period on, or stops its
     /// pulses (`None`: the servo goes limp). Must not block.
@@ -106,16 +106,17 @@ pub fn pulse_for(
     })
 }
 
-/// The joint ranges in force: a calibration's limits cut to the hard range,
-/// or the default range without a calibration.
+/// The joint ranges in force per channel: a calibration's limits cut to the
+/// hard range, or the default range without a calibration. The channels past
+/// a calibrated arm's last joint, which are never driven, get the default range.
 pub fn joint_limits(
     calibrated: Option<&model::Arm<f32>>,
     hard: [f32; 2],
     default: [f32; 2],
 ) -> [[f32; 2]; CHANNELS] {
-    core::array::from_fn(|i| match calibrated {
-        Some(arm) => {
-            let [lo, hi] = arm.joints[i].limits;
+    core::array::from_fn(|i| match calibrated.and_then(|arm| arm.joints.get(i)) {
+        Some(joint) => {
+            let [lo, hi] = joint.limits;
             let lo = lo.max(hard[0]);
             let hi = hi.min(hard[1]);
             // A calibration entirely outside the hard range pins the joint at its edge.
@@ -214,6 +215,11 @@ mod tests {
             joint_limits(None, [-2.0, 2.0], [-1.0, 1.0]),
             [[-1.0, 1.0]; 6]
         );
+        // A five-joint arm: channel 6 (never driven) gets the default range.
+        let five = crate::sim::test_calibration_of(1, 5).calibrated;
+        let l = joint_limits(Some(&five), [-2.0, 2.0], [-1.0, 1.0]);
+        assert_eq!(l[4], five.joints[4].limits);
+        assert_eq!(l[5], [-1.0, 1.0]);
     }
 
     #[test]

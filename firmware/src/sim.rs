@@ -2,10 +2,10 @@
 //! every pulse, a flash that can lose power at any byte, and a calibration to
 //! load. Used by this crate's tests and, with feature `sim`, by `tests/`.
 
-use model::ServoCurve;
+use model::{PerJoint, ServoCurve};
 use protocol::{Calibration, ModelOption};
 
-use crate::{CHANNELS, FlashStorage, ServoBus};
+use crate::{CHANNELS, FlashStorage, PerChannel, ServoBus};
 
 /// Records every call to [`ServoBus::set_pulse`].
 #[derive(Clone, Debug, Default)]
@@ -148,7 +148,14 @@ impl FlashStorage for SimFlash {
 /// errors, changed compliances and individual servo curves of 3 to 9 knots,
 /// each with its own bow between the ends.
 pub fn test_calibration(id: u32) -> Calibration {
-    let nominal = model::testing::lrm_like_arm::<f32>();
+    test_calibration_of(id, model::testing::TEST_ARM_JOINTS)
+}
+
+/// [`test_calibration`] of the test arm's first `joints` joints (1 to 6):
+/// the tool sits on the last of them, as on an arm built without the rest.
+pub fn test_calibration_of(id: u32, joints: usize) -> Calibration {
+    let mut nominal = model::testing::lrm_like_arm::<f32>();
+    nominal.joints = PerJoint::from_slice(&nominal.joints[..joints]).expect("at most six joints");
     let mut calibrated = nominal;
     for (i, j) in calibrated.joints.iter_mut().enumerate() {
         let s = if i % 2 == 0 { 1.0 } else { -1.0 };
@@ -166,9 +173,10 @@ pub fn test_calibration(id: u32) -> Calibration {
         option: ModelOption::ElastoKinematic,
         nominal,
         calibrated,
-        home_rad: [0.0, 0.3, -0.3, 0.0, 0.5, 0.0],
+        home_rad: PerChannel::from_slice(&[0.0, 0.3, -0.3, 0.0, 0.5, 0.0][..joints])
+            .expect("at most six joints"),
         // 20° per joint: far beyond the corrections this calibration asks for.
-        max_correction_rad: [0.35; CHANNELS],
+        max_correction_rad: PerChannel::splat(joints, 0.35),
     }
 }
 

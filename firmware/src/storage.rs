@@ -56,7 +56,10 @@ const MAGIC: [u8; 4] = *b"LRMC";
 /// 3: the payload of protocol 3 (each joint's backlash).
 /// 4: the payload of protocol 4 (the option elasto-kinematic-servo, which
 /// firmware of layout 3 cannot decode).
-const FORMAT: u32 = 5;
+/// 5: the payload of protocol 5 (rated payloads, each joint's largest correction).
+/// 6: the payload of protocol 6 (arms of 1 to 6 joints: a count before each
+/// arm's joints, the home pose and the corrections).
+const FORMAT: u32 = 6;
 const HEADER_LEN: usize = 24;
 /// Where the payload starts: one flash page after the header.
 pub const PAYLOAD_OFFSET: usize = 256;

@@ -35,6 +35,12 @@ pub enum WireError {
     CalibrationInvalid,
     /// Writing or erasing the flash failed; the previous calibration is still in use.
     Flash,
+    /// `motion/move` carried a number of targets other than the arm's joints
+    /// (the calibration's arm; six, one per channel, without a calibration).
+    TargetCount,
+    /// `servo/attach` or `servo/raw` named a channel past the arm's last
+    /// joint: it has no joint to drive and stays limp.
+    UnusedChannel,
 }
 
 impl WireError {
@@ -53,6 +59,10 @@ impl WireError {
             Self::CalibrationCrc => "calibration CRC mismatch",
             Self::CalibrationInvalid => "calibration rejected by the board's checks",
             Self::Flash => "flash write failed, previous calibration kept",
+            Self::TargetCount => "the move does not give one target per joint of the arm",
+            Self::UnusedChannel => {
+                "the channel is past the arm's last joint: it has no joint and stays limp"
+            }
         }
     }
 }

@@ -12,11 +12,11 @@
 //! |---|---|---|---|
 //! | `link/hello` | [`Request::Hello`] | [`Response::Hello`] | versions at connect |
 //! | `status/get` | [`Request::Status`] | [`Response::Status`] | versions, calibration, mode, targets, pulses, faults, uptime |
-//! | `motion/move` | [`Request::Move`] | [`Response::Done`] | move to joint targets (duration or speed) |
+//! | `motion/move` | [`Request::Move`] | [`Response::Done`] | move to joint targets, one per joint (duration or speed) |
 //! | `motion/home` | [`Request::Home`] | [`Response::Done`] | attach all joints and move to the home pose |
-//! | `servo/attach` | [`Request::Attach`] | [`Response::Done`] | drive one or all channels again |
+//! | `servo/attach` | [`Request::Attach`] | [`Response::Done`] | drive one joint's channel or all of them again |
 //! | `servo/detach` | [`Request::Detach`] | [`Response::Done`] | make one or all channels limp |
-//! | `servo/raw` | [`Request::RawPulse`] | [`Response::Pulse`] | a raw pulse on one channel (servo tuning) |
+//! | `servo/raw` | [`Request::RawPulse`] | [`Response::Pulse`] | a raw pulse on one joint's channel (servo tuning) |
 //! | `comp/payload` | [`Request::SetPayload`] | [`Response::Done`] | payload mass at the tool |
 //! | `comp/mode` | [`Request::SetCompensation`] | [`Response::Done`] | off / elastic only / full |
 //! | `calib/begin` | [`Request::CalibrationBegin`] | [`Response::CalibrationAck`] | start a calibration upload |
@@ -28,6 +28,18 @@
 //!
 //! Any request may instead get [`Response::Error`] with a [`WireError`].
 //! The frame format, buffer sizes and versioning rule are in [`frame`].
+//!
+//! # Joints and channels
+//!
+//! The board has [`CHANNELS`] servo channels and drives an arm of 1 to that
+//! many joints, joint `i` on channel `i`: the calibration's arm, or one of
+//! [`CHANNELS`] joints on the data-sheet curves without a calibration. Joint
+//! vectors on the wire ([`PerChannel`]: move targets, home pose, status
+//! angles) have one value per joint of that arm; a move with any other number
+//! is refused ([`WireError::TargetCount`]). The channels past the arm's last
+//! joint are always limp: no move, home or attach-all drives them, and
+//! attaching one or putting a raw pulse on it is refused
+//! ([`WireError::UnusedChannel`]); detaching one is allowed and changes nothing.
 #![cfg_attr(not(feature = "use-std"), no_std)]
 
 pub mod calibration;

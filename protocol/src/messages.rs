@@ -41,30 +41,35 @@ pub enum Request {
     /// `motion/move`: move every joint to a nominal target angle, rad.
     Move {
         /// Nominal joint targets, rad (within the joint limits), one per
-        /// joint of the calibration's arm.
+        /// joint of the board's arm (the calibration's; six without one).
         targets_rad: PerChannel<f32>,
         /// Duration or speed.
         timing: Timing,
     },
     /// `motion/home`: attach every joint and move to the calibration's home pose (zeros without one).
+    /// The channels past the arm's last joint stay limp.
     Home {
         /// Duration or speed.
         timing: Timing,
     },
-    /// `servo/attach`: drive a channel again, holding its last position (`None`: all).
+    /// `servo/attach`: drive a channel again, holding its last position
+    /// (`None`: every joint's channel). A channel past the arm's last joint
+    /// stays limp: attaching it is refused with [`WireError::UnusedChannel`].
     Attach {
-        /// Channel 0..6, or all.
+        /// A joint's channel, `0..joints`, or all.
         channel: Option<u8>,
     },
     /// `servo/detach`: stop the pulses of a channel so the servo goes limp (`None`: all).
     Detach {
-        /// Channel 0..6, or all.
+        /// Channel `0..CHANNELS` (one past the arm's last joint is limp already), or all.
         channel: Option<u8>,
     },
     /// `servo/raw`: put a raw pulse on one channel, for level-1 servo tuning.
-    /// The board clamps it to its safe range and says what it applied.
+    /// The board clamps it to its safe range and says what it applied. A
+    /// channel past the arm's last joint stays limp: refused with
+    /// [`WireError::UnusedChannel`].
     RawPulse {
-        /// Channel 0..6.
+        /// A joint's channel, `0..joints`.
         channel: u8,
         /// Pulse width, µs.
         pulse_us: u16,
@@ -271,7 +276,7 @@ impl Faults {
 pub struct Status {
     /// Protocol and firmware versions.
     pub device: DeviceInfo,
-    /// The calibration in use, or `None` (nominal curves).
+    /// The calibration in use, or `None` (nominal curves on all [`CHANNELS`] channels).
     pub calibration: Option<CalibrationInfo>,
     /// Compensation mode.
     pub mode: CompensationMode,
@@ -282,11 +287,11 @@ pub struct Status {
     /// Whether the servos are still moving: a motion runs, or a change of
     /// compensation (mode, payload, calibration) is still fading in.
     pub moving: bool,
-    /// Nominal targets of the current (or last) move, rad.
+    /// Nominal targets of the current (or last) move, rad, one per joint of the arm.
     pub targets_rad: PerChannel<f32>,
-    /// Nominal joint angles of this servo frame, rad.
+    /// Nominal joint angles of this servo frame, rad, one per joint of the arm.
     pub nominal_rad: PerChannel<f32>,
-    /// Pulses on the channels now, µs; 0 for a limp channel.
+    /// Pulses on every channel now, µs; 0 for a limp channel (always, past the arm's last joint).
     pub pulses_us: [u16; CHANNELS],
     /// Fault flags.
     pub faults: Faults,

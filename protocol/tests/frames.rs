@@ -4,7 +4,9 @@
 use model::bounds::{Bounds, Quantity};
 use proptest::prelude::*;
 use protocol::frame::{self, Feed, FrameError, FrameReader, MAX_FRAME};
-use protocol::{Calibration, Request, Response, Timing, WireError};
+use protocol::{
+    CHANNELS, Calibration, CalibrationFault, PerChannel, Request, Response, Timing, WireError,
+};
 
 fn frame_of(seq: u16, msg: &Request) -> Vec<u8> {
     let mut out = [0u8; MAX_FRAME];
@@ -44,6 +46,91 @@ fn another_version_is_reported_not_misread() {
         msg.contains("version 1")
             && msg.contains(&format!("speaks {}", protocol::PROTOCOL_VERSION)),
         "{msg}"
+    );
+}
+
+/// The previous protocol (an lrmcal or a board not yet updated) is refused,
+/// not misread, and the error names both versions, so the user knows which
+/// side to update.
+#[test]
+fn a_frame_of_the_previous_version_is_refused_naming_both_versions() {
+    assert_eq!(protocol::PROTOCOL_VERSION, 6);
+    let mut out = [0u8; MAX_FRAME];
+    let n = frame::encode_with_version(5, 12, &Request::Status, &mut out).unwrap();
+    let err = frame::decode::<Request>(&out[..n]).unwrap_err();
+    assert_eq!(err, FrameError::Version { theirs: 5, seq: 12 });
+    let msg = err.to_string();
+    assert!(
+        msg.contains("protocol version 5") && msg.contains("speaks 6"),
+        "{msg}"
+    );
+    // The same for a reply: the host tells a board of protocol 5 apart.
+    let n = frame::encode_with_version(5, 13, &Response::Done, &mut out).unwrap();
+    assert_eq!(
+        frame::decode::<Response>(&out[..n]),
+        Err(FrameError::Version { theirs: 5, seq: 13 })
+    );
+}
+
+/// The reverse: a peer of protocol 5 reads only the frozen header of our
+/// frames before it refuses them, and that header says 6. (Its decoder is
+/// not in this crate; what it reads is.) A newer peer's frame is refused here
+/// the same way as an older one's.
+#[test]
+fn our_frames_say_version_6_where_a_version_5_peer_looks() {
+    let mut out = [0u8; MAX_FRAME];
+    let n = frame::encode(14, &Request::Status, &mut out).unwrap();
+    let mut raw = [0u8; frame::MAX_RAW];
+    let (version, seq, _) = frame::decode_raw(&out[..n], &mut raw).unwrap();
+    assert_eq!((version, seq), (6, 14));
+    assert_eq!(raw[0], 6, "the version is the first byte of every frame");
+    let n = frame::encode_with_version(7, 15, &Request::Status, &mut out).unwrap();
+    let err = frame::decode::<Request>(&out[..n]).unwrap_err();
+    assert_eq!(err, FrameError::Version { theirs: 7, seq: 15 });
+    assert!(err.to_string().contains("version 7"), "{err}");
+}
+
+/// A move carries one target per joint behind their count: 1 to 6 targets
+/// round-trip; more than the board's channels is not a request.
+#[test]
+fn moves_carry_one_target_per_joint_and_no_more_than_the_channels() {
+    for joints in 1..=CHANNELS {
+        let req = Request::Move {
+            targets_rad: PerChannel::from_fn(joints, |i| 0.1 * i as f32),
+            timing: Timing::DurationMs(100),
+        };
+        let (_, back): (u16, Request) = frame::decode(&frame_of(1, &req)).unwrap();
+        assert_eq!(back, req, "{joints} joints");
+    }
+    // The same body with seven targets, encoded by hand: variant 2 (move), the
+    // count, the floats, then the timing.
+    #[derive(serde::Serialize)]
+    enum Like {
+        _Hello,
+        _Status,
+        Move {
+            targets_rad: &'static [f32],
+            timing: Timing,
+        },
+    }
+    let seven = Like::Move {
+        targets_rad: &[0.0; CHANNELS + 1],
+        timing: Timing::DurationMs(100),
+    };
+    let mut out = [0u8; MAX_FRAME];
+    let n = frame::encode(2, &seven, &mut out).unwrap();
+    assert_eq!(
+        frame::decode::<Request>(&out[..n]),
+        Err(FrameError::Body { seq: 2 })
+    );
+    let six = Like::Move {
+        targets_rad: &[0.0; CHANNELS],
+        timing: Timing::DurationMs(100),
+    };
+    let n = frame::encode(3, &six, &mut out).unwrap();
+    assert!(
+        frame::decode::<Request>(&out[..n]).is_ok(),
+        "the mirror is faithful"
     );
 }
 
@@ -97,9 +184,9 @@ fn reader_splits_a_stream_and_drops_overlong_frames() {
     );
 }
 
-#[test]
-fn calibration_rejects_what_the_board_cannot_run() {
-    let arm = model::Arm::<f32> {
+/// A plain arm of `joints` joints that the board can run.
+fn arm_of(joints: usize) -> model::Arm<f32> {
+    model::Arm::<f32> {
         gravity: [0.0, 0.0, -9.8],
         base: model::Frame::identity(),
         base_compliance: 0.0,
@@ -107,28 +194,41 @@ fn calibration_rejects_what_the_board_cannot_run() {
         tool: model::Frame::identity(),
         payload_com: [0.0; 3],
         rated_payload_kg: 0.2,
-        joints: [model::Joint {
-            theta: 0.0,
-            d: 0.1,
-            a: 0.1,
-            alpha: 0.0,
-            compliance: 0.01,
-            limits: [-1.0, 1.0],
-            mass: 0.1,
-            com: [0.0; 3],
-            servo: model::ServoCurve::nominal(),
-            backlash: 0.0,
-            softening: 0.0,
-        }; 6],
-    };
-    let good = Calibration {
+        joints: model::PerJoint::splat(
+            joints,
+            model::Joint {
+                theta: 0.0,
+                d: 0.1,
+                a: 0.1,
+                alpha: 0.0,
+                compliance: 0.01,
+                limits: [-1.0, 1.0],
+                mass: 0.1,
+                com: [0.0; 3],
+                servo: model::ServoCurve::nominal(),
+                backlash: 0.0,
+                softening: 0.0,
+            },
+        ),
+    }
+}
+
+/// A calibration of [`arm_of`]`(joints)` that the board accepts.
+fn calibration_of(joints: usize) -> Calibration {
+    let arm = arm_of(joints);
+    Calibration {
         id: 1,
         option: protocol::ModelOption::Elastic,
         nominal: arm,
         calibrated: arm,
-        home_rad: [0.0; 6],
-        max_correction_rad: [0.3; 6],
-    };
+        home_rad: PerChannel::splat(joints, 0.0),
+        max_correction_rad: PerChannel::splat(joints, 0.3),
+    }
+}
+
+#[test]
+fn calibration_rejects_what_the_board_cannot_run() {
+    let good = calibration_of(6);
     assert_eq!(good.check(), Ok(()));
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let bytes = good.encode(&mut buf).unwrap().to_vec();
@@ -268,6 +368,116 @@ fn calibration_rejects_what_the_board_cannot_run() {
     }
 }
 
+/// Arms of 1 to 6 joints: a calibration of a five-joint arm round-trips and
+/// passes the check like a six-joint one, and so does one of a single joint.
+#[test]
+fn a_calibration_of_fewer_joints_round_trips_and_passes() {
+    for joints in [5, 1] {
+        let mut c = calibration_of(joints);
+        c.home_rad[joints - 1] = 0.2;
+        c.max_correction_rad[0] = 0.1;
+        assert_eq!(c.check(), Ok(()), "{joints} joints");
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        let bytes = c.encode(&mut buf).unwrap().to_vec();
+        let back = Calibration::decode(&bytes).expect("decodes and passes");
+        assert_eq!(back, c);
+        assert_eq!(back.calibrated.joint_count(), joints);
+        assert_eq!(
+            (back.home_rad.len(), back.max_correction_rad.len()),
+            (joints, joints)
+        );
+    }
+    // Fewer joints, fewer bytes: each arm's joints, the home pose and the corrections.
+    let len = |c: &Calibration| {
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        c.encode(&mut buf).unwrap().len()
+    };
+    assert!(len(&calibration_of(5)) < len(&calibration_of(6)));
+}
+
+/// No joint, more joints than the board has channels, or arms, home pose and
+/// corrections of different lengths: refused with `JointCount`, naming the
+/// calibrated arm's joints, and refused whole by the board's decoder.
+#[test]
+fn joint_counts_the_board_cannot_drive_are_refused() {
+    let refused = |c: &Calibration, joints: u8| {
+        let fault = c.check().unwrap_err();
+        assert_eq!(fault, CalibrationFault::JointCount { joints });
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        let bytes = c.encode(&mut buf).unwrap().to_vec();
+        assert_eq!(Calibration::decode(&bytes), None, "refused whole");
+        fault.to_string()
+    };
+    // No joint at all.
+    let none = Calibration {
+        nominal: arm_of(0),
+        calibrated: arm_of(0),
+        home_rad: PerChannel::splat(0, 0.0),
+        max_correction_rad: PerChannel::splat(0, 0.3),
+        ..calibration_of(1)
+    };
+    let msg = refused(&none, 0);
+    assert!(msg.contains("0 joints") && msg.contains("1 to 6"), "{msg}");
+    // Seven joints: more than the six channels (the home pose and the
+    // corrections cannot even say seven values).
+    let seven = Calibration {
+        nominal: arm_of(7),
+        calibrated: arm_of(7),
+        ..calibration_of(6)
+    };
+    let msg = refused(&seven, 7);
+    assert!(msg.contains("7 joints"), "{msg}");
+    // Lengths that do not agree, each part in turn.
+    let mut nominal = calibration_of(5);
+    nominal.nominal = arm_of(6);
+    refused(&nominal, 5);
+    let mut calibrated = calibration_of(5);
+    calibrated.calibrated = arm_of(4);
+    refused(&calibrated, 4);
+    let mut home = calibration_of(5);
+    home.home_rad = PerChannel::splat(6, 0.0);
+    refused(&home, 5);
+    let mut corrections = calibration_of(5);
+    corrections.max_correction_rad = PerChannel::splat(4, 0.3);
+    refused(&corrections, 5);
+}
+
+/// A payload whose home pose says seven values is not a calibration: the
+/// decoder stops at the sixth, whatever the arms say.
+#[test]
+fn a_payload_with_more_values_than_channels_does_not_decode() {
+    #[derive(serde::Serialize)]
+    struct Like<'a> {
+        id: u32,
+        option: protocol::ModelOption,
+        nominal: model::Arm<f32>,
+        calibrated: model::Arm<f32>,
+        home_rad: &'a [f32],
+        max_correction_rad: &'a [f32],
+    }
+    let like = |n: usize| {
+        let c = calibration_of(6);
+        Like {
+            id: c.id,
+            option: c.option,
+            nominal: c.nominal,
+            calibrated: c.calibrated,
+            home_rad: &[0.0; 7][..n],
+            max_correction_rad: &[0.3; 6],
+        }
+    };
+    let bytes = |l: &Like| {
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        postcard::to_slice(l, &mut buf).unwrap().to_vec()
+    };
+    assert_eq!(
+        Calibration::decode(&bytes(&like(6))),
+        Some(calibration_of(6)),
+        "the mirror is faithful"
+    );
+    assert_eq!(Calibration::decode(&bytes(&like(7))), None);
+}
+
 proptest! {
     #[test]
     fn decoding_any_bytes_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
@@ -282,13 +492,14 @@ proptest! {
     }
 
     #[test]
-    fn moves_round_trip(seq in any::<u16>(), t in proptest::array::uniform6(any::<f32>()), ms in any::<u32>()) {
-        let req = Request::Move { targets_rad: t, timing: Timing::DurationMs(ms) };
+    fn moves_round_trip(seq in any::<u16>(), t in proptest::collection::vec(any::<f32>(), 1..=CHANNELS), ms in any::<u32>()) {
+        let req = Request::Move { targets_rad: PerChannel::from_slice(&t).unwrap(), timing: Timing::DurationMs(ms) };
         let (s, back): (u16, Request) = frame::decode(&frame_of(seq, &req)).unwrap();
         prop_assert_eq!(s, seq);
         // Compare bit patterns: NaN != NaN but must survive the trip unchanged.
         let Request::Move { targets_rad, timing } = back else { panic!("not a move") };
-        prop_assert_eq!(targets_rad.map(f32::to_bits), t.map(f32::to_bits));
+        let bits: Vec<u32> = targets_rad.iter().map(|x| x.to_bits()).collect();
+        prop_assert_eq!(bits, t.iter().map(|x| x.to_bits()).collect::<Vec<_>>());
         prop_assert_eq!(timing, Timing::DurationMs(ms));
     }
 

@@ -6,12 +6,14 @@
 
 use std::fmt::Write as _;
 
-use model::{Arm, Frame, Joint, ServoCurve};
+use model::{Arm, Frame, Joint, PerJoint, ServoCurve};
 use protocol::frame::{self, MAX_FRAME};
 use protocol::messages::{
     CalibrationInfo, CompensationReport, DeviceInfo, Faults, FirmwareVersion, Status,
 };
-use protocol::{Calibration, CompensationMode, ModelOption, Request, Response, Timing, WireError};
+use protocol::{
+    Calibration, CompensationMode, ModelOption, PerChannel, Request, Response, Timing, WireError,
+};
 
 fn hex(bytes: &[u8]) -> String {
     bytes
@@ -27,8 +29,8 @@ fn frame_of<M: serde::Serialize>(seq: u16, msg: &M) -> Vec<u8> {
     out[..n].to_vec()
 }
 
-/// A small, fixed arm so the calibration bytes are stable.
-pub fn fixed_arm() -> Arm<f32> {
+/// A small, fixed arm of `joints` joints so the calibration bytes are stable.
+pub fn fixed_arm(joints: usize) -> Arm<f32> {
     let joint = |i: usize| Joint {
         theta: 0.0,
         d: 0.01 * i as f32,
@@ -62,7 +64,7 @@ pub fn fixed_arm() -> Arm<f32> {
         },
         payload_com: [0.0; 3],
         rated_payload_kg: 0.1,
-        joints: core::array::from_fn(joint),
+        joints: PerJoint::from_fn(joints, joint),
     }
 }
 
@@ -75,10 +77,12 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
                 minor: 1,
                 patch: 0,
             },
+            channels: 6,
         },
         calibration: Some(CalibrationInfo {
             id: 0xC0FFEE,
             option: ModelOption::ElastoKinematic,
+            joints: 6,
             sequence: 7,
         }),
         mode: CompensationMode::Full,
@@ -90,8 +94,8 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
         },
         payload_kg: 0.0663,
         moving: false,
-        targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0],
-        nominal_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0],
+        targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0].into(),
+        nominal_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0].into(),
         pulses_us: [1650, 1865, 1435, 1650, 2080, 0],
         faults: Faults::LIMIT_CLAMPED,
         frames_dropped: 3,
@@ -100,13 +104,35 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
     let calibration = Calibration {
         id: 42,
         option: ModelOption::Kinematic,
-        nominal: fixed_arm(),
-        calibrated: fixed_arm(),
-        home_rad: [0.0; 6],
-        max_correction_rad: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6],
+        nominal: fixed_arm(6),
+        calibrated: fixed_arm(6),
+        home_rad: PerChannel::splat(6, 0.0),
+        max_correction_rad: [0.1, 0.2, 0.3, 0.4, 0.5, 0.6].into(),
     };
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let cal = calibration.encode(&mut buf).unwrap().to_vec();
+    // An arm of two joints: the counts in front of each arm's joints, the home
+    // pose and the corrections say 2.
+    let short = Calibration {
+        nominal: fixed_arm(2),
+        calibrated: fixed_arm(2),
+        home_rad: PerChannel::splat(2, 0.0),
+        max_correction_rad: [0.1, 0.2].into(),
+        ..calibration
+    };
+    assert_eq!(short.check(), Ok(()));
+    let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+    let short = short.encode(&mut buf).unwrap().to_vec();
+    // A status of a five-joint arm: five targets and angles, six pulses.
+    let five = Status {
+        calibration: status
+            .calibration
+            .map(|c| CalibrationInfo { joints: 5, ..c }),
+        targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0].into(),
+        nominal_rad: [0.0, 0.5, -0.5, 0.0, 1.0].into(),
+        pulses_us: [1650, 1865, 1435, 1650, 2080, 0],
+        ..status
+    };
     let options: Vec<u8> = ModelOption::ALL
         .iter()
         .flat_map(|o| postcard::to_slice(o, &mut [0u8; 1]).unwrap().to_vec())
@@ -119,7 +145,17 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
             frame_of(
                 3,
                 &Request::Move {
-                    targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0],
+                    targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0, 0.0].into(),
+                    timing: Timing::DurationMs(1500),
+                },
+            ),
+        ),
+        (
+            "request move, five joints",
+            frame_of(
+                3,
+                &Request::Move {
+                    targets_rad: [0.0, 0.5, -0.5, 0.0, 1.0].into(),
                     timing: Timing::DurationMs(1500),
                 },
             ),
@@ -185,12 +221,29 @@ fn samples() -> Vec<(&'static str, Vec<u8>)> {
             frame_of(0xFFFF, &Request::RebootToBootloader),
         ),
         ("response done", frame_of(3, &Response::Done)),
+        (
+            "response hello",
+            frame_of(1, &Response::Hello(status.device)),
+        ),
         ("response status", frame_of(2, &Response::Status(status))),
+        (
+            "response status, five joints",
+            frame_of(2, &Response::Status(five)),
+        ),
         (
             "response error",
             frame_of(9, &Response::Error(WireError::CalibrationCrc)),
         ),
+        (
+            "response error, target count",
+            frame_of(9, &Response::Error(WireError::TargetCount)),
+        ),
+        (
+            "response error, unused channel",
+            frame_of(9, &Response::Error(WireError::UnusedChannel)),
+        ),
         ("calibration payload", cal),
+        ("calibration payload, two joints", short),
         ("model options, table order", options),
     ]
 }

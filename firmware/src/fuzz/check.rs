@@ -41,6 +41,9 @@ pub enum Invariant {
     /// A servo frame did not set every channel as the replies said
     /// (a pulse for a held or raw channel, none for a limp one).
     ServoFrame,
+    /// A channel past the arm's last joint got a pulse, or `status` reported
+    /// joint vectors or a joint count that are not the arm's.
+    Joints,
 }
 
 impl fmt::Display for Invariant {
@@ -54,6 +57,7 @@ impl fmt::Display for Invariant {
             Self::Calibration => "no calibration ever partially applied",
             Self::Boot => "a power cut boots the previous or the new calibration",
             Self::ServoFrame => "the servo frame keeps running",
+            Self::Joints => "one value per joint, and the channels past the last joint limp",
         })
     }
 }
@@ -202,13 +206,44 @@ impl Model {
         self.active.as_ref().map(|(k, _)| k.bytes.len())
     }
 
+    /// The arm's joints, on channels `0..joints`: the calibration's, or one
+    /// per channel without a calibration.
+    pub fn joints(&self) -> usize {
+        self.active
+            .as_ref()
+            .map_or(CHANNELS, |(k, _)| k.calibration.calibrated.joint_count())
+    }
+
+    /// After the calibration in use changed: the channels past the new arm's
+    /// last joint are limp (the board makes them so as it applies one).
+    fn fit_joints(&mut self) {
+        let joints = self.joints();
+        self.channels[joints.min(CHANNELS)..].fill(Expect::Limp);
+    }
+
+    /// A pulse on a channel past the arm's last joint is a fault, whatever the model expects.
+    fn check_used(&self, channel: usize, pulse: Option<u16>) -> Result<(), Fault> {
+        match pulse {
+            Some(us) if channel >= self.joints() => Err(Fault::new(
+                Invariant::Joints,
+                format!(
+                    "channel {channel}, past the last of the arm's {} joints, got {us} µs",
+                    self.joints()
+                ),
+            )),
+            _ => Ok(()),
+        }
+    }
+
     /// The pulses a driven channel may get, µs: the joint's limits through
     /// the curve in force, cut to the safe range, ±1 µs of rounding.
     fn held_range(&self, channel: usize) -> [f32; 2] {
         let arm = self.active.as_ref().map(|(k, _)| &k.calibration.calibrated);
         let c = &self.config;
         let [lo, hi] = servo::joint_limits(arm, c.hard_limits_rad, c.default_limits_rad)[channel];
-        let curve = arm.map_or(c.uncalibrated_curve, |a| a.joints[channel].servo);
+        let curve = arm
+            .and_then(|a| a.joints.get(channel))
+            .map_or(c.uncalibrated_curve, |j| j.servo);
         let [a, b] = [curve.pulse_us(lo), curve.pulse_us(hi)];
         let [safe_lo, safe_hi] = c.pulse_range_us.map(f32::from);
         [
@@ -257,6 +292,7 @@ impl Model {
             ));
         }
         for &(channel, pulse) in log {
+            self.check_used(channel, pulse)?;
             match (self.channels[channel], pulse) {
                 (Expect::Limp, None) => {}
                 (Expect::Raw(raw), Some(us)) if raw == us => self.check_pulse(channel, us)?,
@@ -276,6 +312,7 @@ impl Model {
     /// channels it made limp or raw, with exactly that.
     pub fn check_request_pulses(&self, log: &[(usize, Option<u16>)]) -> Result<(), Fault> {
         for &(channel, pulse) in log {
+            self.check_used(channel, pulse)?;
             let expect = self.channels.get(channel).copied();
             match (expect, pulse) {
                 (Some(Expect::Limp), None) => {}
@@ -309,44 +346,53 @@ impl Model {
                 "the model lost track: a status must come first".into(),
             ));
         }
+        let joints = self.joints();
+        // One target per joint, or the move is refused (if the board is not busy first).
+        let targets_fit = match request {
+            Request::Move { targets_rad, .. } => targets_rad.len() == joints,
+            _ => true,
+        };
         let fits = match (request, response) {
-            (Request::Hello, R::Hello(_)) => true,
+            (Request::Hello, R::Hello(info)) => usize::from(info.channels) == CHANNELS,
             (Request::Move { .. } | Request::Home { .. }, R::Done) => {
-                self.channels = [Expect::Held; CHANNELS];
-                true
+                self.channels[..joints].fill(Expect::Held);
+                targets_fit
             }
+            (Request::Move { .. } | Request::Home { .. }, R::Error(E::Busy)) => true,
+            (Request::Move { .. }, R::Error(E::TargetCount)) => !targets_fit,
             (
                 Request::Move { .. } | Request::Home { .. },
-                R::Error(E::Busy | E::NotFinite | E::OutOfRange),
-            ) => true,
-            (Request::Attach { channel }, _) => match (channels(*channel), response) {
-                (Some(range), R::Done) => {
+                R::Error(E::NotFinite | E::OutOfRange),
+            ) => targets_fit,
+            (Request::Attach { channel }, _) => match (channels(*channel, joints), response) {
+                (Ok(range), R::Done) => {
                     self.channels[range].fill(Expect::Held);
                     true
                 }
-                (Some(_), R::Error(E::Busy)) | (None, R::Error(E::OutOfRange)) => true,
+                (Ok(_), R::Error(E::Busy)) => true,
+                (Err(expected), R::Error(e)) => expected == *e,
                 _ => false,
             },
-            (Request::Detach { channel }, _) => match (channels(*channel), response) {
-                (Some(range), R::Done) => {
+            (Request::Detach { channel }, _) => match (channels(*channel, CHANNELS), response) {
+                (Ok(range), R::Done) => {
                     self.channels[range].fill(Expect::Limp);
                     true
                 }
-                (None, R::Error(E::OutOfRange)) => true,
+                (Err(expected), R::Error(e)) => expected == *e,
                 _ => false,
             },
             (Request::RawPulse { channel, pulse_us }, _) => {
-                let c = usize::from(*channel);
+                let named = channels(Some(*channel), joints);
                 let [lo, hi] = self.config.pulse_range_us;
-                match response {
-                    R::Pulse { applied_us }
-                        if c < CHANNELS && *applied_us == (*pulse_us).clamp(lo, hi) =>
+                match (named, response) {
+                    (Ok(range), R::Pulse { applied_us })
+                        if *applied_us == (*pulse_us).clamp(lo, hi) =>
                     {
-                        self.channels[c] = Expect::Raw(*applied_us);
+                        self.channels[range].fill(Expect::Raw(*applied_us));
                         true
                     }
-                    R::Error(E::Busy) => c < CHANNELS,
-                    R::Error(E::OutOfRange) => c >= CHANNELS,
+                    (Ok(_), R::Error(E::Busy)) => true,
+                    (Err(expected), R::Error(e)) => expected == *e,
                     _ => false,
                 }
             }
@@ -388,6 +434,7 @@ impl Model {
                 self.active = None;
                 self.on_boot = vec![None];
                 self.mode = CompensationMode::Off;
+                self.fit_joints();
                 true
             }
             (Request::CalibrationErase, R::Error(E::Busy)) => true,
@@ -433,6 +480,7 @@ impl Model {
                 self.on_boot = vec![found.clone()];
             }
             self.active = found.zip(info);
+            self.fit_joints();
         } else if self.active.as_ref().map(|(_, i)| *i) != info {
             return Err(Fault::new(
                 Invariant::Calibration,
@@ -448,6 +496,24 @@ impl Model {
                 format!(
                     "status says compensation {:?}, the replies said {:?}",
                     status.mode, self.mode
+                ),
+            ));
+        }
+        let joints = self.joints();
+        let counted = info.map_or(CHANNELS, |i| usize::from(i.joints));
+        if status.targets_rad.len() != joints
+            || status.nominal_rad.len() != joints
+            || counted != joints
+            || usize::from(status.device.channels) != CHANNELS
+        {
+            return Err(Fault::new(
+                Invariant::Joints,
+                format!(
+                    "status of an arm of {joints} joints says {counted} joints, {} channels, \
+                     {} targets and {} angles",
+                    status.device.channels,
+                    status.targets_rad.len(),
+                    status.nominal_rad.len()
                 ),
             ));
         }
@@ -535,11 +601,10 @@ impl Model {
             calibration,
         };
         match response {
-            R::CalibrationStored(info)
-                if info.id == calibration.id && info.option == calibration.option =>
-            {
+            R::CalibrationStored(info) if matches_info(Some(&known), Some(*info)) => {
                 self.active = Some((known.clone(), *info));
                 self.on_boot = vec![Some(known)];
+                self.fit_joints();
                 Ok(())
             }
             R::Error(E::Flash) if self.cut_armed => {
@@ -597,16 +662,24 @@ impl Model {
 fn matches_info(k: Option<&Known>, info: Option<CalibrationInfo>) -> bool {
     match (k, info) {
         (None, None) => true,
-        (Some(k), Some(i)) => k.calibration.id == i.id && k.calibration.option == i.option,
+        (Some(k), Some(i)) => {
+            let c = &k.calibration;
+            c.id == i.id
+                && c.option == i.option
+                && c.calibrated.joint_count() == usize::from(i.joints)
+        }
         _ => false,
     }
 }
 
-/// The channels a request names, `None` if it names one that does not exist.
-fn channels(channel: Option<u8>) -> Option<Range<usize>> {
+/// The channels a request names among the first `count` (all of them for
+/// `None`), or the error the board must give: a channel of the board past
+/// `count` (the arm's last joint) is unused, one past the board's is out of range.
+fn channels(channel: Option<u8>, count: usize) -> Result<Range<usize>, WireError> {
     match channel.map(usize::from) {
-        None => Some(0..CHANNELS),
-        Some(c) if c < CHANNELS => Some(c..c + 1),
-        Some(_) => None,
+        None => Ok(0..count),
+        Some(c) if c < count => Ok(c..c + 1),
+        Some(c) if c < CHANNELS => Err(WireError::UnusedChannel),
+        Some(_) => Err(WireError::OutOfRange),
     }
 }

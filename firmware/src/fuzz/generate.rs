@@ -4,7 +4,7 @@
 
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::{self, CRC_LEN, HEADER_LEN, MAX_BODY, MAX_FRAME, crc32};
-use protocol::{CHUNK_LEN, CompensationMode, Request, Timing};
+use protocol::{CHUNK_LEN, CompensationMode, PerChannel, Request, Timing};
 
 use super::check::unstuff;
 use super::{Case, Fixtures, Source, Step};
@@ -133,7 +133,7 @@ fn request(src: &mut impl Source, fixtures: &Fixtures, progress: &mut Progress) 
         0 => Request::Hello,
         1 | 2 => Request::Status,
         3 | 4 => Request::Move {
-            targets_rad: core::array::from_fn(|_| angle(src)),
+            targets_rad: PerChannel::from_fn(joints(src), |_| angle(src)),
             timing: timing(src),
         },
         5 => Request::Home {
@@ -218,6 +218,17 @@ fn chunk(src: &mut impl Source, fixtures: &Fixtures, progress: &mut Progress) ->
                 data,
             }
         }
+    }
+}
+
+/// How many targets a move gives: mostly one per joint of an arm the
+/// uploads have (six, five or one), now and then any number the wire allows.
+fn joints(src: &mut impl Source) -> usize {
+    match src.below(8) {
+        0 | 1 => 5,
+        2 => 1,
+        3 => src.below(CHANNELS as u64 + 1) as usize,
+        _ => CHANNELS,
     }
 }
 

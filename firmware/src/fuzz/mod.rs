@@ -11,8 +11,9 @@
 //! safe range and driven joints inside their limits, no reply to a corrupt
 //! frame and one matching reply to an intact one, no calibration ever
 //! partially applied, the board booting with the previous or the new
-//! calibration after a power cut, and the servo frame setting every channel
-//! every frame. Each case ends with a status and a reboot, so every case
+//! calibration after a power cut, the servo frame setting every channel
+//! every frame, and no pulse on a channel past the arm's last joint (the
+//! uploads include arms of five joints and of one). Each case ends with a status and a reboot, so every case
 //! checks the boot too.
 //!
 //! The generators draw from a [`Source`] of random words: a seeded RNG in
@@ -32,7 +33,7 @@ pub use check::{Fault, Invariant};
 use check::{Known, Model};
 pub use generate::{FRAMES_PER_CASE, frames_case, sequence_case};
 
-use crate::sim::{MockBus, SimFlash, test_calibration};
+use crate::sim::{MockBus, SimFlash, test_calibration, test_calibration_of};
 use crate::storage::Storage;
 use crate::{CHANNELS, Config, Device, SystemAction};
 
@@ -101,9 +102,11 @@ pub struct Upload {
 /// What every case shares: the calibrations to upload, and flashes holding them.
 #[derive(Clone, Debug)]
 pub struct Fixtures {
-    /// Three valid calibrations (plain, with tight limits and our model
+    /// Five valid calibrations (plain, with tight limits and our model
     /// option, with curves that ask for pulses outside the safe range and the
-    /// kinematic option) and one the board must refuse.
+    /// kinematic option, an arm of five joints, an arm of one) and three the
+    /// board must refuse (a curve with a NaN, an arm of seven joints, arms of
+    /// five and six joints in one calibration).
     pub uploads: Vec<Upload>,
     /// A flash holding each valid upload (by index), written by the storage itself.
     flashes: Vec<Option<SimFlash>>,
@@ -145,7 +148,20 @@ impl Fixtures {
         {
             *last = f32::NAN;
         }
-        let uploads: Vec<Upload> = [plain, tight, wild, invalid]
+        let mut five = test_calibration_of(25, 5);
+        five.calibrated.joints[1].limits = [-0.4, 1.2];
+        let mut one = test_calibration_of(26, 1);
+        one.option = ModelOption::ElastoKinematicServo;
+        // Seven joints (the home pose and corrections cannot say seven values).
+        let mut seven = test_calibration(27);
+        for arm in [&mut seven.nominal, &mut seven.calibrated] {
+            let last = arm.joints.last_value();
+            arm.joints =
+                model::PerJoint::from_fn(7, |i| arm.joints.get(i).copied().unwrap_or(last));
+        }
+        let mut mixed = test_calibration_of(28, 5);
+        mixed.nominal = test_calibration(28).nominal;
+        let uploads: Vec<Upload> = [plain, tight, wild, invalid, five, one, seven, mixed]
             .iter()
             .map(|c| {
                 let mut buf = [0u8; MAX_CALIBRATION_LEN];

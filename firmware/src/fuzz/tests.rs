@@ -132,6 +132,7 @@ fn the_calibration_checks_catch_a_partial_or_unannounced_apply() {
     let stored = Response::CalibrationStored(CalibrationInfo {
         id: 21,
         option: ModelOption::ElastoKinematic,
+        joints: 6,
         sequence: 1,
     });
     // A commit with nothing uploaded, or half of it, must not store anything.
@@ -167,11 +168,74 @@ fn the_calibration_checks_catch_a_partial_or_unannounced_apply() {
         s.calibration = Some(CalibrationInfo {
             id: 21,
             option: ModelOption::ElastoKinematic,
+            joints: 6,
             sequence: 1,
         });
     }
     let fault = model.on_reply(&Request::Status, &wrong).unwrap_err();
     assert_eq!(fault.invariant, Invariant::Calibration);
+}
+
+/// On a board of the five-joint upload, a pulse on channel 6 is caught
+/// whatever the model expects there, in a servo frame or a request; so is a
+/// status whose joint vectors are not the arm's.
+#[test]
+fn the_joint_checks_catch_a_pulse_past_the_last_joint_and_a_wrong_status() {
+    let fixtures = Fixtures::new();
+    let five = fixtures
+        .uploads
+        .iter()
+        .position(|u| {
+            Calibration::decode(&u.bytes).is_some_and(|c| c.calibrated.joint_count() == 5)
+        })
+        .expect("an upload of five joints");
+    let mut counts = Counts::default();
+    let mut rig = Rig::boot(
+        fixtures.flash(Some(five)),
+        vec![fixtures.known(five)],
+        &mut counts,
+    );
+    rig.settle().unwrap();
+    assert_eq!(rig.model.joints(), 5);
+    // A model that lost track of channel 6 still catches its pulse.
+    rig.model.channels = [Expect::Held; CHANNELS];
+    let frame: Vec<(usize, Option<u16>)> = (0..CHANNELS).map(|c| (c, Some(1650))).collect();
+    let fault = rig.model.check_servo_frame(&frame).unwrap_err();
+    assert_eq!(fault.invariant, Invariant::Joints);
+    let fault = rig
+        .model
+        .check_request_pulses(&[(5, Some(1500))])
+        .unwrap_err();
+    assert_eq!(fault.invariant, Invariant::Joints);
+    // A status of six targets, or one that counts six joints.
+    let mut out = [0u8; MAX_FRAME];
+    let mut buf = [0u8; MAX_FRAME];
+    let n = frame::encode(1, &Request::Status, &mut buf).unwrap();
+    let m = rig.device.handle_frame(&buf[..n], &mut out);
+    let Response::Status(status) = frame::decode::<Response>(&out[..m]).unwrap().1 else {
+        panic!("not a status")
+    };
+    let mut model = rig.model.clone();
+    model.channels = [Expect::Limp; CHANNELS];
+    assert_eq!(
+        model.on_reply(&Request::Status, &Response::Status(status)),
+        Ok(())
+    );
+    let mut six = status;
+    six.targets_rad = [0.0; CHANNELS].into();
+    let fault = model
+        .on_reply(&Request::Status, &Response::Status(six))
+        .unwrap_err();
+    assert_eq!(fault.invariant, Invariant::Joints);
+    let mut counted = status;
+    counted.calibration = counted
+        .calibration
+        .map(|c| CalibrationInfo { joints: 6, ..c });
+    assert!(
+        model
+            .on_reply(&Request::Status, &Response::Status(counted))
+            .is_err()
+    );
 }
 
 #[test]

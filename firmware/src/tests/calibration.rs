@@ -124,7 +124,7 @@ fn the_play_is_offset_by_half_its_width_the_way_each_joint_arrived() {
         mode: CompensationMode::Off,
     });
     // From home, each joint rising, falling or staying put (and keeping its way in).
-    let mut tracker = ApproachTracker::new(cal.home_rad);
+    let mut tracker = ApproachTracker::new(&cal.home_rad);
     let targets = [
         [0.4, 0.3, -0.6, 0.0, 0.9, 0.0],
         [0.1, 0.3, -0.2, 0.5, 0.9, -0.7],
@@ -369,10 +369,10 @@ fn a_power_cut_at_every_write_step_of_a_commit_boots_the_old_or_the_new_calibrat
                 );
             }
             // The servos follow that calibration's curves, not a mixture of two.
-            let curves = running.map_or([model::ServoCurve::nominal(); 6], |c| {
+            let curves = running.map_or([model::ServoCurve::nominal(); 6].into(), |c| {
                 c.calibrated.joints.map(|j| j.servo)
             });
-            let home = running.map_or([0.0; 6], |c| c.home_rad);
+            let home = running.map_or([0.0; 6].into(), |c| c.home_rad);
             h.request(&Request::Home {
                 timing: Timing::DurationMs(0),
             });

@@ -205,7 +205,18 @@ fn an_unreachable_holding_target_ends_the_solve() {
 /// command converges to 0.1 µm within 60 iterations.
 #[test]
 fn f32_compensation_matches_the_f64_model_within_50_um() {
-    let cal = test_calibration(5);
+    f32_compensation_matches_the_f64_model(&test_calibration(5), 1000);
+}
+
+/// The same for an arm of five joints (the six-joint arm without its last
+/// wrist joint), over 300 targets.
+#[test]
+fn f32_compensation_of_five_joints_matches_the_f64_model_within_50_um() {
+    f32_compensation_matches_the_f64_model(&test_calibration_of(5, 5), 300);
+}
+
+fn f32_compensation_matches_the_f64_model(cal: &Calibration, targets: usize) {
+    let joints = cal.calibrated.joint_count();
     let nominal64 = cal.nominal.map(f64::from).chain();
     let calibrated64 = cal.calibrated.map(f64::from).chain();
     let opts64 = model::CompensationOptions {
@@ -216,11 +227,13 @@ fn f32_compensation_matches_the_f64_model_within_50_um() {
     let mut rng = StdRng::seed_from_u64(11);
     for payload in [0.0f32, 0.0663] {
         let mut comp =
-            crate::compensator::Compensator::new(&cal, Config::default().compensation, 0.35);
+            crate::compensator::Compensator::new(cal, Config::default().compensation, 0.35);
         let (mut worst, mut done, mut unreachable, mut frames) = (0.0f64, 0, 0, 0);
-        while done < 1000 {
-            let q: [f32; 6] = core::array::from_fn(|_| rng.random_range(-1.6f32..1.6));
-            let q64 = q.map(f64::from);
+        while done < targets {
+            let q: Vec<f32> = (0..joints)
+                .map(|_| rng.random_range(-1.6f32..1.6))
+                .collect();
+            let q64: Vec<f64> = q.iter().map(|&x| f64::from(x)).collect();
             let target = nominal64
                 .tool_point(&q64, payload as f64, &Default::default())
                 .unwrap();
@@ -234,7 +247,7 @@ fn f32_compensation_matches_the_f64_model_within_50_um() {
             // A new target from rest: one Newton step per servo frame, as on the
             // board; about three frames on average, a dozen near the correction bound.
             const FRAMES_FROM_REST: usize = 20;
-            let mut cmd = [0.0f32; 6];
+            let mut cmd = model::PerJoint::splat(joints, 0.0f32);
             for _ in 0..FRAMES_FROM_REST {
                 frames += 1;
                 cmd = comp.step(&q, CompensationMode::Full, payload);
@@ -243,6 +256,7 @@ fn f32_compensation_matches_the_f64_model_within_50_um() {
                 }
             }
             assert!(comp.report().converged, "q {q:?}: {:?}", comp.report());
+            assert_eq!(cmd.len(), joints);
             let reached = calibrated64
                 .tool_point(&cmd.map(f64::from), payload as f64, &Default::default())
                 .unwrap();
@@ -250,11 +264,12 @@ fn f32_compensation_matches_the_f64_model_within_50_um() {
         }
         assert!(
             worst < 5e-5,
-            "payload {payload}: worst {:.4} mm",
+            "{joints} joints, payload {payload}: worst {:.4} mm",
             worst * 1e3
         );
         println!(
-            "payload {payload} kg: worst {:.4} mm over 1000 targets ({unreachable} unreachable skipped, {frames} frames)",
+            "{joints} joints, payload {payload} kg: worst {:.4} mm over {targets} targets \
+             ({unreachable} unreachable skipped, {frames} frames)",
             worst * 1e3
         );
     }

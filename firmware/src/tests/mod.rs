@@ -5,15 +5,17 @@ use proptest::prelude::*;
 use protocol::calibration::MAX_CALIBRATION_LEN;
 use protocol::frame::{self, MAX_FRAME};
 use protocol::{
-    CHUNK_LEN, Calibration, CompensationMode, Faults, Request, Response, Status, Timing, WireError,
+    CHUNK_LEN, Calibration, CompensationMode, Faults, PerChannel, Request, Response, Status,
+    Timing, WireError,
 };
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
-use crate::sim::{MockBus, SimFlash, test_calibration};
+use crate::sim::{MockBus, SimFlash, test_calibration, test_calibration_of};
 use crate::{Config, Device};
 
 mod calibration;
 mod compensation;
+mod joints;
 
 const FRAME_US: u64 = 20_000;
 
@@ -102,9 +104,10 @@ impl Harness {
         }
     }
 
-    fn move_to(&mut self, q: [f32; 6]) -> Response {
+    /// A move to `q`, one target per joint, as fast as the board allows.
+    fn move_to<const N: usize>(&mut self, q: [f32; N]) -> Response {
         self.request(&Request::Move {
-            targets_rad: q,
+            targets_rad: q.into(),
             timing: Timing::DurationMs(0),
         })
     }
@@ -146,6 +149,13 @@ fn starts_limp_without_calibration_and_says_so() {
     assert!(s.faults.contains(Faults::NO_CALIBRATION));
     assert_eq!(s.calibration, None);
     assert_eq!(s.pulses_us, [0; 6]);
+    // Without a calibration, an arm of one joint per channel, as before
+    // arms of other sizes existed.
+    assert_eq!(s.device.channels, 6);
+    assert_eq!(
+        (s.targets_rad, s.nominal_rad),
+        ([0.0; 6].into(), [0.0; 6].into())
+    );
     assert_eq!(
         h.request(&Request::SetCompensation {
             mode: CompensationMode::Full
@@ -181,12 +191,12 @@ fn moves_are_refused_outside_limits_or_with_nan_and_change_nothing() {
         Response::Error(WireError::NotFinite)
     );
     let slow = Request::Move {
-        targets_rad: [0.1; 6],
+        targets_rad: [0.1; 6].into(),
         timing: Timing::SpeedRadPerS(-1.0),
     };
     assert_eq!(h.request(&slow), Response::Error(WireError::OutOfRange));
     let forever = Request::Move {
-        targets_rad: [0.1; 6],
+        targets_rad: [0.1; 6].into(),
         timing: Timing::DurationMs(u32::MAX),
     };
     assert_eq!(h.request(&forever), Response::Error(WireError::OutOfRange));
@@ -316,14 +326,18 @@ proptest! {
     }
 
     /// Whatever well-formed requests arrive (NaN, huge, out of range), every
-    /// pulse stays in the safe range and no calibration is half applied.
+    /// pulse stays in the safe range, no calibration is half applied, and on
+    /// an arm of five joints or one the channels past its last joint never
+    /// get a pulse.
     #[test]
     fn arbitrary_requests_keep_pulses_and_joints_in_limits(
         ops in proptest::collection::vec((0u8..8, any::<[f32; 6]>(), any::<u16>(), any::<u32>()), 1..40),
         calibrated in any::<bool>(),
+        joints in prop_oneof![Just(6usize), Just(5), Just(1)],
     ) {
         let mut h = Harness::boot(SimFlash::new());
-        let cal = test_calibration(2);
+        let cal = test_calibration_of(2, joints);
+        let joints = if calibrated { joints } else { 6 };
         if calibrated {
             h.push(&cal);
             h.request(&Request::SetCompensation { mode: CompensationMode::Full });
@@ -331,9 +345,12 @@ proptest! {
         let mut used_raw = false;
         for (op, q, p, ms) in ops {
             used_raw |= op == 2;
+            // One target per joint, now and then one too many.
+            let n = if ms % 16 == 0 { (joints + 1).min(6) } else { joints };
+            let targets = PerChannel::from_slice(&q[..n]).unwrap();
             let req = match op {
-                0 => Request::Move { targets_rad: q, timing: Timing::DurationMs(ms % 3000) },
-                1 => Request::Move { targets_rad: q.map(|x| x.clamp(-1.7, 1.7)), timing: Timing::SpeedRadPerS(q[0]) },
+                0 => Request::Move { targets_rad: targets, timing: Timing::DurationMs(ms % 3000) },
+                1 => Request::Move { targets_rad: targets.map(|x| x.clamp(-1.7, 1.7)), timing: Timing::SpeedRadPerS(q[0]) },
                 2 => Request::RawPulse { channel: (p % 8) as u8, pulse_us: p },
                 3 => Request::SetPayload { mass_kg: q[1] },
                 4 => Request::Attach { channel: Some((p % 7) as u8) },
@@ -346,10 +363,11 @@ proptest! {
         }
         let id = h.status().calibration.map(|c| c.id);
         prop_assert_eq!(id, calibrated.then_some(2));
-        let limits = if calibrated { cal.calibrated.joints.map(|j| j.limits) } else { [[-1.7453293, 1.7453293]; 6] };
-        let curves = if calibrated { cal.calibrated.joints.map(|j| j.servo) } else { [model::ServoCurve::nominal(); 6] };
+        let limits = if calibrated { cal.calibrated.joints.map(|j| j.limits) } else { [[-1.7453293, 1.7453293]; 6].into() };
+        let curves = if calibrated { cal.calibrated.joints.map(|j| j.servo) } else { [model::ServoCurve::nominal(); 6].into() };
         for &(ch, pulse) in &h.dev.bus().log {
             if let Some(us) = pulse {
+                prop_assert!(ch < joints, "pulse {us} on channel {ch} of an arm of {joints} joints");
                 prop_assert!((500..=2500).contains(&us), "pulse {us}");
                 // Driven (not raw) pulses also respect the joint limits through the curve.
                 let lo = curves[ch].pulse_us(limits[ch][0]).min(curves[ch].pulse_us(limits[ch][1]));
