@@ -20,7 +20,7 @@ use std::process::Output;
 use lrmcal_core::io::calibration_file::SCHEMA_VERSION;
 use lrmcal_core::io::{arm_source, predictions};
 use model::testing::{ErrorSizes, random_errors};
-use model::{Arm, JOINTS, ParamId};
+use model::{Arm, ParamId};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng, rngs::StdRng};
 

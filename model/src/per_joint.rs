@@ -116,8 +116,8 @@ impl<T: Copy + Default, const N: usize, const C: usize> From<[T; N]> for ChainVe
     }
 }
 
-impl<T: PartialEq, const C: usize> PartialEq for ChainVec<T, C> {
-    fn eq(&self, other: &Self) -> bool {
+impl<T: PartialEq, const C: usize, const D: usize> PartialEq<ChainVec<T, D>> for ChainVec<T, C> {
+    fn eq(&self, other: &ChainVec<T, D>) -> bool {
         **self == **other
     }
 }

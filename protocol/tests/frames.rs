@@ -201,6 +201,8 @@ fn arm_of(joints: usize) -> model::Arm<f32> {
                 d: 0.1,
                 a: 0.1,
                 alpha: 0.0,
+                beta: 0.0,
+                kind: model::JointKind::Revolute,
                 compliance: 0.01,
                 limits: [-1.0, 1.0],
                 mass: 0.1,

@@ -36,6 +36,8 @@ pub fn fixed_arm(joints: usize) -> Arm<f32> {
         d: 0.01 * i as f32,
         a: 0.1,
         alpha: 1.5,
+        beta: 0.0,
+        kind: model::JointKind::Revolute,
         compliance: 0.02,
         limits: [-1.5, 1.5],
         mass: 0.1,

@@ -21,7 +21,7 @@ const FRAMES_FROM_REST: usize = 20;
 fn board_compensation_reaches_nominal_targets_within_50_um() {
     let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
     let mut rng = StdRng::seed_from_u64(2024);
-    let ids: Vec<ParamId> = ParamId::all().collect();
+    let ids: Vec<ParamId> = ParamId::all(6).collect();
     let errors = random_errors(&mut rng, &ErrorSizes::CALIBRATED);
     let mut calibrated = nominal.with_errors(&ids, &errors);
     // Springs that soften as the simulator's do, one stiffening a little:
@@ -39,7 +39,7 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
         option: ModelOption::ElastoKinematic,
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
-        home_rad: [0.0; 6],
+        home_rad: [0.0; 6].into(),
         max_correction_rad: lrmcal_engine::device::calibration::max_corrections(
             &nominal,
             &calibrated,
@@ -86,7 +86,7 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
             }
             done += 1;
             board.reset();
-            let mut command = q;
+            let mut command = model::PerJoint::from(q);
             for _ in 0..FRAMES_FROM_REST {
                 frames += 1;
                 command = board.step(&q, CompensationMode::Full, payload);

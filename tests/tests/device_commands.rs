@@ -551,7 +551,10 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
     let start = deg([95.0, 30.0, 30.0, 0.0, 0.0, 0.0]);
     let mut client = board.args().connect().unwrap();
     client
-        .move_to(start.map(|a| a as f32), protocol::Timing::DurationMs(200))
+        .move_to(
+            start.map(|a| a as f32).into(),
+            protocol::Timing::DurationMs(200),
+        )
         .unwrap();
     client
         .wait_until_still(Duration::from_millis(20), Duration::from_secs(20))
@@ -590,7 +593,7 @@ fn move_xyz_sends_the_nearest_solution_from_the_boards_pose() {
         option: protocol::ModelOption::Kinematic,
         nominal: longer.map(|x| x as f32),
         calibrated: longer.map(|x| x as f32),
-        home_rad: [0.0; 6],
+        home_rad: [0.0; 6].into(),
         max_correction_rad: lrmcal_engine::device::calibration::max_corrections(&longer, &longer),
     };
     let mut client = board.args().connect().unwrap();
@@ -644,8 +647,8 @@ fn move_xyz_keeps_to_the_firmwares_joint_ranges() {
         option: protocol::ModelOption::Kinematic,
         nominal: arm,
         calibrated: arm,
-        home_rad: [0.0; 6],
-        max_correction_rad: [0.35; 6],
+        home_rad: [0.0; 6].into(),
+        max_correction_rad: [0.35; 6].into(),
     };
     assert_eq!(
         board_limits(Some(&calibration)),

@@ -32,7 +32,7 @@ fn client(board: MemoryBoard) -> Client<MemoryBoard> {
 /// to 9 knots.
 fn calibration_file() -> CalibrationFile {
     let nominal = lrmcal_core::io::arm_source::bundled("lrm").unwrap().arm;
-    let ids: Vec<ParamId> = ParamId::all().collect();
+    let ids: Vec<ParamId> = ParamId::all(6).collect();
     let errors: Vec<f64> = ids
         .iter()
         .enumerate()
@@ -102,8 +102,8 @@ fn push_for_a_named_target_sends_its_tool_point() {
         arm,
         ..file.clone()
     };
-    let payload = calibration::payload(&chosen, [0.0; 6]).unwrap();
-    let first = calibration::payload(&file, [0.0; 6]).unwrap();
+    let payload = calibration::payload(&chosen, [0.0; 6].into()).unwrap();
+    let first = calibration::payload(&file, [0.0; 6].into()).unwrap();
     assert_ne!(payload.id, first.id);
     let mut c = client(board(SimFlash::new()));
     c.hello().unwrap();
@@ -128,12 +128,12 @@ fn an_elasto_kinematic_servo_calibration_keeps_its_option_on_the_board() {
         option: ModelOption::ElastoKinematicServo,
         ..calibration_file()
     };
-    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    let payload = calibration::payload(&file, [0.0; 6].into()).unwrap();
     assert_eq!(payload.option, ModelOption::ElastoKinematicServo);
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let decoded = protocol::Calibration::decode(payload.encode(&mut buf).unwrap()).unwrap();
     assert_eq!(decoded, payload);
-    let paper = calibration::payload(&calibration_file(), [0.0; 6]).unwrap();
+    let paper = calibration::payload(&calibration_file(), [0.0; 6].into()).unwrap();
     assert_eq!(paper.option, ModelOption::ElastoKinematic);
     assert_ne!(payload.id, paper.id);
 
@@ -155,7 +155,7 @@ fn an_elasto_kinematic_servo_calibration_keeps_its_option_on_the_board() {
 #[test]
 fn push_store_reboot_status_move() {
     let file = calibration_file();
-    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    let payload = calibration::payload(&file, [0.0; 6].into()).unwrap();
     let mut c = client(board(SimFlash::new()));
 
     let info = c.hello().unwrap();
@@ -185,9 +185,9 @@ fn push_store_reboot_status_move() {
     c.set_payload(0.0663).unwrap();
     c.set_compensation(CompensationMode::Full).unwrap();
     let target = [0.3f32, 0.5, -0.6, 0.2, 0.7, -0.1];
-    c.move_to(target, Timing::DurationMs(1500)).unwrap();
+    c.move_to(target.into(), Timing::DurationMs(1500)).unwrap();
     assert!(matches!(
-        c.move_to(target, Timing::DurationMs(1500)),
+        c.move_to(target.into(), Timing::DurationMs(1500)),
         Err(ClientError::Endpoint {
             error: WireError::Busy,
             ..
@@ -233,8 +233,8 @@ fn push_store_reboot_status_move() {
 #[test]
 fn unplugged_mid_upload_keeps_the_old_calibration_and_says_so() {
     let file = calibration_file();
-    let first = calibration::payload(&file, [0.0; 6]).unwrap();
-    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
+    let first = calibration::payload(&file, [0.0; 6].into()).unwrap();
+    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0].into()).unwrap();
     assert_ne!(first.id, second.id);
     let mut c = client(board(SimFlash::new()));
     c.push_calibration(&first, |_, _| {}).unwrap();
@@ -258,8 +258,8 @@ fn unplugged_mid_upload_keeps_the_old_calibration_and_says_so() {
 #[test]
 fn power_cut_while_writing_flash_keeps_the_old_calibration() {
     let file = calibration_file();
-    let first = calibration::payload(&file, [0.0; 6]).unwrap();
-    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
+    let first = calibration::payload(&file, [0.0; 6].into()).unwrap();
+    let second = calibration::payload(&file, [0.1, 0.0, 0.0, 0.0, 0.0, 0.0].into()).unwrap();
     let mut flash = SimFlash::new();
     {
         let mut c = client(board(flash));
@@ -356,7 +356,7 @@ fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
 #[test]
 fn a_non_monotonic_curve_never_leaves_the_host() {
     let file = calibration_file();
-    let mut bad = calibration::payload(&file, [0.0; 6]).unwrap();
+    let mut bad = calibration::payload(&file, [0.0; 6].into()).unwrap();
     let pulses = bad.calibrated.joints[4].servo.pulses_us_mut();
     pulses[3] = pulses[2] - 1.0;
     let mut c = client(board(SimFlash::new()));
@@ -377,7 +377,7 @@ fn a_non_monotonic_curve_never_leaves_the_host() {
 #[test]
 fn lost_replies_are_retried_and_a_lost_commit_answer_is_recovered() {
     let file = calibration_file();
-    let payload = calibration::payload(&file, [0.0; 6]).unwrap();
+    let payload = calibration::payload(&file, [0.0; 6].into()).unwrap();
     let mut c = client(board(SimFlash::new()));
     for path in ["status/get", "calib/chunk", "calib/chunk", "calib/commit"] {
         c.link_mut().lose_reply_to(path);

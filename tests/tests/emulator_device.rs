@@ -17,7 +17,7 @@ use emulator_support::{
 };
 use host::commands::device_args::DeviceArgs;
 use lrmcal_engine::device::{Client, Link};
-use model::JOINTS;
+use model::testing::TEST_ARM_JOINTS as JOINTS;
 use protocol::{CompensationMode, Faults, Timing};
 
 /// Servo pulse timing must match the host's computation to this.

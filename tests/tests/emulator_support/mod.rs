@@ -367,7 +367,7 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         option: protocol::ModelOption::ElastoKinematic,
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
-        home_rad: [0.0; model::JOINTS],
+        home_rad: [0.0; model::testing::TEST_ARM_JOINTS],
         max_correction_rad: lrmcal_engine::device::calibration::max_corrections(
             &nominal,
             &calibrated,
@@ -483,10 +483,10 @@ impl RawLink {
 /// play's offset (the firmware's compensation, in f64).
 pub fn expected_command(
     calibration: &protocol::Calibration,
-    q: &[f64; model::JOINTS],
+    q: &[f64; model::testing::TEST_ARM_JOINTS],
     mode: protocol::CompensationMode,
     payload_kg: f64,
-) -> [f64; model::JOINTS] {
+) -> [f64; model::testing::TEST_ARM_JOINTS] {
     let nominal = calibration.nominal.map(f64::from);
     let chain = calibration.calibrated.map(f64::from).chain();
     match mode {
@@ -521,8 +521,8 @@ pub fn expected_command(
 /// The pulses of the calibrated servo curves for `command`, clamped to the joint limits, µs.
 pub fn curve_pulses(
     calibration: &protocol::Calibration,
-    command: &[f64; model::JOINTS],
-) -> [f64; model::JOINTS] {
+    command: &[f64; model::testing::TEST_ARM_JOINTS],
+) -> [f64; model::testing::TEST_ARM_JOINTS] {
     let calibrated = calibration.calibrated.map(f64::from);
     let command = calibrated.clamp_to_limits(command);
     std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
@@ -537,7 +537,7 @@ pub struct ExpectedPulses {
 
 impl ExpectedPulses {
     /// A board standing at `home`, rad, every joint taken to have arrived rising.
-    pub fn from(home: [f64; model::JOINTS]) -> Self {
+    pub fn from(home: [f64; model::testing::TEST_ARM_JOINTS]) -> Self {
         Self {
             approach: model::backlash::ApproachTracker::new(home),
         }
@@ -547,10 +547,10 @@ impl ExpectedPulses {
     pub fn next(
         &mut self,
         calibration: &protocol::Calibration,
-        q: &[f64; model::JOINTS],
+        q: &[f64; model::testing::TEST_ARM_JOINTS],
         mode: protocol::CompensationMode,
         payload_kg: f64,
-    ) -> [f64; model::JOINTS] {
+    ) -> [f64; model::testing::TEST_ARM_JOINTS] {
         let command = expected_command(calibration, q, mode, payload_kg);
         let ways = self.approach.visit(&command);
         let joints = &calibration.calibrated.joints;

@@ -125,10 +125,7 @@ mod tests {
         assert_eq!(d.joint_names[0], "shoulder_pan");
         assert_eq!(d.arm.gravity, GRAVITY);
         // No servo curves: the board refuses it until the arm file gives them.
-        assert_eq!(
-            super::super::arm_toml::joint_without_servo(&d.arm),
-            Some(1)
-        );
+        assert_eq!(super::super::arm_toml::joint_without_servo(&d.arm), Some(1));
     }
 
     #[test]
