@@ -130,20 +130,31 @@ fn unknown_key_is_rejected() {
 }
 
 #[test]
-fn wrong_number_of_joints_is_rejected() {
-    // Drop the sixth joint (its table starts at line 78).
+fn any_number_of_joints_up_to_ten_reads_and_more_is_rejected() {
+    // Drop the sixth joint (its table starts at line 78): a five-joint arm.
     let text: String = FIXTURE.lines().take(77).collect::<Vec<_>>().join("\n");
+    let five = arm_toml::parse(&text).unwrap();
+    assert_eq!(five.arm.joints.len(), 5);
+    assert_eq!(five.joint_names.len(), 5);
+    // Eleven joints: the first joint's table five more times.
+    let first_joint: Vec<&str> = FIXTURE.lines().skip(17).take(12).collect();
+    let mut text = FIXTURE.to_string();
+    for _ in 0..5 {
+        text = format!("{text}\n{}\n", first_joint.join("\n"));
+    }
     let msg = parse_err(&text).to_string();
     assert!(
-        msg.contains("exactly 6 [[joint]]") && msg.contains("found 5"),
+        msg.contains("1 to 10 [[joint]]") && msg.contains("found 11"),
         "{msg}"
     );
     assert!(msg.contains("key `joint`"), "{msg}");
-
-    let first_joint: Vec<&str> = FIXTURE.lines().skip(17).take(12).collect();
-    let text = format!("{FIXTURE}\n{}\n", first_joint.join("\n"));
+    // A prismatic joint says so; anything else is refused with the line.
+    let text = FIXTURE.replacen("[[joint]]\n", "[[joint]]\ntype = \"prismatic\"\n", 1);
+    let lift = arm_toml::parse(&text).unwrap();
+    assert_eq!(lift.arm.joints[0].kind, model::JointKind::Prismatic);
+    let text = FIXTURE.replacen("[[joint]]\n", "[[joint]]\ntype = \"ball\"\n", 1);
     let msg = parse_err(&text).to_string();
-    assert!(msg.contains("found 7"), "{msg}");
+    assert!(msg.contains("ball") && msg.contains("prismatic"), "{msg}");
 }
 
 #[test]
@@ -464,6 +475,10 @@ fn bad_bodies_name_the_key_and_the_line() {
         r#"capsule = { from = "j7", to = "j1", radius = 0.04 }"#,
     ));
     assert_names(&err, "body[1].capsule.from", at(3), &["j7", "j0 … j6"]);
+    let err = parse_err(&body(
+        r#"capsule = { from = "j11", to = "j1", radius = 0.04 }"#,
+    ));
+    assert_names(&err, "body[1].capsule.from", at(3), &["j11", "j0 … j10"]);
     let err = parse_err(&body(
         r#"capsule = { from = "j1", to = { frame = "j2" }, radius = 0.04 }"#,
     ));

@@ -82,7 +82,7 @@ fn select_identify_validate_round_trip() {
     off.position.z += 0.02;
     let bad = off.pose.id;
     let moved = dir.path().join("moved.csv");
-    measurements::write(&moved, &rows).unwrap();
+    measurements::write(&moved, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "validate",
         "--calibration",
@@ -107,7 +107,7 @@ fn select_identify_validate_round_trip() {
     {
         m.position.z += 0.02;
     }
-    measurements::write(&moved, &rows).unwrap();
+    measurements::write(&moved, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let cal2 = dir.path().join("cal2");
     for flag in [None, Some("--no-robust")] {
         let args = [
@@ -242,7 +242,7 @@ fn validate_names_a_far_measurement_and_refuses_a_file_in_the_wrong_unit() {
     rows[7].position.x += 0.2;
     let far = rows[7];
     let moved = dir.path().join("far.csv");
-    measurements::write(&moved, &rows).unwrap();
+    measurements::write(&moved, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "validate",
         "--calibration",
@@ -263,7 +263,7 @@ fn validate_names_a_far_measurement_and_refuses_a_file_in_the_wrong_unit() {
         m.position /= 1000.0;
     }
     let metres = dir.path().join("metres.csv");
-    measurements::write(&metres, &rows).unwrap();
+    measurements::write(&metres, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "validate",
         "--calibration",
@@ -324,7 +324,7 @@ fn bad_inputs_are_named() {
         m.pose.q[1] = 120f64.to_radians();
     }
     let bad = dir.path().join("beyond.csv");
-    measurements::write(&bad, &beyond).unwrap();
+    measurements::write(&bad, &beyond, &[model::JointKind::Revolute; 6]).unwrap();
     let identify_beyond = |extra: &[&str]| {
         let out_dir = dir.path().join("beyond");
         let args = [
@@ -364,7 +364,7 @@ fn bad_inputs_are_named() {
         })
         .collect();
     let bad = dir.path().join("metres.csv");
-    measurements::write(&bad, &metres).unwrap();
+    measurements::write(&bad, &metres, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "identify",
         "--measurements",
@@ -393,7 +393,7 @@ fn bad_inputs_are_named() {
         m.pose.q[0] += 0.2;
     }
     let shifted = dir.path().join("shifted.csv");
-    measurements::write(&shifted, &moved).unwrap();
+    measurements::write(&shifted, &moved, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "identify",
         "--measurements",
@@ -420,7 +420,7 @@ fn bad_inputs_are_named() {
         .take(3)
         .copied()
         .collect();
-    measurements::write(&three, &few).unwrap();
+    measurements::write(&three, &few, &[model::JointKind::Revolute; 6]).unwrap();
     let out = lrmcal(&[
         "identify",
         "--measurements",
@@ -440,7 +440,7 @@ fn bad_inputs_are_named() {
             ..rows[0]
         })
         .collect();
-    measurements::write(&same, &copies).unwrap();
+    measurements::write(&same, &copies, &[model::JointKind::Revolute; 6]).unwrap();
     // One point cannot place the arm; in the arm file's frame it cannot
     // determine the parameters either.
     let out = lrmcal(&[
@@ -560,7 +560,7 @@ fn demo_writes_its_folder_and_prints_the_table() {
         // The counts follow --poses and the option's candidates.
         "O1 of the 40 selected poses",
         "DETMAX vs 2 random 40-pose sets (elasto-kinematic)",
-        "elasto-kinematic-servo: 80 of 97 parameters identifiable",
+        "elasto-kinematic-servo: 81 of 98 parameters identifiable",
         // The error at the tool through the board, per board.
         "Positioning error at the tool through the board, 20 random targets",
         "uncalibrated  ",

@@ -137,7 +137,7 @@ fn plan_simulate_identify_validate_predict() {
 
     // A small pose set: every fourth candidate (ids kept).
     let small: Vec<PoseRow> = all.iter().step_by(4).copied().collect();
-    pose_list::write(&poses, &small).unwrap();
+    pose_list::write(&poses, &small, &[model::JointKind::Revolute; 6]).unwrap();
 
     // simulate: model-only (no unmodelled effects, no noise), both loads, with the truth file.
     ok(&[
@@ -247,7 +247,7 @@ fn plan_simulate_identify_validate_predict() {
         .copied()
         .collect();
     let held_out_path = path("held_out.csv");
-    pose_list::write(&held_out_path, &held_out).unwrap();
+    pose_list::write(&held_out_path, &held_out, &[model::JointKind::Revolute; 6]).unwrap();
     for load_kg in [LOAD_KG, 0.0] {
         let load = load_kg.to_string();
         let (calibrated, nominal) = (path("calibrated.csv"), path("nominal.csv"));

@@ -25,7 +25,7 @@ fn rewritten(dir: &Path, name: &str, edit: impl Fn(&mut Measurement)) -> String 
     let mut rows = measurements::read(&meas).expect("simulated file");
     rows.iter_mut().for_each(edit);
     let path = dir.join(name);
-    measurements::write(&path, &rows).expect("write");
+    measurements::write(&path, &rows, &[model::JointKind::Revolute; 6]).expect("write");
     p(&path).to_owned()
 }
 

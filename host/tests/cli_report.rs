@@ -34,7 +34,7 @@ fn identify_writes_the_page_and_report_builds_it_again() {
         .into_iter()
         .step_by(3)
         .collect();
-    pose_list::write(&poses, &every_third).unwrap();
+    pose_list::write(&poses, &every_third, &[model::JointKind::Revolute; 6]).unwrap();
     run(&[
         "simulate",
         "--poses",

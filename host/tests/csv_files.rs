@@ -11,6 +11,10 @@ use nalgebra::Vector3;
 
 const HEADER: &str = "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm,z_mm";
 
+/// The columns a measurement file's errors list: the joint angles as one
+/// run, one per joint of the arm.
+const EXPECTED: &str = "pose,load_kg,q1_deg..qn_deg (one per joint),x_mm,y_mm,z_mm,target";
+
 /// A measurement file: header on line 1, then rows on lines 2, 3, ...
 fn measurement_file(rows: &[&str]) -> String {
     format!("{HEADER}\n{}\n", rows.join("\n"))
@@ -131,14 +135,19 @@ fn missing_column_lists_the_expected_ones() {
     let text =
         "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,x_mm,y_mm\n1,0,0,0,0,0,0,0,1,2\n";
     let err = measurement_err(text);
-    assert_names(&err, 1, Some("z_mm"), &["missing from the header", HEADER]);
+    assert_names(
+        &err,
+        1,
+        Some("z_mm"),
+        &["missing from the header", EXPECTED],
+    );
 }
 
 #[test]
 fn unknown_column_is_rejected_with_the_expected_ones() {
     let text = format!("{HEADER},rms_mm\n{ROW_A},0.02\n");
     let err = measurement_err(&text);
-    assert_names(&err, 1, Some("rms_mm"), &["unknown column", HEADER]);
+    assert_names(&err, 1, Some("rms_mm"), &["unknown column", EXPECTED]);
     // A pose list ignores other columns, but a misspelt optional column
     // must not silently become load 0.
     let text = "pose,laod_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0.1,0,0,0,0,0,0\n";
@@ -318,7 +327,7 @@ fn measurements_round_trip_through_a_file() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("m.csv");
     let rows = sample_measurements();
-    measurements::write(&path, &rows).unwrap();
+    measurements::write(&path, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert_eq!(text.lines().next(), Some(HEADER));
     let back = measurements::read(&path).unwrap();
@@ -353,7 +362,7 @@ fn pose_lists_and_predictions_round_trip() {
         })
         .collect();
     let path = dir.path().join("poses.csv");
-    pose_list::write(&path, &poses).unwrap();
+    pose_list::write(&path, &poses, &[model::JointKind::Revolute; 6]).unwrap();
     let text = std::fs::read_to_string(&path).unwrap();
     assert_eq!(
         text.lines().next(),
@@ -373,7 +382,7 @@ fn pose_lists_and_predictions_round_trip() {
             ..*p
         })
         .collect();
-    pose_list::write(&path, &loaded).unwrap();
+    pose_list::write(&path, &loaded, &[model::JointKind::Revolute; 6]).unwrap();
     assert!(
         std::fs::read_to_string(&path)
             .unwrap()
@@ -468,14 +477,14 @@ fn written_files_get_the_mode_of_an_ordinary_file() {
 fn measurements_name_their_targets_in_an_optional_column() {
     let mut rows = sample_measurements();
     let mut text = Vec::new();
-    measurements::write_to(&mut text, &rows).unwrap();
+    measurements::write_to(&mut text, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let text = String::from_utf8(text).unwrap();
     assert!(!text.contains("target"), "{text}");
     for (k, m) in rows.iter_mut().enumerate() {
         m.target = lrmcal_core::dataset::TargetName::from(["m0", "m30"][k % 2]).ok();
     }
     let mut named = Vec::new();
-    measurements::write_to(&mut named, &rows).unwrap();
+    measurements::write_to(&mut named, &rows, &[model::JointKind::Revolute; 6]).unwrap();
     let named = String::from_utf8(named).unwrap();
     assert!(
         named.lines().next().unwrap().ends_with(",target"),

@@ -226,7 +226,8 @@ fn check(case: &Case) {
         case.name,
         off.len()
     );
-    pose_list::write(&off_grid_poses, &off).expect("write the off-grid poses");
+    pose_list::write(&off_grid_poses, &off, &[model::JointKind::Revolute; 6])
+        .expect("write the off-grid poses");
     let loads = [0.0, LOAD_KG];
     let off_grid: Vec<PathBuf> = loads
         .iter()

@@ -36,7 +36,8 @@ fn candidate_file() -> (model::Arm<f64>, String) {
         })
         .collect();
     let mut text = Vec::new();
-    pose_list::write_to(&mut text, &rows).expect("written to memory");
+    pose_list::write_to(&mut text, &rows, &[model::JointKind::Revolute; 6])
+        .expect("written to memory");
     (arm, String::from_utf8(text).expect("UTF-8"))
 }
 

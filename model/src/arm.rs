@@ -163,6 +163,11 @@ impl<T: Real> Arm<T> {
         self.joints.len()
     }
 
+    /// How each joint moves, base to tip.
+    pub fn kinds(&self) -> PerJoint<JointKind> {
+        self.joints.map(|j| j.kind)
+    }
+
     /// Gravity as a vector, world frame.
     pub fn gravity_vector(&self) -> Vector3<T> {
         Vector3::from(self.gravity)

@@ -66,6 +66,13 @@ impl<T: Copy + Default, const C: usize> ChainVec<T, C> {
     }
 }
 
+impl<T: Copy + Default, const C: usize> Default for ChainVec<T, C> {
+    /// No values.
+    fn default() -> Self {
+        Self::splat(0, T::default())
+    }
+}
+
 impl<T, const C: usize> Deref for ChainVec<T, C> {
     type Target = [T];
 

@@ -192,7 +192,10 @@ fn device_commands_drive_a_board_on_a_socket() {
         Some(protocol::ModelOption::ElastoKinematicServo)
     );
     let shown = status::render(&s);
-    assert!(shown.contains("(elasto-kinematic-servo)"), "{shown}");
+    assert!(
+        shown.contains("(elasto-kinematic-servo, 6 joints)"),
+        "{shown}"
+    );
     drop(client);
 
     let out = dir.path().join("pulled.json");

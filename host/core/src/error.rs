@@ -205,7 +205,7 @@ pub enum Problem {
     },
     /// A pose's joint angle lies outside the arm's limits for that joint.
     #[error(
-        "pose {pose}: {angle_deg}° is outside joint {joint}'s limits [{}°, {}°] \
+        "pose {pose}: {angle_deg}{unit} is outside joint {joint}'s limits [{}{unit}, {}{unit}] \
          (pass --allow-outside-limits to use it anyway)",
         limits_deg[0],
         limits_deg[1]
@@ -215,10 +215,12 @@ pub enum Problem {
         pose: u32,
         /// The joint, 1-based.
         joint: u32,
-        /// The angle, degrees.
+        /// The angle, degrees (a prismatic joint's position, mm).
         angle_deg: f64,
-        /// The joint's limits, degrees.
+        /// The joint's limits, degrees (mm).
         limits_deg: [f64; 2],
+        /// `°`, or ` mm` for a prismatic joint.
+        unit: &'static str,
     },
     /// The arm file has no joints or more than [`model::MAX_JOINTS`].
     #[error("expected 1 to {} [[joint]] tables, found {found}", model::MAX_JOINTS)]

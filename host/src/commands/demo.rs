@@ -131,8 +131,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let off_grid = truth
         .measure(&off_grid_poses, &[PAPER_LOAD_KG])
         .map_err(|source| Error::Simulate { source })?;
-    measurements::write(&args.out.join("measurements.csv"), &all)?;
-    measurements::write(&args.out.join("off-grid.csv"), &off_grid)?;
+    let kinds = truth.nominal.kinds();
+    measurements::write(&args.out.join("measurements.csv"), &all, &kinds)?;
+    measurements::write(&args.out.join("off-grid.csv"), &off_grid, &kinds)?;
     write_text(&args.out.join("truth.json"), &truth.truth_json())?;
     println!(
         "{} candidate poses ({} of the {} grid poses clear of the joint limits and collisions, {} random ones off the grid); true arm seed {}{}",

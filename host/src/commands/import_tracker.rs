@@ -67,7 +67,10 @@ pub struct Args {
 
 /// Runs `lrmcal import-tracker`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let list = pose_list::read(&args.poses)?;
+    let listed = pose_list::read_listed(&args.poses)?;
+    // The measurements give each joint as the pose list does (degrees or mm).
+    let kinds = listed.first().map(|l| l.units).unwrap_or_default();
+    let list: Vec<_> = listed.iter().map(|l| l.row).collect();
     let asset = match (&args.rigid_body, &args.marker) {
         (Some(name), _) => Asset::RigidBody(name),
         (None, Some(name)) => Asset::Marker(name),
@@ -117,7 +120,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             approach: from_home(row.pose.q.len()),
         })
         .collect();
-    measurements::write(&args.out, &rows)?;
+    measurements::write(&args.out, &rows, &kinds)?;
     println!("pose   start_s    end_s  frames  lost  spread_mm");
     for (row, p) in list.iter().zip(&periods) {
         println!(

@@ -76,6 +76,11 @@ pub(crate) fn finite(text: &str) -> Result<f64, String> {
 /// Runs `lrmcal plan`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
+    // How many poses the levels make depends on the arm's joints: a usage
+    // error like the levels' own.
+    if let Err(e) = args.levels.grid_size(arm.arm.joints.len()) {
+        return Err(Error::Usage(format!("--levels: {e}")));
+    }
     let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
     config.levels = args.levels.clone();
     config.random = args.random;
@@ -98,13 +103,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         })
         .collect();
     match &args.out {
-        Some(path) => pose_list::write(path, &rows)?,
-        None => pose_list::write_to(&mut std::io::stdout().lock(), &rows).map_err(|source| {
-            lrmcal_core::Error::Write {
+        Some(path) => pose_list::write(path, &rows, &arm.arm.kinds())?,
+        None => pose_list::write_to(&mut std::io::stdout().lock(), &rows, &arm.arm.kinds())
+            .map_err(|source| lrmcal_core::Error::Write {
                 path: "<stdout>".into(),
                 source,
-            }
-        })?,
+            })?,
     }
     eprintln!("{} ({}), levels {} deg:", arm.origin, arm.name, args.levels);
     eprint!("{report}");

@@ -131,7 +131,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 load_kg: None,
             })
             .collect();
-        pose_list::write(&out, &rows)?;
+        pose_list::write(&out, &rows, &nominal.kinds())?;
         println!("  wrote {}", out.display());
     }
     Ok(())

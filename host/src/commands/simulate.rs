@@ -245,15 +245,19 @@ pub fn run(args: &Args) -> Result<(), Error> {
         write_text(path, &truth.truth_json())?;
     }
     if let Some(path) = &args.noise_free {
-        measurements::write(path, &simulation.noise_free)?;
+        measurements::write(path, &simulation.noise_free, &arm.arm.kinds())?;
     }
     match &args.out {
-        Some(path) => measurements::write(path, &simulation.measurements)?,
-        None => measurements::write_to(&mut std::io::stdout().lock(), &simulation.measurements)
-            .map_err(|source| lrmcal_core::Error::Write {
-                path: "<stdout>".into(),
-                source,
-            })?,
+        Some(path) => measurements::write(path, &simulation.measurements, &arm.arm.kinds())?,
+        None => measurements::write_to(
+            &mut std::io::stdout().lock(),
+            &simulation.measurements,
+            &arm.arm.kinds(),
+        )
+        .map_err(|source| lrmcal_core::Error::Write {
+            path: "<stdout>".into(),
+            source,
+        })?,
     }
 
     eprintln!(

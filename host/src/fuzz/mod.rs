@@ -142,7 +142,7 @@ impl Corpus {
             .and_then(|t| t.measure(&poses, &[0.0, 0.0663]))
             .map_err(|e| format!("the fuzz corpus's simulated measurements: {e}"))?;
         let mut measurement_file = Vec::new();
-        measurements::write_to(&mut measurement_file, &measured)
+        measurements::write_to(&mut measurement_file, &measured, &description.arm.kinds())
             .map_err(|e| format!("the fuzz corpus's measurement file: {e}"))?;
         let listed = |load_kg: Option<f64>| -> Result<Vec<u8>, String> {
             let rows: Vec<PoseRow> = poses
@@ -150,7 +150,7 @@ impl Corpus {
                 .map(|&pose| PoseRow { pose, load_kg })
                 .collect();
             let mut out = Vec::new();
-            pose_list::write_to(&mut out, &rows)
+            pose_list::write_to(&mut out, &rows, &description.arm.kinds())
                 .map_err(|e| format!("the fuzz corpus's pose list: {e}"))?;
             Ok(out)
         };

@@ -444,12 +444,14 @@ fn place(
     let at = |key| SpecPlace::Body { index, key };
     let joints = skeleton.joints;
     let frames = match spec.shape {
-        ShapeSpec::Capsule { from, to, .. } => [from.frame, to.frame],
-        ShapeSpec::Box { frame, .. } => [frame, frame],
+        ShapeSpec::Capsule { from, to, .. } => {
+            [(from.frame, "capsule.from"), (to.frame, "capsule.to")]
+        }
+        ShapeSpec::Box { frame, .. } => [(frame, "box.frame"), (frame, "box.frame")],
     };
-    if let Some(frame) = frames.iter().find(|f| f.dh_index(joints) > joints) {
+    if let Some((frame, key)) = frames.iter().find(|(f, _)| f.dh_index(joints) > joints) {
         return Err(SpecError::new(
-            at("frame"),
+            at(key),
             format!("expected a frame of the arm (base, j0 … j{joints} or tool), found `{frame}`"),
         ));
     }

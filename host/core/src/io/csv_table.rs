@@ -15,7 +15,7 @@ use std::collections::HashMap;
 
 use csv::{ReaderBuilder, StringRecord, Trim};
 
-use model::PerJoint;
+use model::{JointKind, PerJoint};
 
 use crate::dataset::TargetName;
 use crate::error::{InputError, Location, Problem};
@@ -30,6 +30,20 @@ pub const Q_COLUMNS: [&str; model::MAX_JOINTS] = [
     "q1_deg", "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg", "q7_deg", "q8_deg", "q9_deg",
     "q10_deg",
 ];
+
+/// The joint columns of a prismatic joint, its value in mm, in joint order:
+/// joint `i`'s column is `qi_deg` or `qi_mm`, as the joint turns or slides.
+pub const Q_MM_COLUMNS: [&str; model::MAX_JOINTS] = [
+    "q1_mm", "q2_mm", "q3_mm", "q4_mm", "q5_mm", "q6_mm", "q7_mm", "q8_mm", "q9_mm", "q10_mm",
+];
+
+/// The joint column of joint `i` (from 0) of `kind`: `q3_deg`, `q1_mm`.
+pub fn q_column(i: usize, kind: JointKind) -> &'static str {
+    match kind {
+        JointKind::Revolute => Q_COLUMNS[i],
+        JointKind::Prismatic => Q_MM_COLUMNS[i],
+    }
+}
 
 /// The joint-angle columns that may be absent: all but the first (a file
 /// of an arm of `n` joints has `q1_deg` to `qn_deg`).
@@ -85,8 +99,9 @@ struct Header {
     /// The columns the schema ignores ([`Extra::Ignore`]), by name.
     ignored: HashMap<String, usize>,
     width: usize,
-    /// How many joint-angle columns the file has (`q1_deg` to `qn_deg`).
-    joints: usize,
+    /// Each joint column's kind, `qi_deg` (revolute) or `qi_mm` (prismatic):
+    /// as many as the arm has joints.
+    units: PerJoint<JointKind>,
 }
 
 impl Header {
@@ -200,13 +215,24 @@ impl Row<'_> {
         })
     }
 
-    /// The `q*_deg` columns, converted to radians.
+    /// The joint columns' kinds: `qi_deg` revolute, `qi_mm` prismatic.
+    pub fn joint_units(&self) -> PerJoint<JointKind> {
+        self.header.units
+    }
+
+    /// The joint values of the `qi_deg` (to rad) and `qi_mm` (to m) columns.
     pub fn joint_angles_rad(&self) -> Result<PerJoint<f64>, InputError> {
-        let mut q = PerJoint::splat(self.header.joints, 0.0);
-        for (qi, column) in q.iter_mut().zip(Q_COLUMNS) {
-            *qi = self
-                .number(column, "a joint angle in degrees")?
-                .to_radians();
+        let units = self.header.units;
+        let mut q = PerJoint::splat(units.len(), 0.0);
+        for (i, qi) in q.iter_mut().enumerate() {
+            *qi = match units[i] {
+                JointKind::Revolute => self
+                    .number(Q_COLUMNS[i], "a joint angle in degrees")?
+                    .to_radians(),
+                JointKind::Prismatic => {
+                    self.number(Q_MM_COLUMNS[i], "a joint position in mm")? * 1e-3
+                }
+            };
         }
         Ok(q)
     }
@@ -436,11 +462,16 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
     let at = |column: &str| Location::column(line, column);
     let mut index = HashMap::new();
     let mut ignored = HashMap::new();
+    let joint_columns = schema.columns.contains(&Q_COLUMNS[0]);
     for (i, name) in record.iter().enumerate() {
         if name.starts_with(NOTE_PREFIX) {
             continue;
         }
-        let Some(&known) = schema.columns.iter().find(|&&c| c == name) else {
+        let slide = Q_MM_COLUMNS
+            .iter()
+            .find(|&&c| c == name)
+            .filter(|_| joint_columns);
+        let Some(&known) = schema.columns.iter().chain(slide).find(|&&c| c == name) else {
             match schema.extra {
                 Extra::Refuse => {
                     return Err(InputError::new(
@@ -477,10 +508,18 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
             ));
         }
     }
+    // A prismatic joint's `qi_mm` stands for its `qi_deg`.
+    let has = |c: &&str| {
+        index.contains_key(*c)
+            || Q_COLUMNS
+                .iter()
+                .position(|q| q == c)
+                .is_some_and(|i| index.contains_key(Q_MM_COLUMNS[i]))
+    };
     if let Some(&missing) = schema
         .columns
         .iter()
-        .find(|c| !index.contains_key(*c) && !schema.optional.contains(c))
+        .find(|c| !has(c) && !schema.optional.contains(c))
     {
         return Err(InputError::new(
             at(missing),
@@ -490,20 +529,45 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
             },
         ));
     }
-    // The joint angles: q1_deg to qn_deg, none missing in between.
-    let joints = Q_COLUMNS
-        .iter()
-        .take_while(|c| index.contains_key(*c))
+    // The joints: q1 to qn, each in degrees or mm, none missing in between.
+    let unit = |i: usize| match (
+        index.contains_key(Q_COLUMNS[i]),
+        index.contains_key(Q_MM_COLUMNS[i]),
+    ) {
+        (true, true) => Some(Err(Q_MM_COLUMNS[i])),
+        (true, false) => Some(Ok(JointKind::Revolute)),
+        (false, true) => Some(Ok(JointKind::Prismatic)),
+        (false, false) => None,
+    };
+    let joints = (0..model::MAX_JOINTS)
+        .take_while(|&i| unit(i).is_some())
         .count();
-    if schema.columns.contains(&Q_COLUMNS[0])
-        && let Some(&after) = Q_COLUMNS[joints..].iter().find(|c| index.contains_key(*c))
-    {
+    let mut units = PerJoint::splat(joints, JointKind::Revolute);
+    for (i, kind) in units.iter_mut().enumerate() {
+        match unit(i) {
+            Some(Ok(k)) => *kind = k,
+            _ => {
+                return Err(InputError::new(
+                    at(Q_MM_COLUMNS[i]),
+                    Problem::Invalid {
+                        message: format!(
+                            "is given with `{}`: a joint's column is in degrees (revolute) or in \
+                             mm (prismatic), not both",
+                            Q_COLUMNS[i]
+                        ),
+                    },
+                ));
+            }
+        }
+    }
+    if joint_columns && let Some(after) = (joints..model::MAX_JOINTS).find(|&i| unit(i).is_some()) {
         return Err(InputError::new(
             at(Q_COLUMNS[joints]),
             Problem::Invalid {
                 message: format!(
-                    "missing from the header while `{after}` is there: the joint angles are \
-                     q1_deg to qn_deg, one column per joint of the arm"
+                    "missing from the header while `{}` is there: the joints are q1 to qn, \
+                     one column per joint of the arm (`_deg`, or `_mm` for a prismatic joint)",
+                    q_column(after, unit(after).and_then(Result::ok).unwrap_or_default())
                 ),
             },
         ));
@@ -512,7 +576,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
         index,
         ignored,
         width: record.len(),
-        joints,
+        units,
     })
 }
 
@@ -616,4 +680,13 @@ pub fn format_mm(value_m: f64) -> String {
 /// Degrees as written to files (1e-9 deg resolution).
 pub fn format_deg(value_rad: f64) -> String {
     format_fixed(value_rad.to_degrees(), 9)
+}
+
+/// A joint value for its column: a revolute joint's in degrees
+/// ([`format_deg`]), a prismatic one's in mm to the nanometre.
+pub fn format_joint(kind: JointKind, value: f64) -> String {
+    match kind {
+        JointKind::Revolute => format_deg(value),
+        JointKind::Prismatic => format_fixed(value * 1e3, 6),
+    }
 }

@@ -6,6 +6,7 @@
 use std::io::Write;
 use std::path::Path;
 
+use model::{JointKind, PerJoint};
 use nalgebra::Vector3;
 
 use crate::dataset::{
@@ -13,8 +14,8 @@ use crate::dataset::{
 };
 use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
-    Extra, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_deg,
-    format_mm,
+    Extra, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row,
+    format_joint, format_mm, q_column,
 };
 use crate::io::{atomic, read_text};
 
@@ -66,6 +67,8 @@ pub struct ListedMeasurement {
     pub line: u64,
     /// The row.
     pub measurement: Measurement,
+    /// How the file gives each joint: `qi_deg` revolute, `qi_mm` prismatic.
+    pub units: PerJoint<JointKind>,
 }
 
 /// Reads a measurement file.
@@ -126,7 +129,7 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedMeasurement>, InputError> {
             *v = row.number(column, "a position in mm")?;
         }
         book.record(row, id, &q, Some(load_kg), target)?;
-        lines.push(row.line);
+        lines.push((row.line, row.joint_units()));
         out.push(Measurement {
             pose: Pose { id, q },
             load_kg,
@@ -141,31 +144,45 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedMeasurement>, InputError> {
     Ok(lines
         .into_iter()
         .zip(out)
-        .map(|(line, measurement)| ListedMeasurement { line, measurement })
+        .map(|((line, units), measurement)| ListedMeasurement {
+            line,
+            measurement,
+            units,
+        })
         .collect())
 }
 
-/// Writes a measurement file atomically, with exactly the contract's header.
-pub fn write(path: &Path, rows: &[Measurement]) -> Result<(), Error> {
-    atomic::write(path, |w| write_to(w, rows))
+/// Writes a measurement file atomically, with exactly the contract's header;
+/// `kinds` are the arm's joints' (a revolute joint's column is `qi_deg`, a
+/// prismatic one's `qi_mm`).
+pub fn write(path: &Path, rows: &[Measurement], kinds: &[JointKind]) -> Result<(), Error> {
+    atomic::write(path, |w| write_to(w, rows, kinds))
 }
 
 /// Writes measurement CSV to any writer; the `target` column only when a
 /// row names its target, so a one-target file keeps the plain header.
-pub fn write_to(w: &mut dyn Write, rows: &[Measurement]) -> std::io::Result<()> {
+pub fn write_to(
+    w: &mut dyn Write,
+    rows: &[Measurement],
+    kinds: &[JointKind],
+) -> std::io::Result<()> {
     let named = rows.iter().any(|m| m.target.is_some());
-    let joints = rows.first().map_or(0, |m| m.pose.q.len());
-    let columns: Vec<&str> = COLUMNS
-        .iter()
-        .copied()
-        .filter(|c| !Q_COLUMNS[joints.max(1)..].contains(c))
-        .filter(|&c| named || c != TARGET_COLUMN)
-        .collect();
+    let mut columns = vec!["pose", "load_kg"];
+    columns.extend(kinds.iter().enumerate().map(|(i, &k)| q_column(i, k)));
+    columns.extend(XYZ_COLUMNS);
+    if named {
+        columns.push(TARGET_COLUMN);
+    }
     let mut csv = csv::Writer::from_writer(w);
     csv.write_record(&columns)?;
     for m in rows {
         let mut record = vec![m.pose.id.to_string(), m.load_kg.to_string()];
-        record.extend(m.pose.q.iter().map(|q| format_deg(*q)));
+        record.extend(
+            kinds
+                .iter()
+                .zip(&m.pose.q)
+                .map(|(&k, &q)| format_joint(k, q)),
+        );
         record.extend(m.position.iter().map(|p| format_mm(*p)));
         if named {
             record.push(m.target.map(|t| t.to_string()).unwrap_or_default());

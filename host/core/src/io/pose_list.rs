@@ -9,13 +9,13 @@
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
 
-use model::Arm;
+use model::{Arm, JointKind, PerJoint};
 
 use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{
     Extra, LineRows, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row,
-    format_deg,
+    format_joint, q_column,
 };
 use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
@@ -60,6 +60,8 @@ pub struct ListedPose {
     pub line: u64,
     /// The row.
     pub row: PoseRow,
+    /// How the file gives each joint: `qi_deg` revolute, `qi_mm` prismatic.
+    pub units: PerJoint<JointKind>,
 }
 
 /// Reads a pose list.
@@ -125,6 +127,7 @@ impl Book {
                 pose: Pose { id, q },
                 load_kg,
             },
+            units: row.joint_units(),
         }))
     }
 }
@@ -183,8 +186,11 @@ const LIMIT_TOLERANCE_RAD: f64 = 1e-9;
 /// The rows of `rows` with an angle outside `arm`'s joint limits, as errors
 /// naming the line, the joint's column, the angle and the limits in degrees.
 pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
-    // Degrees to 1e-6 for people: 105, not 105.00000000000001.
-    let deg = |rad: f64| (rad.to_degrees() * 1e6).round() / 1e6;
+    // Degrees (mm) to 1e-6 for people: 105, not 105.00000000000001.
+    let people = |kind: JointKind, x: f64| match kind {
+        JointKind::Revolute => (x.to_degrees() * 1e6).round() / 1e6,
+        JointKind::Prismatic => (x * 1e9).round() / 1e6,
+    };
     rows.iter()
         .filter_map(|listed| {
             let pose = &listed.row.pose;
@@ -205,16 +211,45 @@ pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
                             || **q > j.limits[1] + LIMIT_TOLERANCE_RAD
                     })?;
             Some(InputError::new(
-                Location::column(listed.line, Q_COLUMNS[i]),
+                Location::column(listed.line, q_column(i, joint.kind)),
                 Problem::OutsideLimits {
                     pose: pose.id,
                     joint: i as u32 + 1,
-                    angle_deg: deg(q),
-                    limits_deg: joint.limits.map(deg),
+                    angle_deg: people(joint.kind, q),
+                    limits_deg: joint.limits.map(|l| people(joint.kind, l)),
+                    unit: match joint.kind {
+                        JointKind::Revolute => "°",
+                        JointKind::Prismatic => " mm",
+                    },
                 },
             ))
         })
         .collect()
+}
+
+/// The error of a row whose joint column is in the other unit than its
+/// joint moves in: degrees for a prismatic joint, mm for a revolute one.
+fn unit_error(arm: &Arm<f64>, listed: &ListedPose) -> Option<InputError> {
+    let (i, (joint, &unit)) = arm
+        .joints
+        .iter()
+        .zip(&listed.units)
+        .enumerate()
+        .find(|(_, (j, u))| j.kind != **u)?;
+    let (how, want) = match joint.kind {
+        JointKind::Revolute => ("turns", "an angle in degrees"),
+        JointKind::Prismatic => ("slides", "a position in mm"),
+    };
+    Some(InputError::new(
+        Location::column(listed.line, q_column(i, unit)),
+        Problem::Invalid {
+            message: format!(
+                "joint {} of the arm {how}: its column is `{}`, {want}",
+                i + 1,
+                q_column(i, joint.kind)
+            ),
+        },
+    ))
 }
 
 /// The error of a row of `found` joint angles for an arm of `joints` joints.
@@ -247,6 +282,9 @@ pub fn check_within_limits(
         let error = joint_count_error(listed.line, listed.row.pose.q.len(), arm.joints.len());
         return Err(error.in_file(path));
     }
+    if let Some(error) = rows.iter().find_map(|l| unit_error(arm, l)) {
+        return Err(error.in_file(path));
+    }
     let outside = outside_limits(arm, rows);
     match outside.first() {
         None => Ok(None),
@@ -267,6 +305,7 @@ pub fn check_within_limits(
 pub fn of_measurements(rows: &[ListedMeasurement]) -> Vec<ListedPose> {
     rows.iter()
         .map(|l| ListedPose {
+            units: l.units,
             line: l.line,
             row: PoseRow {
                 pose: l.measurement.pose,
@@ -279,28 +318,33 @@ pub fn of_measurements(rows: &[ListedMeasurement]) -> Vec<ListedPose> {
 /// Writes a pose list atomically; the `load_kg` column is written when any row has a load.
 ///
 /// A row without a load in a list that has the column is written with load 0.
-pub fn write(path: &Path, rows: &[PoseRow]) -> Result<(), Error> {
-    atomic::write(path, |w| write_to(w, rows))
+/// `kinds` are the arm's joints': a revolute joint's column is `qi_deg`, a
+/// prismatic one's `qi_mm`.
+pub fn write(path: &Path, rows: &[PoseRow], kinds: &[JointKind]) -> Result<(), Error> {
+    atomic::write(path, |w| write_to(w, rows, kinds))
 }
 
-/// Writes pose-list CSV to any writer.
-pub fn write_to(w: &mut dyn Write, rows: &[PoseRow]) -> std::io::Result<()> {
+/// Writes pose-list CSV to any writer (see [`write`]).
+pub fn write_to(w: &mut dyn Write, rows: &[PoseRow], kinds: &[JointKind]) -> std::io::Result<()> {
     let with_load = rows.iter().any(|r| r.load_kg.is_some());
     let mut csv = csv::Writer::from_writer(w);
-    let joints = rows.first().map_or(0, |r| r.pose.q.len());
-    let columns: Vec<&str> = COLUMNS
-        .iter()
-        .copied()
-        .filter(|c| !Q_COLUMNS[joints.max(1)..].contains(c))
-        .filter(|&c| with_load || c != "load_kg")
-        .collect();
+    let mut columns = vec!["pose"];
+    if with_load {
+        columns.push("load_kg");
+    }
+    columns.extend(kinds.iter().enumerate().map(|(i, &k)| q_column(i, k)));
     csv.write_record(&columns)?;
     for r in rows {
         let mut record = vec![r.pose.id.to_string()];
         if with_load {
             record.push(r.load_kg.unwrap_or(0.0).to_string());
         }
-        record.extend(r.pose.q.iter().map(|q| format_deg(*q)));
+        record.extend(
+            kinds
+                .iter()
+                .zip(&r.pose.q)
+                .map(|(&k, &q)| format_joint(k, q)),
+        );
         csv.write_record(&record)?;
     }
     csv.flush()

@@ -221,6 +221,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         (Some(path), None) => Some(read_list(path, args.load_kg)?),
         _ => None,
     };
+    // The measurement file gives each joint as the pose list does, or as the
+    // arm whose reached angles are streamed moves.
+    let mut kinds = list
+        .as_ref()
+        .map(|(_, units)| units.to_vec())
+        .unwrap_or_default();
+    let list = list.map(|(poses, _)| poses);
     let out = match (&args.out, args.hold_s, &list, &args.poses) {
         (_, Some(hold_s), Some(poses), Some(path)) => return hold(args, path, poses, hold_s),
         (Some(out), None, _, _) => out,
@@ -251,6 +258,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 Some(source) => source.load()?.arm,
                 None => ArmSource::Bundled(DEFAULT_ARM).load()?.arm,
             };
+            kinds = arm.kinds().to_vec();
             let reached = Reached::open(source, arm, args.allow_outside_limits, args.load_kg, out)?;
             (Poses::Reached(Box::new(reached)), None)
         }
@@ -314,7 +322,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             target: None,
             approach: from_home(pose.q.len()),
         });
-        measurements::write(out, &done)?;
+        measurements::write(out, &done, &kinds)?;
         measured += 1;
         bar.inc(1);
     }
@@ -324,12 +332,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
 }
 
 /// The poses of a pose list, each with its load: `--load-kg`, else the list's, else 0.
-fn read_list(path: &Path, load_kg: Option<f64>) -> Result<Vec<(Pose, f64)>, Error> {
-    Ok(pose_list::read(path)?
+/// The poses of the list at `path` with their loads, and how the list gives
+/// each joint (degrees or mm).
+fn read_list(path: &Path, load_kg: Option<f64>) -> Result<ListWithUnits, Error> {
+    let listed = pose_list::read_listed(path)?;
+    let units = listed.first().map(|l| l.units).unwrap_or_default();
+    let poses = listed
         .iter()
-        .map(|r| (r.pose, load_kg.or(r.load_kg).unwrap_or(0.0)))
-        .collect())
+        .map(|l| (l.row.pose, load_kg.or(l.row.load_kg).unwrap_or(0.0)))
+        .collect();
+    Ok((poses, units))
 }
+
+/// A pose list's poses with their loads, and its joints' units.
+type ListWithUnits = (Vec<(Pose, f64)>, model::PerJoint<model::JointKind>);
 
 /// Refuses what cannot go with `--joints`: the board (it drives its arm to
 /// a pose list's angles itself), and with `--joints -` a tracker that also
