@@ -15,8 +15,8 @@
 //! Joints and channels (crate docs): the arm in force has [`Device::joints`]
 //! joints, the calibration's or [`CHANNELS`] without one; the per-joint state
 //! (positions, corrections, commands) has one value per joint, and every
-//! channel past the last joint is [`Channel::Limp`] whatever happens. A
-//! calibration of another size refits that state ([`Device::switch_calibration`]).
+//! channel past the last joint is `Channel::Limp` whatever happens. A
+//! calibration of another size refits that state (`Device::switch_calibration`).
 //!
 //! This module imports neither the handlers nor the dispatch table: the
 //! handlers (`handlers.rs`) work on the [`Device`] defined here, and the

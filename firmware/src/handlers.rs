@@ -6,7 +6,8 @@
 //! arm's joints' channels, `0..joints`; a move must give one target per
 //! joint (`TargetCount` otherwise); attaching, or a raw pulse on, a channel
 //! past the last joint is refused (`UnusedChannel`): it stays limp. Detaching
-//! any channel is allowed (one past the last joint is limp already).
+//! any channel is allowed (one past the last joint is limp already; like any
+//! detach, it stops a running motion).
 
 use heapless::Vec;
 use protocol::calibration::MAX_CALIBRATION_LEN;

@@ -33,6 +33,10 @@ impl<T: Copy + Default, const C: usize> ChainVec<T, C> {
     /// # Panics
     /// If `n` exceeds [`MAX_JOINTS`]: every arm is checked against it when it
     /// is read, so a longer vector is a bug, not an input.
+    // Always inlined, as `splat` and `eq`: the firmware is built for size,
+    // where these stay calls, one per joint vector in every servo frame
+    // (about 2,000 of the compensation step's cycles on the MCU).
+    #[inline(always)]
     pub fn from_fn(n: usize, mut f: impl FnMut(usize) -> T) -> Self {
         assert!(n <= C, "{n} joints, at most {C}");
         let mut items = [T::default(); C];
@@ -46,6 +50,7 @@ impl<T: Copy + Default, const C: usize> ChainVec<T, C> {
     }
 
     /// `value` for each of `n` joints (panics as [`PerJoint::from_fn`]).
+    #[inline(always)]
     pub fn splat(n: usize, value: T) -> Self {
         Self::from_fn(n, |_| value)
     }
@@ -124,6 +129,7 @@ impl<T: Copy + Default, const N: usize, const C: usize> From<[T; N]> for ChainVe
 }
 
 impl<T: PartialEq, const C: usize, const D: usize> PartialEq<ChainVec<T, D>> for ChainVec<T, C> {
+    #[inline(always)]
     fn eq(&self, other: &ChainVec<T, D>) -> bool {
         **self == **other
     }

@@ -39,7 +39,8 @@
 //! is refused ([`WireError::TargetCount`]). The channels past the arm's last
 //! joint are always limp: no move, home or attach-all drives them, and
 //! attaching one or putting a raw pulse on it is refused
-//! ([`WireError::UnusedChannel`]); detaching one is allowed and changes nothing.
+//! ([`WireError::UnusedChannel`]); detaching one is allowed (it is limp
+//! already; like any detach, it stops a running motion).
 #![cfg_attr(not(feature = "use-std"), no_std)]
 
 pub mod calibration;

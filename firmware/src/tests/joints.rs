@@ -143,7 +143,7 @@ fn a_move_without_one_target_per_joint_is_refused_and_changes_nothing() {
 
 /// `servo/attach` and `servo/raw` refuse a channel past the arm's last joint
 /// (`UnusedChannel`; past the board's channels, `OutOfRange` as before);
-/// `servo/detach` of it is allowed and changes nothing; attaching all drives
+/// `servo/detach` of it is allowed and leaves it limp; attaching all drives
 /// the joints' channels only.
 #[test]
 fn the_channels_past_the_last_joint_cannot_be_attached_or_driven_raw() {

@@ -10,11 +10,48 @@ use crate::statics::Statics;
 use crate::{MAX_JOINTS, Real};
 
 /// `∂p/∂qa` of up to [`MAX_JOINTS`] joints, frame 0: columns past the arm's
-/// last joint are zero, so they change no product.
+/// last joint are zero. The products below run over the arm's joints only
+/// ([`mul_joints`], [`tr_mul_joints`], [`dot_joints`]): on the MCU each
+/// product with a zero column costs soft-float calls and changes nothing.
 pub(super) type Jacobian<T> = SMatrix<T, 3, MAX_JOINTS>;
 
 /// One value per joint as a column vector, zero past the arm's last joint.
 pub(super) type JointColumn<T> = SVector<T, MAX_JOINTS>;
+
+/// `Σ a_i b_i` over the joints of `b` (`a` at least as long), summed in
+/// order from zero: what nalgebra's `dot` gives for a vector of six (or a row
+/// of any length), bit for bit, without the terms past the arm's last joint.
+/// On slices, not nalgebra's strided iterators: on the MCU those cost as much
+/// as the floats.
+pub(super) fn dot_joints<T: Real>(a: &[T], b: &[T]) -> T {
+    let mut sum = T::zero();
+    for (&a, &b) in a.iter().zip(b) {
+        sum += a * b;
+    }
+    sum
+}
+
+/// `J p` over the first `n` columns: nalgebra's `J * p` (a column at a time,
+/// `y = J₀ p₀`, then `y = J_c p_c + y`) bit for bit, without the zero columns.
+pub(super) fn mul_joints<T: Real>(j: &Jacobian<T>, p: &JointColumn<T>, n: usize) -> Vector3<T> {
+    let mut y = j.column(0) * p[0];
+    for c in 1..n {
+        for r in 0..3 {
+            y[r] = j[(r, c)] * p[c] + y[r];
+        }
+    }
+    y
+}
+
+/// `Jᵀ x` over the first `n` columns, zero past them: nalgebra's
+/// `J.tr_mul(x)` (each entry `(J₀c x₀ + J₁c x₁) + J₂c x₂`) bit for bit.
+pub(super) fn tr_mul_joints<T: Real>(j: &Jacobian<T>, x: &Vector3<T>, n: usize) -> JointColumn<T> {
+    let mut out = JointColumn::zeros();
+    for c in 0..n {
+        out[c] = j[(0, c)] * x.x + j[(1, c)] * x.y + j[(2, c)] * x.z;
+    }
+    out
+}
 
 /// How the tool point moves with the deflected joint angles around a state,
 /// the base tilt's fixed point folded in: the part of a state's linear model
@@ -34,9 +71,7 @@ pub struct Slope<T: Real> {
 impl<T: Real> Slope<T> {
     /// The change of the base tilt that goes with a change `dqa` of the deflected angles, rad.
     pub fn tilt_change(&self, dqa: &[T]) -> T {
-        dqa.iter()
-            .zip(self.tilt_gain.iter())
-            .fold(T::zero(), |sum, (&d, &g)| sum + g * d)
+        dot_joints(self.tilt_gain.as_slice(), dqa)
     }
 }
 
@@ -44,10 +79,27 @@ impl<T: Real> Chain<T> {
     /// The slope at an evaluated state.
     pub fn slope(&self, evaluation: &Evaluation<T>) -> Slope<T> {
         let s = &evaluation.statics;
+        let n = self.links.len();
         let (tilt_gain, tilt_scale) = self.tilt_gain(s);
-        let j = self.jacobian(s) + tilt_column(s) * tilt_gain.transpose();
-        // J Jᵀ is symmetric: six dot products, mirrored.
-        let dot = |r: usize, c: usize| j.row(r).dot(&j.row(c));
+        // J + (tilt column) (tilt gain)ᵀ, the arm's columns only.
+        let mut j = self.jacobian(s);
+        let tilt = tilt_column(s);
+        for c in 0..n {
+            for r in 0..3 {
+                j[(r, c)] += tilt[r] * tilt_gain[c];
+            }
+        }
+        // J Jᵀ is symmetric: six dot products, mirrored; each over the arm's
+        // columns, in order from zero (nalgebra's row dot, bit for bit).
+        // `J` is stored column by column: entry (r, c) is `3 c + r`.
+        let entries = j.as_slice();
+        let dot = |r: usize, c: usize| {
+            let mut sum = T::zero();
+            for k in 0..n {
+                sum += entries[3 * k + r] * entries[3 * k + c];
+            }
+            sum
+        };
         let (a01, a02, a12) = (dot(0, 1), dot(0, 2), dot(1, 2));
         #[rustfmt::skip]
         let jjt = Matrix3::new(
@@ -118,12 +170,17 @@ impl<T: Real> Chain<T> {
                 v.x * g_cross_y0.y - v.y * g_cross_y0.x
             };
         }
+        let n = self.links.len();
         // τ0 = (v0 × g0)_y and g0 turns with the tilt: ∂τ0/∂beta = −(y0 × g0)·(y0 × v0).
         let v0 = &s.moments[0];
         let dtau0_dbeta = -(g0.z * v0.z + g0.x * v0.x);
         let rate0 = yield_rate_of(self.base_compliance, self.base_softening, s.torques.base);
         let tilt_scale = T::one() / (T::one() - rate0 * dtau0_dbeta);
-        (dtau0_dqa * (tilt_scale * rate0), tilt_scale)
+        let gain = tilt_scale * rate0;
+        for d in dtau0_dqa.iter_mut().take(n) {
+            *d *= gain;
+        }
+        (dtau0_dqa, tilt_scale)
     }
 }
 
@@ -131,4 +188,59 @@ impl<T: Real> Chain<T> {
 pub(super) fn tilt_column<T: Real>(statics: &Statics<T>) -> Vector3<T> {
     let p = &statics.tool_points[0];
     Vector3::new(p.z, T::zero(), -p.x)
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{SMatrix, SVector, Vector3};
+    use rand::{Rng, SeedableRng, rngs::StdRng};
+
+    use super::tilt_column;
+    use crate::testing::lrm_like_arm;
+    use crate::{MAX_JOINTS, PerJoint, Real, real};
+
+    /// The slope worked out over the arm's joints only is nalgebra's
+    /// `J + t gᵀ` of fixed size `N` (for six joints the `Matrix3x6` the solve
+    /// used before arms of other sizes) bit for bit, and zero past the last
+    /// joint, as is the tilt gain.
+    #[test]
+    fn the_slope_over_the_arms_joints_is_nalgebras_of_fixed_size_bit_for_bit() {
+        slope_matches::<f32, 6>(1);
+        slope_matches::<f64, 6>(2);
+        slope_matches::<f32, 5>(3);
+        slope_matches::<f32, 1>(4);
+    }
+
+    fn slope_matches<T: Real, const N: usize>(seed: u64) {
+        let mut arm = lrm_like_arm::<T>();
+        arm.joints = PerJoint::from_slice(&arm.joints[..N]).unwrap();
+        arm.base_compliance = real(0.02);
+        arm.base_softening = real(0.3);
+        let chain = arm.chain();
+        let bits = |x: T| nalgebra::try_convert::<T, f64>(x).unwrap().to_bits();
+        let mut rng = StdRng::seed_from_u64(seed);
+        for _ in 0..200 {
+            let qa: [T; N] = core::array::from_fn(|_| real(rng.random_range(-1.6..1.6)));
+            let beta = real(rng.random_range(-0.01..0.01));
+            let target = Vector3::from_fn(|_, _| real::<T>(rng.random_range(-0.2..0.2)));
+            let evaluation = chain
+                .evaluate(&qa, beta, &target, real(0.05), real(1e-6))
+                .unwrap();
+            let slope = chain.slope(&evaluation);
+            let s = &evaluation.statics;
+            let jacobian: SMatrix<T, 3, N> = chain.jacobian(s).fixed_columns::<N>(0).into_owned();
+            let gain: SVector<T, N> = slope.tilt_gain.fixed_rows::<N>(0).into_owned();
+            let expected = jacobian + tilt_column(s) * gain.transpose();
+            let got: SMatrix<T, 3, N> = slope.j.fixed_columns::<N>(0).into_owned();
+            assert_eq!(got.map(bits), expected.map(bits));
+            assert!(
+                slope
+                    .j
+                    .columns(N, MAX_JOINTS - N)
+                    .iter()
+                    .all(|x| bits(*x) == 0)
+            );
+            assert!(slope.tilt_gain.iter().skip(N).all(|x| bits(*x) == 0));
+        }
+    }
 }
