@@ -25,6 +25,9 @@ pub struct Link<T: Real> {
     pub sin_beta: T,
     /// cos(beta); exactly 1 for a DH link.
     pub cos_beta: T,
+    /// Whether `beta` is not zero: a bool, so that a DH link's test costs
+    /// no float comparison (a library call on the MCU).
+    pub twisted: bool,
     /// Whether the joint slides (its value adds to `d`) rather than turns
     /// (its value adds to `theta`).
     pub prismatic: bool,
@@ -96,7 +99,7 @@ pub fn dh_child<T: Real>(
     let y2 = y1 * link.cos_alpha + z * link.sin_alpha;
     let z2 = z * link.cos_alpha - y1 * link.sin_alpha;
     let t = parent.translation.vector + z * d + x1 * link.a;
-    let (x3, z3) = if link.sin_beta == T::zero() {
+    let (x3, z3) = if !link.twisted {
         (x1, z2)
     } else {
         (
@@ -125,7 +128,7 @@ impl<T: Real> Link<T> {
     /// `Ry(beta) v`, exactly `v` for a DH link.
     #[inline]
     fn twist_y(&self, v: &Vector3<T>) -> Vector3<T> {
-        if self.sin_beta == T::zero() {
+        if !self.twisted {
             *v
         } else {
             Vector3::new(
@@ -139,7 +142,7 @@ impl<T: Real> Link<T> {
     /// `Ry(beta)ᵀ v`, exactly `v` for a DH link.
     #[inline]
     fn untwist_y(&self, v: &Vector3<T>) -> Vector3<T> {
-        if self.sin_beta == T::zero() {
+        if !self.twisted {
             *v
         } else {
             Vector3::new(
@@ -177,7 +180,7 @@ impl<T: Real> Link<T> {
     /// for a DH link.
     #[inline]
     pub fn rotate_to_parent_xy(&self, x: T, y: T, sc: (T, T)) -> Vector3<T> {
-        if self.sin_beta != T::zero() {
+        if self.twisted {
             return self.rotate_to_parent(&Vector3::new(x, y, T::zero()), sc);
         }
         let (s, c) = sc;
@@ -223,6 +226,7 @@ impl<T: Real> Arm<T> {
                     cos_alpha,
                     sin_beta,
                     cos_beta,
+                    twisted: j.beta != T::zero(),
                     prismatic: j.kind == JointKind::Prismatic,
                     compliance: j.compliance,
                     softening: j.softening,

@@ -36,10 +36,8 @@ pub struct Statics<T: Real> {
     /// `(sin, cos)` of each joint's DH angle (`qa_i + theta_i`, or
     /// `theta_i` for a prismatic joint).
     pub joint_sin_cos: PerJoint<(T, T)>,
-    /// Each joint's DH offset (`d_i`, or `d_i + qa_i` for a prismatic joint), m.
-    pub joint_d: PerJoint<T>,
-    /// The mass beyond each joint, the payload included, kg.
-    pub masses: PerJoint<T>,
+    /// The payload at the tool, kg.
+    pub payload_kg: T,
     /// `(sin, cos)` of the base tilt.
     pub tilt_sin_cos: (T, T),
     /// The tool point relative to `o_i`, in frame `i`, m.
@@ -52,14 +50,23 @@ pub struct Statics<T: Real> {
     pub torques: Torques<T>,
 }
 
+impl<T: Real> Statics<T> {
+    /// The mass beyond joint `i` of `chain` (the chain these statics are
+    /// of), the payload included, kg: the weight a prismatic joint carries.
+    pub fn mass_beyond(&self, chain: &Chain<T>, i: usize) -> T {
+        chain.links[i..]
+            .iter()
+            .fold(self.payload_kg, |m, link| m + link.mass)
+    }
+}
+
 impl<T: Real> Chain<T> {
     /// The statics of the arm at deflected angles `qa`, base tilt `beta` (rad)
     /// and a payload of `payload_kg` at the tool.
     pub fn statics(&self, qa: &[T], beta: T, payload_kg: T) -> Statics<T> {
         let n = self.links.len();
-        let placements = PerJoint::from_fn(n, |i| self.links[i].placement(qa[i]));
-        let joint_sin_cos = placements.map(|(angle, _)| angle.joint_sin_cos());
-        let joint_d = placements.map(|(_, d)| d);
+        let joint_sin_cos =
+            PerJoint::from_fn(n, |i| self.links[i].placement(qa[i]).0.joint_sin_cos());
         let tilt = tilt_sin_cos(beta);
         // Gravity into frame 0, then into each joint's frame.
         let gravity0 = untilt(&self.base_gravity, tilt);
@@ -75,10 +82,9 @@ impl<T: Real> Chain<T> {
         let mut tool_points = PerJoint::splat(n, point);
         let mut moments = PerJoint::splat(n, moment);
         let mut joints = PerJoint::splat(n, T::zero());
-        let mut masses = PerJoint::splat(n, T::zero());
         for i in (0..n).rev() {
             let link = &self.links[i];
-            let (sc, d) = (joint_sin_cos[i], joint_d[i]);
+            let (sc, d) = (joint_sin_cos[i], link.placement(qa[i]).1);
             point = link.to_parent(&point, sc, (link.a, d));
             let v = link.to_parent(&moment, sc, (link.a * mass, d * mass));
             let g = &gravity[i];
@@ -87,7 +93,6 @@ impl<T: Real> Chain<T> {
             } else {
                 v.x * g.y - v.y * g.x
             };
-            masses[i] = mass;
             tool_points[i] = point;
             moments[i] = v;
             if i > 0 {
@@ -101,8 +106,7 @@ impl<T: Real> Chain<T> {
         let base = v0.z * g0.x - v0.x * g0.z;
         Statics {
             joint_sin_cos,
-            joint_d,
-            masses,
+            payload_kg,
             tilt_sin_cos: tilt,
             tool_points,
             moments,

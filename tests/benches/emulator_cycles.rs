@@ -87,7 +87,7 @@ fn main() {
             if phase == "moving" {
                 ok(
                     link.request(&Request::Move {
-                        targets_rad: pose,
+                        targets_rad: pose.into(),
                         timing: Timing::DurationMs(MOVE_MS),
                     }),
                     "move",

@@ -62,7 +62,7 @@ fn device_commands_drive_the_emulated_board() {
     let file = dir.join("calibration-elasto-kinematic.json");
     let payload = lrmcal_engine::device::calibration::payload(
         &CalibrationFile::read(&file).expect("the demo's calibration file"),
-        [0.0; 6],
+        [0.0; 6].into(),
     )
     .expect("a calibration the board accepts");
 
@@ -108,8 +108,12 @@ fn device_commands_drive_the_emulated_board() {
     lrmcal(&args);
     let q = degrees.map(|d| f64::from(d.to_radians() as f32));
     let home = payload.home_rad.map(f64::from);
-    let expected =
-        ExpectedPulses::from(home).next(&payload, &q, CompensationMode::Full, f64::from(0.0663f32));
+    let expected = ExpectedPulses::from(&home).next(
+        &payload,
+        &q,
+        CompensationMode::Full,
+        f64::from(0.0663f32),
+    );
     let (widths, _) = board.servo_pulses(3);
     for (servo, widths) in widths.iter().enumerate() {
         for width in widths {

@@ -95,7 +95,7 @@ fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
         (CompensationMode::Full, PAYLOAD_KG),
     ];
     // The board starts at home; each joint's way into every target is the host's to follow.
-    let mut reference = ExpectedPulses::from(calibration.home_rad.map(f64::from));
+    let mut reference = ExpectedPulses::from(&calibration.home_rad.map(f64::from));
     let mut play_shift: f64 = 0.0;
     for (mode, payload) in cases {
         client.set_compensation(mode).expect("compensation mode");
@@ -104,7 +104,7 @@ fn moves_produce_the_hosts_pulses_in_every_compensation_mode() {
         for q in &poses {
             let targets = q.map(|x| x as f32);
             client
-                .move_to(targets, Timing::DurationMs(300))
+                .move_to(targets.into(), Timing::DurationMs(300))
                 .expect("move");
             let still = client
                 .wait_until_still(Duration::from_millis(50), Duration::from_secs(30))

@@ -67,7 +67,7 @@ fn measure(timing: &str) {
     );
     ok(
         link.request(&Request::Move {
-            targets_rad: POSE_RAD,
+            targets_rad: POSE_RAD.into(),
             timing: Timing::DurationMs(300),
         }),
         "move",

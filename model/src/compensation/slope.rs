@@ -165,7 +165,7 @@ impl<T: Real> Chain<T> {
             }
             let v = &s.moments[c];
             dtau0_dqa[c] = if self.links[c].prismatic {
-                s.masses[c] * g_cross_y0.z
+                s.mass_beyond(self, c) * g_cross_y0.z
             } else {
                 v.x * g_cross_y0.y - v.y * g_cross_y0.x
             };

@@ -335,11 +335,13 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
     let nominal = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
         .arm;
+    // With Hayati's twist of the parallel shoulder and elbow, which our
+    // option fits: a twisted link is the board's dearer case.
     let names = [
-        "j2.theta", "j3.a", "j4.alpha", "tool.z", "k2", "k3", "k5", "k0",
+        "j2.theta", "j3.a", "j4.alpha", "tool.z", "k2", "k3", "k5", "k0", "j2.beta",
     ];
     let scale = 1.0 + f64::from(id % 7) / 10.0;
-    let errors = [0.01, 0.002, -0.008, 0.003, 0.05, 0.08, 0.1, 0.02].map(|e| e * scale);
+    let errors = [0.01, 0.002, -0.008, 0.003, 0.05, 0.08, 0.1, 0.02, 0.004].map(|e| e * scale);
     let ids: Vec<ParamId> = names
         .iter()
         .map(|n| ParamId::from_name(n).expect("known parameter"))
@@ -367,7 +369,7 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
         option: protocol::ModelOption::ElastoKinematic,
         nominal: nominal.map(|x| x as f32),
         calibrated: calibrated.map(|x| x as f32),
-        home_rad: [0.0; model::testing::TEST_ARM_JOINTS],
+        home_rad: [0.0; model::testing::TEST_ARM_JOINTS].into(),
         max_correction_rad: lrmcal_engine::device::calibration::max_corrections(
             &nominal,
             &calibrated,
@@ -513,7 +515,7 @@ pub fn expected_command(
                 solved.converged,
                 "the host's compensation did not converge for {q:?}"
             );
-            solved.q
+            std::array::from_fn(|i| solved.q[i])
         }
     }
 }
@@ -537,7 +539,7 @@ pub struct ExpectedPulses {
 
 impl ExpectedPulses {
     /// A board standing at `home`, rad, every joint taken to have arrived rising.
-    pub fn from(home: [f64; model::testing::TEST_ARM_JOINTS]) -> Self {
+    pub fn from(home: &[f64]) -> Self {
         Self {
             approach: model::backlash::ApproachTracker::new(home),
         }
