@@ -84,7 +84,12 @@ impl<T: Real> Chain<T> {
         let mut joints = PerJoint::splat(n, T::zero());
         for i in (0..n).rev() {
             let link = &self.links[i];
-            let (sc, d) = (joint_sin_cos[i], link.placement(qa[i]).1);
+            let sc = joint_sin_cos[i];
+            let d = if link.prismatic {
+                link.d + qa[i]
+            } else {
+                link.d
+            };
             point = link.to_parent(&point, sc, (link.a, d));
             let v = link.to_parent(&moment, sc, (link.a * mass, d * mass));
             let g = &gravity[i];

@@ -96,7 +96,7 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
         let link_name = format!("link_{}", i + 1);
         // The centre of mass is given in DH frame i, which sits at the rest of
         // link i from this link's frame.
-        let rest = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
+        let rest = Origin::link_rest(joint);
         let com = rest.isometry() * Point3::from(joint.com);
         let mass = (joint.mass > 0.0).then(|| Inertial {
             mass_kg: joint.mass,
@@ -104,8 +104,14 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
             radius_m: geometry.thickness_m[i + 1].unwrap_or(DEFAULT_INERTIA_RADIUS_M),
         });
         out += &link(&link_name, mass.as_ref(), &geometry.elements[i + 1]);
+        // A prismatic joint slides along z before the rest of its link,
+        // which commutes with the rest's turn `Rz(θ)`: the same origins.
+        let kind = match joint.kind {
+            model::JointKind::Revolute => "revolute",
+            model::JointKind::Prismatic => "prismatic",
+        };
         out += &format!(
-            "  <joint name=\"{}\" type=\"revolute\">\n    <parent link=\"{parent}\"/>\n    \
+            "  <joint name=\"{}\" type=\"{kind}\">\n    <parent link=\"{parent}\"/>\n    \
              <child link=\"{link_name}\"/>\n    {}\n    <axis xyz=\"0 0 1\"/>\n    \
              <limit lower=\"{}\" upper=\"{}\" effort=\"{}\" velocity=\"{}\"/>\n  </joint>\n",
             attribute(&options.joint_names[i]),
@@ -392,6 +398,20 @@ impl Origin {
         }
     }
 
+    /// The rest of a link with Hayati's twist: `Rz(θ) Tz(d) Tx(a) Rx(α)
+    /// Ry(β)`, exactly [`Origin::dh_rest`]'s numbers when `β` is 0.
+    fn link_rest(joint: &model::Joint<f64>) -> Self {
+        let rest = Self::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
+        if joint.beta == 0.0 {
+            return rest;
+        }
+        let twist = Rotation3::from_euler_angles(0.0, joint.beta, 0.0);
+        Self {
+            xyz: rest.xyz,
+            rpy: rpy(&(rest.rotation() * twist)),
+        }
+    }
+
     /// The placement `iso` as an origin.
     fn of(iso: &IsometryMatrix3<f64>) -> Self {
         Self {
@@ -521,6 +541,35 @@ mod tests {
         let translation = rz * nalgebra::Vector3::new(a, 0.0, d);
         assert!((nalgebra::Vector3::from(origin.xyz) - translation).norm() < 1e-16);
         assert_same_rotation(&origin.rotation(), &(rz * rx));
+    }
+
+    /// An arm with a lift and Hayati's twists, exported and read back by
+    /// the URDF chain reader, puts its tool point where the model does.
+    #[test]
+    fn a_lift_and_twists_read_back_as_the_same_chain() {
+        use model::testing::{LIFT_ARM_JOINTS, lift_arm, random_lift_q};
+        let arm = lift_arm::<f64>();
+        let options = UrdfOptions {
+            robot_name: "lift".into(),
+            provenance: Vec::new(),
+            effort_nm: 1.0,
+            velocity_rad_s: 1.5,
+            joint_names: (0..LIFT_ARM_JOINTS).map(|i| format!("j{i}")).collect(),
+            bodies: None,
+            world: false,
+            payload_kg: None,
+        };
+        let text = render(&arm, &options);
+        let read =
+            crate::io::arm_urdf::parse(&text, Some("base_link"), Some("tool_point")).unwrap();
+        assert_eq!(read.arm.joints[0].kind, model::JointKind::Prismatic);
+        let (ours, theirs) = (arm.chain(), read.arm.chain());
+        let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(9);
+        for _ in 0..50 {
+            let q: [f64; LIFT_ARM_JOINTS] = random_lift_q(&mut rng);
+            let d = ours.rigid_tool_point(&q) - theirs.rigid_tool_point(&q);
+            assert!(d.norm() < 1e-12, "{q:?}: {d}");
+        }
     }
 
     #[test]

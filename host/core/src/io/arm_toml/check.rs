@@ -298,7 +298,14 @@ impl Checker<'_> {
                 match key {
                     "capsule" => c.map_or(b.span(), Spanned::span),
                     "capsule.radius" => c.map_or(b.span(), |c| c.get_ref().radius.span()),
+                    "capsule.from" => c.map_or(b.span(), |c| c.get_ref().from.span()),
+                    "capsule.to" => c.map_or(b.span(), |c| c.get_ref().to.span()),
                     "box" => b.get_ref().cuboid.as_ref().map_or(b.span(), Spanned::span),
+                    "box.frame" => b
+                        .get_ref()
+                        .cuboid
+                        .as_ref()
+                        .map_or(b.span(), |c| c.get_ref().frame.span()),
                     _ => b.span(),
                 }
             }),
