@@ -93,7 +93,7 @@ pub enum Error {
         target_mm: [f64; 3],
         /// Why not: out of reach, beyond the limits or colliding.
         #[source]
-        source: ik::IkError,
+        source: Box<ik::IkError>,
     },
     /// The positioning error at the tool could not be measured (`lrmcal demo`).
     #[error("measure the positioning error through the board")]

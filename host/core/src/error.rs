@@ -205,8 +205,9 @@ pub enum Problem {
     },
     /// A pose's joint angle lies outside the arm's limits for that joint.
     #[error(
-        "pose {pose}: {angle_deg}{unit} is outside joint {joint}'s limits [{}{unit}, {}{unit}] \
+        "pose {pose}: {angle_deg}{} is outside joint {joint}'s limits [{}{0}, {}{0}] \
          (pass --allow-outside-limits to use it anyway)",
+        if *prismatic { " mm" } else { "°" },
         limits_deg[0],
         limits_deg[1]
     )]
@@ -219,8 +220,8 @@ pub enum Problem {
         angle_deg: f64,
         /// The joint's limits, degrees (mm).
         limits_deg: [f64; 2],
-        /// `°`, or ` mm` for a prismatic joint.
-        unit: &'static str,
+        /// Whether the joint slides: the numbers are then mm.
+        prismatic: bool,
     },
     /// The arm file has no joints or more than [`model::MAX_JOINTS`].
     #[error("expected 1 to {} [[joint]] tables, found {found}", model::MAX_JOINTS)]

@@ -86,7 +86,7 @@ pub enum PositioningError {
         target_mm: [f64; 3],
         /// What the solver said.
         #[source]
-        source: IkError,
+        source: Box<IkError>,
     },
     /// A calibration the board could not run.
     #[error("the {label} calibration: {fault}")]
@@ -213,7 +213,7 @@ pub fn targets(
                     return Err(PositioningError::Ik {
                         index: found.len(),
                         target_mm: (point_m * 1e3).into(),
-                        source,
+                        source: Box::new(source),
                     });
                 }
             }
