@@ -21,8 +21,10 @@
 //! joint after its fixed origin. So `link_i` is DH frame i-1 turned by `q_i`
 //! about its z axis, `joint_1`'s origin is the identity, and `joint_{i+1}`'s
 //! origin is the rest of DH link i, `Rz(θ_i) Tz(d_i) Tx(a_i) Rx(α_i)`: exactly
-//! `xyz = (a cos θ, a sin θ, d)`, `rpy = (α, 0, θ)`. Link 6's rest leads to
-//! DH frame 6, where `flange` and `tool0` sit.
+//! `xyz = (a cos θ, a sin θ, d)`, `rpy = (α, 0, θ)`. A link with Hayati's twist
+//! `β_i` (calibrated where two joint axes are parallel) turns by `Ry(β_i)`
+//! after `Rx(α_i)`: the same `xyz`, and `rpy` that of `Rz(θ) Rx(α) Ry(β)`.
+//! Link 6's rest leads to DH frame 6, where `flange` and `tool0` sit.
 //!
 //! Compliances, servo curves and play have no place in a URDF; the file's
 //! header says so, and what that means on the board.
@@ -96,7 +98,7 @@ pub fn render(arm: &Arm<f64>, options: &UrdfOptions) -> String {
         let link_name = format!("link_{}", i + 1);
         // The centre of mass is given in DH frame i, which sits at the rest of
         // link i from this link's frame.
-        let rest = Origin::link_rest(joint);
+        let rest = Origin::dh_rest(joint.theta, joint.d, joint.a, joint.alpha, joint.beta);
         let com = rest.isometry() * Point3::from(joint.com);
         let mass = (joint.mass > 0.0).then(|| Inertial {
             mass_kg: joint.mass,
@@ -389,26 +391,19 @@ impl Origin {
         }
     }
 
-    /// `Rz(θ) Tz(d) Tx(a) Rx(α)`: the part of a DH link after its joint's turn.
-    fn dh_rest(theta: f64, d: f64, a: f64, alpha: f64) -> Self {
+    /// `Rz(θ) Tz(d) Tx(a) Rx(α) Ry(β)`: the part of a link after its joint's
+    /// turn. A DH link (`β = 0`) has exactly `rpy = (α, 0, θ)`.
+    fn dh_rest(theta: f64, d: f64, a: f64, alpha: f64, beta: f64) -> Self {
         let (s, c) = theta.sin_cos();
+        let rpy = if beta == 0.0 {
+            [alpha, 0.0, theta]
+        } else {
+            rpy(&(Rotation3::from_euler_angles(alpha, 0.0, theta)
+                * Rotation3::from_euler_angles(0.0, beta, 0.0)))
+        };
         Self {
             xyz: [a * c, a * s, d],
-            rpy: [alpha, 0.0, theta],
-        }
-    }
-
-    /// The rest of a link with Hayati's twist: `Rz(θ) Tz(d) Tx(a) Rx(α)
-    /// Ry(β)`, exactly [`Origin::dh_rest`]'s numbers when `β` is 0.
-    fn link_rest(joint: &model::Joint<f64>) -> Self {
-        let rest = Self::dh_rest(joint.theta, joint.d, joint.a, joint.alpha);
-        if joint.beta == 0.0 {
-            return rest;
-        }
-        let twist = Rotation3::from_euler_angles(0.0, joint.beta, 0.0);
-        Self {
-            xyz: rest.xyz,
-            rpy: rpy(&(rest.rotation() * twist)),
+            rpy,
         }
     }
 
@@ -535,12 +530,67 @@ mod tests {
     #[test]
     fn dh_rest_is_the_dh_product() {
         let (theta, d, a, alpha) = (0.4, 0.07, -0.12, 1.1);
-        let origin = Origin::dh_rest(theta, d, a, alpha);
+        let origin = Origin::dh_rest(theta, d, a, alpha, 0.0);
+        assert_eq!(origin.rpy, [alpha, 0.0, theta]);
         let rz = Rotation3::from_euler_angles(0.0, 0.0, theta);
         let rx = Rotation3::from_euler_angles(alpha, 0.0, 0.0);
         let translation = rz * nalgebra::Vector3::new(a, 0.0, d);
         assert!((nalgebra::Vector3::from(origin.xyz) - translation).norm() < 1e-16);
         assert_same_rotation(&origin.rotation(), &(rz * rx));
+        // With Hayati's twist, turned by Ry(beta) after Rx(alpha); alpha 0 and
+        // pi as where twists are calibrated.
+        for alpha in [0.0, std::f64::consts::PI, 1.1] {
+            let beta = 1.7e-3;
+            let origin = Origin::dh_rest(theta, d, a, alpha, beta);
+            let ry = Rotation3::from_euler_angles(0.0, beta, 0.0);
+            let rx = Rotation3::from_euler_angles(alpha, 0.0, 0.0);
+            assert!((nalgebra::Vector3::from(origin.xyz) - translation).norm() < 1e-16);
+            assert_same_rotation(&origin.rotation(), &(rz * rx * ry));
+        }
+    }
+
+    /// The exported chain's forward kinematics (origins and joint turns read
+    /// back from the text) against the model's, on an arm whose links 2 and
+    /// 3 carry Hayati's twist: the twist must not be dropped.
+    #[test]
+    fn the_urdf_keeps_the_twist_of_parallel_axes() {
+        let mut arm = model::testing::rigid_lrm_like_arm();
+        arm.joints[1].beta = 1.7e-3;
+        arm.joints[2].beta = -6.3e-4;
+        let n = arm.joints.len();
+        let options = UrdfOptions {
+            robot_name: "twisted".into(),
+            provenance: vec![],
+            effort_nm: 1.0,
+            velocity_rad_s: 1.5,
+            joint_names: (1..=n).map(|i| format!("joint_{i}")).collect(),
+            bodies: None,
+            world: true,
+            payload_kg: None,
+        };
+        let robot = urdf_rs::read_from_string(&render(&arm, &options)).unwrap();
+        let origin = |child: &str| {
+            let j = robot.joints.iter().find(|j| j.child.link == child).unwrap();
+            Origin {
+                xyz: j.origin.xyz.0,
+                rpy: j.origin.rpy.0,
+            }
+            .isometry()
+        };
+        let mut rng = StdRng::seed_from_u64(7);
+        for _ in 0..50 {
+            let q: Vec<f64> = (0..n).map(|_| rng.random_range(-1.8..1.8)).collect();
+            let mut pose = origin("base_link");
+            for (i, qi) in q.iter().enumerate() {
+                let turn = Rotation3::from_euler_angles(0.0, 0.0, *qi);
+                let turn = IsometryMatrix3::from_parts(Translation3::identity(), turn);
+                pose = pose * origin(&format!("link_{}", i + 1)) * turn;
+            }
+            pose = pose * origin("flange") * origin("tool0") * origin("tool_point");
+            let model_tool = arm.chain().frames(&q, 0.0).tool_point();
+            let miss = (pose.translation.vector - model_tool).norm();
+            assert!(miss < 1e-12, "tool point {miss:e} m from the model's");
+        }
     }
 
     /// An arm with a lift and Hayati's twists, exported and read back by
