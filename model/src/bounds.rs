@@ -6,9 +6,9 @@
 //!
 //! | quantity | range | why |
 //! |---|---|---|
-//! | compliance `k` of spring `s` | `0 ..= MAX_SAG_RAD / tau_s` | a negative one bends the arm against gravity; one that sags further than [`MAX_SAG_RAD`] under its largest torque does not hold a pose |
+//! | compliance `k` of spring `s` | `0 ..= MAX_SAG_RAD / tau_s` | a negative one bends the arm against gravity; one that sags further than [`MAX_SAG_RAD`] under its largest torque does not hold a pose (a prismatic joint's: [`MAX_SAG_M`] under its largest force) |
 //! | softening of spring `s` | `-1 / (2 tau_s) ..= 1 / tau_s` | the yield `k (1 + s |tau|) tau` must still grow at the largest torque (its rate `k (1 + 2 s |tau|)` stays >= 0, the compliance at least halves: a spring, not a snap-through), and the compliance may at most double there (beyond, a joint giving way, not a spring) |
-//! | backlash (full width of the play) | `0 ..= MAX_BACKLASH_RAD` | the board offsets every command by half of it |
+//! | backlash (full width of the play) | `0 ..= MAX_BACKLASH_RAD` (a prismatic joint's `MAX_BACKLASH_M`) | the board offsets every command by half of it |
 //!
 //! `tau_s` is [`Bounds::torque_nm`]: an upper bound of the gravity torque on
 //! spring `s` (0 the base tilt's, `1..=n` the joints') in any pose, with the
@@ -23,7 +23,7 @@
 
 use nalgebra::Vector3;
 
-use crate::{Arm, MAX_JOINTS, Real, real};
+use crate::{Arm, JointKind, MAX_JOINTS, Real, real};
 
 /// The most springs an arm has: the base tilt's (0) and the joints' (`1..=n`).
 pub const MAX_SPRINGS: usize = MAX_JOINTS + 1;
@@ -39,6 +39,14 @@ pub const MAX_SAG_RAD: f64 = 0.5;
 /// loose joint or a bad fit, and compensating it would throw the joint by
 /// half of it at every reversal.
 pub const MAX_BACKLASH_RAD: f64 = 5.0 * core::f64::consts::PI / 180.0;
+
+/// The furthest a prismatic joint may sag under the largest force it can
+/// meet, m: a lift that gives way by more is not a spring holding a pose.
+pub const MAX_SAG_M: f64 = 0.05;
+
+/// The widest play a calibration may carry in a prismatic joint, m: a lead
+/// screw's or belt's play is a fraction of a millimetre; more is a loose joint.
+pub const MAX_BACKLASH_M: f64 = 0.005;
 
 /// How far inside its bounds the fit keeps a value, relative: a value at a
 /// bound stays inside after the board's rounding to single precision (a
@@ -153,14 +161,21 @@ pub struct Bounds<T> {
     /// Upper bound of each spring's gravity torque, Nm (0 the base's; 0
     /// past the arm's last joint).
     torque_nm: [T; MAX_SPRINGS],
+    /// Whether each joint slides: its compliance and play are lengths.
+    prismatic: [bool; MAX_JOINTS],
 }
 
 impl<T: Real> Bounds<T> {
     /// The bounds of a calibration of the nominal arm `arm` (module docs):
     /// each spring's torque bound with the arm's rated payload at the tool.
     pub fn of(arm: &Arm<T>) -> Self {
+        let mut prismatic = [false; MAX_JOINTS];
+        for (p, j) in prismatic.iter_mut().zip(arm.joints.iter()) {
+            *p = j.kind == JointKind::Prismatic;
+        }
         Self {
             torque_nm: torque_bounds(arm),
+            prismatic,
         }
     }
 
@@ -174,11 +189,17 @@ impl<T: Real> Bounds<T> {
     pub fn range(&self, quantity: Quantity) -> Range<T> {
         let inf = T::max_value().unwrap_or_else(T::one);
         let tau = |spring: u8| self.torque_nm(usize::from(spring));
+        let slides = |joint: usize| self.prismatic.get(joint).copied().unwrap_or(false);
         match quantity {
             Quantity::Compliance { spring } => Range {
                 min: T::zero(),
                 max: if tau(spring) > T::zero() {
-                    real::<T>(MAX_SAG_RAD) / tau(spring)
+                    let sag = if spring > 0 && slides(usize::from(spring) - 1) {
+                        MAX_SAG_M
+                    } else {
+                        MAX_SAG_RAD
+                    };
+                    real::<T>(sag) / tau(spring)
                 } else {
                     inf
                 },
@@ -191,9 +212,13 @@ impl<T: Real> Bounds<T> {
                 min: -inf,
                 max: inf,
             },
-            Quantity::Backlash { .. } => Range {
+            Quantity::Backlash { joint } => Range {
                 min: T::zero(),
-                max: real(MAX_BACKLASH_RAD),
+                max: real(if slides(usize::from(joint)) {
+                    MAX_BACKLASH_M
+                } else {
+                    MAX_BACKLASH_RAD
+                }),
             },
         }
     }
@@ -232,7 +257,13 @@ impl<T: Real> Bounds<T> {
 fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; MAX_SPRINGS] {
     let g = arm.gravity_vector().norm();
     let n = arm.joints.len();
-    let step = arm.joints.map(|j| (j.d * j.d + j.a * j.a).sqrt());
+    // A prismatic joint's offset reaches as far as its value does.
+    let step = arm.joints.map(|j| match j.kind {
+        JointKind::Revolute => (j.d * j.d + j.a * j.a).sqrt(),
+        JointKind::Prismatic => {
+            j.d.abs() + j.limits[0].abs().max(j.limits[1].abs()) + j.a.abs()
+        }
+    });
     // Each mass with its w (frame of its last joint) and that joint's index.
     let tool = arm.tool.isometry();
     let payload = tool.translation.vector + tool.rotation * Vector3::from(arm.payload_com);
@@ -253,7 +284,10 @@ fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; MAX_SPRINGS] {
         torque[0] += mass * (before + w.norm());
         // Joint i + 1 (index i <= k): its own link exactly, the others by the line.
         for i in 0..=k {
-            let lever = if i == k {
+            // A prismatic joint carries the weight itself, lever 1 (a force, N).
+            let lever = if arm.joints[i].kind == JointKind::Prismatic {
+                T::one()
+            } else if i == k {
                 (w - axis * w.dot(&axis)).norm()
             } else {
                 let between: T = step[i + 1..k].iter().fold(T::zero(), |s, &x| s + x);
@@ -330,6 +364,34 @@ mod tests {
         side.gravity = [0.0, -9.80665, 0.0];
         let t = side.chain().statics(&[0.0; JOINTS], 0.0, 0.0).torques;
         assert!((t.joints[0].abs() - bounds.torque_nm(1)).abs() < 1e-12);
+    }
+
+    /// A prismatic joint's bound is the weight it carries (a force), and
+    /// its compliance and play are bounded as lengths.
+    #[test]
+    fn a_lift_is_bounded_by_its_weight_in_metres() {
+        use crate::testing::{lift_arm, random_lift_q};
+        let mut arm = lift_arm::<f64>();
+        arm.rated_payload_kg = 0.1;
+        let bounds = Bounds::of(&arm);
+        let g = arm.gravity_vector().norm();
+        let carried: f64 = arm.joints.iter().map(|j| j.mass).sum::<f64>() + 0.1;
+        assert!((bounds.torque_nm(1) - g * carried).abs() < 1e-12);
+        let k = bounds.range(Quantity::Compliance { spring: 1 });
+        assert!((k.max - MAX_SAG_M / (g * carried)).abs() < 1e-15);
+        let play = bounds.range(Quantity::Backlash { joint: 0 });
+        assert_eq!(play.max, MAX_BACKLASH_M);
+        assert_eq!(bounds.range(Quantity::Backlash { joint: 1 }).max, MAX_BACKLASH_RAD);
+        // Every pose's torques stay within the bounds, the lift's force too.
+        let chain = arm.chain();
+        let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(4);
+        for _ in 0..500 {
+            let q = random_lift_q::<f64>(&mut rng);
+            let t = chain.gravity_torques(&q, 0.0, 0.1).joints;
+            for (i, tau) in t.iter().enumerate() {
+                assert!(tau.abs() <= bounds.torque_nm(i + 1) + 1e-9, "joint {}", i + 1);
+            }
+        }
     }
 
     #[test]

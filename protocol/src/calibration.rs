@@ -114,6 +114,11 @@ pub enum CalibrationFault {
         /// The calibrated arm's joints.
         joints: u8,
     },
+    /// Joint `joint` (0-based) slides: the board drives revolute servo joints only.
+    Prismatic {
+        /// Joint index.
+        joint: u8,
+    },
     /// A number is NaN or infinite.
     NotFinite,
     /// Joint `joint` (0-based) has lower limit ≥ upper limit.
@@ -157,6 +162,12 @@ impl core::fmt::Display for CalibrationFault {
                 "an arm of {joints} joints: the board drives arms of 1 to {CHANNELS} joints, \
                  and the nominal and calibrated arms, the home pose and the corrections must \
                  all have that many"
+            ),
+            Self::Prismatic { joint } => write!(
+                f,
+                "joint {} is prismatic: the board drives revolute servo joints only, so this \
+                 calibration is for the host (predict, validate, export)",
+                joint + 1
             ),
             Self::NotFinite => f.write_str("a value is NaN or infinite"),
             Self::Limits { joint } => {
@@ -204,6 +215,13 @@ impl Calibration {
         {
             return Err(CalibrationFault::JointCount {
                 joints: joints as u8,
+            });
+        }
+        if let Some(joint) = (self.nominal.joints.iter().chain(self.calibrated.joints.iter()))
+            .position(|j| j.kind != model::JointKind::Revolute)
+        {
+            return Err(CalibrationFault::Prismatic {
+                joint: (joint % joints) as u8,
             });
         }
         if !self.nominal.is_finite()

@@ -397,6 +397,27 @@ fn a_calibration_of_fewer_joints_round_trips_and_passes() {
     assert!(len(&calibration_of(5)) < len(&calibration_of(6)));
 }
 
+/// A prismatic joint, in either arm: the board drives revolute servo joints
+/// only, so the calibration is refused whole, naming the joint.
+#[test]
+fn a_sliding_joint_is_refused_by_the_board() {
+    for which in [0, 1] {
+        let mut c = calibration_of(5);
+        let arm = if which == 0 {
+            &mut c.nominal
+        } else {
+            &mut c.calibrated
+        };
+        arm.joints[2].kind = model::JointKind::Prismatic;
+        let fault = c.check().unwrap_err();
+        assert_eq!(fault, CalibrationFault::Prismatic { joint: 2 });
+        assert!(fault.to_string().contains("joint 3 is prismatic"), "{fault}");
+        let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
+        let bytes = c.encode(&mut buf).unwrap().to_vec();
+        assert_eq!(Calibration::decode(&bytes), None, "refused whole");
+    }
+}
+
 /// No joint, more joints than the board has channels, or arms, home pose and
 /// corrections of different lengths: refused with `JointCount`, naming the
 /// calibrated arm's joints, and refused whole by the board's decoder.
