@@ -18,16 +18,17 @@ use crate::commands;
 use crate::error::Error;
 use lrmcal_core::io::arm_source::ArmSource;
 
-/// Calibrate a cheap 6-DOF arm (3D-printed links, hobby servos) from measured
-/// 3D tool positions, and predict where it really goes.
+/// Calibrate a cheap arm (3D-printed links, hobby servos; any serial arm of 1
+/// to 10 joints) from measured 3D tool positions, and predict where it really goes.
 #[derive(Debug, Parser)]
 #[command(
     name = "lrmcal",
     version,
     about,
-    long_about = "Calibrate a cheap 6-DOF arm (3D-printed links, hobby RC servos, no encoders) \
-from measured 3D positions of its tool point.\n\n\
-The arm is described by a TOML file (geometry, masses, servo curves); measurements and \
+    long_about = "Calibrate a cheap arm (3D-printed links, hobby RC servos, no encoders; any \
+serial arm of 1 to 10 revolute or prismatic joints) from measured 3D positions of its tool point.\n\n\
+The arm is described by a TOML file (geometry, masses, servo curves) or read from a URDF \
+(--arm robot.urdf --base-link L --tip-link L); measurements and \
 pose lists are CSV files with angles in degrees and positions in millimetres; a \
 calibration is a JSON file holding the calibrated arm. Every command that needs an arm \
 uses the bundled LRM-like arm when --arm is omitted, so the commands below work on a \

@@ -260,9 +260,7 @@ fn torque_bounds<T: Real>(arm: &Arm<T>) -> [T; MAX_SPRINGS] {
     // A prismatic joint's offset reaches as far as its value does.
     let step = arm.joints.map(|j| match j.kind {
         JointKind::Revolute => (j.d * j.d + j.a * j.a).sqrt(),
-        JointKind::Prismatic => {
-            j.d.abs() + j.limits[0].abs().max(j.limits[1].abs()) + j.a.abs()
-        }
+        JointKind::Prismatic => j.d.abs() + j.limits[0].abs().max(j.limits[1].abs()) + j.a.abs(),
     });
     // Each mass with its w (frame of its last joint) and that joint's index.
     let tool = arm.tool.isometry();
@@ -381,7 +379,10 @@ mod tests {
         assert!((k.max - MAX_SAG_M / (g * carried)).abs() < 1e-15);
         let play = bounds.range(Quantity::Backlash { joint: 0 });
         assert_eq!(play.max, MAX_BACKLASH_M);
-        assert_eq!(bounds.range(Quantity::Backlash { joint: 1 }).max, MAX_BACKLASH_RAD);
+        assert_eq!(
+            bounds.range(Quantity::Backlash { joint: 1 }).max,
+            MAX_BACKLASH_RAD
+        );
         // Every pose's torques stay within the bounds, the lift's force too.
         let chain = arm.chain();
         let mut rng = <rand::rngs::StdRng as rand::SeedableRng>::seed_from_u64(4);
@@ -389,7 +390,11 @@ mod tests {
             let q = random_lift_q::<f64>(&mut rng);
             let t = chain.gravity_torques(&q, 0.0, 0.1).joints;
             for (i, tau) in t.iter().enumerate() {
-                assert!(tau.abs() <= bounds.torque_nm(i + 1) + 1e-9, "joint {}", i + 1);
+                assert!(
+                    tau.abs() <= bounds.torque_nm(i + 1) + 1e-9,
+                    "joint {}",
+                    i + 1
+                );
             }
         }
     }

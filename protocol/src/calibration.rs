@@ -217,8 +217,12 @@ impl Calibration {
                 joints: joints as u8,
             });
         }
-        if let Some(joint) = (self.nominal.joints.iter().chain(self.calibrated.joints.iter()))
-            .position(|j| j.kind != model::JointKind::Revolute)
+        if let Some(joint) = (self
+            .nominal
+            .joints
+            .iter()
+            .chain(self.calibrated.joints.iter()))
+        .position(|j| j.kind != model::JointKind::Revolute)
         {
             return Err(CalibrationFault::Prismatic {
                 joint: (joint % joints) as u8,

@@ -411,7 +411,10 @@ fn a_sliding_joint_is_refused_by_the_board() {
         arm.joints[2].kind = model::JointKind::Prismatic;
         let fault = c.check().unwrap_err();
         assert_eq!(fault, CalibrationFault::Prismatic { joint: 2 });
-        assert!(fault.to_string().contains("joint 3 is prismatic"), "{fault}");
+        assert!(
+            fault.to_string().contains("joint 3 is prismatic"),
+            "{fault}"
+        );
         let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
         let bytes = c.encode(&mut buf).unwrap().to_vec();
         assert_eq!(Calibration::decode(&bytes), None, "refused whole");

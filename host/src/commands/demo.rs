@@ -53,7 +53,8 @@ errors-vs-poses.svg/png (the paper's model and ours from 10 to 60 poses) and \
 positioning.svg/png (the error at the tool when the board drives the simulated arm to random \
 targets: uncalibrated, the paper's model and ours).")]
 pub struct Args {
-    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// URDF `.urdf` file (its chain from --base-link to --tip-link).
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Seed of the simulated true arm.

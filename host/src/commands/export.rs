@@ -38,7 +38,8 @@ pub struct Args {
     /// Calibration file from `lrmcal identify` or `lrmcal demo`: its calibrated arm.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
-    /// The arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// The arm: a bundled arm's name, an arm description `.toml` file, a URDF
+    /// `.urdf` file (its chain from --base-link to --tip-link), or a
     /// calibration `.json` file (as --calibration). With --calibration, the
     /// arm description whose joint names, bodies and name the URDF takes, the
     /// geometry staying the calibration's; it must describe the

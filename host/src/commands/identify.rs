@@ -53,7 +53,8 @@ the fit shares the arm and gives each target its own tool point (every target ne
 3 poses). After a tool change, re-teach only the tool points from a few poses with \
 --calibration OLD.json --tool-only: the arm of OLD.json stays as it is.")]
 pub struct Args {
-    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// URDF `.urdf` file (its chain from --base-link to --tip-link).
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Measurement CSV (`pose,load_kg,q1_deg..q6_deg,x_mm,y_mm,z_mm[,target]`).

@@ -34,7 +34,8 @@ lrmcal plan --arm my_arm.toml --ground-z-mm -120 --out c.csv   # base 12 cm abov
 The output is a pose list (pose,q1_deg..q6_deg) for `lrmcal simulate --poses`, `lrmcal select` \
 or a measurement session.")]
 pub struct Args {
-    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// URDF `.urdf` file (its chain from --base-link to --tip-link).
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Joint levels: a count N (N levels evenly from -100 to +100 degrees) or

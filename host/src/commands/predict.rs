@@ -43,7 +43,8 @@ visited in, from the all-zero pose (--approach order, what `measure` writes and 
 assumes). When that order is not known, --approach middle puts every joint at the middle of its \
 play instead.")]
 pub struct Args {
-    /// The arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// The arm: a bundled arm's name, an arm description `.toml` file, a URDF
+    /// `.urdf` file (its chain from --base-link to --tip-link), or a
     /// calibration `.json` file from `lrmcal identify` or `lrmcal demo` (its calibrated arm).
     #[arg(long, value_name = "NAME|FILE", default_value = lrmcal_core::io::arm_source::DEFAULT_ARM)]
     pub arm: ArmSource,

@@ -25,7 +25,8 @@ The Jacobian is taken on the nominal arm under each --load-kg (default: the pape
 0.0663 kg). With --option all, one list per option is written, named \
 <out stem>-<option>.csv.")]
 pub struct Args {
-    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// URDF `.urdf` file (its chain from --base-link to --tip-link).
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Candidate pose list CSV (`pose,q1_deg..q6_deg`), e.g. from `lrmcal plan`.

@@ -44,7 +44,8 @@ Without --poses the candidates of `lrmcal plan` (its defaults) are measured. The
 between the nominal (rigid) model's prediction and the measurement, per load."
 )]
 pub struct Args {
-    /// The nominal arm: a bundled arm's name, or an arm description `.toml` file.
+    /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
+    /// URDF `.urdf` file (its chain from --base-link to --tip-link).
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Poses to measure, a pose-list CSV [default: the planner's candidates].
