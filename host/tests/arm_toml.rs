@@ -149,7 +149,12 @@ fn any_number_of_joints_up_to_ten_reads_and_more_is_rejected() {
     );
     assert!(msg.contains("key `joint`"), "{msg}");
     // A prismatic joint says so; anything else is refused with the line.
+    // Its compliance is in m/N, bounded as a length (50 mm under the
+    // weight it carries): 0.05 m/N is refused, 1e-4 m/N reads.
     let text = FIXTURE.replacen("[[joint]]\n", "[[joint]]\ntype = \"prismatic\"\n", 1);
+    let msg = parse_err(&text).to_string();
+    assert!(msg.contains("joint[1].compliance"), "{msg}");
+    let text = text.replacen("compliance = 0.05", "compliance = 0.0001", 1);
     let lift = arm_toml::parse(&text).unwrap();
     assert_eq!(lift.arm.joints[0].kind, model::JointKind::Prismatic);
     let text = FIXTURE.replacen("[[joint]]\n", "[[joint]]\ntype = \"ball\"\n", 1);

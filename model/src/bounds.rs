@@ -185,11 +185,16 @@ impl<T: Real> Bounds<T> {
         self.torque_nm.get(spring).copied().unwrap_or_else(T::zero)
     }
 
+    /// Whether joint `joint` (from 0) slides: its spring and play are lengths.
+    pub fn slides(&self, joint: usize) -> bool {
+        self.prismatic.get(joint).copied().unwrap_or(false)
+    }
+
     /// The range of `quantity` (module docs).
     pub fn range(&self, quantity: Quantity) -> Range<T> {
         let inf = T::max_value().unwrap_or_else(T::one);
         let tau = |spring: u8| self.torque_nm(usize::from(spring));
-        let slides = |joint: usize| self.prismatic.get(joint).copied().unwrap_or(false);
+        let slides = |joint: usize| self.slides(joint);
         match quantity {
             Quantity::Compliance { spring } => Range {
                 min: T::zero(),

@@ -227,6 +227,15 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
         }
         None => nominal_arm(args.arm.as_ref())?,
     };
+    if arm.joints.len() > CHANNELS {
+        return Err(Error::DeviceInput {
+            what: "move the arm".into(),
+            reason: format!(
+                "the arm has {} joints and the board drives arms of 1 to {CHANNELS}",
+                arm.joints.len()
+            ),
+        });
+    }
     // The board refuses targets outside its ranges: keep the solution inside.
     let arm = within_board(&arm, calibration.as_ref());
     let start = PerJoint::from_fn(status.nominal_rad.len(), |j| {

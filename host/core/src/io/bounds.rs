@@ -48,6 +48,27 @@ pub fn problem(violation: &Violation<f64>, bounds: &Bounds<f64>, rated_kg: f64) 
         )
     };
     let (what, unit, why) = match violation.quantity {
+        Quantity::Compliance { spring } if spring > 0 && bounds.slides(usize::from(spring) - 1) => {
+            (
+                "a compliance",
+                "m/N",
+                format!(
+                    "a prismatic joint's spring neither pushes against gravity nor gives way by \
+                 more than {:.0} mm under the largest force on it; {} (N for this joint)",
+                    model::bounds::MAX_SAG_M * 1e3,
+                    torque(spring)
+                ),
+            )
+        }
+        Quantity::Backlash { joint } if bounds.slides(usize::from(joint)) => (
+            "a backlash width",
+            "m",
+            format!(
+                "up to {:.0} mm: no play is narrower than none, and a slide's play is a \
+                 fraction of a millimetre",
+                model::bounds::MAX_BACKLASH_M * 1e3
+            ),
+        ),
         Quantity::Compliance { spring } => (
             "a compliance",
             "rad/Nm",

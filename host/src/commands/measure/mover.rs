@@ -54,8 +54,17 @@ impl Mover {
                     client.set_payload(load_kg as f32)?;
                     *load_now = Some(load_kg);
                 }
-                let joints = pose.q.len().min(protocol::CHANNELS);
-                let targets = protocol::PerChannel::from_fn(joints, |j| pose.q[j] as f32);
+                let targets = protocol::PerChannel::from_slice(
+                    &pose.q.iter().map(|&q| q as f32).collect::<Vec<_>>(),
+                )
+                .ok_or_else(|| Error::DeviceInput {
+                    what: format!("move to pose {}", pose.id),
+                    reason: format!(
+                        "it has {} joint angles and the board drives arms of 1 to {}",
+                        pose.q.len(),
+                        protocol::CHANNELS
+                    ),
+                })?;
                 client.move_to(targets, protocol::Timing::DurationMs(0))?;
                 client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
                 std::thread::sleep(Duration::from_millis(settle_ms));
