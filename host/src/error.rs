@@ -91,9 +91,10 @@ pub enum Error {
     Ik {
         /// The target, world frame, mm.
         target_mm: [f64; 3],
-        /// Why not: out of reach, beyond the limits or colliding.
+        /// Why not: out of reach, beyond the limits or colliding (boxed:
+        /// it carries a pose of up to ten joints).
         #[source]
-        source: ik::IkError,
+        source: Box<ik::IkError>,
     },
     /// The positioning error at the tool could not be measured (`lrmcal demo`).
     #[error("measure the positioning error through the board")]

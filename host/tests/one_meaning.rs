@@ -148,9 +148,7 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
             let q32 = m.pose.q.map(|q| q as f32);
             let mut command = q32;
             for _ in 0..60 {
-                command = compensator
-                    .step(&q32, CompensationMode::Full, LOAD_KG as f32)
-                    .into();
+                command = compensator.step(&q32, CompensationMode::Full, LOAD_KG as f32);
                 if compensator.report().converged {
                     break;
                 }

@@ -245,7 +245,7 @@ impl ParamId {
             i if (BASE..BASE + 3).contains(&i) || (TOOL..TOOL + 3).contains(&i) => {
                 ParamKind::Length
             }
-            i if i < SPRINGS || i >= BETA => ParamKind::Angle,
+            i if !(SPRINGS..BETA).contains(&i) => ParamKind::Angle,
             _ => ParamKind::Compliance,
         }
     }

@@ -208,7 +208,11 @@ pub enum Problem {
         "pose {pose}: {angle_deg}{unit} is outside joint {joint}'s limits [{}{unit}, {}{unit}] \
          (pass --allow-outside-limits to use it anyway)",
         limits_deg[0],
-        limits_deg[1]
+        limits_deg[1],
+        unit = match kind {
+            model::JointKind::Revolute => "°",
+            model::JointKind::Prismatic => " mm",
+        }
     )]
     OutsideLimits {
         /// Pose id.
@@ -219,8 +223,10 @@ pub enum Problem {
         angle_deg: f64,
         /// The joint's limits, degrees (mm).
         limits_deg: [f64; 2],
-        /// `°`, or ` mm` for a prismatic joint.
-        unit: &'static str,
+        /// The joint's kind, which says the unit: `°`, or ` mm` for a
+        /// prismatic joint (a kind, not the unit's text, keeps the error
+        /// small enough to return by value).
+        kind: model::JointKind,
     },
     /// The arm file has no joints or more than [`model::MAX_JOINTS`].
     #[error("expected 1 to {} [[joint]] tables, found {found}", model::MAX_JOINTS)]

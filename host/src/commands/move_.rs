@@ -270,7 +270,10 @@ fn solve(
         &options,
         &admit,
     )
-    .map_err(|source| Error::Ik { target_mm, source })
+    .map_err(|source| Error::Ik {
+        target_mm,
+        source: Box::new(source),
+    })
 }
 
 /// Sends the targets and, unless --no-wait, waits until the arm stands still.
