@@ -62,6 +62,10 @@ pub struct LoadedArm {
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
     pub collision: CollisionSpec,
+    /// The levels of the planner's candidate grid, degrees: the arm file's
+    /// `[plan] levels_deg`, or `None` (the planner's default) for an arm
+    /// file without it, a URDF or a calibration file.
+    pub levels_deg: Option<Vec<f64>>,
     /// The calibration file it came from, if it did: what its arm means
     /// (the servo curves its commands go through, its targets) is the
     /// engine's to work out from it.
@@ -153,6 +157,7 @@ impl ArmSource {
                         .collect(),
                     arm: file.arm,
                     collision: CollisionSpec::default(),
+                    levels_deg: None,
                 };
                 (d, Some(file))
             }
@@ -163,6 +168,7 @@ impl ArmSource {
             arm: d.arm,
             joint_names: d.joint_names,
             collision: d.collision,
+            levels_deg: d.levels_deg,
             calibration,
         })
     }
