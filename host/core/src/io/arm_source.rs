@@ -20,8 +20,13 @@ use crate::io::arm_toml::{self, ArmDescription};
 use crate::io::arm_urdf;
 use crate::io::calibration_file::CalibrationFile;
 
-/// The arms shipped inside the binary: (name, TOML text).
-pub const BUNDLED: &[(&str, &str)] = &[("lrm", include_str!("../../arms/lrm.toml"))];
+/// The arms shipped inside the binary: (name, TOML text). `lrm` (the
+/// default) is a stand-in for the paper's arm; `so101` is the SO-101
+/// desktop arm, its geometry from its URDF (`arms/so101/`).
+pub const BUNDLED: &[(&str, &str)] = &[
+    ("lrm", include_str!("../../arms/lrm.toml")),
+    ("so101", include_str!("../../arms/so101.toml")),
+];
 
 /// The arm used when `--arm` is not given.
 pub const DEFAULT_ARM: &str = "lrm";
