@@ -32,10 +32,11 @@ The arm is described by a TOML file (geometry, masses, servo curves) or read fro
 pose lists are CSV files with angles in degrees and positions in millimetres; a \
 calibration is a JSON file holding the calibrated arm. Every command that needs an arm \
 uses the bundled LRM-like arm when --arm is omitted, so the commands below work on a \
-fresh checkout with no files of your own. The formats are described in docs/FORMATS.md \
-of the source tree.",
+fresh checkout with no files of your own; `--arm so101` is the bundled SO-101 (5 joints). \
+The formats are described in docs/FORMATS.md of the source tree.",
     after_help = "Examples:\n  \
 lrmcal demo                       # the whole method on a simulated arm\n  \
+lrmcal demo --arm so101           # the same on the SO-101 desktop arm\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal simulate --poses candidates.csv --out measurements.csv\n  \
 lrmcal identify --measurements measurements.csv --load-kg 0.0663 --select 50 --out cal\n  \

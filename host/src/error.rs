@@ -91,7 +91,8 @@ pub enum Error {
     Ik {
         /// The target, world frame, mm.
         target_mm: [f64; 3],
-        /// Why not: out of reach, beyond the limits or colliding.
+        /// Why not: out of reach, beyond the limits or colliding (boxed:
+        /// it carries a pose of up to ten joints).
         #[source]
         source: Box<ik::IkError>,
     },

@@ -540,3 +540,62 @@ fn bad_bodies_name_the_key_and_the_line() {
     ));
     assert_names(&err, "body[2].name", at(10), &["`base`", "body[1]"]);
 }
+
+/// `[plan] levels_deg` gives the arm's candidate grid: read, written back,
+/// and taken by the planner (`PlanConfig::for_loaded`, what `plan`,
+/// `simulate` and `demo` use); a file without it keeps the paper's grid.
+#[test]
+fn the_plan_table_gives_the_grid_levels_and_reaches_the_planner() {
+    use lrmcal_engine::plan::{Levels, PlanConfig};
+    let d = arm_toml::parse(&with_collision(
+        "[plan]\nlevels_deg = [-90.0, 0.0, 45.0, 90.0]\n",
+    ))
+    .unwrap();
+    assert_eq!(d.levels_deg, Some(vec![-90.0, 0.0, 45.0, 90.0]));
+    let written = arm_toml::to_toml(&d);
+    assert!(written.contains("[plan]"), "{written}");
+    assert_eq!(arm_toml::parse(&written).unwrap(), d, "{written}");
+    assert_eq!(arm_toml::parse(FIXTURE).unwrap().levels_deg, None);
+
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("arm.toml");
+    arm_toml::write(&path, &d).unwrap();
+    let loaded = ArmSource::Description(path).load().unwrap();
+    let config = PlanConfig::for_loaded(&loaded).unwrap();
+    assert_eq!(config.levels.to_string(), "-90,0,45,90");
+    assert_eq!(config.levels.grid_size(6), Ok(4096));
+    let default = PlanConfig::for_loaded(&ArmSource::Bundled("lrm").load().unwrap()).unwrap();
+    assert_eq!(default.levels, Levels::paper());
+}
+
+#[test]
+fn bad_grid_levels_name_the_key_and_the_line() {
+    let at = |line: usize| FIXTURE_LINES + 1 + line;
+    let plan = |levels: &str| with_collision(&format!("[plan]\nlevels_deg = {levels}\n"));
+    assert_names(
+        &parse_err(&plan("[]")),
+        "plan.levels_deg",
+        at(2),
+        &["at least one"],
+    );
+    assert_names(
+        &parse_err(&plan("[-90.0, 0.0, 0.0]")),
+        "plan.levels_deg[3]",
+        at(2),
+        &["strictly increasing", "0 after 0"],
+    );
+    assert_names(
+        &parse_err(&plan("[90.0, 0.0]")),
+        "plan.levels_deg[2]",
+        at(2),
+        &["strictly increasing"],
+    );
+    assert_names(
+        &parse_err(&plan("[0.0, inf]")),
+        "plan.levels_deg[2]",
+        at(2),
+        &["inf"],
+    );
+    let err = parse_err(&with_collision("[plan]\nlevels = [0.0]\n"));
+    assert!(err.to_string().contains("levels"), "{err}");
+}

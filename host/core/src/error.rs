@@ -205,11 +205,14 @@ pub enum Problem {
     },
     /// A pose's joint angle lies outside the arm's limits for that joint.
     #[error(
-        "pose {pose}: {angle_deg}{} is outside joint {joint}'s limits [{}{0}, {}{0}] \
+        "pose {pose}: {angle_deg}{unit} is outside joint {joint}'s limits [{}{unit}, {}{unit}] \
          (pass --allow-outside-limits to use it anyway)",
-        if *prismatic { " mm" } else { "°" },
         limits_deg[0],
-        limits_deg[1]
+        limits_deg[1],
+        unit = match kind {
+            model::JointKind::Revolute => "°",
+            model::JointKind::Prismatic => " mm",
+        }
     )]
     OutsideLimits {
         /// Pose id.
@@ -220,8 +223,10 @@ pub enum Problem {
         angle_deg: f64,
         /// The joint's limits, degrees (mm).
         limits_deg: [f64; 2],
-        /// Whether the joint slides: the numbers are then mm.
-        prismatic: bool,
+        /// The joint's kind, which says the unit: `°`, or ` mm` for a
+        /// prismatic joint (a kind, not the unit's text, keeps the error
+        /// small enough to return by value).
+        kind: model::JointKind,
     },
     /// The arm file has no joints or more than [`model::MAX_JOINTS`].
     #[error("expected 1 to {} [[joint]] tables, found {found}", model::MAX_JOINTS)]

@@ -103,15 +103,19 @@ pub fn run(args: &Args) -> Result<(), Error> {
         source,
     })?;
 
+    // The arm file's grid levels, bodies, floor and clearance, as `lrmcal
+    // plan` takes them: the candidates, the off-grid poses and the targets
+    // through the board are all kept clear the same way.
+    let arm_plan = PlanConfig::for_loaded(&loaded).map_err(|source| Error::Plan { source })?;
     let plan_config = PlanConfig {
         random: args.random,
-        ..PlanConfig::default()
+        ..arm_plan.clone()
     };
     let plan = candidates(&nominal, &plan_config).map_err(|source| Error::Plan { source })?;
     let poses = plan.kept;
     let off_grid_poses = random_candidates(
         &nominal,
-        &PlanConfig::default(),
+        &arm_plan,
         OFF_GRID_POSES,
         OFF_GRID_SEED,
         OFF_GRID_FIRST_ID,
@@ -198,14 +202,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &study.report.error_vs_poses,
     )?;
     print!("{}", summary::study(&study, off_grid.len())?);
-    if args.targets > 0 {
+    let board_refuses = (args.targets > 0)
+        .then(|| positioning::board_refuses(&nominal))
+        .flatten();
+    if let Some(reason) = &board_refuses {
+        println!("\nPositioning error at the tool through the board: skipped, {reason}");
+    }
+    if args.targets > 0 && board_refuses.is_none() {
         let calibrations: Vec<_> = files.iter().map(|(o, f)| (*o, f)).collect();
         let boards = positioning::demo_boards(&calibrations)?;
         let targets = positioning::targets(
             &nominal,
             args.targets,
             args.seed,
-            &PlanConfig::default(),
+            &arm_plan,
             &boards,
             PAPER_LOAD_KG,
         )?;

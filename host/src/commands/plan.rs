@@ -15,7 +15,8 @@ use lrmcal_engine::plan::{
 /// Generate the candidate poses: a grid of joint levels, filtered for safety.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "The grid puts every joint at every level \
-(the paper's grid: -100, 0, +100 degrees, 3^6 = 729 poses), less the poses that would leave \
+(the paper's grid: -100, 0, +100 degrees, 3^6 = 729 poses for six joints; an arm file's \
+[plan] levels_deg gives its own), less the poses that would leave \
 a joint's limits, bring a body too close to the ground, or bring two bodies too close to each \
 other.\n\n\
 The bodies are those of the arm file's [[body]] tables (capsules and boxes fixed to its \
@@ -24,7 +25,7 @@ point, a twentieth of the arm's length thick. Bodies on neighbouring links, or j
 arm than their radii (an elbow, a spherical wrist), are not tested against each other. The \
 ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the first test \
 it fails (limits, ground, self-collision), so the counts on stderr add up to the grid. Pose \
-ids are grid indices (joint 1 the slowest digit, joint 6 the fastest) and stay the same \
+ids are grid indices (joint 1 the slowest digit, the last joint the fastest) and stay the same \
 whatever is dropped.\n\n\
 Examples:\n  \
 lrmcal plan --out candidates.csv\n  \
@@ -39,9 +40,10 @@ pub struct Args {
     #[arg(long, value_name = "NAME|FILE", default_value = DEFAULT_ARM)]
     pub arm: ArmSource,
     /// Joint levels: a count N (N levels evenly from -100 to +100 degrees) or
-    /// comma-separated angles in degrees; the same for every joint.
-    #[arg(long, value_name = "N|DEG,...", default_value_t = Levels::paper(), allow_hyphen_values = true)]
-    pub levels: Levels,
+    /// comma-separated angles in degrees; the same for every joint [default:
+    /// the arm file's `[plan] levels_deg`, else -100,0,100].
+    #[arg(long, value_name = "N|DEG,...", allow_hyphen_values = true)]
+    pub levels: Option<Levels>,
     /// Random poses off the grid to add (over ±100°, kept when clear of the
     /// limits and collisions): they let the servo curves be identified
     /// between the grid's angles.
@@ -79,11 +81,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let arm = args.arm.load()?;
     // How many poses the levels make depends on the arm's joints: a usage
     // error like the levels' own.
-    if let Err(e) = args.levels.grid_size(arm.arm.joints.len()) {
+    if let Some(Err(e)) = args
+        .levels
+        .as_ref()
+        .map(|l| l.grid_size(arm.arm.joints.len()))
+    {
         return Err(Error::Usage(format!("--levels: {e}")));
     }
-    let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
-    config.levels = args.levels.clone();
+    let mut config = match &args.levels {
+        Some(levels) => PlanConfig {
+            levels: levels.clone(),
+            ..PlanConfig::for_arm(&arm.arm, &arm.collision)?
+        },
+        None => PlanConfig::for_loaded(&arm)?,
+    };
     config.random = args.random;
     config.seed = args.seed;
     if args.no_ground {
@@ -111,7 +122,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 source,
             })?,
     }
-    eprintln!("{} ({}), levels {} deg:", arm.origin, arm.name, args.levels);
+    eprintln!(
+        "{} ({}), levels {} deg:",
+        arm.origin, arm.name, config.levels
+    );
     eprint!("{report}");
     if let Some(path) = &args.out {
         eprintln!(

@@ -287,7 +287,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
 fn passes(args: &Args, arm: &LoadedArm) -> Result<Vec<(f64, Vec<Pose>)>, Error> {
     let Some(path) = &args.poses else {
         // `lrmcal plan`'s defaults: the grid and the random poses off it.
-        let mut config = PlanConfig::for_arm(&arm.arm, &arm.collision)?;
+        let mut config = PlanConfig::for_loaded(arm)?;
         config.random = DEFAULT_RANDOM_POSES;
         let plan = candidates(&arm.arm, &config)?;
         let loads = args.loads.clone().unwrap_or(DEFAULT_LOADS_KG.to_vec());

@@ -328,7 +328,8 @@ pub fn registration(report: &Report) -> String {
             ),
         ],
         vec![
-            "tool point in frame 6".into(),
+            // The report names no joint count: the frame by what it is.
+            "tool point in the last joint's frame".into(),
             match r.tool_mm {
                 Some(t) => format!("{} mm, found with the base", v3(t, 1)),
                 None => format!(

@@ -20,8 +20,13 @@ use crate::io::arm_toml::{self, ArmDescription};
 use crate::io::arm_urdf;
 use crate::io::calibration_file::CalibrationFile;
 
-/// The arms shipped inside the binary: (name, TOML text).
-pub const BUNDLED: &[(&str, &str)] = &[("lrm", include_str!("../../arms/lrm.toml"))];
+/// The arms shipped inside the binary: (name, TOML text). `lrm` (the
+/// default) is a stand-in for the paper's arm; `so101` is the SO-101
+/// desktop arm, its geometry from its URDF (`arms/so101/`).
+pub const BUNDLED: &[(&str, &str)] = &[
+    ("lrm", include_str!("../../arms/lrm.toml")),
+    ("so101", include_str!("../../arms/so101.toml")),
+];
 
 /// The arm used when `--arm` is not given.
 pub const DEFAULT_ARM: &str = "lrm";
@@ -62,6 +67,10 @@ pub struct LoadedArm {
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
     pub collision: CollisionSpec,
+    /// The levels of the planner's candidate grid, degrees: the arm file's
+    /// `[plan] levels_deg`, or `None` (the planner's default) for an arm
+    /// file without it, a URDF or a calibration file.
+    pub levels_deg: Option<Vec<f64>>,
     /// The calibration file it came from, if it did: what its arm means
     /// (the servo curves its commands go through, its targets) is the
     /// engine's to work out from it.
@@ -153,6 +162,7 @@ impl ArmSource {
                         .collect(),
                     arm: file.arm,
                     collision: CollisionSpec::default(),
+                    levels_deg: None,
                 };
                 (d, Some(file))
             }
@@ -163,6 +173,7 @@ impl ArmSource {
             arm: d.arm,
             joint_names: d.joint_names,
             collision: d.collision,
+            levels_deg: d.levels_deg,
             calibration,
         })
     }

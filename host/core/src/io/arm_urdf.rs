@@ -103,6 +103,7 @@ pub fn from_chain(chain: &DhChain) -> Result<ArmDescription, InputError> {
         joint_names: chain.joints.iter().map(|j| j.name.clone()).collect(),
         arm,
         collision: CollisionSpec::default(),
+        levels_deg: None,
     })
 }
 

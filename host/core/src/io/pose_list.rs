@@ -217,7 +217,7 @@ pub fn outside_limits(arm: &Arm<f64>, rows: &[ListedPose]) -> Vec<InputError> {
                     joint: i as u32 + 1,
                     angle_deg: people(joint.kind, q),
                     limits_deg: joint.limits.map(|l| people(joint.kind, l)),
-                    prismatic: joint.kind == JointKind::Prismatic,
+                    kind: joint.kind,
                 },
             ))
         })

@@ -46,6 +46,35 @@ pub fn payload(
     })
 }
 
+/// The payload of a board that knows `arm` but corrects nothing: `arm` as
+/// both the nominal and the calibrated arm (its joints, servo curves,
+/// limits), home at each joint's 0 (or the limit nearest it), and the
+/// smallest margin for corrections, [`CORRECTION_SLACK_RAD`], since none is
+/// ever asked for. With compensation off it drives the nominal arm's joints
+/// through their nominal curves: an uncalibrated arm on its own board.
+pub fn uncorrected(arm: &Arm<f64>) -> Result<Calibration, CalibrationFault> {
+    let joints = arm.joints.len();
+    if joints > protocol::CHANNELS {
+        return Err(CalibrationFault::JointCount {
+            joints: joints.min(usize::from(u8::MAX)) as u8,
+        });
+    }
+    let single = arm.map(|x| x as f32);
+    identified(Calibration {
+        id: 0,
+        // The option says which parameters a fit corrected; here none was
+        // fitted, and the board does not look at it.
+        option: protocol::ModelOption::Kinematic,
+        nominal: single,
+        calibrated: single,
+        home_rad: PerChannel::from_fn(joints, |j| {
+            let [lo, hi] = single.joints[j].limits;
+            0f32.clamp(lo, hi)
+        }),
+        max_correction_rad: PerChannel::splat(joints, CORRECTION_SLACK_RAD as f32),
+    })
+}
+
 /// How far the board may move each joint from its nominal target: the
 /// largest correction the compensation of `calibrated` asks for over poses
 /// within its limits (each joint at its limits and midway, every

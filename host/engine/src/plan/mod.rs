@@ -3,6 +3,7 @@
 //!
 //! ```text
 //! nominal Arm + CollisionSpec (arm file) --PlanConfig::for_arm--> PlanConfig
+//! LoadedArm (its collision and grid levels) --PlanConfig::for_loaded--> PlanConfig
 //! nominal Arm + PlanConfig --candidates--> PlanReport { kept poses, dropped poses with a reason }
 //! ```
 //!
@@ -30,6 +31,7 @@ use serde::Serialize;
 pub use grid::{Levels, LevelsError, MAX_GRID_POSES};
 use lrmcal_core::collision::{BodySet, CollisionSpec, Contact, Floor, SpecError};
 use lrmcal_core::dataset::Pose;
+use lrmcal_core::io::arm_source::LoadedArm;
 
 /// The clearance when the arm file gives none, m: servo horns, cables and
 /// the model's own error on a small arm; a large arm's bodies already grow
@@ -229,6 +231,17 @@ impl PlanConfig {
             ..Self::default()
         };
         config.check()?;
+        Ok(config)
+    }
+
+    /// [`PlanConfig::for_arm`] for a loaded arm, with the grid levels its
+    /// arm file gives (`[plan] levels_deg`), else the paper's.
+    pub fn for_loaded(loaded: &LoadedArm) -> Result<Self, PlanError> {
+        let mut config = Self::for_arm(&loaded.arm, &loaded.collision)?;
+        if let Some(degrees) = &loaded.levels_deg {
+            config.levels = Levels::from_degrees(degrees.clone())?;
+        }
+        config.levels.grid_size(loaded.arm.joints.len())?;
         Ok(config)
     }
 

@@ -559,3 +559,26 @@ fn bad_settings_are_named() {
         PlanError::NominalNotFinite
     );
 }
+
+/// The bundled SO-101's grid: its arm file's -90/0/+90° on five joints, 243
+/// poses, none past its limits (the paper's ±100° would leave elbow_flex's
+/// and wrist_flex's), 117 clear of the table and of each other.
+#[test]
+fn the_so101_grid_is_its_arm_files_levels_within_its_limits() {
+    let loaded = lrmcal_core::io::arm_source::ArmSource::Bundled("so101")
+        .load()
+        .unwrap();
+    let config = PlanConfig::for_loaded(&loaded).unwrap();
+    assert_eq!(config.levels.to_string(), "-90,0,90");
+    let report = candidates(&loaded.arm, &config).unwrap();
+    assert_eq!(report.grid_size, 243);
+    let counts = report.counts();
+    assert_eq!(counts.joint_limits, 0, "{report}");
+    assert_eq!(report.kept.len(), 117, "{report}");
+    let paper = PlanConfig {
+        levels: Levels::paper(),
+        ..config
+    };
+    let report = candidates(&loaded.arm, &paper).unwrap();
+    assert_eq!(report.counts().joint_limits, 216, "{report}");
+}

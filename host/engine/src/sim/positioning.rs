@@ -47,6 +47,7 @@ use crate::device::memory::MemoryBoard;
 use crate::device::{Client, ClientError};
 use crate::ik::{self, IkError, IkOptions};
 use crate::plan::PlanConfig;
+use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats};
 
 /// How many targets the demo visits.
@@ -84,7 +85,8 @@ pub enum PositioningError {
         index: usize,
         /// The target, world frame, mm.
         target_mm: [f64; 3],
-        /// What the solver said.
+        /// What the solver said (boxed: it carries a pose of up to ten
+        /// joints, and the error is returned by value).
         #[source]
         source: Box<IkError>,
     },
@@ -238,18 +240,54 @@ pub fn targets(
     })
 }
 
+/// Why the board cannot drive `arm` (what `lrmcal push` refuses): more
+/// joints than it has channels, or a joint without a servo curve (an arm
+/// moved by its own controller); `None` when it can.
+pub fn board_refuses(arm: &Arm<f64>) -> Option<String> {
+    let joints = arm.joints.len();
+    if joints > CHANNELS {
+        return Some(format!(
+            "the arm has {joints} joints and the board drives arms of 1 to {CHANNELS}"
+        ));
+    }
+    joint_without_servo(arm).map(|joint| {
+        format!(
+            "joint {joint} has no servo curve (an arm the board does not drive: its arm file \
+             has no `servo` tables)"
+        )
+    })
+}
+
 /// A board in memory ([`MemoryBoard`]), talked to as `lrmcal` talks to one:
 /// holding `calibration` (sent as `lrmcal push` sends it), compensating fully
-/// for `payload_kg`; without one, a board that never had a calibration,
-/// compensation off.
+/// for `payload_kg`. Without one, the uncalibrated board: it holds the
+/// nominal arm of the true arm (`nominal`: its joints, servo curves and
+/// limits, nothing corrected) with compensation off, so it drives exactly
+/// the arm's joints, each through its data-sheet curve. For an arm of six
+/// joints with the data-sheet curve of a board that never had a
+/// calibration (the bundled arm) that board sends the very same pulses.
 fn board(
     calibration: Option<&Calibration>,
+    nominal: &Arm<f64>,
     payload_kg: f64,
 ) -> Result<Client<MemoryBoard>, PositioningError> {
     let mut client = Client::new(MemoryBoard::default(), Duration::from_millis(1), 0);
-    if let Some(calibration) = calibration {
-        client.push_calibration(calibration, |_, _| {})?;
-        client.set_compensation(CompensationMode::Full)?;
+    match calibration {
+        Some(calibration) => {
+            client.push_calibration(calibration, |_, _| {})?;
+            client.set_compensation(CompensationMode::Full)?;
+        }
+        None => {
+            let uncalibrated =
+                crate::device::calibration::uncorrected(nominal).map_err(|fault| {
+                    PositioningError::Calibration {
+                        label: "uncalibrated (nominal)".into(),
+                        fault,
+                    }
+                })?;
+            client.push_calibration(&uncalibrated, |_, _| {})?;
+            client.set_compensation(CompensationMode::Off)?;
+        }
     }
     client.set_payload(payload_kg as f32)?;
     Ok(client)
@@ -317,7 +355,7 @@ pub fn errors(
     calibration: Option<&Calibration>,
     payload_kg: f64,
 ) -> Result<Run, PositioningError> {
-    let mut board = board(calibration, payload_kg)?;
+    let mut board = board(calibration, &truth.nominal, payload_kg)?;
     let mut servos = TrueServos::new(truth);
     let mut errors = Vec::with_capacity(targets.len());
     let mut clamped = 0;
@@ -552,6 +590,116 @@ mod tests {
             mean(&played.errors_m) > mean(&e.errors_m) + 2e-3,
             "{played:?} vs {e:?}"
         );
+    }
+
+    fn so101() -> Arm<f64> {
+        lrmcal_core::io::arm_source::bundled("so101")
+            .expect("the bundled SO-101 parses")
+            .arm
+    }
+
+    /// Runs `board` to rest on each target's first joint targets and
+    /// returns the pulses of every servo frame on the way.
+    fn pulses_to(
+        board: &mut Client<MemoryBoard>,
+        targets: &[Target],
+    ) -> Vec<[Option<u16>; CHANNELS]> {
+        let mut frames = Vec::new();
+        for target in targets {
+            let q = &target.q[0];
+            let sent = PerChannel::from_fn(q.len(), |j| q[j] as f32);
+            board.move_to(sent, Timing::DurationMs(0)).unwrap();
+            loop {
+                frames.push(board.link_mut().frame());
+                if !board.status().unwrap().moving {
+                    break;
+                }
+            }
+        }
+        frames
+    }
+
+    /// The uncalibrated board of a five-joint arm holds the arm's nominal
+    /// arm: channels 1 to 5 are driven, each through the arm's own servo
+    /// curve, and channel 6 stays limp in every frame; an exact arm goes
+    /// where it is sent.
+    #[test]
+    fn the_uncalibrated_board_of_a_five_joint_arm_drives_five_channels_through_its_curves() {
+        let nominal = so101();
+        let t = targets(&nominal, 5, 3, &PlanConfig::default(), &uncalibrated(), 0.0)
+            .unwrap()
+            .targets;
+        let mut b = board(None, &nominal, 0.0663).unwrap();
+        let frames = pulses_to(&mut b, &t);
+        assert!(frames.len() > t.len());
+        for pulses in &frames {
+            assert!(pulses[..5].iter().all(Option::is_some), "{pulses:?}");
+            assert_eq!(pulses[5], None);
+        }
+        // At rest on the last target, each pulse is the arm's curve's (to the 1 µs step).
+        let last = frames.last().unwrap();
+        for (j, pulse) in last.iter().take(5).enumerate() {
+            let expected = nominal.joints[j].servo.pulse_us(t[t.len() - 1].q[0][j]);
+            let sent = f64::from(pulse.unwrap());
+            assert!(
+                (sent - expected).abs() <= 1.0,
+                "joint {}: {sent} µs for {expected}",
+                j + 1
+            );
+        }
+        let mut exact = TrueArm::draw(&nominal, 2, &SimConfig::model_only()).unwrap();
+        exact.arm = nominal;
+        let e = errors(&exact, &t, 0, None, 0.0).unwrap();
+        assert!(e.errors_m.iter().all(|&e| e < 2e-3), "{e:?}");
+        assert_eq!((e.clamped, e.fell_back), (0, 0));
+    }
+
+    /// On the bundled arm (six joints, the data-sheet curve) the
+    /// uncalibrated board, holding the nominal arm with compensation off,
+    /// sends the very pulses of a board that never had a calibration: the
+    /// demo's uncalibrated row is what it was.
+    #[test]
+    fn on_the_bundled_arm_the_uncalibrated_board_is_a_board_without_calibration() {
+        let nominal = bundled_arm();
+        let t = targets(
+            &nominal,
+            6,
+            3,
+            &PlanConfig::default(),
+            &uncalibrated(),
+            0.0663,
+        )
+        .unwrap()
+        .targets;
+        let mut held = board(None, &nominal, 0.0663).unwrap();
+        let mut bare = Client::new(MemoryBoard::default(), Duration::from_millis(1), 0);
+        bare.set_payload(0.0663).unwrap();
+        assert_eq!(pulses_to(&mut held, &t), pulses_to(&mut bare, &t));
+    }
+
+    /// The board drives arms of up to six joints, each with a servo curve.
+    #[test]
+    fn the_board_refuses_arms_without_servo_curves_or_with_seven_joints() {
+        assert_eq!(board_refuses(&bundled_arm()), None);
+        assert_eq!(board_refuses(&so101()), None);
+        let urdf = lrmcal_core::io::arm_urdf::parse(
+            include_str!("../../../core/arms/so101/so101.urdf"),
+            None,
+            Some("gripper_frame_link"),
+        )
+        .unwrap();
+        let why = board_refuses(&urdf.arm).unwrap();
+        assert!(why.contains("joint 1 has no servo curve"), "{why}");
+        let mut seven = bundled_arm();
+        let joints: Vec<_> = seven
+            .joints
+            .iter()
+            .chain(&seven.joints[..1])
+            .copied()
+            .collect();
+        seven.joints = PerJoint::from_slice(&joints).unwrap();
+        let why = board_refuses(&seven).unwrap();
+        assert!(why.contains("7 joints") && why.contains("1 to 6"), "{why}");
     }
 
     #[test]

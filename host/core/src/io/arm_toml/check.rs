@@ -295,17 +295,15 @@ impl Checker<'_> {
         let span = match e.place {
             SpecPlace::Body { index, key } => bodies.get(index).map(|b| {
                 let c = b.get_ref().capsule.as_ref();
+                let cuboid = b.get_ref().cuboid.as_ref();
                 match key {
                     "capsule" => c.map_or(b.span(), Spanned::span),
                     "capsule.radius" => c.map_or(b.span(), |c| c.get_ref().radius.span()),
+                    // A frame the arm does not have (`j7` on a six-joint arm).
                     "capsule.from" => c.map_or(b.span(), |c| c.get_ref().from.span()),
                     "capsule.to" => c.map_or(b.span(), |c| c.get_ref().to.span()),
-                    "box" => b.get_ref().cuboid.as_ref().map_or(b.span(), Spanned::span),
-                    "box.frame" => b
-                        .get_ref()
-                        .cuboid
-                        .as_ref()
-                        .map_or(b.span(), |c| c.get_ref().frame.span()),
+                    "box" => cuboid.map_or(b.span(), Spanned::span),
+                    "box.frame" => cuboid.map_or(b.span(), |x| x.get_ref().frame.span()),
                     _ => b.span(),
                 }
             }),
@@ -403,6 +401,43 @@ impl Checker<'_> {
             }));
         }
         Ok(curve)
+    }
+
+    /// `[plan] levels_deg`: at least one level, each finite, strictly
+    /// increasing (a level given twice would repeat grid poses).
+    pub(super) fn levels(&self, raw: &Spanned<Vec<f64>>) -> Result<Vec<f64>, InputError> {
+        let key = "plan.levels_deg";
+        let levels = raw.get_ref();
+        if levels.is_empty() {
+            return Err(self.fail(
+                key,
+                raw.span(),
+                Problem::OutOfRange {
+                    expected: "at least one grid level, degrees",
+                    found: "[]".into(),
+                },
+            ));
+        }
+        if let Some(i) = levels.iter().position(|x| !x.is_finite()) {
+            return Err(self.fail(
+                &format!("{key}[{}]", i + 1),
+                raw.span(),
+                Problem::NotFinite {
+                    found: levels[i].to_string(),
+                },
+            ));
+        }
+        if let Some(i) = levels.windows(2).position(|w| w[1] <= w[0]) {
+            return Err(self.fail(
+                &format!("{key}[{}]", i + 2),
+                raw.span(),
+                Problem::OutOfRange {
+                    expected: "grid levels (°) strictly increasing, each above the one before",
+                    found: format!("{} after {}", levels[i + 1], levels[i]),
+                },
+            ));
+        }
+        Ok(levels.clone())
     }
 
     /// The knots form: as many pulses as angles, 2 to 9 of them, and a curve
@@ -537,11 +572,16 @@ impl RawArm {
         // Names, links and pairs are only known on the arm: place the bodies once to check them.
         BodySet::for_arm(&arm, &collision)
             .map_err(|e| c.spec_error(e, self.collision.as_ref(), &self.body))?;
+        let levels_deg = match &self.plan {
+            Some(plan) => Some(c.levels(&plan.levels_deg)?),
+            None => None,
+        };
         Ok(ArmDescription {
             name: self.name,
             joint_names,
             arm,
             collision,
+            levels_deg,
         })
     }
 }

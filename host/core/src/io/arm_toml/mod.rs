@@ -3,9 +3,10 @@
 //!
 //! Every key of the model is required; there are no defaults, because a
 //! forgotten line in a calibration input should be an error, not a silent
-//! zero. Two parts are optional: a joint's `servo` table (an arm our board
-//! does not drive has none, see [`no_servo`]), and the collision description
-//! (`[collision]`, `[[body]]`), whose defaults are the planner's. Unknown keys
+//! zero. Three parts are optional: a joint's `servo` table (an arm our board
+//! does not drive has none, see [`no_servo`]), the collision description
+//! (`[collision]`, `[[body]]`) and the candidate grid's levels (`[plan]`),
+//! whose defaults are the planner's. Unknown keys
 //! are rejected (a misspelt key would otherwise be ignored). Numbers must be
 //! finite; masses, compliances and sizes must not be negative; joint limits
 //! must satisfy `lo < hi`; servo curves must be strictly monotonic with their
@@ -42,6 +43,10 @@ pub struct ArmDescription {
     pub arm: Arm<f64>,
     /// The bodies, floor and clearance the planner tests (`[collision]`, `[[body]]`).
     pub collision: CollisionSpec,
+    /// The levels of the planner's candidate grid, degrees, increasing
+    /// (`[plan] levels_deg`); `None`: the planner's default, the paper's
+    /// -100, 0, +100.
+    pub levels_deg: Option<Vec<f64>>,
 }
 
 /// The servo curve of a joint whose arm file has no `servo` table (an arm

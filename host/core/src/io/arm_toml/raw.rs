@@ -20,9 +20,18 @@ pub(super) struct RawArm {
     pub(super) payload: RawPayload,
     pub(super) joint: Spanned<Vec<RawJoint>>,
     #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) plan: Option<RawPlan>,
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub(super) collision: Option<RawCollision>,
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub(super) body: Vec<Spanned<RawBody>>,
+}
+
+/// `[plan]`: the candidate grid's levels for this arm.
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct RawPlan {
+    pub(super) levels_deg: Spanned<Vec<f64>>,
 }
 
 #[derive(Debug, Deserialize, Serialize)]
@@ -198,6 +207,9 @@ impl RawArm {
                     })
                     .collect(),
             ),
+            plan: d.levels_deg.as_ref().map(|levels| RawPlan {
+                levels_deg: unspanned(levels.clone()),
+            }),
             collision: RawCollision::from_spec(&d.collision),
             body: d
                 .collision

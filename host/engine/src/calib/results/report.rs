@@ -381,7 +381,8 @@ pub struct RegistrationReport {
     pub after_rms_mm: f64,
     /// Largest distance after registration over every point, mm.
     pub after_max_mm: f64,
-    /// The tool point found in frame 6, mm; `None` when the arm file's was kept.
+    /// The tool point found in the last DH frame (frame 6 of a six-joint
+    /// arm), mm; `None` when the arm file's was kept.
     pub tool_mm: Option<[f64; 3]>,
     /// How far the last link turns over the poses kept (`calib::fit::registration`).
     pub tool_turn: f64,

@@ -417,8 +417,9 @@ pub fn registration(reg: &Registration, nominal: &Arm<f64>) -> (String, Option<S
         ),
         match reg.tool {
             Some(tool) => format!(
-                "  tool point found with it: {} in frame 6 (the arm file: {}); the fit starts there",
+                "  tool point found with it: {} in frame {} (the arm file: {}); the fit starts there",
                 mm(tool.into()),
+                nominal.joints.len(),
                 mm(nominal.tool.xyz)
             ),
             None => format!(
