@@ -205,24 +205,12 @@ impl State {
                 )
             })
             .collect();
-        let compliance: Vec<f64> = (0..=n)
-            .map(|e| {
-                if e < n {
-                    chain.links[e].compliance
-                } else {
-                    chain.base_compliance
-                }
-            })
-            .collect();
-        let softening: Vec<f64> = (0..=n)
-            .map(|e| {
-                if e < n {
-                    chain.links[e].softening
-                } else {
-                    chain.base_softening
-                }
-            })
-            .collect();
+        // A spring's value in state order: the joints' (`of`), then the base's.
+        let springs = |of: fn(&model::kinematics::Link<f64>) -> f64, base: f64| -> Vec<f64> {
+            chain.links.iter().map(of).chain([base]).collect()
+        };
+        let compliance = springs(|l| l.compliance, chain.base_compliance);
+        let softening = springs(|l| l.softening, chain.base_softening);
         let mut state = Self {
             prismatic: chain.links.iter().map(|l| l.prismatic).collect(),
             joints: n,
