@@ -246,6 +246,10 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
         let c = &self.config;
         let arm = &calibration.calibrated;
         let joints = arm.joint_count().min(CHANNELS);
+        let mut compensator = Compensator::new(&calibration, c.compensation, c.max_correction_rad);
+        if let Some(last) = &self.active {
+            compensator.continue_from(&last.compensator);
+        }
         self.active = Some(Active {
             info: CalibrationInfo {
                 id: calibration.id,
@@ -253,7 +257,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
                 joints: joints as u8,
                 sequence,
             },
-            compensator: Compensator::new(&calibration, c.compensation, c.max_correction_rad),
+            compensator,
             joints,
             curves: core::array::from_fn(|i| match arm.joints.get(i) {
                 Some(j) => PreparedCurve::new(j.servo),

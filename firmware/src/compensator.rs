@@ -22,9 +22,14 @@
 //! the next frame retries from the accepted state with a more strongly
 //! damped, purely corrective step (as `compensate` does within one solve);
 //! six failures in a row while the targets move start the solve afresh.
-//! A frame whose inputs (targets, mode, payload) equal the last converged
-//! frame's reuses its answer: the model is deterministic, so a holding arm
-//! costs no solve at all. Holding still at a target the solve does not reach
+//! Once the tool point is on target, the steps go on while they still pull
+//! the arm's shape towards the nominal targets (null-space moves that leave
+//! the tool point put) and the solve ends when a step would move no joint by
+//! more than the options' `settle_rad`: a move into a pose and a solve started
+//! afresh at it (after a commit) then end on the same command, not on two of
+//! the many that reach the point. A frame whose inputs (targets, mode,
+//! payload) equal the last settled frame's reuses its answer: the model is
+//! deterministic, so a holding arm costs no solve at all. Holding still at a target the solve does not reach
 //! (three steps in a row gain less than 10 %, or six fail), the solve starts
 //! afresh from the nominal targets once: a solve that followed a move can
 //! end where the pull towards the nominal shape and the position fight each
@@ -46,6 +51,10 @@ const MAX_REJECTIONS: u32 = 6;
 const SLOW_RATIO: f32 = 0.9;
 /// See [`SLOW_RATIO`].
 const STALLED_STEPS: u32 = 3;
+/// On target, the solve goes on stepping until the shape settles (a step
+/// moves no joint by more than the options' `settle_rad`), for at most this
+/// many frames in a row.
+const MAX_SHAPING_STEPS: u32 = 25;
 
 /// What a frame's answer depends on.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -96,6 +105,8 @@ pub struct Compensator {
     rejections: u32,
     /// Slow steps in a row while holding still.
     slow_steps: u32,
+    /// Steps in a row taken on target, settling the shape.
+    shaping_steps: u32,
     /// Whether the solve has started afresh since the targets last changed.
     fresh_while_holding: bool,
     /// Steps since the current move started or the solve last started afresh.
@@ -130,6 +141,7 @@ impl Compensator {
             next: None,
             rejections: 0,
             slow_steps: 0,
+            shaping_steps: 0,
             fresh_while_holding: false,
             steps: 0,
             last_inputs: None,
@@ -137,6 +149,20 @@ impl Compensator {
             last_correction: PerJoint::splat(joints, 0.0),
             fell_back: false,
             report: CompensationReport::default(),
+        }
+    }
+
+    /// Starts this solve where `previous` (the last calibration's) stands, if
+    /// its arm has as many joints: a calibration committed while the arm
+    /// holds a pose then goes on from the shape the arm holds rather than from
+    /// the nominal targets, so the same calibration committed again changes
+    /// no pulse and a new one moves the servos only as far as it differs.
+    pub fn continue_from(&mut self, previous: &Compensator) {
+        if previous.joints() == self.joints() {
+            self.next = previous.next.map(|next| Next {
+                correction_rate: PerJoint::splat(self.joints(), 0.0),
+                ..next
+            });
         }
     }
 
@@ -217,6 +243,8 @@ impl Compensator {
                 let qa = PerJoint::from_fn(n, |i| next.qa[i] + shift[i]);
                 (qa, next.beta + accepted.slope.tilt_change(&shift))
             }
+            // Carried over from the last calibration, for the targets it held.
+            (Some(next), None) if *next.q_nominal == *q_nominal => (next.qa, next.beta),
             _ => (joint_vector(q_nominal), 0.0),
         }
     }
@@ -289,12 +317,19 @@ impl Compensator {
                 self.last_correction =
                     PerJoint::from_fn(q_nominal.len(), |i| state.q[i] - q_nominal[i]);
                 self.fell_back = false;
-                let slow = holding && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
+                // On target, the steps only settle the shape: counted apart,
+                // since the error then hovers at the tolerance.
+                let slow = holding
+                    && !state.converged
+                    && anchor_error.is_some_and(|a| state.error_m > a * SLOW_RATIO);
                 self.slow_steps = if slow { self.slow_steps + 1 } else { 0 };
+                self.shaping_steps = if state.converged {
+                    self.shaping_steps + 1
+                } else {
+                    0
+                };
                 let stalled = self.slow_steps >= STALLED_STEPS;
-                if state.converged || (stalled && self.fresh_while_holding) {
-                    self.settled = Some((inputs, state.q));
-                } else if stalled {
+                if stalled && !self.fresh_while_holding {
                     self.start_afresh_while_holding();
                     return state.q;
                 }
@@ -305,7 +340,11 @@ impl Compensator {
                     .as_ref()
                     .filter(|a| *a.q_nominal != *q_nominal)
                     .map(|a| a.correction);
-                self.take_step(evaluation, &slope, target, q_nominal, previous);
+                let settles = self.take_step(evaluation, &slope, target, q_nominal, previous);
+                let shaped = settles || self.shaping_steps >= MAX_SHAPING_STEPS;
+                if (state.converged && shaped) || stalled {
+                    self.settled = Some((inputs, state.q));
+                }
                 state.q
             }
             _ => {
@@ -348,11 +387,13 @@ impl Compensator {
         self.next = None;
         self.rejections = 0;
         self.slow_steps = 0;
+        self.shaping_steps = 0;
         self.steps = 0;
     }
 
     /// Steps from `evaluation` (solved for `target`) with `slope` and keeps the
-    /// result for the next frame.
+    /// result for the next frame; whether the step settles the shape (moves
+    /// no joint by more than the options' `settle_rad`).
     fn take_step(
         &mut self,
         evaluation: &Evaluation<f32>,
@@ -360,15 +401,16 @@ impl Compensator {
         target: Vector3<f32>,
         q_nominal: &[f32],
         previous_correction: Option<PerJoint<f32>>,
-    ) {
+    ) -> bool {
         let next = evaluation
             .with_slope(slope, q_nominal)
             .next_state(self.rejections, self.options.damping_m);
         let Some((qa, beta)) = next else {
             self.accepted = None;
             self.next = None;
-            return;
+            return false;
         };
+        let settles = self.options.settles(&evaluation.state.qa, &qa);
         let n = q_nominal.len();
         let correction = PerJoint::from_fn(n, |i| qa[i] - q_nominal[i]);
         let correction_rate = match previous_correction {
@@ -403,6 +445,7 @@ impl Compensator {
             q_nominal,
             correction_rate,
         });
+        settles
     }
 
     /// Commands the nominal targets plus the last good correction and says so.

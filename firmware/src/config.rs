@@ -65,6 +65,7 @@ impl Default for Config {
                 tolerance_m: 5e-6,
                 damping_m: 1e-6,
                 max_iterations: 1,
+                settle_rad: 1e-5,
             },
         }
     }

@@ -12,7 +12,7 @@
 #[path = "../tests/emulator_support/mod.rs"]
 mod emulator_support;
 
-use emulator_support::{EmulatedBoard, RawLink, twisted_test_calibration};
+use emulator_support::{EmulatedBoard, RawLink, test_calibration};
 use protocol::{CompensationMode, Request, Response, Timing};
 use serde_json::{Value, json};
 
@@ -41,7 +41,7 @@ fn main() {
         board.request(json!({"cmd": "probe", "symbol": symbol}));
     }
     let mut link = RawLink::connect(&board);
-    link.push(&twisted_test_calibration(1));
+    link.push(&test_calibration(1));
     ok(
         link.request(&Request::SetCompensation {
             mode: CompensationMode::Full,

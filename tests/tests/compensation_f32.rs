@@ -53,6 +53,7 @@ fn board_compensation_reaches_nominal_targets_within_50_um() {
         tolerance_m: 1e-7,
         damping_m: 1e-6,
         max_iterations: 60,
+        settle_rad: 1e-9,
     };
     let limits = cal.calibrated.joints.map(|j| j.limits);
 

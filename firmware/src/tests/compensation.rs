@@ -176,6 +176,32 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
     }
 }
 
+/// Committing the calibration in use again (another id, the same arm, a
+/// twisted link) while the arm holds a compensated pose changes no pulse:
+/// the solve goes on from the shape the arm holds, which has settled.
+#[test]
+fn the_same_calibration_committed_again_keeps_the_held_pulses() {
+    let mut h = Harness::boot(SimFlash::new());
+    let mut cal = test_calibration(1);
+    cal.calibrated.joints[1].beta = 0.004;
+    h.push(&cal);
+    h.request(&Request::SetCompensation {
+        mode: CompensationMode::Full,
+    });
+    h.move_to([0.4, -0.3, 0.5, 0.2, -0.6, 0.3]);
+    while h.status().moving {
+        h.frames(1);
+    }
+    h.frames(50);
+    let held = h.dev.bus().now;
+    cal.id = 2;
+    assert!(matches!(h.push(&cal), Response::CalibrationStored(_)));
+    for frame in 0..50 {
+        h.frames(1);
+        assert_eq!(h.dev.bus().now, held, "frame {frame} after the commit");
+    }
+}
+
 /// Holding at a target the calibrated arm cannot reach exactly (the stretched,
 /// singular zero pose), the per-frame solve ends on its best command instead
 /// of creeping on: the command stops changing, and the report says so.
@@ -223,6 +249,7 @@ fn f32_compensation_matches_the_f64_model(cal: &Calibration, targets: usize) {
         tolerance_m: 1e-7,
         damping_m: 1e-6,
         max_iterations: 60,
+        settle_rad: 1e-9,
     };
     let mut rng = StdRng::seed_from_u64(11);
     for payload in [0.0f32, 0.0663] {
@@ -272,5 +299,53 @@ fn f32_compensation_matches_the_f64_model(cal: &Calibration, targets: usize) {
              ({unreachable} unreachable skipped, {frames} frames)",
             worst * 1e3
         );
+    }
+}
+
+/// Where a held pose settles does not depend on how the solve got there: a
+/// move into the pose and a solve started afresh at it (after a new
+/// calibration is committed) command the same pulses. Of all the deflected
+/// shapes that put the tool point on target, both end at the one closest to
+/// the nominal targets, also with a twisted link (Hayati's `β`), whose null
+/// space turns with the pose.
+#[test]
+fn a_held_pose_settles_where_a_fresh_solve_settles() {
+    for beta in [0.0f32, 0.004, -0.01] {
+        let mut cal = test_calibration(4);
+        cal.calibrated.joints[1].beta = beta;
+        let pose = [0.4f32, -0.3, 0.5, 0.2, -0.6, 0.3];
+        let start = cal.home_rad;
+        let options = Config::default().compensation;
+        let settle = |comp: &mut crate::compensator::Compensator| {
+            for _ in 0..200 {
+                let q = comp.step(&pose, CompensationMode::Full, 0.0);
+                if comp.settled() {
+                    return q;
+                }
+            }
+            panic!("β {beta}: the held pose never settles: {:?}", comp.report());
+        };
+        // Into the pose over 15 frames, then held.
+        let mut moved = crate::compensator::Compensator::new(&cal, options, 0.35);
+        for k in 1..=15 {
+            let t = k as f32 / 15.0;
+            let q: std::vec::Vec<f32> = (0..6)
+                .map(|i| start[i] + t * (pose[i] - start[i]))
+                .collect();
+            moved.step(&q, CompensationMode::Full, 0.0);
+        }
+        let held = settle(&mut moved);
+        let mut fresh = crate::compensator::Compensator::new(&cal, options, 0.35);
+        let afresh = settle(&mut fresh);
+        for i in 0..6 {
+            let off = (held[i] - afresh[i]).abs();
+            // 1e-4 rad: a tenth of a microsecond of pulse.
+            assert!(
+                off < 1e-4,
+                "β {beta}: joint {i} held at {} and afresh at {} rad",
+                held[i],
+                afresh[i]
+            );
+        }
     }
 }

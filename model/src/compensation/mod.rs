@@ -11,10 +11,14 @@
 //! `q = qa − K τ(qa, beta)`, with `beta = k0 τ0(qa, beta)` updated alongside
 //! (each spring softening as the arm says: `k (1 + s |τ|) τ` for `k τ`, the
 //! one model identification fits, see `crate::elastic`).
-//! The arm has 6 joints for 3 equations; of all deflected configurations that
-//! reach the point, the iteration converges to the one closest to the nominal
-//! command — the arm ends up shaped as nearly as possible as the user asked —
-//! and so does not depend on the path or the warm start:
+//! A 6-joint arm has 6 unknowns for 3 equations; of all deflected
+//! configurations that reach the point, the iteration converges to the one
+//! closest to the nominal command — the arm ends up shaped as nearly as
+//! possible as the user asked — and so does not depend on the path or the
+//! warm start. It stops only once that shape has settled too (a step would
+//! move no joint by more than `settle_rad`), not at the first state whose tool
+//! point is within tolerance, which a warm and a cold start reach at
+//! different shapes:
 //!
 //! `δ ← Jᵀ (J Jᵀ + λ² I)⁻¹ (e + J δ)`, `qa = q_nominal + δ`,
 //!
@@ -65,15 +69,31 @@ pub struct CompensationOptions<T> {
     pub damping_m: T,
     /// Give up after this many iterations.
     pub max_iterations: u32,
+    /// With the tool point within tolerance, the solve goes on until a step
+    /// would move no deflected joint by more than this, rad (m for a
+    /// prismatic joint): the null-space part of the shape has then settled
+    /// too, so where the solve ends does not depend on where it started.
+    pub settle_rad: T,
+}
+
+impl<T: Real> CompensationOptions<T> {
+    /// Whether the step from deflected angles `qa` to `next` moves no joint
+    /// by more than [`settle_rad`](Self::settle_rad).
+    pub fn settles(&self, qa: &[T], next: &[T]) -> bool {
+        qa.iter()
+            .zip(next)
+            .all(|(a, b)| (*b - *a).abs() <= self.settle_rad)
+    }
 }
 
 impl<T: Real> Default for CompensationOptions<T> {
-    /// 1 µm, λ₀ = 1 µm, 10 iterations.
+    /// 1 µm, λ₀ = 1 µm, 10 iterations, shape settled to 1 µrad.
     fn default() -> Self {
         Self {
             tolerance_m: real(1e-6),
             damping_m: real(1e-6),
             max_iterations: 10,
+            settle_rad: real(1e-6),
         }
     }
 }
@@ -189,14 +209,11 @@ impl<T: Real> Chain<T> {
             let evaluation = self.evaluate(&qa, beta, &target, payload_kg, options.tolerance_m)?;
             let mut current = evaluation.state;
             current.iterations = iterations;
-            if current.converged {
-                return Ok(current);
-            }
             let lin = match accepted {
-                // Worse than the accepted state (near singular or unreachable
-                // targets): retry from there with a more strongly damped,
+                // Worse than the accepted state and off target (near singular or
+                // unreachable targets): retry from there with a more strongly damped,
                 // purely corrective step; out of tries, the accepted state is the answer.
-                Some((best, lin)) if current.error_m > best.error_m => {
+                Some((best, lin)) if !current.converged && current.error_m > best.error_m => {
                     if rejections >= MAX_REJECTIONS || iterations >= options.max_iterations {
                         return Ok(Compensation { iterations, ..best });
                     }
@@ -214,10 +231,15 @@ impl<T: Real> Chain<T> {
                     lin
                 }
             };
-            iterations += 1;
-            (qa, beta) = lin
+            let (next_qa, next_beta) = lin
                 .next_state(rejections, options.damping_m)
                 .ok_or(DeflectionError::NotFinite)?;
+            // On target, the step only pulls the shape towards the nominal one.
+            if current.converged && options.settles(&qa, &next_qa) {
+                return Ok(current);
+            }
+            iterations += 1;
+            (qa, beta) = (next_qa, next_beta);
         }
     }
 }
@@ -458,11 +480,8 @@ mod tests {
     fn warm_start_gives_the_same_command_as_a_cold_start() {
         let mut rng = StdRng::seed_from_u64(4);
         let nominal = lrm_like_arm::<f64>().chain();
-        let calibrated = perturbed(&mut rng).chain();
-        let opts = CompensationOptions {
-            tolerance_m: 1e-9,
-            ..Default::default()
-        };
+        let perturbed = perturbed(&mut rng);
+        let opts = CompensationOptions::default();
         let q0 = [0.1, 0.5, -0.3, 0.2, 0.8, 0.0];
         let q1 = [0.12, 0.52, -0.31, 0.2, 0.79, 0.01];
         let t0 = nominal
@@ -471,22 +490,28 @@ mod tests {
         let t1 = nominal
             .tool_point(&q1, 0.0, &crate::SolverOptions::default())
             .unwrap();
-        let first = calibrated.compensate(&q0, &t0, 0.0, None, &opts).unwrap();
-        let warm = calibrated
-            .compensate(&q1, &t1, 0.0, Some(&first), &opts)
-            .unwrap();
-        let cold = calibrated.compensate(&q1, &t1, 0.0, None, &opts).unwrap();
-        assert!(warm.converged && cold.converged);
-        for i in 0..6 {
-            // The stop test looks at the position only, so what is left in the
-            // null space differs by micro-radians; a path-dependent solve would
-            // carry the previous frame's null-space offset (milliradians).
-            assert!(
-                (warm.q[i] - cold.q[i]).abs() < 1e-5,
-                "joint {i}: {} vs {}",
-                warm.q[i],
-                cold.q[i]
-            );
+        // Also with the parallel shoulder and elbow twisted (Hayati's β).
+        for beta in [0.0, 0.004, -0.01] {
+            let mut arm = perturbed;
+            arm.joints[1].beta = beta;
+            let calibrated = arm.chain();
+            let first = calibrated.compensate(&q0, &t0, 0.0, None, &opts).unwrap();
+            let warm = calibrated
+                .compensate(&q1, &t1, 0.0, Some(&first), &opts)
+                .unwrap();
+            let cold = calibrated.compensate(&q1, &t1, 0.0, None, &opts).unwrap();
+            assert!(warm.converged && cold.converged);
+            for i in 0..6 {
+                // Both end once the shape has settled to `settle_rad`; stopping at
+                // the first state on target would keep the previous solution's
+                // null-space offset (tens of microradians here).
+                assert!(
+                    (warm.q[i] - cold.q[i]).abs() < 1e-5,
+                    "β {beta}, joint {i}: {} vs {}",
+                    warm.q[i],
+                    cold.q[i]
+                );
+            }
         }
     }
 

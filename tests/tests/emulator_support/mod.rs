@@ -327,22 +327,12 @@ impl RawLink {
 }
 
 /// A calibration for the bundled arm with known errors and compliances, so that compensation
-/// has work to do, servo curves of 5 to 9 knots with a bow between them, so that the board
-/// maps angle to pulse through every segment, play in every joint, so that the board
-/// offsets it, and springs that soften with torque; `id` tells two of them apart in `status`.
+/// has work to do, Hayati's twist of the parallel shoulder and elbow (`j2.beta`, which our
+/// option fits: a twisted link is the board's dearer case), servo curves of 5 to 9 knots with
+/// a bow between them, so that the board maps angle to pulse through every segment, play in
+/// every joint, so that the board offsets it, and springs that soften with torque; `id` tells
+/// two of them apart in `status`.
 pub fn test_calibration(id: u32) -> protocol::Calibration {
-    calibration_with(id, 0.0)
-}
-
-/// [`test_calibration`] with Hayati's twist of the parallel shoulder and
-/// elbow (`j2.beta`), which our option fits: a twisted link is the board's
-/// dearer case, the one the cycle benchmark measures.
-pub fn twisted_test_calibration(id: u32) -> protocol::Calibration {
-    calibration_with(id, 0.004)
-}
-
-/// The test calibration of `id` with a twist of `beta` rad on link 2.
-fn calibration_with(id: u32, beta: f64) -> protocol::Calibration {
     use model::ParamId;
     let nominal = lrmcal_core::io::arm_source::bundled("lrm")
         .expect("bundled arm")
@@ -351,7 +341,7 @@ fn calibration_with(id: u32, beta: f64) -> protocol::Calibration {
         "j2.theta", "j3.a", "j4.alpha", "tool.z", "k2", "k3", "k5", "k0", "j2.beta",
     ];
     let scale = 1.0 + f64::from(id % 7) / 10.0;
-    let errors = [0.01, 0.002, -0.008, 0.003, 0.05, 0.08, 0.1, 0.02, beta].map(|e| e * scale);
+    let errors = [0.01, 0.002, -0.008, 0.003, 0.05, 0.08, 0.1, 0.02, 0.004].map(|e| e * scale);
     let ids: Vec<ParamId> = names
         .iter()
         .map(|n| ParamId::from_name(n).expect("known parameter"))

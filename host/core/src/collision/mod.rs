@@ -2,6 +2,8 @@
 //! placed on the links of an arm ([`volumes`]), where the planner and the
 //! inverse kinematics measure distances between them.
 
+mod placing;
+mod skeleton;
 pub mod spec;
 pub mod volumes;
 

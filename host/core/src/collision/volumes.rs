@@ -16,11 +16,13 @@
 use std::fmt;
 
 use model::{Arm, ChainFrames, PerJoint};
-use nalgebra::{Isometry3, IsometryMatrix3, Point3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, IsometryMatrix3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::shape::{Capsule, Cuboid};
 use serde::Serialize;
 
-use super::spec::{BodySpec, CollisionSpec, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace};
+use super::placing::{non_negative, place};
+use super::skeleton::Skeleton;
+use super::spec::{CollisionSpec, FrameRef, SpecError, SpecPlace};
 
 /// Radius of the skeleton's capsules per metre of arm (the summed lengths of
 /// the links' `d` and `a` offsets).
@@ -149,67 +151,6 @@ impl fmt::Display for Contact {
         match self {
             Self::Ground { body } => write!(f, "{body} too close to the ground"),
             Self::SelfCollision { a, b } => write!(f, "{a} too close to {b}"),
-        }
-    }
-}
-
-/// The arm's skeleton in one pose: frame origins, the foot of each link's
-/// `d` offset, and how far along the arm each lies.
-struct Skeleton {
-    /// The arm's joints, n.
-    joints: usize,
-    /// Origin of DH frame i (0..=n), world.
-    origins: Vec<Vector3<f64>>,
-    /// For link i (1-based), the point `d_i` along frame i-1's z axis, world.
-    feet: Vec<Vector3<f64>>,
-    /// `d_i` of link i, m (signed, along frame i-1's z).
-    d_m: Vec<f64>,
-    /// Distance along the skeleton from the base origin to origin i, m.
-    arc_m: Vec<f64>,
-    /// The tool point in frame n, m.
-    tool_in_flange: Vector3<f64>,
-}
-
-impl Skeleton {
-    fn of(frames: &ChainFrames<f64>) -> Self {
-        let joints = frames.frames.len() - 1;
-        let origins: Vec<_> = frames.frames.iter().map(|f| f.translation.vector).collect();
-        let mut feet = origins.clone();
-        let mut d_m = vec![0.0; joints + 1];
-        let mut arc_m = vec![0.0; joints + 1];
-        for i in 1..=joints {
-            let z = frames.frames[i - 1]
-                .rotation
-                .matrix()
-                .column(2)
-                .into_owned();
-            d_m[i] = (origins[i] - origins[i - 1]).dot(&z);
-            feet[i] = origins[i - 1] + z * d_m[i];
-            arc_m[i] = arc_m[i - 1] + d_m[i].abs() + (origins[i] - feet[i]).norm();
-        }
-        let tool_in_flange = frames.frames[joints]
-            .inverse_transform_point(&Point3::from(frames.tool_point))
-            .coords;
-        Self {
-            joints,
-            origins,
-            feet,
-            d_m,
-            arc_m,
-            tool_in_flange,
-        }
-    }
-
-    /// The summed lengths of the links' offsets, m.
-    fn length_m(&self) -> f64 {
-        self.arc_m[self.joints]
-    }
-
-    /// How far along the skeleton a point of `frame` is (its frame origin's distance), m.
-    fn arc_of(&self, frame: FrameRef) -> f64 {
-        match frame {
-            FrameRef::Dh(i) => self.arc_m[i],
-            FrameRef::Tool => self.arc_m[self.joints] + self.tool_in_flange.norm(),
         }
     }
 }
@@ -404,133 +345,6 @@ impl BodySet {
                 b: self.bodies[j].name.clone(),
             })
         })
-    }
-}
-
-/// `value` if it is a finite number >= 0.
-fn non_negative(value: f64, place: SpecPlace) -> Result<f64, SpecError> {
-    if value.is_finite() && value >= 0.0 {
-        Ok(value)
-    } else {
-        Err(SpecError::new(
-            place,
-            format!("expected a finite size >= 0 m, found {value}"),
-        ))
-    }
-}
-
-/// A spec point as an anchor on a DH frame (tool points move into frame 6).
-fn anchor_of(point: &PointSpec, tool: &IsometryMatrix3<f64>, joints: usize) -> Anchor {
-    let p = Point3::from(point.xyz_m);
-    match point.frame {
-        FrameRef::Dh(frame) => Anchor {
-            frame,
-            offset_m: p.coords,
-        },
-        FrameRef::Tool => Anchor {
-            frame: joints,
-            offset_m: (tool * p).coords,
-        },
-    }
-}
-
-/// Places body `index` of the spec on the arm.
-fn place(
-    index: usize,
-    spec: &BodySpec,
-    tool: &IsometryMatrix3<f64>,
-    skeleton: &Skeleton,
-) -> Result<Body, SpecError> {
-    let at = |key| SpecPlace::Body { index, key };
-    let joints = skeleton.joints;
-    let frames = match spec.shape {
-        ShapeSpec::Capsule { from, to, .. } => {
-            [(from.frame, "capsule.from"), (to.frame, "capsule.to")]
-        }
-        ShapeSpec::Box { frame, .. } => [(frame, "box.frame"), (frame, "box.frame")],
-    };
-    if let Some((frame, key)) = frames.iter().find(|(f, _)| f.dh_index(joints) > joints) {
-        return Err(SpecError::new(
-            at(key),
-            format!("expected a frame of the arm (base, j0 … j{joints} or tool), found `{frame}`"),
-        ));
-    }
-    let (shape, ends, links) = match spec.shape {
-        ShapeSpec::Capsule { from, to, radius_m } => {
-            non_negative(radius_m, at("capsule.radius"))?;
-            let [from_links, to_links] = [from.links(joints), to.links(joints)];
-            let links = [
-                from_links[0].max(to_links[0]),
-                from_links[1].min(to_links[1]),
-            ];
-            if links[0] > links[1] {
-                return Err(SpecError::new(
-                    at("capsule"),
-                    format!(
-                        "a body must move with one link, but `from` ({}) moves with {} and `to` ({}) with {}; \
-                         split it into one body per link",
-                        from.frame,
-                        link_names(from_links),
-                        to.frame,
-                        link_names(to_links)
-                    ),
-                ));
-            }
-            let shape = Shape::Capsule {
-                from: anchor_of(&from, tool, joints),
-                to: anchor_of(&to, tool, joints),
-                radius_m,
-            };
-            (shape, [from.frame, to.frame], links)
-        }
-        ShapeSpec::Box {
-            frame,
-            min_m,
-            max_m,
-        } => {
-            let finite = min_m.iter().chain(&max_m).all(|x| x.is_finite());
-            if let Some(axis) = (0..3).find(|&k| !finite || min_m[k] > max_m[k]) {
-                return Err(SpecError::new(
-                    at("box"),
-                    format!(
-                        "expected `min` <= `max` on every axis, found {} > {} on {}",
-                        min_m[axis],
-                        max_m[axis],
-                        ["x", "y", "z"][axis]
-                    ),
-                ));
-            }
-            let centre = (Vector3::from(min_m) + Vector3::from(max_m)) / 2.0;
-            let in_frame =
-                IsometryMatrix3::from_parts(Translation3::from(centre), Default::default());
-            let (dh, placement) = match frame {
-                FrameRef::Dh(i) => (i, in_frame),
-                FrameRef::Tool => (joints, tool * in_frame),
-            };
-            let shape = Shape::Box {
-                frame: dh,
-                placement,
-                half_extents_m: (Vector3::from(max_m) - Vector3::from(min_m)) / 2.0,
-            };
-            (shape, [frame, frame], [dh, dh])
-        }
-    };
-    let arcs = ends.map(|f| skeleton.arc_of(f));
-    Ok(Body {
-        name: spec.name.clone(),
-        shapes: vec![shape],
-        links,
-        span_m: [arcs[0].min(arcs[1]), arcs[0].max(arcs[1])],
-        floor: spec.floor.unwrap_or(links[0] >= 2),
-    })
-}
-
-/// `link 2` or `links 2 and 3`.
-fn link_names([lo, hi]: [usize; 2]) -> String {
-    if lo == hi {
-        format!("link {lo}")
-    } else {
-        format!("links {lo} and {hi}")
     }
 }
 

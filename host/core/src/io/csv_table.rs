@@ -47,7 +47,7 @@ pub fn q_column(i: usize, kind: JointKind) -> &'static str {
 
 /// The joint-angle columns that may be absent: all but the first (a file
 /// of an arm of `n` joints has `q1_deg` to `qn_deg`).
-pub const OPTIONAL_Q_COLUMNS: [&str; model::MAX_JOINTS - 1] = [
+const OPTIONAL_Q_COLUMNS: [&str; model::MAX_JOINTS - 1] = [
     "q2_deg", "q3_deg", "q4_deg", "q5_deg", "q6_deg", "q7_deg", "q8_deg", "q9_deg", "q10_deg",
 ];
 
@@ -58,10 +58,22 @@ pub const XYZ_COLUMNS: [&str; 3] = ["x_mm", "y_mm", "z_mm"];
 pub struct Schema {
     /// Every column, in the order writers write them.
     pub columns: &'static [&'static str],
-    /// Those of `columns` that may be absent.
+    /// Those of `columns` that may be absent, besides the joint columns
+    /// after the first (`OPTIONAL_Q_COLUMNS`: an arm has as many as it has joints).
     pub optional: &'static [&'static str],
     /// What to do with other columns.
     pub extra: Extra,
+}
+
+impl Schema {
+    /// The columns of `columns` that may be absent: `optional` and the joint
+    /// columns after the first.
+    fn optional_columns(&self) -> impl Iterator<Item = &'static str> + '_ {
+        let joints = OPTIONAL_Q_COLUMNS
+            .iter()
+            .filter(|c| self.columns.contains(c));
+        self.optional.iter().chain(joints).copied()
+    }
 }
 
 /// What a reader does with a column its kind of file does not define.
@@ -519,7 +531,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
     if let Some(&missing) = schema
         .columns
         .iter()
-        .find(|c| !has(c) && !schema.optional.contains(c))
+        .find(|c| !has(c) && !schema.optional_columns().any(|o| o == **c))
     {
         return Err(InputError::new(
             at(missing),
@@ -585,7 +597,7 @@ fn check_header(record: &StringRecord, line: u64, schema: &Schema) -> Result<Hea
 /// unit appears in it (`payload_g` for `load_kg`), in any case.
 fn misspelt_optional(name: &str, schema: &Schema) -> Option<&'static str> {
     let name = name.to_lowercase();
-    schema.optional.iter().copied().find(|optional| {
+    schema.optional_columns().find(|optional| {
         let stem = optional.split('_').next().unwrap_or(optional);
         name.contains(stem) || strsim::damerau_levenshtein(&name, optional) <= 2
     })

@@ -14,8 +14,8 @@ use crate::dataset::{
 };
 use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
-    Extra, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row,
-    format_joint, format_mm, q_column,
+    Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_joint, format_mm,
+    q_column,
 };
 use crate::io::{atomic, read_text};
 
@@ -45,18 +45,7 @@ pub const COLUMNS: [&str; 16] = [
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
-    optional: &[
-        OPTIONAL_Q_COLUMNS[0],
-        OPTIONAL_Q_COLUMNS[1],
-        OPTIONAL_Q_COLUMNS[2],
-        OPTIONAL_Q_COLUMNS[3],
-        OPTIONAL_Q_COLUMNS[4],
-        OPTIONAL_Q_COLUMNS[5],
-        OPTIONAL_Q_COLUMNS[6],
-        OPTIONAL_Q_COLUMNS[7],
-        OPTIONAL_Q_COLUMNS[8],
-        TARGET_COLUMN,
-    ],
+    optional: &[TARGET_COLUMN],
     extra: Extra::Refuse,
 };
 

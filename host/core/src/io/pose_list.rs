@@ -14,8 +14,8 @@ use model::{Arm, JointKind, PerJoint};
 use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{
-    Extra, LineRows, OPTIONAL_Q_COLUMNS, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row,
-    format_joint, q_column,
+    Extra, LineRows, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row, format_joint,
+    q_column,
 };
 use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
@@ -38,18 +38,7 @@ pub const COLUMNS: [&str; 12] = [
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,
-    optional: &[
-        "load_kg",
-        OPTIONAL_Q_COLUMNS[0],
-        OPTIONAL_Q_COLUMNS[1],
-        OPTIONAL_Q_COLUMNS[2],
-        OPTIONAL_Q_COLUMNS[3],
-        OPTIONAL_Q_COLUMNS[4],
-        OPTIONAL_Q_COLUMNS[5],
-        OPTIONAL_Q_COLUMNS[6],
-        OPTIONAL_Q_COLUMNS[7],
-        OPTIONAL_Q_COLUMNS[8],
-    ],
+    optional: &["load_kg"],
     extra: Extra::Ignore,
 };
 

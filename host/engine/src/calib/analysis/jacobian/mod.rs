@@ -37,9 +37,11 @@
 //! The test module checks every column against central differences of the
 //! model itself.
 
+mod state;
+
+use model::SolverOptions;
 use model::params::{ParamKind, ParamPart};
-use model::{PerFrame, SolverOptions};
-use nalgebra::{DMatrix, DVector, IsometryMatrix3, Matrix3xX, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3xX, Vector3};
 use rayon::prelude::*;
 
 use crate::calib::parameters::joint_columns;
@@ -47,6 +49,7 @@ use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::fit_start;
 use crate::calib::parameters::targets::{chain_of, deflection_error, target_chains};
 use crate::calib::{CalibError, Rig, Sample};
+use state::{State, Twist};
 
 /// Samples per share of the work on another core (a few ms of it).
 const PARALLEL_CHUNK: usize = 1024;
@@ -95,43 +98,6 @@ pub fn slopes(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Result<Slopes,
     Ok(Slopes { params, joints })
 }
 
-/// A small rigid motion of the part of the arm beyond `from`: a point it
-/// moves goes `ω × x + v`, world frame.
-#[derive(Clone, Copy, Debug)]
-struct Twist {
-    /// Angular rate, rad per unit of the parameter.
-    w: Vector3<f64>,
-    /// Velocity of the point at the world origin, m per unit.
-    v: Vector3<f64>,
-    /// Frames `from..=n` and bodies `max(from, 1)..` move; `n + 1`
-    /// ([`State::payload`]): the payload alone (a tool frame parameter).
-    from: usize,
-}
-
-impl Twist {
-    /// A turn about `axis` through `point`.
-    fn about(axis: Vector3<f64>, point: &Vector3<f64>, from: usize) -> Self {
-        Self {
-            w: axis,
-            v: point.cross(&axis),
-            from,
-        }
-    }
-
-    /// A slide along `direction`.
-    fn along(direction: Vector3<f64>, from: usize) -> Self {
-        Self {
-            w: Vector3::zeros(),
-            v: direction,
-            from,
-        }
-    }
-
-    fn velocity(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        self.w.cross(x) + self.v
-    }
-}
-
 /// The axes of a `Trans · Rz(yaw) Ry(pitch) Rx(roll)` frame's roll, pitch and
 /// yaw, in its parent's frame: the derivative of each angle turns the frame
 /// about one of them.
@@ -143,166 +109,6 @@ fn rpy_axes([_, pitch, yaw]: [f64; 3]) -> [Vector3<f64>; 3] {
         Vector3::new(-sy, cy, 0.0),
         Vector3::z(),
     ]
-}
-
-/// One deflected state as the derivatives see it, world frame.
-///
-/// Its `n + 1` coordinates are the `n` joint angles, then the base tilt;
-/// the bodies that carry weight are links `1..=n`, then the payload (`n + 1`).
-struct State {
-    /// The arm's joints, n.
-    joints: usize,
-    /// Frames 0 (tilted base) ..= n.
-    frames: PerFrame<IsometryMatrix3<f64>>,
-    /// Gravity, m/s².
-    gravity: Vector3<f64>,
-    /// Axis and origin of each state coordinate's torque: joint `i + 1`
-    /// about `z(i)` through `o(i)`, then the base tilt about `y(0)` through `o(0)`.
-    axes: Vec<(Vector3<f64>, Vector3<f64>)>,
-    /// `M_s`: mass of bodies `s..=n+1` (index 0 unused, n + 2 none), kg.
-    mass: Vec<f64>,
-    /// `C_s`: `Σ m c` over bodies `s..=n+1`, world, kg·m.
-    moment: Vec<Vector3<f64>>,
-    /// The compliances in state order (`k1..kn`, `k0`), rad/Nm.
-    compliance: Vec<f64>,
-    /// The springs' softenings in state order, 1/Nm.
-    softening: Vec<f64>,
-    /// The springs' rates at their torques, `k (1 + 2 s |τ|)`, rad/Nm.
-    rate: Vec<f64>,
-    /// Whether each joint slides: its coordinate is a length along its axis
-    /// and its generalised force the weight beyond it along the axis.
-    prismatic: Vec<bool>,
-}
-
-impl State {
-    fn new(
-        chain: &model::Chain<f64>,
-        rig: &Rig,
-        frames: PerFrame<IsometryMatrix3<f64>>,
-        load: f64,
-    ) -> Self {
-        let n = frames.len() - 1;
-        let payload = n + 1;
-        let mut mass = vec![0.0; n + 3];
-        let mut moment = vec![Vector3::zeros(); n + 3];
-        let last = &frames[n];
-        mass[payload] = load;
-        moment[payload] = (last.rotation * chain.payload_com + last.translation.vector) * load;
-        for j in (1..=n).rev() {
-            let link = &chain.links[j - 1];
-            let f = &frames[j];
-            mass[j] = mass[j + 1] + link.mass;
-            moment[j] =
-                moment[j + 1] + f.rotation * link.mass_com + f.translation.vector * link.mass;
-        }
-        let axes = (0..=n)
-            .map(|e| {
-                let (frame, column) = if e < n { (e, 2) } else { (0, 1) };
-                let f = &frames[frame];
-                (
-                    f.rotation.matrix().column(column).into_owned(),
-                    f.translation.vector,
-                )
-            })
-            .collect();
-        // A spring's value in state order: the joints' (`of`), then the base's.
-        let springs = |of: fn(&model::kinematics::Link<f64>) -> f64, base: f64| -> Vec<f64> {
-            chain.links.iter().map(of).chain([base]).collect()
-        };
-        let compliance = springs(|l| l.compliance, chain.base_compliance);
-        let softening = springs(|l| l.softening, chain.base_softening);
-        let mut state = Self {
-            prismatic: chain.links.iter().map(|l| l.prismatic).collect(),
-            joints: n,
-            frames,
-            gravity: rig.arm.gravity_vector(),
-            axes,
-            mass,
-            moment,
-            compliance,
-            softening,
-            rate: Vec::new(),
-        };
-        let tau = state.torques();
-        state.rate = (0..=n)
-            .map(|e| state.compliance[e] * (1.0 + 2.0 * state.softening[e] * tau[e].abs()))
-            .collect();
-        state
-    }
-
-    /// The index of the payload among the bodies, n + 1.
-    fn payload(&self) -> usize {
-        self.joints + 1
-    }
-
-    /// The bodies whose weight loads state coordinate `e`'s torque, from
-    /// the first, and the frame its axis is fixed in.
-    fn reach(&self, e: usize) -> (usize, usize) {
-        if e < self.joints { (e + 1, e) } else { (1, 0) }
-    }
-
-    /// Whether state coordinate `e` is a prismatic joint's.
-    fn slides(&self, e: usize) -> bool {
-        e < self.joints && self.prismatic[e]
-    }
-
-    /// The gravity torques in state order, Nm (a prismatic joint's force, N).
-    fn torques(&self) -> Vec<f64> {
-        (0..=self.joints)
-            .map(|e| {
-                let (first, _) = self.reach(e);
-                let (axis, origin) = &self.axes[e];
-                if self.slides(e) {
-                    return axis.dot(&self.gravity) * self.mass[first];
-                }
-                let r = self.moment[first] - origin * self.mass[first];
-                axis.dot(&r.cross(&self.gravity))
-            })
-            .collect()
-    }
-
-    /// How the torques change under `t` (module docs). A prismatic joint's
-    /// force changes only when its axis turns: the weight beyond it moves
-    /// rigidly and keeps its size.
-    fn torque_slopes(&self, t: &Twist) -> Vec<f64> {
-        let turned_gravity = t.w.cross(&self.gravity);
-        (0..=self.joints)
-            .map(|e| {
-                let (first, axis_frame) = self.reach(e);
-                let (axis, origin) = &self.axes[e];
-                if self.slides(e) {
-                    return if t.from <= axis_frame {
-                        -axis.dot(&turned_gravity) * self.mass[first]
-                    } else {
-                        0.0
-                    };
-                }
-                if t.from <= axis_frame {
-                    let r = self.moment[first] - origin * self.mass[first];
-                    -axis.dot(&r.cross(&turned_gravity))
-                } else {
-                    let from = t.from.max(first);
-                    let moved = t.w.cross(&self.moment[from]) + t.v * self.mass[from];
-                    axis.dot(&moved.cross(&self.gravity))
-                }
-            })
-            .collect()
-    }
-
-    /// Whether nothing yields: the deflection does not respond to anything.
-    fn rigid(&self) -> bool {
-        self.compliance.iter().all(|k| *k == 0.0)
-    }
-
-    /// The motion of the state coordinate `e`: joint `e + 1` turns about
-    /// its axis, the base tilts about `y(0)`.
-    fn state_twist(&self, e: usize) -> Twist {
-        let (axis, origin) = &self.axes[e];
-        if self.slides(e) {
-            return Twist::along(*axis, e + 1);
-        }
-        Twist::about(*axis, origin, if e < self.joints { e + 1 } else { 0 })
-    }
 }
 
 /// Rows of one sample: its measured point's derivatives with respect to

@@ -31,22 +31,21 @@
 //! is `simulate`'s rule whenever a joint's command runs one way by more than
 //! the play, as it does between two measured poses.
 
+mod targets;
+
+pub use targets::{Target, Targets, targets};
+
 use std::time::Duration;
 
-use firmware::{CHANNELS, Config};
+use firmware::CHANNELS;
 use model::{Arm, PerJoint};
-use nalgebra::Vector3;
 use protocol::{Calibration, CompensationMode, Faults, PerChannel, Timing};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 
 use super::TrueArm;
 use crate::calib::{ModelOption, parameters::option};
-use crate::device::commanded::Commanded;
 use crate::device::memory::MemoryBoard;
 use crate::device::{Client, ClientError};
-use crate::ik::{self, IkError, IkOptions};
-use crate::plan::PlanConfig;
+use crate::ik::IkError;
 use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats};
 
@@ -55,8 +54,6 @@ pub const DEFAULT_TARGETS: usize = 100;
 
 /// Servo frames a move may take before the board counts as stuck: 60 s.
 const MAX_FRAMES: u32 = 3_000;
-/// Samples drawn per target wanted before giving up: most random poses are clear.
-const SAMPLES_PER_TARGET: usize = 50;
 
 /// Why the positioning error could not be measured.
 #[derive(Debug, thiserror::Error)]
@@ -121,123 +118,6 @@ impl From<ClientError> for PositioningError {
     fn from(e: ClientError) -> Self {
         Self::Board(Box::new(e))
     }
-}
-
-/// One target: a tool point and each board's nominal joint targets for it.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Target {
-    /// Where the tool is asked to go, world frame, m.
-    pub point_m: Vector3<f64>,
-    /// The nominal arm's joint targets for it, one per board (in the order
-    /// of the boards), each nearest that board's previous target's, rad.
-    pub q: Vec<PerJoint<f64>>,
-}
-
-/// The targets of a comparison, and how many random tool points were left
-/// out because a board could not command any solution for them.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Targets {
-    /// The targets, in visiting order.
-    pub targets: Vec<Target>,
-    /// Random tool points left out: some board's compensation could not
-    /// reach them within its joint ranges and largest corrections.
-    pub left_out: usize,
-}
-
-/// `count` random tool points the nominal arm reaches clear of collisions
-/// within the joint ranges the board accepts without a calibration, each
-/// with every board's nominal joint targets solved as `lrmcal move --xyz`
-/// solves them on that board: nearest the pose of the board's target before
-/// (home, all zero, for the first) among those its compensation (for
-/// `payload_kg`) can command.
-pub fn targets(
-    nominal: &Arm<f64>,
-    count: usize,
-    seed: u64,
-    collisions: &PlanConfig,
-    boards: &[(String, Option<Calibration>)],
-    payload_kg: f64,
-) -> Result<Targets, PositioningError> {
-    if nominal.joints.len() > CHANNELS {
-        return Err(PositioningError::TooManyJoints {
-            joints: nominal.joints.len(),
-        });
-    }
-    let config = Config::default();
-    let board =
-        firmware::servo::joint_limits(None, config.hard_limits_rad, config.default_limits_rad);
-    let mut arm = *nominal;
-    for (joint, [lo, hi]) in arm.joints.iter_mut().zip(board) {
-        joint.limits = [
-            joint.limits[0].max(f64::from(lo)),
-            joint.limits[1].min(f64::from(hi)),
-        ];
-    }
-    let chain = arm.chain();
-    let options = IkOptions {
-        collisions: Some(collisions.clone()),
-        ..IkOptions::default()
-    };
-    let commanded: Vec<Option<Commanded>> = boards
-        .iter()
-        .map(|(_, c)| {
-            c.as_ref()
-                .map(|c| Commanded::new(c, CompensationMode::Full, payload_kg))
-        })
-        .collect();
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut found = Vec::with_capacity(count);
-    let mut left_out = 0;
-    let mut from = vec![PerJoint::splat(arm.joints.len(), 0.0); boards.len().max(1)];
-    let tries = count * SAMPLES_PER_TARGET;
-    for _ in 0..tries {
-        if found.len() == count {
-            break;
-        }
-        let q = PerJoint::from_fn(arm.joints.len(), |i| {
-            let [lo, hi] = arm.joints[i].limits;
-            rng.random_range(lo..=hi)
-        });
-        if collisions.contact(&chain.frames(&q, 0.0)).is_some() {
-            continue;
-        }
-        let point_m = chain.rigid_tool_point(&q);
-        let mut solved = Vec::with_capacity(from.len());
-        for (b, start) in from.iter().enumerate() {
-            let admit = |q: &[f64]| match commanded.get(b).and_then(Option::as_ref) {
-                Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
-                None => Ok(()),
-            };
-            match ik::solve_position_admitted(&arm, &point_m, start, &options, &admit) {
-                Ok(solution) => solved.push(solution.q),
-                Err(IkError::Refused { .. }) => break,
-                Err(source) => {
-                    return Err(PositioningError::Ik {
-                        index: found.len(),
-                        target_mm: (point_m * 1e3).into(),
-                        source: Box::new(source),
-                    });
-                }
-            }
-        }
-        if solved.len() < from.len() {
-            left_out += 1;
-            continue;
-        }
-        from.clone_from(&solved);
-        found.push(Target { point_m, q: solved });
-    }
-    if found.len() < count {
-        return Err(PositioningError::Targets {
-            found: found.len(),
-            wanted: count,
-            tries,
-        });
-    }
-    Ok(Targets {
-        targets: found,
-        left_out,
-    })
 }
 
 /// Why the board cannot drive `arm` (what `lrmcal push` refuses): more
@@ -508,6 +388,8 @@ pub fn table(rows: &[Positioning]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::device::commanded::Commanded;
+    use crate::plan::PlanConfig;
     use crate::sim::SimConfig;
     use crate::sim::test_support::bundled_arm;
 
@@ -683,7 +565,7 @@ mod tests {
         assert_eq!(board_refuses(&bundled_arm()), None);
         assert_eq!(board_refuses(&so101()), None);
         let urdf = lrmcal_core::io::arm_urdf::parse(
-            include_str!("../../../core/arms/so101/so101.urdf"),
+            include_str!("../../../../core/arms/so101/so101.urdf"),
             None,
             Some("gripper_frame_link"),
         )
