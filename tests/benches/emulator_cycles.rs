@@ -42,8 +42,8 @@ fn shorter(calibration: &protocol::Calibration, cut: usize) -> protocol::Calibra
     for arm in [&mut shorter.nominal, &mut shorter.calibrated] {
         arm.joints = model::PerJoint::from_slice(&arm.joints[..joints]).expect("fewer joints");
     }
-    shorter.home_rad = protocol::PerChannel::from_slice(&calibration.home_rad[..joints])
-        .expect("fewer joints");
+    shorter.home_rad =
+        protocol::PerChannel::from_slice(&calibration.home_rad[..joints]).expect("fewer joints");
     shorter.max_correction_rad =
         protocol::PerChannel::from_slice(&calibration.max_correction_rad[..joints])
             .expect("fewer joints");

@@ -2,12 +2,14 @@
 //! placed on the links of an arm ([`volumes`]), where the planner and the
 //! inverse kinematics measure distances between them.
 
+mod body;
 mod placing;
 mod skeleton;
 pub mod spec;
 pub mod volumes;
 
+pub use body::{Anchor, Body, Shape};
 pub use spec::{
     BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
 };
-pub use volumes::{Anchor, Body, BodySet, Contact, SKELETON_RADIUS_PER_LENGTH, Shape};
+pub use volumes::{BodySet, Contact, SKELETON_RADIUS_PER_LENGTH};

@@ -3,9 +3,9 @@
 
 use nalgebra::{IsometryMatrix3, Point3, Translation3, Vector3};
 
+use super::body::{Anchor, Body, Shape};
 use super::skeleton::Skeleton;
 use super::spec::{BodySpec, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace};
-use super::volumes::{Anchor, Body, Shape};
 
 /// `value` if it is a finite number >= 0.
 pub(super) fn non_negative(value: f64, place: SpecPlace) -> Result<f64, SpecError> {

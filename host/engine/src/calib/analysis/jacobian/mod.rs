@@ -408,16 +408,7 @@ mod tests {
             .map(ParamKey::Arm)
             .collect();
         ids.extend((0..=LIFT_ARM_JOINTS as u8).map(|spring| ParamKey::Softening { spring }));
-        let exact = jacobian(&rig, &ids, &samples).unwrap();
-        let reference = central_differences(&rig, &ids, &samples);
-        for (c, id) in ids.iter().enumerate() {
-            let size = reference.column(c).amax();
-            let diff = (exact.column(c) - reference.column(c)).amax();
-            assert!(
-                diff <= 1e-6 * size + 1e-9,
-                "{id}: exact vs differences {diff:e}, size {size:e}"
-            );
-        }
+        assert_columns_match_differences(&rig, &ids, &samples);
     }
 
     /// With our option's parameters on a rig whose springs soften, whose
@@ -451,14 +442,19 @@ mod tests {
             (0..JOINTS).all(|j| approaches.iter().any(|a| a[j] != approaches[0][j])),
             "every joint must arrive both ways in the samples"
         );
-        let exact = jacobian(&rig, &ids, &samples).unwrap();
-        let reference = central_differences(&rig, &ids, &samples);
+        assert_columns_match_differences(&rig, &ids, &samples);
+    }
+
+    /// Every column of `ids` agrees with central differences to 1e-6 of its
+    /// size plus the differences' absolute noise: the solver's 1e-14 over a
+    /// step of a few 1e-6 (a wrist spring's softening moves the point by only
+    /// a micrometre per unit).
+    fn assert_columns_match_differences(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) {
+        let exact = jacobian(rig, ids, samples).unwrap();
+        let reference = central_differences(rig, ids, samples);
         for (c, id) in ids.iter().enumerate() {
             let size = reference.column(c).amax();
             let diff = (exact.column(c) - reference.column(c)).amax();
-            // Plus the differences' absolute noise: the solver's 1e-14 over
-            // a step of a few 1e-6 (a wrist spring's softening moves the
-            // point by only a micrometre per unit).
             assert!(
                 diff <= 1e-6 * size + 1e-9,
                 "{id}: exact vs differences {diff:e}, size {size:e}"
