@@ -24,8 +24,9 @@ DH, base and tool parameter, joint and base compliances, and \
 effects the calibration model does not contain (a smooth servo angle error, direction-dependent \
 play, stiffness that softens with load, tracker noise), each switchable. The softening is the \
 form the calibration model fits; --stiffening-per-nm gives springs that stiffen with load in a \
-form it does not contain, and --servo-error-shape harmonics a servo error with sharper \
-features between the tuned points.\n\n\
+form it does not contain, --servo-error-shape harmonics a servo error with sharper \
+features between the tuned points, and --parallel-twist-deg a tilt between parallel joint axes \
+that the paper's DH parameters cannot hold.\n\n\
 Every pose is measured under every load. Per load the poses are visited in the order of the \
 list, starting from home (all joints at 0), and each joint's play depends on the direction it \
 last moved in. The same seed and settings give byte-identical files.\n\n\
@@ -39,7 +40,8 @@ lrmcal simulate --model-only --out exact.csv      # the paper's model exactly, n
 lrmcal simulate --noise-mm 0.5 --backlash-deg 0 --out m.csv\n  \
 lrmcal simulate --stiffening-per-nm 0.4 --servo-error-shape harmonics --out m.csv\n\n\
 Without --poses the candidates of `lrmcal plan` (its defaults) are measured. The truth file \
-(JSON, SI units) holds the true arm and the 43 errors by name (`j3.d`, `base.pitch`, `k2`, ...); \
+(JSON, SI units) holds the true arm and its errors by name (`j3.d`, `base.pitch`, `k2`, ...: 43 \
+for six joints, and `j2.beta` and the like when --parallel-twist-deg draws the twists); \
 --noise-free writes the same rows as --out without tracker noise. On stderr: the mean distance \
 between the nominal (rigid) model's prediction and the measurement, per load."
 )]
@@ -117,6 +119,11 @@ pub struct SimArgs {
     /// the calibration model does not contain) [default: off].
     #[arg(long, value_name = "C", allow_negative_numbers = true, value_parser = non_negative, conflicts_with = "softening_per_nm")]
     pub stiffening_per_nm: Option<f64>,
+    /// Sigma of the tilt between nominally parallel joint axes that DH cannot
+    /// say (Hayati's twist, across both axes; DH's alpha tilts them about their
+    /// common normal), degrees [default: 0, the axes tilt only as DH says].
+    #[arg(long, value_name = "DEG", default_value_t = 0.0, allow_negative_numbers = true, value_parser = non_negative)]
+    pub parallel_twist_deg: f64,
     /// Sigma of the tracker noise on each axis, mm.
     #[arg(long, value_name = "MM", default_value_t = mm(SimConfig::default().noise_sigma_m), allow_negative_numbers = true, value_parser = non_negative)]
     pub noise_mm: f64,
@@ -149,6 +156,7 @@ impl SimArgs {
                 None => self.softening_per_nm.unwrap_or(scaled.softening_per_nm),
             },
             stiffening_per_nm: self.stiffening_per_nm.unwrap_or(scaled.stiffening_per_nm),
+            parallel_twist_sigma_rad: self.parallel_twist_deg.to_radians(),
             noise_sigma_m: self.noise_mm * 1e-3,
         };
         if self.model_only {

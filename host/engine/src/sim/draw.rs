@@ -11,6 +11,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 
 use super::{Harmonic, ServoError, ServoErrorShape, SimConfig, SimError};
+use crate::calib::parameters::option::parallel_twists;
 
 /// RNG stream of the arm draw; the tracker noise uses [`NOISE_STREAM`].
 const DRAW_STREAM: u64 = 0;
@@ -31,7 +32,8 @@ pub struct TrueArm {
     pub nominal: Arm<f64>,
     /// The true arm in the model's terms: `nominal.with_errors(all, errors)`.
     pub arm: Arm<f64>,
-    /// The true errors (true minus nominal), in [`ParamId::of`] order.
+    /// The true errors (true minus nominal), in [`ParamId::of`] order, then
+    /// the twists of parallel axes when drawn ([`TrueArm::named_errors`]).
     pub errors: Vec<f64>,
     /// Each servo's smooth angle error (zero amplitude when switched off).
     pub servo_errors: Vec<ServoError>,
@@ -114,12 +116,24 @@ impl TrueArm {
             }
         }
 
+        // The twists of nominally parallel axes, drawn after everything else
+        // and kept only when switched on: without them the true arm and its
+        // errors are what they always were.
+        let mut ids = ids;
+        let mut errors = errors;
+        for id in parallel_twists(nominal) {
+            let normal: f64 = rng.sample(StandardNormal);
+            if config.parallel_twist_sigma_rad > 0.0 {
+                ids.push(id);
+                errors.push(normal * config.parallel_twist_sigma_rad);
+            }
+        }
+
         let arm = nominal.with_errors(&ids, &errors);
         // `with_errors` clamps compliances at 0; recompute so `errors` stays exactly true - nominal.
-        let errors = arm
-            .param_values()
-            .zip(nominal.param_values())
-            .map(|(truth, nominal)| truth - nominal)
+        let errors = ids
+            .iter()
+            .map(|id| id.value(&arm) - id.value(nominal))
             .collect();
         Ok(Self {
             seed,
@@ -132,9 +146,15 @@ impl TrueArm {
         })
     }
 
-    /// The true errors with their stable names, in [`ParamId::of`] order.
+    /// The true errors with their stable names, in [`ParamId::of`] order,
+    /// then the twist of each link with nominally parallel axes when the
+    /// configuration draws them.
     pub fn named_errors(&self) -> impl Iterator<Item = (ParamId, f64)> + '_ {
-        ParamId::of(&self.nominal).zip(self.errors.iter().copied())
+        let twists =
+            parallel_twists(&self.nominal).filter(|_| self.config.parallel_twist_sigma_rad > 0.0);
+        ParamId::of(&self.nominal)
+            .chain(twists)
+            .zip(self.errors.iter().copied())
     }
 }
 
@@ -199,6 +219,34 @@ mod tests {
                     "{h:?}"
                 );
             }
+        }
+    }
+
+    /// The twists of parallel axes come on their own: the rest of the arm,
+    /// the servos and the play stay as drawn without them, and the truth
+    /// names them after the other errors.
+    #[test]
+    fn parallel_twists_are_drawn_only_when_switched_on() {
+        let nominal = bundled_arm();
+        let plain = TrueArm::draw(&nominal, 3, &SimConfig::default()).unwrap();
+        assert!(plain.arm.joints.iter().all(|j| j.beta == 0.0));
+        let config = SimConfig {
+            parallel_twist_sigma_rad: 0.5f64.to_radians(),
+            ..SimConfig::default()
+        };
+        let twisted = TrueArm::draw(&nominal, 3, &config).unwrap();
+        let parallel: Vec<ParamId> = parallel_twists(&nominal).collect();
+        assert!(!parallel.is_empty());
+        let mut untwisted = twisted.arm;
+        untwisted.joints.iter_mut().for_each(|j| j.beta = 0.0);
+        assert_eq!(untwisted, plain.arm);
+        assert_eq!(twisted.servo_errors, plain.servo_errors);
+        assert_eq!(twisted.backlash_half_rad, plain.backlash_half_rad);
+        let named: Vec<(ParamId, f64)> = twisted.named_errors().collect();
+        assert_eq!(named.len(), plain.errors.len() + parallel.len());
+        for (id, error) in &named[plain.errors.len()..] {
+            assert!(parallel.contains(id) && *error != 0.0, "{id}: {error}");
+            assert_eq!(id.value(&twisted.arm), *error, "{id}");
         }
     }
 

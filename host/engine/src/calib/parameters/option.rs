@@ -80,7 +80,7 @@ const PARALLEL_RAD: f64 = 1e-5;
 /// parameter holds (a tilt of `alpha` turns one axis about the common
 /// normal, `beta` about the other direction across them). Ours only: the
 /// paper's options keep the paper's parameters.
-fn parallel_twists(arm: &Arm<f64>) -> impl Iterator<Item = ParamId> + '_ {
+pub(crate) fn parallel_twists(arm: &Arm<f64>) -> impl Iterator<Item = ParamId> + '_ {
     let n = arm.joints.len();
     (0..n.saturating_sub(1))
         .filter(|&i| arm.joints[i].alpha.sin().abs() < PARALLEL_RAD)
