@@ -1,5 +1,7 @@
-//! `lrmcal export --urdf`: an arm's rigid geometry (calibrated or nominal) as a
-//! URDF for ROS tools, with what URDF cannot hold said in the file.
+//! `lrmcal export`: an arm's rigid geometry (calibrated or nominal) as a
+//! URDF for ROS tools, with what URDF cannot hold said in the file (`--urdf`);
+//! or a nominal arm, a URDF's chain above all, as lrmcal's own arm file to
+//! complete by hand (`--toml`).
 
 use protocol::{CHANNELS, PerChannel};
 use std::path::{Path, PathBuf};
@@ -9,7 +11,8 @@ use model::Arm;
 use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use lrmcal_core::collision::{BodySet, CollisionSpec};
-use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
+use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
+use lrmcal_core::io::arm_toml::{self, ArmDescription};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::urdf::{self, UrdfOptions};
 use lrmcal_engine::device::calibration;
@@ -22,7 +25,8 @@ const MAX_TILT_RAD: f64 = 0.017_453_292_519_943_295;
 #[command(after_help = "Examples:\n  \
 lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --out arm.urdf\n  \
 lrmcal export --urdf --arm my_arm.toml > nominal.urdf\n\n\
-lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --arm my_arm.toml --name my_arm --out arm.urdf\n\n\
+lrmcal export --urdf --calibration cal/calibration-elasto-kinematic-servo.json --arm my_arm.toml --name my_arm --out arm.urdf\n  \
+lrmcal export --toml --arm robot.urdf --base-link base --tip-link gripper --out my_arm.toml\n\n\
 The URDF chain is base_link (with base beside it) -> link_1..link_6 (revolute joints named \
 as in the arm file) -> flange -> tool0 -> tool_point, the robot standing in its own base \
 frame; --world roots it at world, the frame lrmcal measured in. Links carry the arm file's \
@@ -30,11 +34,21 @@ masses and centres of mass, and its collision bodies as visual and collision geo
 Joint positions are lrmcal's commanded angles in radians, 0 where the pose files say 0 \
 degrees, so the same angles put tool_point where `lrmcal predict` puts the tool point of a \
 rigid arm. Compliances (the sag under gravity and load), servo curves and play have no \
-place in a URDF; the file's header says so.")]
+place in a URDF; the file's header says so.\n\n\
+--toml writes a nominal arm (--arm) as lrmcal's arm file: a URDF's chain with the DH \
+geometry, limits and masses lrmcal reads from it, and what a URDF cannot say as lrmcal takes \
+it (gravity along -z, rigid springs, no servo tables, the skeleton as bodies), said in the \
+file's header. Add servo tables, payload or bodies to it and use it as --arm.",
+    group(clap::ArgGroup::new("format").args(["urdf", "toml"]).required(true))
+)]
 pub struct Args {
     /// Write a URDF (ROS robot description) of the arm's rigid geometry.
-    #[arg(long, required = true)]
+    #[arg(long)]
     pub urdf: bool,
+    /// Write the nominal arm (--arm) as an arm description TOML, to edit and
+    /// use as --arm.
+    #[arg(long, conflicts_with_all = ["calibration", "world", "payload_kg", "effort_nm", "velocity_rad_s"])]
+    pub toml: bool,
     /// Calibration file from `lrmcal identify` or `lrmcal demo`: its calibrated arm.
     #[arg(long, value_name = "FILE")]
     pub calibration: Option<PathBuf>,
@@ -80,7 +94,7 @@ pub struct Args {
         value_parser = positive
     )]
     pub velocity_rad_s: f64,
-    /// Where to write the URDF [default: standard output].
+    /// Where to write the URDF or TOML [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
 }
@@ -99,6 +113,9 @@ struct Exported {
 
 /// Runs `lrmcal export`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    if args.toml {
+        return export_toml(args);
+    }
     let bundled = ArmSource::Bundled(DEFAULT_ARM);
     let exported = match (&args.calibration, &args.arm) {
         (Some(path), names) => from_calibration(path, names.as_ref())?,
@@ -146,18 +163,80 @@ pub fn run(args: &Args) -> Result<(), Error> {
             );
             Ok(())
         }
-        None => {
-            let text = urdf::render(&exported.arm, &options);
-            std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()).map_err(
-                |source| {
-                    Error::from(lrmcal_core::Error::Write {
-                        path: "<stdout>".into(),
-                        source,
-                    })
-                },
-            )
-        }
+        None => to_stdout(&urdf::render(&exported.arm, &options)),
     }
+}
+
+/// `--toml`: the nominal arm of `--arm` as an arm description, with a header
+/// saying where it came from and, for a URDF's chain, what was taken as what.
+fn export_toml(args: &Args) -> Result<(), Error> {
+    let source = args.arm.clone().unwrap_or(ArmSource::Bundled(DEFAULT_ARM));
+    if let ArmSource::Calibration(path) = &source {
+        return Err(lrmcal_core::Error::ArmSource {
+            arm: path.display().to_string(),
+            reason: "--toml writes a nominal arm (an arm file, a bundled arm or a URDF's chain); \
+                     a calibration's arm is used as it is (`--arm FILE.json`) or exported with --urdf"
+                .to_owned(),
+        }
+        .into());
+    }
+    let loaded = source.load()?;
+    let text = format!(
+        "{}{}",
+        toml_header(&source, &loaded),
+        arm_toml::to_toml(&ArmDescription {
+            name: args.name.clone().unwrap_or_else(|| loaded.name.clone()),
+            joint_names: loaded.joint_names,
+            arm: loaded.arm,
+            collision: loaded.collision,
+            levels_deg: loaded.levels_deg,
+        })
+    );
+    match &args.out {
+        Some(path) => {
+            lrmcal_core::io::atomic::write(path, |w| w.write_all(text.as_bytes()))?;
+            eprintln!(
+                "wrote the arm file of {} to `{}`",
+                loaded.origin,
+                path.display()
+            );
+            Ok(())
+        }
+        None => to_stdout(&text),
+    }
+}
+
+/// The comment lines that open an exported arm file.
+fn toml_header(source: &ArmSource, loaded: &LoadedArm) -> String {
+    let mut lines = vec![format!(
+        "Written by `lrmcal export --toml` from {}: edit it and use it as --arm.",
+        loaded.origin
+    )];
+    if let ArmSource::Urdf { .. } = source {
+        lines.extend(
+            [
+                "From the URDF: the joints' axes and origins as standard DH, their",
+                "limits, each link's mass and centre of mass. Not in a URDF, so taken as:",
+                "gravity along -z of the base link, compliances 0 (calibration finds",
+                "them), no payload, the skeleton as collision bodies, and no servo",
+                "tables: the board drives a joint only once it has one. Add",
+                "`servo = { minus100 = ..., zero = ..., plus100 = ... }` (pulses in µs)",
+                "to a joint, then `lrmcal servo-tune` refines it.",
+            ]
+            .map(str::to_owned),
+        );
+    }
+    lines.iter().map(|l| format!("# {l}\n")).collect()
+}
+
+/// Writes `text` on standard output.
+fn to_stdout(text: &str) -> Result<(), Error> {
+    std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes()).map_err(|source| {
+        Error::from(lrmcal_core::Error::Write {
+            path: "<stdout>".into(),
+            source,
+        })
+    })
 }
 
 /// The calibrated arm of a calibration file (the one place `export` reads one),
