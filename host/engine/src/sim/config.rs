@@ -275,7 +275,7 @@ mod tests {
         let d = SimConfig::default();
         let text = serde_json::to_string(&d).unwrap();
         assert!(
-            !text.contains("stiffening") && !text.contains("shape"),
+            !text.contains("stiffening") && !text.contains("shape") && !text.contains("twist"),
             "{text}"
         );
         assert_eq!(serde_json::from_str::<SimConfig>(&text).unwrap(), d);
@@ -283,12 +283,14 @@ mod tests {
             softening_per_nm: 0.0,
             stiffening_per_nm: 0.3,
             servo_error_shape: ServoErrorShape::Harmonics,
+            parallel_twist_sigma_rad: 0.01,
             ..d
         };
         let text = serde_json::to_string(&set).unwrap();
         assert!(
             text.contains("\"stiffening_per_nm\":0.3")
-                && text.contains("\"servo_error_shape\":\"harmonics\""),
+                && text.contains("\"servo_error_shape\":\"harmonics\"")
+                && text.contains("\"parallel_twist_sigma_rad\":0.01"),
             "{text}"
         );
         assert_eq!(serde_json::from_str::<SimConfig>(&text).unwrap(), set);
