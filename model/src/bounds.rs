@@ -194,12 +194,11 @@ impl<T: Real> Bounds<T> {
     pub fn range(&self, quantity: Quantity) -> Range<T> {
         let inf = T::max_value().unwrap_or_else(T::one);
         let tau = |spring: u8| self.torque_nm(usize::from(spring));
-        let slides = |joint: usize| self.slides(joint);
         match quantity {
             Quantity::Compliance { spring } => Range {
                 min: T::zero(),
                 max: if tau(spring) > T::zero() {
-                    let sag = if spring > 0 && slides(usize::from(spring) - 1) {
+                    let sag = if spring > 0 && self.slides(usize::from(spring) - 1) {
                         MAX_SAG_M
                     } else {
                         MAX_SAG_RAD
@@ -219,7 +218,7 @@ impl<T: Real> Bounds<T> {
             },
             Quantity::Backlash { joint } => Range {
                 min: T::zero(),
-                max: real(if slides(usize::from(joint)) {
+                max: real(if self.slides(usize::from(joint)) {
                     MAX_BACKLASH_M
                 } else {
                     MAX_BACKLASH_RAD

@@ -16,6 +16,7 @@ use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings};
 use lrmcal_engine::calib::results::export::result_calibration_file;
 use lrmcal_engine::calib::results::study::{StudySettings, study};
 use lrmcal_engine::calib::results::summary;
+use lrmcal_engine::device::calibration;
 
 use crate::commands::helpers::write_text;
 use crate::error::Error;
@@ -203,7 +204,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )?;
     print!("{}", summary::study(&study, off_grid.len())?);
     let board_refuses = (args.targets > 0)
-        .then(|| positioning::board_refuses(&nominal))
+        .then(|| calibration::drivable(&nominal).err())
         .flatten();
     if let Some(reason) = &board_refuses {
         println!("\nPositioning error at the tool through the board: skipped, {reason}");

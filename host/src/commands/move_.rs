@@ -14,6 +14,7 @@ use crate::commands::helpers::non_negative;
 use crate::error::Error;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_engine::device::calibration::NotDriven;
 use lrmcal_engine::device::commanded::{Commanded, within_board};
 use lrmcal_engine::device::{Client, Link, calibration};
 use lrmcal_engine::ik::{self, IkOptions, IkSolution};
@@ -227,13 +228,11 @@ fn move_to_point(args: &Args, target_mm: [f64; 3]) -> Result<(), Error> {
         }
         None => nominal_arm(args.arm.as_ref())?,
     };
-    if arm.joints.len() > CHANNELS {
+    // The arm's servo curves are the board's business here: only its length counts.
+    if let Err(refused @ NotDriven::Joints { .. }) = calibration::drivable(&arm) {
         return Err(Error::DeviceInput {
             what: "move the arm".into(),
-            reason: format!(
-                "the arm has {} joints and the board drives arms of 1 to {CHANNELS}",
-                arm.joints.len()
-            ),
+            reason: refused.to_string(),
         });
     }
     // The board refuses targets outside its ranges: keep the solution inside.

@@ -7,9 +7,8 @@ use std::path::PathBuf;
 use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
 use crate::progress::Meter;
-use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::CalibrationFile;
-use lrmcal_engine::device::calibration;
+use lrmcal_engine::device::calibration::{self, NotDriven};
 
 /// Send a calibration to the board (stored in flash, used at once).
 #[derive(Debug, clap::Args)]
@@ -51,25 +50,21 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<(), Error> {
     let file = CalibrationFile::read(&args.calibration)?;
     let joints = file.arm.joints.len();
-    if joints > CHANNELS {
-        return Err(Error::DeviceInput {
-            what: format!("prepare `{}` for the board", args.calibration.display()),
-            reason: format!(
-                "its arm has {joints} joints and the board drives arms of 1 to {CHANNELS} \
-                 servo joints: this calibration is for the host only (`lrmcal predict`, \
-                 `validate`, `export`)"
-            ),
-        });
-    }
-    if let Some(joint) = joint_without_servo(&file.arm) {
-        return Err(Error::DeviceInput {
-            what: format!("prepare `{}` for the board", args.calibration.display()),
-            reason: format!(
-                "joint {joint} has no servo curve: its arm file has no `servo` table (an arm the \
-                 board does not drive); add one to the arm file (the data-sheet curve is \
+    if let Err(refused) = calibration::drivable(&file.arm) {
+        let way_out = match refused {
+            NotDriven::Joints { .. } => {
+                "this calibration is for the host only (`lrmcal predict`, `validate`, `export`)"
+                    .to_owned()
+            }
+            NotDriven::NoServo { joint } => format!(
+                "add one to the arm file (the data-sheet curve is \
                  `servo = {{ minus100 = 900.0, zero = 1650.0, plus100 = 2400.0 }}`), tune it with \
                  `lrmcal servo-tune {joint}` and identify again"
             ),
+        };
+        return Err(Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason: format!("{refused}; {way_out}"),
         });
     }
     let home = args.home_deg.clone().unwrap_or_else(|| vec![0.0; joints]);

@@ -527,6 +527,25 @@ mod tests {
         }
     }
 
+    /// The options of a test export: no provenance, bodies or payload,
+    /// effort 1 N·m and velocity 1.5 rad/s.
+    fn test_options(
+        robot_name: &str,
+        joint_names: impl Iterator<Item = String>,
+        world: bool,
+    ) -> UrdfOptions {
+        UrdfOptions {
+            robot_name: robot_name.into(),
+            provenance: Vec::new(),
+            effort_nm: 1.0,
+            velocity_rad_s: 1.5,
+            joint_names: joint_names.collect(),
+            bodies: None,
+            world,
+            payload_kg: None,
+        }
+    }
+
     #[test]
     fn dh_rest_is_the_dh_product() {
         let (theta, d, a, alpha) = (0.4, 0.07, -0.12, 1.1);
@@ -558,16 +577,7 @@ mod tests {
         arm.joints[1].beta = 1.7e-3;
         arm.joints[2].beta = -6.3e-4;
         let n = arm.joints.len();
-        let options = UrdfOptions {
-            robot_name: "twisted".into(),
-            provenance: vec![],
-            effort_nm: 1.0,
-            velocity_rad_s: 1.5,
-            joint_names: (1..=n).map(|i| format!("joint_{i}")).collect(),
-            bodies: None,
-            world: true,
-            payload_kg: None,
-        };
+        let options = test_options("twisted", (1..=n).map(|i| format!("joint_{i}")), true);
         let robot = urdf_rs::read_from_string(&render(&arm, &options)).unwrap();
         let origin = |child: &str| {
             let j = robot.joints.iter().find(|j| j.child.link == child).unwrap();
@@ -599,16 +609,7 @@ mod tests {
     fn a_lift_and_twists_read_back_as_the_same_chain() {
         use model::testing::{LIFT_ARM_JOINTS, lift_arm, random_lift_q};
         let arm = lift_arm::<f64>();
-        let options = UrdfOptions {
-            robot_name: "lift".into(),
-            provenance: Vec::new(),
-            effort_nm: 1.0,
-            velocity_rad_s: 1.5,
-            joint_names: (0..LIFT_ARM_JOINTS).map(|i| format!("j{i}")).collect(),
-            bodies: None,
-            world: false,
-            payload_kg: None,
-        };
+        let options = test_options("lift", (0..LIFT_ARM_JOINTS).map(|i| format!("j{i}")), false);
         let text = render(&arm, &options);
         let read =
             crate::io::arm_urdf::parse(&text, Some("base_link"), Some("tool_point")).unwrap();
@@ -646,14 +647,12 @@ mod tests {
         );
         assert!(!comment("a-- --b-----").contains("--"));
         let options = UrdfOptions {
-            robot_name: "arm \"<2>\" & co".into(),
             provenance: vec!["calibration `cal--v2.json`-".into()],
-            effort_nm: 1.0,
-            velocity_rad_s: 1.5,
-            joint_names: (0..6).map(|i| format!("j{i} <&>")).collect(),
-            bodies: None,
-            world: true,
-            payload_kg: None,
+            ..test_options(
+                "arm \"<2>\" & co",
+                (0..6).map(|i| format!("j{i} <&>")),
+                true,
+            )
         };
         let text = render(
             &crate::io::arm_source::bundled("lrm").unwrap().arm,

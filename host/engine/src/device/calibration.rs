@@ -10,6 +10,7 @@ use protocol::{Calibration, CalibrationFault};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 
 /// Random poses [`max_corrections`] looks at besides the grid's (fixed seed:
@@ -22,6 +23,43 @@ const POSES_SEED: u64 = 0x00c0_4ec7;
 const CORRECTION_FACTOR: f64 = 1.5;
 /// ... plus this, rad (3°): room for the solve's steps on the way.
 const CORRECTION_SLACK_RAD: f64 = 0.052_359_877_559_829_89;
+
+/// Why the board cannot drive an arm.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum NotDriven {
+    /// More joints than the board has channels.
+    #[error(
+        "the arm has {joints} joints and the board drives arms of 1 to {}",
+        protocol::CHANNELS
+    )]
+    Joints {
+        /// The arm's joints.
+        joints: usize,
+    },
+    /// A joint without a servo curve: an arm moved by its own controller.
+    #[error(
+        "joint {joint} has no servo curve (an arm the board does not drive: its arm file has \
+         no `servo` table)"
+    )]
+    NoServo {
+        /// The joint, from 1.
+        joint: usize,
+    },
+}
+
+/// Whether the board can drive `arm`: at most [`protocol::CHANNELS`] joints,
+/// each with a servo curve. The one check `push`, `move` and the demo's
+/// positioning make before anything goes to a board.
+pub fn drivable(arm: &Arm<f64>) -> Result<(), NotDriven> {
+    let joints = arm.joints.len();
+    if joints > protocol::CHANNELS {
+        return Err(NotDriven::Joints { joints });
+    }
+    match joint_without_servo(arm) {
+        Some(joint) => Err(NotDriven::NoServo { joint }),
+        None => Ok(()),
+    }
+}
 
 /// The payload for `file`, in single precision, with the home pose `home_rad`.
 pub fn payload(
@@ -167,4 +205,40 @@ pub fn identified(mut calibration: Calibration) -> Result<Calibration, Calibrati
         .map_err(|_| CalibrationFault::NotFinite)?;
     calibration.id = protocol::frame::crc32(bytes);
     Ok(calibration)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bundled(name: &str) -> Arm<f64> {
+        lrmcal_core::io::arm_source::bundled(name)
+            .expect("a bundled arm parses")
+            .arm
+    }
+
+    /// The board drives arms of up to six joints, each with a servo curve.
+    #[test]
+    fn the_board_refuses_arms_without_servo_curves_or_with_seven_joints() {
+        assert_eq!(drivable(&bundled("lrm")), Ok(()));
+        assert_eq!(drivable(&bundled("so101")), Ok(()));
+        let urdf = lrmcal_core::io::arm_urdf::parse(
+            include_str!("../../../core/arms/so101/so101.urdf"),
+            None,
+            Some("gripper_frame_link"),
+        )
+        .unwrap();
+        let why = drivable(&urdf.arm).unwrap_err().to_string();
+        assert!(why.contains("joint 1 has no servo curve"), "{why}");
+        let mut seven = bundled("lrm");
+        let joints: Vec<_> = seven
+            .joints
+            .iter()
+            .chain(&seven.joints[..1])
+            .copied()
+            .collect();
+        seven.joints = PerJoint::from_slice(&joints).unwrap();
+        let why = drivable(&seven).unwrap_err().to_string();
+        assert!(why.contains("7 joints") && why.contains("1 to 6"), "{why}");
+    }
 }

@@ -55,9 +55,9 @@ impl TrueArm {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         rng.set_stream(DRAW_STREAM);
 
-        let ids: Vec<ParamId> = ParamId::of(nominal).collect();
+        let mut ids: Vec<ParamId> = ParamId::of(nominal).collect();
         let joints = nominal.joints.len();
-        let errors: Vec<f64> = ids
+        let mut errors: Vec<f64> = ids
             .iter()
             .map(|&id| {
                 let normal: f64 = rng.sample(StandardNormal);
@@ -119,8 +119,6 @@ impl TrueArm {
         // The twists of nominally parallel axes, drawn after everything else
         // and kept only when switched on: without them the true arm and its
         // errors are what they always were.
-        let mut ids = ids;
-        let mut errors = errors;
         for id in parallel_twists(nominal) {
             let normal: f64 = rng.sample(StandardNormal);
             if config.parallel_twist_sigma_rad > 0.0 {

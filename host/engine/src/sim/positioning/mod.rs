@@ -46,7 +46,6 @@ use crate::calib::{ModelOption, parameters::option};
 use crate::device::memory::MemoryBoard;
 use crate::device::{Client, ClientError};
 use crate::ik::IkError;
-use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::{CalibrationFile, ErrorStats};
 
 /// How many targets the demo visits.
@@ -118,24 +117,6 @@ impl From<ClientError> for PositioningError {
     fn from(e: ClientError) -> Self {
         Self::Board(Box::new(e))
     }
-}
-
-/// Why the board cannot drive `arm` (what `lrmcal push` refuses): more
-/// joints than it has channels, or a joint without a servo curve (an arm
-/// moved by its own controller); `None` when it can.
-pub fn board_refuses(arm: &Arm<f64>) -> Option<String> {
-    let joints = arm.joints.len();
-    if joints > CHANNELS {
-        return Some(format!(
-            "the arm has {joints} joints and the board drives arms of 1 to {CHANNELS}"
-        ));
-    }
-    joint_without_servo(arm).map(|joint| {
-        format!(
-            "joint {joint} has no servo curve (an arm the board does not drive: its arm file \
-             has no `servo` tables)"
-        )
-    })
 }
 
 /// A board in memory ([`MemoryBoard`]), talked to as `lrmcal` talks to one:
@@ -557,31 +538,6 @@ mod tests {
         let mut bare = Client::new(MemoryBoard::default(), Duration::from_millis(1), 0);
         bare.set_payload(0.0663).unwrap();
         assert_eq!(pulses_to(&mut held, &t), pulses_to(&mut bare, &t));
-    }
-
-    /// The board drives arms of up to six joints, each with a servo curve.
-    #[test]
-    fn the_board_refuses_arms_without_servo_curves_or_with_seven_joints() {
-        assert_eq!(board_refuses(&bundled_arm()), None);
-        assert_eq!(board_refuses(&so101()), None);
-        let urdf = lrmcal_core::io::arm_urdf::parse(
-            include_str!("../../../../core/arms/so101/so101.urdf"),
-            None,
-            Some("gripper_frame_link"),
-        )
-        .unwrap();
-        let why = board_refuses(&urdf.arm).unwrap();
-        assert!(why.contains("joint 1 has no servo curve"), "{why}");
-        let mut seven = bundled_arm();
-        let joints: Vec<_> = seven
-            .joints
-            .iter()
-            .chain(&seven.joints[..1])
-            .copied()
-            .collect();
-        seven.joints = PerJoint::from_slice(&joints).unwrap();
-        let why = board_refuses(&seven).unwrap();
-        assert!(why.contains("7 joints") && why.contains("1 to 6"), "{why}");
     }
 
     #[test]
