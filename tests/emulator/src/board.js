@@ -5,6 +5,7 @@
 
 import { EventEmitter } from 'node:events';
 import { RP2040 } from 'rp2040js';
+import { tickThroughNextAlarm } from './clock-step.js';
 import { CycleProbe } from './cycle-probe.js';
 import { FlashServices } from './flash.js';
 import { callFunction } from './function-call.js';
@@ -259,26 +260,27 @@ export class Board extends EventEmitter {
       if (this.pendingReset) this.doReset(this.pendingReset);
       if (this.halted) return true;
       const m = this.mcu;
-      if (this.stallNanos > 0) {
-        // The core waits for the flash chip: time passes (timers, PWM) but no instruction runs.
-        const timer = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);
-        const target = Math.min(this.nanos + this.stallNanos, timer, limitNanos);
-        if (target > this.nanos) {
-          const step = target - this.nanos;
-          m.clock.tick(step);
-          this.stallNanos = this.stallNanos - step < 1 ? 0 : this.stallNanos - step;
-        }
-        if (target === timer) this.fireTimers();
-        else if (target === limitNanos) return true;
-      } else if (m.core.waiting) {
-        // Sleep to the next clock alarm or harness timer, but not past the wall-time limit.
-        const alarm = m.clock.nextAlarm ? this.nanos + m.clock.nanosToNextAlarm : Infinity;
-        const timer = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);
-        const target = Math.min(alarm, timer, limitNanos);
-        if (target === Infinity) return true; // nothing will ever happen until a host byte
-        if (target > this.nanos) m.clock.tick(target - this.nanos);
-        if (target === timer) this.fireTimers();
-        else if (target === limitNanos) return true;
+      if (this.stallNanos > 0 || m.core.waiting) {
+        // No instruction runs: the core waits for the flash chip (time passes for timers and
+        // PWM), or sleeps until its clock's next alarm. Either way time jumps to the next event,
+        // a harness timer, or the wall-time limit, whichever comes first. Steps are measured
+        // from now in the chip's own clock: absolute times carry the nanoseconds of earlier
+        // resets, and their rounding could leave an alarm forever a fraction of a nanosecond
+        // ahead of a step meant to reach it.
+        const stalled = this.stallNanos > 0;
+        const now = this.nanos;
+        const toStallEnd = stalled ? this.stallNanos : Infinity;
+        const toAlarm = !stalled && m.clock.nextAlarm ? Math.max(m.clock.nanosToNextAlarm, 0) : Infinity;
+        const timerAt = this.timers.reduce((t, x) => Math.min(t, x.at), Infinity);
+        const toTimer = timerAt - now;
+        const toLimit = limitNanos - now;
+        const step = Math.min(toStallEnd, toAlarm, toTimer, toLimit);
+        if (step === Infinity) return true; // nothing will ever happen until a host byte
+        if (step === toAlarm) tickThroughNextAlarm(m.clock);
+        else if (step > 0) m.clock.tick(step);
+        if (stalled) this.stallNanos = this.stallNanos - step < 1 ? 0 : this.stallNanos - step;
+        if (step === toTimer) this.fireTimers(timerAt);
+        else if (step === toLimit) return true;
       } else {
         if (this.nanos > limitNanos) return true;
         const cycles = m.core.executeInstruction();
@@ -288,10 +290,10 @@ export class Board extends EventEmitter {
     return false;
   }
 
-  fireTimers() {
-    const now = this.nanos;
-    const due = this.timers.filter((t) => t.at <= now);
-    this.timers = this.timers.filter((t) => t.at > now);
+  /** Runs the harness timers due by `until` (default: now). */
+  fireTimers(until = this.nanos) {
+    const due = this.timers.filter((t) => t.at <= until);
+    this.timers = this.timers.filter((t) => t.at > until);
     for (const t of due) t.fn();
   }
 }

@@ -212,9 +212,12 @@ impl EmulatedBoard {
             match self.replies.recv_timeout(left) {
                 Ok(v) if v["id"] == json!(id) => return v,
                 Ok(_) => {}
-                Err(RecvTimeoutError::Timeout) => {
-                    panic!("no reply to {request} from the emulator\n{}", self.log())
-                }
+                Err(RecvTimeoutError::Timeout) => panic!(
+                    "no reply to {request} from the emulator within {} s; {}\n{}",
+                    REQUEST_TIMEOUT.as_secs(),
+                    self.time_report(),
+                    self.log()
+                ),
                 Err(RecvTimeoutError::Disconnected) => panic!(
                     "{} instead of answering {request}\n{}",
                     self.exit_status(),
@@ -222,6 +225,38 @@ impl EmulatedBoard {
                 ),
             }
         }
+    }
+
+    /// Where the emulator's time stands, asked twice a second apart: tells a board that stopped
+    /// advancing emulated time from one that is only slow.
+    fn time_report(&mut self) -> String {
+        let mut nanos = Vec::new();
+        for _ in 0..2 {
+            let id = self.next_id;
+            self.next_id += 1;
+            if writeln!(self.stdin, "{}", json!({"cmd": "status", "id": id})).is_err() {
+                return "the emulator no longer reads requests".into();
+            }
+            self.stdin.flush().ok();
+            let deadline = Instant::now() + Duration::from_secs(5);
+            loop {
+                let left = deadline.saturating_duration_since(Instant::now());
+                match self.replies.recv_timeout(left) {
+                    Ok(v) if v["id"] == json!(id) => {
+                        nanos.push(v["nanos"].as_f64().unwrap_or(f64::NAN));
+                        break;
+                    }
+                    Ok(_) => {}
+                    Err(_) => return "the emulator does not answer a status request either".into(),
+                }
+            }
+            thread::sleep(Duration::from_secs(1));
+        }
+        format!(
+            "its emulated time stood at {:.3} ms, then {:.3} ms a second later",
+            nanos[0] / 1e6,
+            nanos[1] / 1e6
+        )
     }
 
     /// Waits until the board's USB serial port is enumerated.
