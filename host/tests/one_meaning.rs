@@ -132,7 +132,7 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
         // stands at its command (its play aside, which the board offsets).
         let mut standing = calibrated.without_play();
         standing.command_curves = standing.arm.joints.map(|j| j.servo);
-        let nominal_chain = read.nominal.chain();
+        let nominal_chain = read.board_arms().0.chain();
         let mut tried = 0;
         let mut worst_um = 0.0f64;
         for m in held_out.iter().step_by(9) {

@@ -14,11 +14,14 @@ use lrmcal_engine::calib::fit::registration::{Gravity, Registration, register};
 use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::parameters::params::Key as _;
 use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::results::export::registered_calibration_file;
 use lrmcal_engine::calib::{ModelOption, ParamKey, Rig};
+use lrmcal_engine::device::calibration::payload;
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{SimConfig, TrueArm};
 use model::{Arm, Frame};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3, Vector3};
+use protocol::PerChannel;
 use rand::{Rng, SeedableRng, rngs::StdRng};
 
 const LOAD: f64 = 0.0663;
@@ -304,4 +307,46 @@ fn refreshing_the_rank_analysis_removes_the_structural_error() {
     let (paper, refreshed) = (run(false), run(true));
     assert!(paper > 0.01e-3, "paper's reduction: {} mm", paper * 1e3);
     assert!(refreshed < 1e-9, "refreshed: {} mm", refreshed * 1e3);
+}
+
+/// A registered calibration's board aims each joint target where the
+/// nominal arm standing on the true base would put the tool, not where the
+/// rigid registration of the sagging arm placed the nominal arm
+/// (centimetres low): the joints correct the arm, not where it stands.
+#[test]
+fn the_board_aims_joint_targets_from_where_the_arm_stands() {
+    let nominal = bundled();
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let truth = TrueArm::draw(&nominal, 1, &SimConfig::default()).expect("draw");
+    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let (result, reg) = registered_run(&nominal, &poses, &measured, nominal.gravity_vector());
+    let file = registered_calibration_file(&reg, true, &nominal, &result);
+    let home = PerChannel::splat(nominal.joints.len(), 0.0);
+    let payload = payload(&file, home).expect("the board takes it");
+    let mut intended = file.nominal;
+    intended.base = truth.arm.base;
+    let (board, registered, intended) = (
+        payload.nominal.map(f64::from).chain(),
+        file.nominal.chain(),
+        intended.chain(),
+    );
+    let mut rng = StdRng::seed_from_u64(3);
+    let (mut board_off, mut registered_off) = (Vec::new(), Vec::new());
+    for _ in 0..200 {
+        let q: Vec<f64> = nominal
+            .joints
+            .iter()
+            .map(|j| rng.random_range(j.limits[0]..=j.limits[1]))
+            .collect();
+        let aim = intended.rigid_tool_point(&q);
+        board_off.push((board.rigid_tool_point(&q) - aim).norm());
+        registered_off.push((registered.rigid_tool_point(&q) - aim).norm());
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64 * 1e3;
+    let (board_mm, registered_mm) = (mean(&board_off), mean(&registered_off));
+    println!("board's nominal {board_mm:.2} mm, registered nominal {registered_mm:.2} mm");
+    assert!(board_mm < 5.0, "{board_mm:.2} mm");
+    assert!(registered_mm > 10.0, "{registered_mm:.2} mm");
 }

@@ -96,12 +96,7 @@ fn push_for_a_named_target_sends_its_tool_point() {
             validation_after: None,
         });
     }
-    let (nominal, arm) = file.arms_for_target(Some("m1")).unwrap();
-    let chosen = CalibrationFile {
-        nominal,
-        arm,
-        ..file.clone()
-    };
+    let chosen = file.for_target(Some("m1")).unwrap();
     let payload = calibration::payload(&chosen, [0.0; 6].into()).unwrap();
     let first = calibration::payload(&file, [0.0; 6].into()).unwrap();
     assert_ne!(payload.id, first.id);
@@ -115,7 +110,7 @@ fn push_for_a_named_target_sends_its_tool_point() {
     assert_eq!(stored.calibrated.tool.xyz, marker.map(|x| x as f32));
     assert_eq!(stored.nominal.tool.xyz, marker.map(|x| x as f32));
     assert_eq!(stored.calibrated.joints, file.arm.map(|x| x as f32).joints);
-    let e = file.arms_for_target(Some("m7")).unwrap_err();
+    let e = file.for_target(Some("m7")).unwrap_err();
     assert!(e.contains("`m7`") && e.contains("m0, m1"), "{e}");
 }
 
@@ -208,7 +203,8 @@ fn push_store_reboot_status_move() {
         std::array::from_fn(|i| arm64.joints[i].servo.angle(pulses[i] as f64));
     let opts = model::SolverOptions::default();
     let want = file
-        .nominal
+        .board_arms()
+        .0
         .chain()
         .tool_point(&target.map(f64::from), 0.0663, &opts)
         .unwrap();

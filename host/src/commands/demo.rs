@@ -232,8 +232,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         print!("{}", positioning::table(&rows));
         if targets.left_out > 0 {
             println!(
-                "({} random tool points left out: no nominal solution a calibrated board could \
-                 command within its joint ranges)",
+                "({} random tool points left out: no solution of a calibrated board's nominal arm \
+                 (standing where its calibration found the arm) that the board could command \
+                 within its joint ranges)",
                 targets.left_out
             );
         }

@@ -78,17 +78,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
         });
     }
     let home_rad = PerChannel::from_fn(joints, |i| home[i].to_radians() as f32);
-    let (nominal, arm) = file
-        .arms_for_target(args.target.as_deref())
+    let file = file
+        .for_target(args.target.as_deref())
         .map_err(|reason| Error::DeviceInput {
             what: format!("prepare `{}` for the board", args.calibration.display()),
             reason,
         })?;
-    let file = CalibrationFile {
-        nominal,
-        arm,
-        ..file
-    };
     let payload = calibration::payload(&file, home_rad).map_err(|fault| Error::DeviceInput {
         what: format!("prepare `{}` for the board", args.calibration.display()),
         reason: calibration::explain(fault, &file.arm),

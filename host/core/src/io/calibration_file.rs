@@ -8,7 +8,8 @@
 //! standard deviation, the poses used and the statistics, and, when the
 //! measurements named several targets (or the tool was re-taught), every
 //! target's tool point: the board compensates one of them
-//! ([`CalibrationFile::arms_for_target`]). The engine fills it from its
+//! ([`CalibrationFile::for_target`]), with the nominal arm standing where the
+//! calibrated one does ([`CalibrationFile::board_arms`]). The engine fills it from its
 //! results (`lrmcal_engine::calib::results::export`); this module owns the format.
 //! Bump [`SCHEMA_VERSION`] on any change that an older reader would misread.
 //!
@@ -353,11 +354,11 @@ impl CalibrationFile {
         Ok(file)
     }
 
-    /// The nominal and corrected arms the board gets for the target called
-    /// `name` (the first without one): both with that target's tool point,
-    /// so the board puts that target where the nominal arm's tool point
-    /// would be. A file without targets is its arms as they are.
-    pub fn arms_for_target(&self, name: Option<&str>) -> Result<(Arm<f64>, Arm<f64>), String> {
+    /// The calibration as it serves the target called `name` (the first
+    /// without one): both arms carry that target's tool point, so the board
+    /// puts that target where the nominal arm's tool point would be. A file
+    /// without targets is itself, and refuses any name.
+    pub fn for_target(&self, name: Option<&str>) -> Result<Self, String> {
         let chosen = match name {
             None => self.targets.first(),
             Some(name) => Some(self.targets.iter().find(|t| t.name == name).ok_or_else(|| {
@@ -375,12 +376,29 @@ impl CalibrationFile {
                 }
             })?),
         };
-        let (mut nominal, mut arm) = (self.nominal, self.arm);
+        let mut file = self.clone();
         if let Some(target) = chosen {
-            nominal.tool.xyz = target.tool_m;
-            arm.tool.xyz = target.tool_m;
+            file.nominal.tool.xyz = target.tool_m;
+            file.arm.tool.xyz = target.tool_m;
         }
-        Ok((nominal, arm))
+        Ok(file)
+    }
+
+    /// The nominal and calibrated arms the board gets: the calibrated arm,
+    /// and the nominal arm standing on the calibrated arm's base. The board
+    /// makes the real arm put its tool where this nominal arm would: the
+    /// arm's geometry, stiffness and servos are what it corrects, while
+    /// where the arm stands is a fact of the setup that the fit found, not
+    /// an error for the joints to make up. The file's own nominal arm stands
+    /// where registration put it (a rigid fit of a deflected arm, centimetres
+    /// low when the arm sags) or where the arm file said: right for the
+    /// error before calibration, wrong as the place the joints reach from.
+    /// Only the base moves: the physical bounds the board checks do not
+    /// depend on it, so the board works out the bounds every reader does.
+    pub fn board_arms(&self) -> (Arm<f64>, Arm<f64>) {
+        let mut nominal = self.nominal;
+        nominal.base = self.arm.base;
+        (nominal, self.arm)
     }
 
     /// The same file recording `registration`.

@@ -61,7 +61,9 @@ pub fn drivable(arm: &Arm<f64>) -> Result<(), NotDriven> {
     }
 }
 
-/// The payload for `file`, in single precision, with the home pose `home_rad`.
+/// The payload for `file`, in single precision, with the home pose `home_rad`:
+/// the file's board arms ([`CalibrationFile::board_arms`]) and the largest
+/// corrections between them.
 pub fn payload(
     file: &CalibrationFile,
     home_rad: PerChannel<f32>,
@@ -74,13 +76,14 @@ pub fn payload(
             joints: joints.min(usize::from(u8::MAX)) as u8,
         });
     }
+    let (nominal, calibrated) = file.board_arms();
     identified(Calibration {
         id: 0,
         option: file.option,
-        nominal: file.nominal.map(|x| x as f32),
-        calibrated: file.arm.map(|x| x as f32),
+        nominal: nominal.map(|x| x as f32),
+        calibrated: calibrated.map(|x| x as f32),
         home_rad,
-        max_correction_rad: max_corrections(&file.nominal, &file.arm),
+        max_correction_rad: max_corrections(&nominal, &calibrated),
     })
 }
 

@@ -41,9 +41,10 @@ pub struct Targets {
 /// `count` random tool points the nominal arm reaches clear of collisions
 /// within the joint ranges the board accepts without a calibration, each
 /// with every board's nominal joint targets solved as `lrmcal move --xyz`
-/// solves them on that board: nearest the pose of the board's target before
-/// (home, all zero, for the first) among those its compensation (for
-/// `payload_kg`) can command.
+/// solves them on that board, on the nominal arm the board was sent:
+/// nearest the pose of the board's target before (home, all zero, for the
+/// first) among those its compensation (for `payload_kg`) can command. A
+/// point some calibrated board cannot be sent to is left out for all.
 pub fn targets(
     nominal: &Arm<f64>,
     count: usize,
@@ -60,14 +61,28 @@ pub fn targets(
     let config = Config::default();
     let board =
         firmware::servo::joint_limits(None, config.hard_limits_rad, config.default_limits_rad);
-    let mut arm = *nominal;
-    for (joint, [lo, hi]) in arm.joints.iter_mut().zip(board) {
-        joint.limits = [
-            joint.limits[0].max(f64::from(lo)),
-            joint.limits[1].min(f64::from(hi)),
-        ];
-    }
+    let within_board = |nominal: &Arm<f64>| {
+        let mut arm = *nominal;
+        for (joint, [lo, hi]) in arm.joints.iter_mut().zip(&board) {
+            joint.limits = [
+                joint.limits[0].max(f64::from(*lo)),
+                joint.limits[1].min(f64::from(*hi)),
+            ];
+        }
+        arm
+    };
+    let arm = within_board(nominal);
     let chain = arm.chain();
+    // Each board's targets are solved on the nominal arm it was sent, as
+    // `move --xyz` solves them: a calibration's stands where the arm does.
+    let calibrated = |b: usize| boards.get(b).is_some_and(|(_, c)| c.is_some());
+    let board_arms: Vec<Arm<f64>> = boards
+        .iter()
+        .map(|(_, c)| {
+            c.as_ref()
+                .map_or(arm, |c| within_board(&c.nominal.map(f64::from)))
+        })
+        .collect();
     let options = IkOptions {
         collisions: Some(collisions.clone()),
         ..IkOptions::default()
@@ -102,9 +117,19 @@ pub fn targets(
                 Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
                 None => Ok(()),
             };
-            match ik::solve_position_admitted(&arm, &point_m, start, &options, &admit) {
+            let solved_on = board_arms.get(b).unwrap_or(&arm);
+            match ik::solve_position_admitted(solved_on, &point_m, start, &options, &admit) {
                 Ok(solution) => solved.push(solution.q),
                 Err(IkError::Refused { .. }) => break,
+                // A calibrated board's nominal arm stands where the arm does,
+                // not quite where the point was drawn from: near the edge of
+                // the reach it may not get there within its limits.
+                Err(
+                    IkError::BeyondReach { .. }
+                    | IkError::OutOfReach { .. }
+                    | IkError::OutsideLimits { .. }
+                    | IkError::Colliding { .. },
+                ) if calibrated(b) => break,
                 Err(source) => {
                     return Err(PositioningError::Ik {
                         index: found.len(),
