@@ -47,6 +47,18 @@ fn settings(refresh: bool) -> RunSettings {
     }
 }
 
+/// The bundled arm, its candidate poses, the true arm of `seed` (the
+/// default simulator) and its measurements without load and with [`LOAD`].
+fn simulated(seed: u64) -> (Arm<f64>, Vec<Pose>, TrueArm, Vec<Measurement>) {
+    let nominal = bundled();
+    let poses = candidates(&nominal, &PlanConfig::default())
+        .expect("plan")
+        .kept;
+    let truth = TrueArm::draw(&nominal, seed, &SimConfig::default()).expect("draw");
+    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    (nominal, poses, truth, measured)
+}
+
 /// Registers `nominal` on `measured` (gravity `gravity` in their frame) and
 /// calibrates the elasto-kinematic model in the registered frame.
 fn registered_run(
@@ -79,12 +91,7 @@ fn held_out_mean_m(r: &OptionResult) -> f64 {
 /// where the frame put the arm.
 #[test]
 fn any_tracker_frame_calibrates_as_well_as_the_arms_own() {
-    let nominal = bundled();
-    let poses = candidates(&nominal, &PlanConfig::default())
-        .expect("plan")
-        .kept;
-    let truth = TrueArm::draw(&nominal, 1, &SimConfig::default()).expect("draw");
-    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let (nominal, poses, truth, measured) = simulated(1);
     let own =
         held_out_mean_m(&registered_run(&nominal, &poses, &measured, nominal.gravity_vector()).0);
     let mut unknown_base = nominal;
@@ -174,12 +181,7 @@ fn any_tracker_frame_calibrates_as_well_as_the_arms_own() {
 /// and the calibration is as good as with the right tool point in the file.
 #[test]
 fn a_tool_point_10_cm_off_is_found_with_the_base() {
-    let nominal = bundled();
-    let poses = candidates(&nominal, &PlanConfig::default())
-        .expect("plan")
-        .kept;
-    let truth = TrueArm::draw(&nominal, 2, &SimConfig::default()).expect("draw");
-    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let (nominal, poses, truth, measured) = simulated(2);
     let (own, own_reg) = registered_run(&nominal, &poses, &measured, nominal.gravity_vector());
     let turn = Rotation3::from_scaled_axis(Vector3::new(0.3, -1.2, 0.4));
     let frame = IsometryMatrix3::from_parts(Translation3::new(1.2, -0.4, 1.5), turn);
@@ -315,12 +317,7 @@ fn refreshing_the_rank_analysis_removes_the_structural_error() {
 /// (centimetres low): the joints correct the arm, not where it stands.
 #[test]
 fn the_board_aims_joint_targets_from_where_the_arm_stands() {
-    let nominal = bundled();
-    let poses = candidates(&nominal, &PlanConfig::default())
-        .expect("plan")
-        .kept;
-    let truth = TrueArm::draw(&nominal, 1, &SimConfig::default()).expect("draw");
-    let measured = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
+    let (nominal, poses, truth, measured) = simulated(1);
     let (result, reg) = registered_run(&nominal, &poses, &measured, nominal.gravity_vector());
     let file = registered_calibration_file(&reg, true, &nominal, &result);
     let home = PerChannel::splat(nominal.joints.len(), 0.0);

@@ -398,6 +398,19 @@ mod tests {
         );
     }
 
+    /// The board's calibration of `calibrated` from `nominal`, the paper's model.
+    fn board_calibration(nominal: &Arm<f64>, calibrated: &Arm<f64>) -> Calibration {
+        crate::device::calibration::identified(Calibration {
+            id: 0,
+            option: ModelOption::ElastoKinematic,
+            nominal: nominal.map(|x| x as f32),
+            calibrated: calibrated.map(|x| x as f32),
+            home_rad: [0.0; 6].into(),
+            max_correction_rad: crate::device::calibration::max_corrections(nominal, calibrated),
+        })
+        .unwrap()
+    }
+
     /// A calibrated board gets joint targets its compensation commands
     /// within the ranges; the uncalibrated one, the nearest as before.
     #[test]
@@ -406,15 +419,7 @@ mod tests {
         let mut calibrated = nominal;
         calibrated.joints[1].compliance = 0.15;
         calibrated.joints[2].theta += 0.05;
-        let calibration = crate::device::calibration::identified(Calibration {
-            id: 0,
-            option: ModelOption::ElastoKinematic,
-            nominal: nominal.map(|x| x as f32),
-            calibrated: calibrated.map(|x| x as f32),
-            home_rad: [0.0; 6].into(),
-            max_correction_rad: crate::device::calibration::max_corrections(&nominal, &calibrated),
-        })
-        .unwrap();
+        let calibration = board_calibration(&nominal, &calibrated);
         let mut boards = uncalibrated();
         boards.push(("sagging".to_owned(), Some(calibration)));
         let t = targets(&nominal, 8, 4, &PlanConfig::default(), &boards, 0.0663).unwrap();
@@ -439,15 +444,7 @@ mod tests {
         let mut standing = nominal;
         standing.base.xyz = [0.01, 0.0, -0.04];
         standing.base.rpy = [0.0, 0.0, 0.3];
-        let calibration = crate::device::calibration::identified(Calibration {
-            id: 0,
-            option: ModelOption::ElastoKinematic,
-            nominal: standing.map(|x| x as f32),
-            calibrated: standing.map(|x| x as f32),
-            home_rad: [0.0; 6].into(),
-            max_correction_rad: crate::device::calibration::max_corrections(&standing, &standing),
-        })
-        .unwrap();
+        let calibration = board_calibration(&standing, &standing);
         let mut boards = uncalibrated();
         boards.push(("lower".to_owned(), Some(calibration)));
         let t = targets(&nominal, 20, 6, &PlanConfig::default(), &boards, 0.0).unwrap();
