@@ -3,8 +3,8 @@
 //! Read back, the file is the arm it was written from, to the bit (the
 //! URDF's chain, the bundled arms with their names, bodies and grid levels),
 //! and `predict` puts the tool point where it does with the source; its header
-//! says what a URDF could not say. A calibration is refused, and nothing is
-//! written.
+//! says what a URDF could not say, and stays when `servo-tune` writes a curve
+//! into the file. A calibration is refused, and nothing is written.
 
 mod common;
 
@@ -119,4 +119,34 @@ fn a_calibration_or_a_urdf_only_flag_is_refused_and_nothing_is_written() {
     assert_eq!(run.status.code(), Some(2), "{}", text(&run));
     assert!(text(&run).contains("--urdf|--toml"), "{}", text(&run));
     assert!(!out.exists(), "a refused export wrote a file");
+}
+
+/// A servo curve tuned into the written file, as `servo-tune` writes it,
+/// keeps the header and every other line; the file reads back with it.
+#[test]
+fn a_tuned_servo_curve_keeps_the_header() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = export_toml(dir.path(), &["--arm", "lrm"]);
+    let before = std::fs::read_to_string(&file).unwrap();
+    let angles = [-100.0f64, -50.0, 0.0, 50.0, 100.0].map(f64::to_radians);
+    let curve = model::ServoCurve::new(&angles, &[902.0, 1274.0, 1648.0, 2027.0, 2399.0]).unwrap();
+    arm_toml::write_servo(&file, 1, &curve).unwrap();
+    let after = std::fs::read_to_string(&file).unwrap();
+    let header = |t: &str| -> Vec<String> {
+        t.lines()
+            .take_while(|l| l.starts_with('#'))
+            .map(str::to_owned)
+            .collect()
+    };
+    assert!(header(&before).len() > 1);
+    assert_eq!(header(&after), header(&before));
+    // Its `[joint.servo]` table keeps its place: two lines, the knots, change.
+    assert_eq!(before.lines().count(), after.lines().count());
+    let changed = before
+        .lines()
+        .zip(after.lines())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert_eq!(changed, 2);
+    assert_eq!(arm_toml::read(&file).unwrap().arm.joints[1].servo, curve);
 }

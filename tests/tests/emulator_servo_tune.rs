@@ -155,6 +155,19 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     expected.arm.joints[JOINT - 1].servo = curve;
     let rewritten = lrmcal_core::io::arm_toml::read(&arm).expect("the rewritten arm file");
     assert_eq!(rewritten.arm, expected.arm, "the arm file after servo-tune");
+    // Written in place: the file's comments are all still there, in order.
+    let comments = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter_map(|l| l.split_once('#').map(|(_, c)| c.to_owned()))
+            .collect()
+    };
+    let source = std::fs::read_to_string(repo_root().join("host/core/arms/lrm.toml")).unwrap();
+    let tuned = std::fs::read_to_string(&arm).unwrap();
+    assert_eq!(
+        comments(&tuned),
+        comments(&source),
+        "the arm file's comments"
+    );
 
     // The board uses a calibration with the new curve (single precision) and the rest as before.
     let mut link = RawLink::connect(&board);

@@ -201,7 +201,7 @@ fn write_to_board<L: Link>(
 
 /// Runs `lrmcal servo-tune`.
 pub fn run(args: &Args) -> Result<(), Error> {
-    let mut description = arm_toml::read(&args.arm)?;
+    let description = arm_toml::read(&args.arm)?;
     let j = (args.joint - 1) as usize;
     if description.arm.joints[j].servo == no_servo() {
         return Err(Error::DeviceInput {
@@ -242,8 +242,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 Action::Pulse(p) => tuning.pulse_us = client.raw_pulse(args.joint - 1, p)?,
                 Action::Nothing => {}
                 Action::Write(curve) => {
-                    description.arm.joints[j].servo = curve;
-                    arm_toml::write(&args.arm, &description)?;
+                    // In place: the file's comments and layout stay the user's.
+                    arm_toml::write_servo(&args.arm, j, &curve)?;
                     let board = write_to_board(&mut client, j, curve)?;
                     tuning.note = format!("written to {}; {board}", args.arm.display());
                 }

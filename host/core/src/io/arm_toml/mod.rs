@@ -28,8 +28,10 @@ use crate::error::{Error, Field, InputError, Location, Problem};
 use crate::io::{atomic, read_text};
 
 mod check;
+mod edit;
 mod raw;
 
+pub use edit::{with_servo, write_servo};
 use raw::RawArm;
 
 /// An arm description as read from (or written to) a TOML file.
