@@ -276,9 +276,11 @@ export class Board extends EventEmitter {
         const toLimit = limitNanos - now;
         const step = Math.min(toStallEnd, toAlarm, toTimer, toLimit);
         if (step === Infinity) return true; // nothing will ever happen until a host byte
+        // An overdue timer, or a limit already passed, makes the step negative: no time passes.
+        const elapsed = Math.max(step, 0);
         if (step === toAlarm) tickThroughNextAlarm(m.clock);
-        else if (step > 0) m.clock.tick(step);
-        if (stalled) this.stallNanos = this.stallNanos - step < 1 ? 0 : this.stallNanos - step;
+        else if (elapsed > 0) m.clock.tick(elapsed);
+        if (stalled) this.stallNanos = this.stallNanos - elapsed < 1 ? 0 : this.stallNanos - elapsed;
         if (step === toTimer) this.fireTimers(timerAt);
         else if (step === toLimit) return true;
       } else {

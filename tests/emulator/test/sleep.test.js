@@ -60,3 +60,19 @@ test('a step to an alarm always arrives, however the clock stands', () => {
     assert.ok(fired, `alarm ${delta} ns after ${clock.nanos} ns`);
   }
 });
+
+test('an overdue harness timer fires without lengthening a flash stall', () => {
+  const board = sleepingBoard(2e9 + 0.7, 4000.25);
+  board.mcu.core.waiting = false;
+  board.stallNanos = 1000;
+  let fired = 0;
+  board.timers.push({ at: board.nanos - 50, fn: () => (fired += 1) });
+  const before = board.mcu.clock.nanos;
+  board.run(Infinity, 1);
+  assert.equal(fired, 1);
+  assert.equal(board.stallNanos, 1000);
+  assert.equal(board.mcu.clock.nanos, before);
+  board.run(Infinity, 1);
+  assert.equal(board.stallNanos, 0);
+  assert.equal(board.mcu.clock.nanos, before + 1000);
+});

@@ -19,6 +19,15 @@ use serde_json::{Value, json};
 
 /// Wall-clock bound on one control request (waits inside are bounded in emulated time too).
 const REQUEST_TIMEOUT: Duration = Duration::from_secs(120);
+/// Why a control request got no reply.
+enum Unanswered {
+    /// The request could not be written to the emulator.
+    Unsent(std::io::Error),
+    /// No reply within the time allowed.
+    Timeout,
+    /// The emulator closed its output.
+    Disconnected,
+}
 /// GPIOs of servos 1..6 on the board (firmware/src/board).
 pub const SERVO_PINS: [u32; 6] = [2, 3, 4, 5, 6, 7];
 
@@ -200,29 +209,38 @@ impl EmulatedBoard {
 
     /// Sends one control request and returns its reply, error replies included.
     pub fn try_request(&mut self, request: &mut Value) -> Value {
+        match self.exchange(request, REQUEST_TIMEOUT) {
+            Ok(reply) => reply,
+            Err(Unanswered::Unsent(e)) => panic!("emulator gone: {e}\n{}", self.log()),
+            Err(Unanswered::Timeout) => panic!(
+                "no reply to {request} from the emulator within {} s; {}\n{}",
+                REQUEST_TIMEOUT.as_secs(),
+                self.time_report(),
+                self.log()
+            ),
+            Err(Unanswered::Disconnected) => panic!(
+                "{} instead of answering {request}\n{}",
+                self.exit_status(),
+                self.log()
+            ),
+        }
+    }
+
+    /// Sends `request` with the next id and waits up to `within` for its reply.
+    fn exchange(&mut self, request: &mut Value, within: Duration) -> Result<Value, Unanswered> {
         let id = self.next_id;
         self.next_id += 1;
         request["id"] = json!(id);
-        writeln!(self.stdin, "{request}")
-            .unwrap_or_else(|e| panic!("emulator gone: {e}\n{}", self.log()));
+        writeln!(self.stdin, "{request}").map_err(Unanswered::Unsent)?;
         self.stdin.flush().ok();
-        let deadline = Instant::now() + REQUEST_TIMEOUT;
+        let deadline = Instant::now() + within;
         loop {
             let left = deadline.saturating_duration_since(Instant::now());
             match self.replies.recv_timeout(left) {
-                Ok(v) if v["id"] == json!(id) => return v,
+                Ok(v) if v["id"] == json!(id) => return Ok(v),
                 Ok(_) => {}
-                Err(RecvTimeoutError::Timeout) => panic!(
-                    "no reply to {request} from the emulator within {} s; {}\n{}",
-                    REQUEST_TIMEOUT.as_secs(),
-                    self.time_report(),
-                    self.log()
-                ),
-                Err(RecvTimeoutError::Disconnected) => panic!(
-                    "{} instead of answering {request}\n{}",
-                    self.exit_status(),
-                    self.log()
-                ),
+                Err(RecvTimeoutError::Timeout) => return Err(Unanswered::Timeout),
+                Err(RecvTimeoutError::Disconnected) => return Err(Unanswered::Disconnected),
             }
         }
     }
@@ -230,27 +248,15 @@ impl EmulatedBoard {
     /// Where the emulator's time stands, asked twice a second apart: tells a board that stopped
     /// advancing emulated time from one that is only slow.
     fn time_report(&mut self) -> String {
-        let mut nanos = Vec::new();
-        for _ in 0..2 {
-            let id = self.next_id;
-            self.next_id += 1;
-            if writeln!(self.stdin, "{}", json!({"cmd": "status", "id": id})).is_err() {
-                return "the emulator no longer reads requests".into();
+        let mut nanos = [0.0; 2];
+        for (i, reading) in nanos.iter_mut().enumerate() {
+            if i > 0 {
+                thread::sleep(Duration::from_secs(1));
             }
-            self.stdin.flush().ok();
-            let deadline = Instant::now() + Duration::from_secs(5);
-            loop {
-                let left = deadline.saturating_duration_since(Instant::now());
-                match self.replies.recv_timeout(left) {
-                    Ok(v) if v["id"] == json!(id) => {
-                        nanos.push(v["nanos"].as_f64().unwrap_or(f64::NAN));
-                        break;
-                    }
-                    Ok(_) => {}
-                    Err(_) => return "the emulator does not answer a status request either".into(),
-                }
+            match self.exchange(&mut json!({"cmd": "status"}), Duration::from_secs(5)) {
+                Ok(reply) => *reading = reply["nanos"].as_f64().unwrap_or(f64::NAN),
+                Err(_) => return "the emulator does not answer a status request either".into(),
             }
-            thread::sleep(Duration::from_secs(1));
         }
         format!(
             "its emulated time stood at {:.3} ms, then {:.3} ms a second later",

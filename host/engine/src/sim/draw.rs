@@ -119,12 +119,10 @@ impl TrueArm {
         // The twists of nominally parallel axes, drawn after everything else
         // and kept only when switched on: without them the true arm and its
         // errors are what they always were.
-        for id in parallel_twists(nominal) {
+        for id in drawn_twists(nominal, config) {
             let normal: f64 = rng.sample(StandardNormal);
-            if config.parallel_twist_sigma_rad > 0.0 {
-                ids.push(id);
-                errors.push(normal * config.parallel_twist_sigma_rad);
-            }
+            ids.push(id);
+            errors.push(normal * config.parallel_twist_sigma_rad);
         }
 
         let arm = nominal.with_errors(&ids, &errors);
@@ -148,12 +146,20 @@ impl TrueArm {
     /// then the twist of each link with nominally parallel axes when the
     /// configuration draws them.
     pub fn named_errors(&self) -> impl Iterator<Item = (ParamId, f64)> + '_ {
-        let twists =
-            parallel_twists(&self.nominal).filter(|_| self.config.parallel_twist_sigma_rad > 0.0);
         ParamId::of(&self.nominal)
-            .chain(twists)
+            .chain(drawn_twists(&self.nominal, &self.config))
             .zip(self.errors.iter().copied())
     }
+}
+
+/// The twists of `nominal`'s links with parallel axes that `config` draws:
+/// all of them when it has a twist sigma, none otherwise.
+fn drawn_twists<'a>(
+    nominal: &'a Arm<f64>,
+    config: &SimConfig,
+) -> impl Iterator<Item = ParamId> + 'a {
+    let on = config.parallel_twist_sigma_rad > 0.0;
+    parallel_twists(nominal).filter(move |_| on)
 }
 
 /// `lo (hi/lo)^unit`: log-uniform in `[lo, hi]` for `unit` uniform in `[0, 1)`.
