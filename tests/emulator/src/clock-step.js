@@ -3,7 +3,7 @@
 //! The clock counts fractional nanoseconds (a wall-time pacing limit is fractional), and
 //! `clock.tick(alarm.nanos - clock.nanos)` can land a fraction of a nanosecond before the alarm,
 //! which then does not fire. A loop that sleeps "until the next alarm" would ask for that tiny
-//! step again and again and never get there. These helpers always arrive.
+//! step again and again and never get there. This helper always arrives.
 
 /** Ticks `clock` just far enough that its next alarm fires (now, if it is already due). */
 export function tickThroughNextAlarm(clock) {

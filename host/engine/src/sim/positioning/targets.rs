@@ -75,7 +75,6 @@ pub fn targets(
     let chain = arm.chain();
     // Each board's targets are solved on the nominal arm it was sent, as
     // `move --xyz` solves them: a calibration's stands where the arm does.
-    let calibrated = |b: usize| boards.get(b).is_some_and(|(_, c)| c.is_some());
     let board_arms: Vec<Arm<f64>> = boards
         .iter()
         .map(|(_, c)| {
@@ -113,7 +112,8 @@ pub fn targets(
         let point_m = chain.rigid_tool_point(&q);
         let mut solved = Vec::with_capacity(from.len());
         for (b, start) in from.iter().enumerate() {
-            let admit = |q: &[f64]| match commanded.get(b).and_then(Option::as_ref) {
+            let calibrated = commanded.get(b).and_then(Option::as_ref);
+            let admit = |q: &[f64]| match calibrated {
                 Some(board) => board.command(q).map(drop).map_err(|r| r.to_string()),
                 None => Ok(()),
             };
@@ -129,7 +129,7 @@ pub fn targets(
                     | IkError::OutOfReach { .. }
                     | IkError::OutsideLimits { .. }
                     | IkError::Colliding { .. },
-                ) if calibrated(b) => break,
+                ) if calibrated.is_some() => break,
                 Err(source) => {
                     return Err(PositioningError::Ik {
                         index: found.len(),
