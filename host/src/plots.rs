@@ -323,10 +323,12 @@ pub fn per_pose_series(option: &OptionReport) -> Vec<Series> {
     ]
 }
 
-/// One series per option of O1 against the number of poses.
+/// One series per option of O1 against the number of poses, the options
+/// that have points in table order.
 pub fn o1_series(points: &[O1Point]) -> Vec<Series> {
-    ModelOption::ALL
+    ModelOption::EVERY
         .iter()
+        .filter(|&&o| points.iter().any(|p| p.option == o))
         .map(|&o| Series {
             label: o.name().into(),
             points: points
@@ -427,12 +429,18 @@ pub fn demo_figures(
     )?);
     if let Some(ek) = options
         .iter()
-        .find(|o| o.option == ModelOption::ElastoKinematic)
+        .find(|o| {
+            matches!(
+                o.option,
+                ModelOption::PaperElastoKinematic | ModelOption::ElastoKinematic
+            )
+        })
     {
+        let title = format!("Error per validation pose ({})", ek.option);
         files.extend(write(
             &dir.join("per-pose"),
             &Lines {
-                title: "Error per validation pose (elasto-kinematic)",
+                title: &title,
                 x_desc: "pose id",
                 y_desc: "3D error norm (mm)",
                 series: &per_pose_series(ek),
@@ -522,19 +530,15 @@ mod tests {
             p(ModelOption::ElastoKinematic, 50, 0.7),
             p(ModelOption::Kinematic, 10, 0.2),
             p(ModelOption::ElastoKinematic, 60, 0.75),
+            p(ModelOption::PaperElastoKinematic, 60, 0.74),
         ]);
         let labels: Vec<&str> = series.iter().map(|s| s.label.as_str()).collect();
         assert_eq!(
             labels,
-            [
-                "kinematic",
-                "elastic",
-                "elasto-kinematic",
-                "elasto-kinematic-servo"
-            ]
+            ["kinematic", "elasto-kinematic", "paper-elasto-kinematic"]
         );
         assert_eq!(series[0].points, [(10.0, 0.2)]);
-        assert!(series[1].points.is_empty());
-        assert_eq!(series[2].points, [(50.0, 0.7), (60.0, 0.75)]);
+        assert_eq!(series[1].points, [(50.0, 0.7), (60.0, 0.75)]);
+        assert_eq!(series[2].points, [(60.0, 0.74)]);
     }
 }

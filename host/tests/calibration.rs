@@ -177,10 +177,10 @@ fn demo_figures(seed: u64) -> DemoFigures {
             .validation
             .reduction_pct
     };
-    let ek = run(ModelOption::ElastoKinematic, LOAD, 0.0);
-    let kin = run(ModelOption::Kinematic, LOAD, 0.0);
+    let ek = run(ModelOption::PaperElastoKinematic, LOAD, 0.0);
+    let kin = run(ModelOption::PaperKinematic, LOAD, 0.0);
     let ela = run(ModelOption::Elastic, LOAD, 0.0);
-    let reverse = run(ModelOption::ElastoKinematic, 0.0, LOAD);
+    let reverse = run(ModelOption::PaperElastoKinematic, 0.0, LOAD);
     DemoFigures {
         kinematic_mm: held_out(&kin).after.mean_m * 1e3,
         elastic_mm: held_out(&ela).after.mean_m * 1e3,
@@ -258,7 +258,7 @@ fn detmax_beats_random_selection() {
     let inputs = Inputs::new(&nominal, &poses, &all);
     let ek = calibrate_option(
         &inputs,
-        ModelOption::ElastoKinematic,
+        ModelOption::PaperElastoKinematic,
         &settings(LOAD, None, 8),
         &Silent,
     )
@@ -281,7 +281,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     let name = |n: &str| ParamKey::from_name(n).expect("parameter name");
     let a = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
-        ModelOption::ElastoKinematic,
+        ModelOption::PaperElastoKinematic,
         lrmcal_engine::calib::parameters::servo_knots::KnotSpacing::FINEST,
         &poses
             .iter()
@@ -327,7 +327,7 @@ fn bundled_arm_removals_are_the_structural_redundancies() {
     }
     let kin = lrmcal_engine::calib::analysis::identifiability::analyse(
         &nominal,
-        ModelOption::Kinematic,
+        ModelOption::PaperKinematic,
         lrmcal_engine::calib::parameters::servo_knots::KnotSpacing::FINEST,
         &poses
             .iter()
@@ -364,7 +364,7 @@ fn a_soft_light_wrist_is_fitted_and_its_weak_compliances_named() {
     let all = truth.measure(&poses, &[0.0]).expect("measure");
     let inputs = Inputs::new(&nominal, &poses, &all);
     let wrist = ["k4", "k5", "k6"].map(|n| ParamKey::from_name(n).expect("name"));
-    for option in [ModelOption::Elastic, ModelOption::ElastoKinematic] {
+    for option in [ModelOption::Elastic, ModelOption::PaperElastoKinematic] {
         let r = calibrate_option(&inputs, option, &settings(0.0, None, 2), &Silent)
             .unwrap_or_else(|e| panic!("{option}: {e}"));
         let weak: Vec<_> = r.identified.estimates.iter().filter(|e| e.weak).collect();
@@ -400,7 +400,7 @@ fn three_gross_errors_are_named_and_do_not_pull_the_default_fit() {
             identify,
             ..settings(LOAD, None, 2)
         };
-        outlier_trial(&inputs, ModelOption::ElastoKinematic, &s, 3, up).expect("trial")
+        outlier_trial(&inputs, ModelOption::PaperElastoKinematic, &s, 3, up).expect("trial")
     };
     let robust = run(IdentifyOptions::default());
     assert_eq!(robust.displaced.len(), 3);
@@ -466,7 +466,7 @@ fn off_grid_figures(seed: u64) -> OffGridFigures {
     OffGridFigures {
         ours: means(ModelOption::ElastoKinematicServo, 60),
         ours_30: means(ModelOption::ElastoKinematicServo, 30),
-        paper: means(ModelOption::ElastoKinematic, 60),
+        paper: means(ModelOption::PaperElastoKinematic, 60),
     }
 }
 

@@ -559,7 +559,7 @@ fn demo_writes_its_folder_and_prints_the_table() {
         "cross-load",
         // The counts follow --poses and the option's candidates.
         "O1 of the 40 selected poses",
-        "DETMAX vs 2 random 40-pose sets (elasto-kinematic)",
+        "DETMAX vs 2 random 40-pose sets (paper-elasto-kinematic)",
         "elasto-kinematic-servo: 81 of 98 parameters identifiable",
         // The error at the tool through the board, per board.
         "Positioning error at the tool through the board, 20 random targets",
@@ -569,7 +569,7 @@ fn demo_writes_its_folder_and_prints_the_table() {
         assert!(t.contains(needle), "{needle} missing from {t}");
     }
     for f in [
-        "calibration-elasto-kinematic.json",
+        "calibration-paper-elasto-kinematic.json",
         "report.json",
         "errors.svg",
         "errors.png",

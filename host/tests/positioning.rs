@@ -42,7 +42,7 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
         identify: IdentifyOptions::default(),
     };
     let mut files = Vec::new();
-    for option in [ModelOption::ElastoKinematic, option::DEFAULT] {
+    for option in [ModelOption::PaperElastoKinematic, option::DEFAULT] {
         if files.iter().any(|(o, _)| *o == option) {
             continue;
         }

@@ -213,7 +213,7 @@ fn the_demo_runs_on_the_so101_and_the_board_takes_its_calibration() {
         "O1 of the 40 selected poses",
         "Positioning error at the tool through the board, 20 random targets",
         "uncalibrated  ",
-        "paper's model (elasto-kinematic)  ",
+        "paper's model (paper-elasto-kinematic)  ",
         "ours (elasto-kinematic-servo)  ",
     ] {
         assert!(t.contains(needle), "{needle} missing from {t}");
@@ -307,5 +307,5 @@ fn the_demo_of_the_urdf_arm_skips_the_board_and_says_why() {
     );
     assert!(t.contains("elasto-kinematic-servo  "), "{t}");
     assert!(!out_dir.join("positioning.svg").exists());
-    assert!(out_dir.join("calibration-elasto-kinematic.json").exists());
+    assert!(out_dir.join("calibration-paper-elasto-kinematic.json").exists());
 }

@@ -40,25 +40,53 @@ pub const MAX_CORRECTION_RAD: f32 = core::f32::consts::FRAC_PI_3;
 #[serde(rename_all = "kebab-case")]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum ModelOption {
-    /// Geometric and elastic parameters (28 in the paper).
+    /// Geometric and elastic parameters: the geometry complete for every
+    /// chain (standard DH, and Hayati's twist where two axes are parallel)
+    /// and the compliances.
     ElastoKinematic,
-    /// Geometric parameters only (21 in the paper).
+    /// Geometric parameters only, complete for every chain.
     Kinematic,
     /// Compliances only (7).
     Elastic,
-    /// Ours: the paper's geometric and elastic parameters, plus each servo's
+    /// Ours: the geometric and elastic parameters, plus each servo's
     /// curve between its tuned points (knot offsets), each joint's backlash
     /// (the width of its play) and each spring's softening.
     ElastoKinematicServo,
+    /// The paper's elasto-kinematic model as the paper had it: plain DH
+    /// (no twist of parallel axes) and the compliances (28 in the paper).
+    PaperElastoKinematic,
+    /// The paper's kinematic model as the paper had it: plain DH only (21
+    /// in the paper).
+    PaperKinematic,
 }
 
 impl ModelOption {
-    /// Every option, worst model first: the paper's table order, then ours.
+    /// The options `--option all` fits, worst model first: the paper's
+    /// table order, then ours.
     pub const ALL: [ModelOption; 4] = [
         Self::Kinematic,
         Self::Elastic,
         Self::ElastoKinematic,
         Self::ElastoKinematicServo,
+    ];
+
+    /// The paper's three models with the paper's own parameters, then
+    /// ours: what the demo compares, as the paper's table.
+    pub const PAPER_STUDY: [ModelOption; 4] = [
+        Self::PaperKinematic,
+        Self::Elastic,
+        Self::PaperElastoKinematic,
+        Self::ElastoKinematicServo,
+    ];
+
+    /// Every option there is: [`ModelOption::ALL`], then the paper's plain-DH sets.
+    pub const EVERY: [ModelOption; 6] = [
+        Self::Kinematic,
+        Self::Elastic,
+        Self::ElastoKinematic,
+        Self::ElastoKinematicServo,
+        Self::PaperKinematic,
+        Self::PaperElastoKinematic,
     ];
 
     /// The name used on the command line and in calibration files.
@@ -68,12 +96,25 @@ impl ModelOption {
             Self::Kinematic => "kinematic",
             Self::Elastic => "elastic",
             Self::ElastoKinematicServo => "elasto-kinematic-servo",
+            Self::PaperElastoKinematic => "paper-elasto-kinematic",
+            Self::PaperKinematic => "paper-kinematic",
         }
     }
 
     /// The option called `name`.
     pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|o| o.name() == name)
+        Self::EVERY.into_iter().find(|o| o.name() == name)
+    }
+
+    /// Whether the option fits the arm's geometry.
+    pub fn fits_geometry(self) -> bool {
+        self != Self::Elastic
+    }
+
+    /// Whether the option keeps the paper's plain DH parameters, without
+    /// the twists of parallel axes.
+    pub fn is_paper_dh(self) -> bool {
+        matches!(self, Self::PaperKinematic | Self::PaperElastoKinematic)
     }
 }
 
@@ -301,10 +342,14 @@ mod tests {
                 "elasto-kinematic-servo"
             ]
         );
-        for o in ModelOption::ALL {
+        for o in ModelOption::EVERY {
             assert_eq!(ModelOption::from_name(o.name()), Some(o));
         }
         assert_eq!(ModelOption::from_name("rigid"), None);
+        assert_eq!(
+            ModelOption::from_name("paper-kinematic"),
+            Some(ModelOption::PaperKinematic)
+        );
     }
 
     #[test]
@@ -317,5 +362,7 @@ mod tests {
         assert_eq!(index(ModelOption::Kinematic), 1);
         assert_eq!(index(ModelOption::Elastic), 2);
         assert_eq!(index(ModelOption::ElastoKinematicServo), 3);
+        assert_eq!(index(ModelOption::PaperElastoKinematic), 4);
+        assert_eq!(index(ModelOption::PaperKinematic), 5);
     }
 }

@@ -217,17 +217,29 @@ pub fn analyse_jacobian(
         .map(|c| c.into_owned())
         .collect();
 
+    // A compliance cannot go below zero, a geometric parameter can go either
+    // way: a compliance whose column the geometric candidates reproduce (a
+    // slide's spring under a constant force is a constant offset) is left to
+    // them, or the half of that direction the spring cannot take is lost.
+    let one_sided = |id: ParamKey| id.kind() == ParamKind::Compliance;
+    let geometric_span = orthonormal_span(
+        ids.iter()
+            .zip(&unit)
+            .filter(|(id, _)| !one_sided(**id))
+            .map(|(_, u)| u),
+        tolerance,
+    );
     let mut basis: Vec<DVector<f64>> = Vec::new();
     let mut kept = Vec::new();
     let mut kept_cols = Vec::new();
     let mut pending = Vec::new();
     for (c, &id) in ids.iter().enumerate() {
-        let mut r = unit[c].clone();
-        for _ in 0..2 {
-            for b in &basis {
-                r -= b * b.dot(&r);
-            }
+        if one_sided(id) && outside(&geometric_span, &unit[c]) * effect[c] <= RESOLUTION_M {
+            let residual = outside(&basis, &unit[c]);
+            pending.push((c, id, residual));
+            continue;
         }
+        let r = remainder(&basis, &unit[c]);
         let residual = r.norm();
         if residual > tolerance && residual * effect[c] > RESOLUTION_M {
             basis.push(r / residual);
@@ -305,6 +317,40 @@ pub fn analyse_jacobian(
     }
 }
 
+/// What of `v` lies outside the span of the orthonormal `basis` (Gram–Schmidt
+/// with re-orthogonalisation).
+fn remainder(basis: &[DVector<f64>], v: &DVector<f64>) -> DVector<f64> {
+    let mut r = v.clone();
+    for _ in 0..2 {
+        for b in basis {
+            r -= b * b.dot(&r);
+        }
+    }
+    r
+}
+
+/// The length of [`remainder`].
+fn outside(basis: &[DVector<f64>], v: &DVector<f64>) -> f64 {
+    remainder(basis, v).norm()
+}
+
+/// An orthonormal basis of the span of `columns`: each column's remainder
+/// joins it when longer than `tolerance`.
+fn orthonormal_span<'a>(
+    columns: impl Iterator<Item = &'a DVector<f64>>,
+    tolerance: f64,
+) -> Vec<DVector<f64>> {
+    let mut basis = Vec::new();
+    for c in columns {
+        let r = remainder(&basis, c);
+        let norm = r.norm();
+        if norm > tolerance {
+            basis.push(r / norm);
+        }
+    }
+    basis
+}
+
 /// Checks that `keys` are identifiable from `samples` at `rig`: the
 /// column-scaled Jacobian has full rank. When it has not, the error names the
 /// parameters that dominate the weakest direction.
@@ -353,7 +399,8 @@ pub fn check_full_rank(
 /// What the arm's structure lets positions identify, worked out once per
 /// option and knot spacing and kept for every later check of the same arm
 /// and load: the parameters the -100/0/+100° grid of every joint identifies
-/// (servo knots on the spacing checked) is what positions can reveal at all.
+/// (each level within the joint's limits; servo knots on the spacing
+/// checked) is what positions can reveal at all.
 pub struct Structures<'a> {
     nominal: &'a Arm<f64>,
     load_kg: f64,
@@ -412,11 +459,19 @@ impl<'a> Structures<'a> {
         {
             return Ok(kept.clone());
         }
+        // Each level within the joint's limits: the grid the arm can reach
+        // (a slide's levels are its ends and its zero).
+        let within = |mut q: model::PerJoint<f64>| {
+            for (v, joint) in q.iter_mut().zip(self.nominal.joints.iter()) {
+                *v = v.clamp(joint.limits[0], joint.limits[1]);
+            }
+            q
+        };
         let grid: Vec<Sample> = crate::plan::Levels::paper()
             .grid(self.nominal.joints.len())
             .map(|p| Sample {
                 id: p.id,
-                q: p.q,
+                q: within(p.q),
                 load_kg: self.load_kg,
                 target: 0,
                 approach: lrmcal_core::dataset::from_home(p.q.len()),

@@ -293,7 +293,7 @@ mod tests {
         let samples = small_samples(30);
         let keys = crate::calib::analysis::identifiability::analyse(
             &arm,
-            ModelOption::Kinematic,
+            ModelOption::PaperKinematic,
             crate::calib::parameters::servo_knots::KnotSpacing::FINEST,
             &samples,
         )
@@ -304,7 +304,7 @@ mod tests {
             refresh: false,
             ..Default::default()
         };
-        let first = fit_refreshed(&nominal, ModelOption::Kinematic, &keys, &meas, &plain).unwrap();
+        let first = fit_refreshed(&nominal, ModelOption::PaperKinematic, &keys, &meas, &plain).unwrap();
         assert!(
             first.diagnostics.rms_after_m > 1e-6,
             "{:?}",
@@ -312,7 +312,7 @@ mod tests {
         );
         let fit = fit_refreshed(
             &nominal,
-            ModelOption::Kinematic,
+            ModelOption::PaperKinematic,
             &keys,
             &meas,
             &IdentifyOptions::default(),

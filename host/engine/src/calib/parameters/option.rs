@@ -22,10 +22,14 @@ pub fn fits_backlash(option: ModelOption) -> bool {
     option == ModelOption::ElastoKinematicServo
 }
 
-/// Candidate parameters of `option` before the identifiability analysis: all
-/// 43 for elasto-kinematic, the 36 geometric ones for kinematic, the 7
-/// compliances for elastic, and for elasto-kinematic-servo the 43 and the
-/// knots of `arm`'s servo curves on the grid of `spacing` (its softenings:
+/// Candidate parameters of `option` before the identifiability analysis:
+/// for the paper's own sets (`paper-elasto-kinematic`, `paper-kinematic`)
+/// the 43 and the 36 geometric ones of plain DH as the paper had them; for
+/// elasto-kinematic and kinematic the same and Hayati's twist of every link
+/// whose two joint axes are parallel ([`parallel_twists`]), which makes the
+/// geometry complete for every chain; the 7 compliances for elastic; for
+/// elasto-kinematic-servo the elasto-kinematic ones and the knots of
+/// `arm`'s servo curves on the grid of `spacing` (its softenings:
 /// [`refresh_candidates`]).
 ///
 /// The order is a preference: when parameters are confounded, the rank
@@ -53,13 +57,14 @@ pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> 
     let frames = ParamId::of(arm).filter(is_frame);
     let dh = ParamId::of(arm).filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);
+    let twists = parallel_twists(arm);
     let ids: Vec<ParamId> = match option {
-        ModelOption::ElastoKinematic => compliances.chain(geometric).collect(),
-        ModelOption::ElastoKinematicServo => compliances
-            .chain(geometric)
-            .chain(parallel_twists(arm))
-            .collect(),
-        ModelOption::Kinematic => geometric.collect(),
+        ModelOption::PaperElastoKinematic => compliances.chain(geometric).collect(),
+        ModelOption::ElastoKinematic | ModelOption::ElastoKinematicServo => {
+            compliances.chain(geometric).chain(twists).collect()
+        }
+        ModelOption::PaperKinematic => geometric.collect(),
+        ModelOption::Kinematic => geometric.chain(twists).collect(),
         ModelOption::Elastic => compliances.collect(),
     };
     let knots = fits_servo_curves(option)
@@ -78,8 +83,8 @@ const PARALLEL_RAD: f64 = 1e-5;
 /// nominally parallel (`alpha` 0 or π, the last link's not counted: its
 /// frame carries no joint): the tilt of two parallel axes that no DH
 /// parameter holds (a tilt of `alpha` turns one axis about the common
-/// normal, `beta` about the other direction across them). Ours only: the
-/// paper's options keep the paper's parameters.
+/// normal, `beta` about the other direction across them). Every option that
+/// fits geometry has them but the paper's own plain-DH sets.
 pub(crate) fn parallel_twists(arm: &Arm<f64>) -> impl Iterator<Item = ParamId> + '_ {
     let n = arm.joints.len();
     (0..n.saturating_sub(1))
@@ -112,25 +117,35 @@ mod tests {
     #[test]
     fn candidate_counts_are_43_36_7_and_98() {
         let arm = test_arm();
+        // The paper's own sets: its 43 and 36 of plain DH.
         assert_eq!(
-            candidates(ModelOption::ElastoKinematic, &arm, FINEST).len(),
+            candidates(ModelOption::PaperElastoKinematic, &arm, FINEST).len(),
             43
         );
-        // Ours adds Hayati's twist of link 2, whose joint axes (2 and 3) are
-        // parallel, after the paper's 43.
+        assert_eq!(
+            candidates(ModelOption::PaperKinematic, &arm, FINEST).len(),
+            36
+        );
+        // The complete sets add Hayati's twist of link 2, whose joint axes
+        // (2 and 3) are parallel, after the paper's parameters.
+        let ek = candidates(ModelOption::ElastoKinematic, &arm, FINEST);
+        assert_eq!(ek.len(), 44);
+        assert_eq!(ek[43].name(), "j2.beta");
+        assert_eq!(
+            ek[..43],
+            candidates(ModelOption::PaperElastoKinematic, &arm, FINEST)[..]
+        );
+        let kin = candidates(ModelOption::Kinematic, &arm, FINEST);
+        assert_eq!(kin.len(), 37);
+        assert_eq!(kin[36].name(), "j2.beta");
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
         assert_eq!(ours.len(), 44 + 6 * servo_knots::KNOTS);
-        assert_eq!(ours[43].name(), "j2.beta");
+        assert_eq!(ours[..44], ek[..]);
         assert_eq!(
             refresh_candidates(ModelOption::ElastoKinematicServo, &arm).len(),
             7
         );
         assert!(refresh_candidates(ModelOption::ElastoKinematic, &arm).is_empty());
-        assert_eq!(
-            ours[..43],
-            candidates(ModelOption::ElastoKinematic, &arm, FINEST)[..]
-        );
-        assert_eq!(candidates(ModelOption::Kinematic, &arm, FINEST).len(), 36);
         assert_eq!(candidates(ModelOption::Elastic, &arm, FINEST).len(), 7);
         assert!(
             candidates(ModelOption::Elastic, &arm, FINEST)
@@ -145,7 +160,6 @@ mod tests {
             candidates(ModelOption::Elastic, &arm, FINEST)[..]
         );
         // The frames before the DH parameters: they hold every base pose and tool point.
-        let kin = candidates(ModelOption::Kinematic, &arm, FINEST);
         assert_eq!(
             (kin[0].name(), kin[11].name()),
             ("base.x".into(), "tool.yaw".into())

@@ -77,7 +77,7 @@ pub fn study(
             what: "check across loads: the study needs measurements under two loads".into(),
         });
     };
-    let results = ModelOption::ALL
+    let results = ModelOption::PAPER_STUDY
         .iter()
         .map(|&option| {
             let r = calibrate_option(inputs, option, run, progress)?;
@@ -110,7 +110,7 @@ pub fn study(
     );
     // The paper's comparison, on its model: a random set cannot determine
     // ours at all (its fits fail after long searches).
-    let paper = run_of(&results, ModelOption::ElastoKinematic)?;
+    let paper = run_of(&results, ModelOption::PaperElastoKinematic)?;
     if settings.compare_random > 0 {
         report.random_baseline = Some(random_baseline(
             inputs,

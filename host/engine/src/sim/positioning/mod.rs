@@ -318,7 +318,7 @@ pub fn demo_boards(
     calibrations: &[(ModelOption, &CalibrationFile)],
 ) -> Result<Vec<(String, Option<Calibration>)>, PositioningError> {
     let mut boards = vec![("uncalibrated".to_owned(), None)];
-    let paper = ModelOption::ElastoKinematic;
+    let paper = ModelOption::PaperElastoKinematic;
     let mut wanted = vec![(paper, format!("paper's model ({paper})"))];
     if option::DEFAULT == paper {
         wanted[0].1 = format!("paper's model = ours ({paper})");
