@@ -3,17 +3,20 @@
 //!
 //! ```text
 //! kept (the candidates' analysis, structure checked)
+//!   → model (model_choice: the option's effects, simplest first, on each rung)
 //!   → knot spacing (knot_choice: the servo curves' knots on each spacing tried)
 //!     → play widths (backlash: the joints the measurements show arriving both ways)
 //!       → the fit (identify)
 //!         → refresh (the rank analysis again at the estimate, and what it adds)
 //! ```
 //!
-//! The spacing stage compares the fits its spacings end in and keeps the
-//! one that predicts best; the stages after it run once per spacing.
+//! The model and spacing stages compare the fits they end in and keep the
+//! one that predicts best; the stages after each run once per rung or
+//! spacing.
 
 use crate::calib::fit::identify::{Identified, IdentifyOptions, identify};
 use crate::calib::fit::knot_choice::{self, ChosenFit};
+use crate::calib::fit::model_choice;
 use crate::calib::fit::refresh::refreshed;
 use crate::calib::parameters::backlash;
 use crate::calib::parameters::params::ParamKey;
@@ -29,9 +32,11 @@ pub fn grow(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<ChosenFit, CalibError> {
-    knot_choice::choose(kept, |keys| {
-        let keys = backlash::with_widths(nominal, option, keys, measurements)?;
-        fit_refreshed(nominal, option, &keys, measurements, options)
+    model_choice::choose(option, kept, |model, kept| {
+        knot_choice::choose(kept, |keys| {
+            let keys = backlash::with_widths(nominal, model, keys, measurements)?;
+            fit_refreshed(nominal, model, &keys, measurements, options)
+        })
     })
 }
 

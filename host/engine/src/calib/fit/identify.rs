@@ -178,6 +178,8 @@ pub struct Diagnostics {
     /// (leave-one-out, from the linearised fit: see the module docs), m;
     /// infinite when a measurement alone decides a parameter.
     pub loo_mean_m: f64,
+    /// Standard deviation of the measurements' leave-one-out errors, m.
+    pub loo_sd_m: f64,
 }
 
 /// The outcome of an identification.
@@ -631,6 +633,7 @@ pub fn identify(
             sigma_m: cov.sigma_m,
             condition: cov.condition,
             loo_mean_m: cov.loo_mean_m,
+            loo_sd_m: cov.loo_sd_m,
         },
         fit_residual: ErrorStats::of(&norms),
         fit_residual_per_target: (0..data.nominal.targets.len())

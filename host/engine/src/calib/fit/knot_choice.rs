@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::calib::CalibError;
 use crate::calib::fit::identify::Identified;
+use crate::calib::fit::model_choice::ModelChoice;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{KnotSpacing, on_spacing, spacing_of};
 
@@ -44,13 +45,16 @@ pub struct KnotChoice {
 }
 
 /// A fit of an option's parameters, with the knot spacing chosen when the
-/// option fits servo curves.
+/// option fits servo curves and the model when it fits several effects
+/// (`calib::model_choice`).
 #[derive(Clone, Debug)]
 pub struct ChosenFit {
     /// The identification.
     pub identified: Identified,
     /// How the knot spacing was chosen; `None` without knots.
     pub knots: Option<KnotChoice>,
+    /// How the model was chosen; `None` for an option fitted as it is.
+    pub model: Option<ModelChoice>,
 }
 
 /// The knot spacing stage: `fit_on` (the stages after it) of `kept`; when
@@ -64,6 +68,7 @@ pub fn choose(
         return Ok(ChosenFit {
             identified: fit_on(kept)?,
             knots: None,
+            model: None,
         });
     };
     let fit_spaced = |spacing: KnotSpacing| fit_on(&on_spacing(kept, spacing));
@@ -107,5 +112,6 @@ pub fn choose(
     Ok(ChosenFit {
         identified: fit?,
         knots: Some(KnotChoice { chosen, trials }),
+        model: None,
     })
 }

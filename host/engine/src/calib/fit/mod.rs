@@ -2,6 +2,7 @@
 //! ([`registration`]), measurements that cannot be right ([`checks`]), the
 //! Levenberg–Marquardt fit ([`identify`]), the rank analysis again at the
 //! estimate ([`refresh`]), the servo curves' knot spacing ([`knot_choice`]),
+//! how much model the measurements carry ([`model_choice`]),
 //! these stages in their order for one option ([`grow`]),
 //! validation on held-out poses ([`validate`]), re-teaching the tool points
 //! ([`tool_only`]) and the stages chained for one option ([`pipeline`]).
@@ -10,6 +11,7 @@ pub mod checks;
 pub mod grow;
 pub mod identify;
 pub mod knot_choice;
+pub mod model_choice;
 pub mod pipeline;
 pub mod refresh;
 pub mod registration;

@@ -22,6 +22,7 @@ use crate::calib::analysis::observability::{ColumnScale, Observability};
 use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
 use crate::calib::fit::knot_choice::{ChosenFit, KnotChoice};
+use crate::calib::fit::model_choice::ModelChoice;
 use crate::calib::fit::validate::{LoadValidation, Validation, validate};
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;
@@ -437,6 +438,8 @@ pub struct OptionResult {
     pub identified: Identified,
     /// How the servo curves' knot spacing was chosen, for an option that fits them.
     pub knots: Option<KnotChoice>,
+    /// How the model was chosen, for an option fitted as a ladder of them.
+    pub model: Option<ModelChoice>,
     /// Validation on the other candidates under the identification load
     /// (none when every candidate was used for the fit).
     pub validation: Option<Validation>,
@@ -535,7 +538,11 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let ChosenFit { identified, knots } = grow(
+    let ChosenFit {
+        identified,
+        knots,
+        model,
+    } = grow(
         &inputs.nominal,
         selection.option,
         &selection.candidates.identifiability.kept,
@@ -565,6 +572,7 @@ pub fn calibrate_blocks(
         selection,
         identified,
         knots,
+        model,
         validation,
         cross_load,
     })

@@ -19,6 +19,7 @@ use crate::calib::analysis::identifiability::Identifiability;
 use crate::calib::analysis::observability::Observability;
 use crate::calib::fit::identify::{Identified, Outlier};
 use crate::calib::fit::knot_choice::KnotChoice;
+use crate::calib::fit::model_choice::ModelChoice;
 use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
@@ -307,6 +308,10 @@ pub struct OptionReport {
     pub fit: FitReport,
     /// How the servo curves' knot spacing was chosen, for an option that fits them.
     pub knots: Option<KnotChoice>,
+    /// How the model was chosen, for an option fitted as a ladder of them;
+    /// absent in reports written before the choice existed.
+    #[serde(default)]
+    pub model: Option<ModelChoice>,
     /// Validation on held-out poses under the identification load, if any were held out.
     pub validation: Option<ValidationReport>,
     /// Validation under the other load.
@@ -325,6 +330,7 @@ impl From<&OptionResult> for OptionReport {
             observability: r.selection.observability,
             fit: (&r.identified).into(),
             knots: r.knots.clone(),
+            model: r.model.clone(),
             validation: r
                 .validation
                 .as_ref()

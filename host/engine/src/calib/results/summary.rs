@@ -126,6 +126,30 @@ pub fn knots(o: &OptionReport) -> Option<String> {
     ))
 }
 
+/// Which model the option's ladder kept, and each rung's leave-one-out
+/// error, for an option fitted as a ladder (`calib::model_choice`).
+pub fn model(o: &OptionReport) -> Option<String> {
+    let m = o.model.as_ref()?;
+    let trials: Vec<String> = m
+        .trials
+        .iter()
+        .map(|t| match (t.loo_mean_mm, t.loo_se_mm) {
+            (Some(mean), Some(se)) => format!("{} {mean:.3} ± {se:.3} mm", t.model),
+            _ => format!("{} failed", t.model),
+        })
+        .collect();
+    let why = if m.chosen == o.option {
+        "the richest model predicts the fitted poses left out best"
+    } else {
+        "the richer models do not predict the fitted poses left out better by more than a standard error"
+    };
+    Some(format!(
+        "model: {} ({why}; leave-one-out mean error: {})",
+        m.chosen,
+        trials.join(", ")
+    ))
+}
+
 /// What `lrmcal demo` prints of its study (`off_grid` poses off the grid):
 /// the paper-style table with the cross-load check both ways, the grid and
 /// off-grid errors, the error against the number of poses, and for our
@@ -155,6 +179,9 @@ pub fn study(study: &Study, off_grid: usize) -> Result<String, CalibError> {
     }
     if let Some(o) = forward.iter().find(|o| o.option == DEFAULT) {
         s.push_str(&format!("\n{}\n", identifiable(o)));
+        if let Some(line) = model(o) {
+            s.push_str(&format!("{line}\n"));
+        }
         if let Some(line) = knots(o) {
             s.push_str(&format!("{line}\n"));
         }
@@ -203,6 +230,9 @@ pub fn option_details(o: &OptionReport) -> String {
             .unwrap_or("(held at its bound)".into());
         format!("  {:<11} {:+.6e} {std}", p.name, p.error)
     }));
+    if let Some(line) = model(o) {
+        lines.push(format!("  {line}"));
+    }
     if let Some(line) = knots(o) {
         lines.push(format!("  {line}"));
     }

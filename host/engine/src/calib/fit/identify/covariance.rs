@@ -22,17 +22,20 @@ pub(super) struct Covariance {
     pub(super) std: Vec<f64>,
     /// Mean leave-one-out error of the measurements, m.
     pub(super) loo_mean_m: f64,
+    /// Standard deviation of the measurements' leave-one-out errors, m.
+    pub(super) loo_sd_m: f64,
 }
 
-/// Mean over the measurements of the norm of their leave-one-out residual
-/// `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of measurement `k`, `H_kk`
-/// its 3×3 block of the hat matrix `U Uᵀ` of the weighted Jacobian (`U` its
-/// left singular vectors; a measurement's weight scales its residual and
-/// its rows alike, so it cancels). Exact for a linear least-squares fit,
-/// the classic PRESS statistic; infinite when `I − H_kk` is singular (the
-/// measurement alone decides a direction of the parameters).
-pub(super) fn leave_one_out_mean(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> f64 {
-    let total: f64 = residuals
+/// Mean and standard deviation over the measurements of the norm of their
+/// leave-one-out residual `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of
+/// measurement `k`, `H_kk` its 3×3 block of the hat matrix `U Uᵀ` of the
+/// weighted Jacobian (`U` its left singular vectors; a measurement's weight
+/// scales its residual and its rows alike, so it cancels). Exact for a
+/// linear least-squares fit, the classic PRESS statistic; infinite when
+/// `I − H_kk` is singular (the measurement alone decides a direction of the
+/// parameters).
+pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (f64, f64) {
+    let errors: Vec<f64> = residuals
         .iter()
         .enumerate()
         .map(|(k, r)| {
@@ -44,13 +47,19 @@ pub(super) fn leave_one_out_mean(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -
                 .filter(|e| e.iter().all(|v| v.is_finite()))
                 .map_or(f64::INFINITY, |e| e.norm())
         })
-        .sum();
-    total / residuals.len().max(1) as f64
+        .collect();
+    let n = errors.len().max(1) as f64;
+    let mean = errors.iter().sum::<f64>() / n;
+    if !mean.is_finite() {
+        return (f64::INFINITY, f64::INFINITY);
+    }
+    let variance = errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean, variance.sqrt())
 }
 
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
 /// with `s² = RSS / (3n − m)` of the weighted residual norms, and the
-/// leave-one-out error of the measurements ([`leave_one_out_mean`]).
+/// leave-one-out error of the measurements ([`leave_one_out`]).
 pub(super) fn covariance(
     data: &FitData,
     arm: &Rig,
@@ -70,10 +79,10 @@ pub(super) fn covariance(
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
-    let loo_mean_m = svd
+    let (loo_mean_m, loo_sd_m) = svd
         .u
         .as_ref()
-        .map_or(f64::NAN, |u| leave_one_out_mean(u, residuals));
+        .map_or((f64::NAN, f64::NAN), |u| leave_one_out(u, residuals));
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
     let vt = svd.v_t.as_ref();
     let std = (0..free.len())
@@ -95,6 +104,7 @@ pub(super) fn covariance(
         condition,
         std,
         loo_mean_m,
+        loo_sd_m,
     })
 }
 

@@ -2,7 +2,7 @@
 
 use super::*;
 use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
-use covariance::leave_one_out_mean;
+use covariance::leave_one_out;
 use model::ParamId;
 
 fn elastic_keys() -> Vec<ParamKey> {
@@ -207,25 +207,35 @@ fn leave_one_out_equals_refitting_without_each_measurement() {
         .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]))
         .collect();
     let u = j.clone().svd(true, false).u.unwrap();
-    let refitted: f64 = (0..n)
+    let refitted_each: Vec<f64> = (0..n)
         .map(|k| {
             let rest: Vec<usize> = all.iter().copied().filter(|i| i / 3 != k).collect();
             let beta_k = fit(&rest);
             (y.rows(3 * k, 3) - j.rows(3 * k, 3) * beta_k).norm()
         })
+        .collect();
+    let refitted = refitted_each.iter().sum::<f64>() / n as f64;
+    let refitted_sd = (refitted_each
+        .iter()
+        .map(|e| (e - refitted).powi(2))
         .sum::<f64>()
-        / n as f64;
-    let loo = leave_one_out_mean(&u, &residuals);
+        / (n - 1) as f64)
+        .sqrt();
+    let (loo, loo_sd) = leave_one_out(&u, &residuals);
     assert!(
         (loo - refitted).abs() < 1e-9 * refitted,
         "{loo} vs {refitted}"
+    );
+    assert!(
+        (loo_sd - refitted_sd).abs() < 1e-9 * refitted_sd,
+        "{loo_sd} vs {refitted_sd}"
     );
     assert!(loo > residuals.iter().map(|r| r.norm()).sum::<f64>() / n as f64);
     // Five parameters from two measurements (six rows): the first
     // measurement's rows are all the data have for some direction.
     let two = j.rows(0, 6).clone_owned();
     let u = two.svd(true, false).u.unwrap();
-    let loo = leave_one_out_mean(&u, &residuals[..2]);
+    let (loo, _) = leave_one_out(&u, &residuals[..2]);
     assert!(loo.is_infinite() || loo > 1e6, "{loo}");
 }
 
