@@ -28,7 +28,9 @@ fn main() {
         std::process::exit(2);
     }
     let (urdf, base, tip) = (Path::new(&args[0]), &args[1], &args[2]);
-    let seeds: u64 = args.get(3).map_or(5, |s| s.parse().expect("SEEDS, a count"));
+    let seeds: u64 = args
+        .get(3)
+        .map_or(5, |s| s.parse().expect("SEEDS, a count"));
     let lrmcal = std::env::var_os("LRMCAL").map_or_else(
         || {
             let exe = std::env::current_exe().expect("the example's path");
@@ -40,7 +42,9 @@ fn main() {
         PathBuf::from,
     );
     let default = lrmcal_engine::calib::parameters::option::DEFAULT.name();
-    println!("seed  independent  kinematic  {default}  (mean 3D error, mm; residual RMS kinematic / default / noise)");
+    println!(
+        "seed  independent  kinematic  {default}  (mean 3D error, mm; residual RMS kinematic / default / noise)"
+    );
     let mut rows = Vec::new();
     for seed in 1..=seeds {
         let kinematic = calibrate(&lrmcal, urdf, (base, tip), "kinematic", seed, 150);

@@ -208,7 +208,9 @@ impl Error {
             },
             Self::Plot { .. } => exit_codes::FILE_ACCESS,
             Self::Calib(e) => match e {
-                calib::CalibError::Deflection { .. } => exit_codes::MODEL,
+                calib::CalibError::Deflection { .. } | calib::CalibError::Refused { .. } => {
+                    exit_codes::MODEL
+                }
                 _ => exit_codes::INVALID_INPUT,
             },
         }

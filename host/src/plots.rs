@@ -427,15 +427,12 @@ pub fn demo_figures(
         &format!("Cross-load: identified with {load} kg, validated without load"),
         true,
     )?);
-    if let Some(ek) = options
-        .iter()
-        .find(|o| {
-            matches!(
-                o.option,
-                ModelOption::PaperElastoKinematic | ModelOption::ElastoKinematic
-            )
-        })
-    {
+    if let Some(ek) = options.iter().find(|o| {
+        matches!(
+            o.option,
+            ModelOption::PaperElastoKinematic | ModelOption::ElastoKinematic
+        )
+    }) {
         let title = format!("Error per validation pose ({})", ek.option);
         files.extend(write(
             &dir.join("per-pose"),

@@ -230,6 +230,7 @@ fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits()
         poses_used: vec![],
         loads_kg: vec![0.0],
         fit_residual: ErrorStats::of(&[]),
+        converged: true,
         validation: None,
         targets: vec![],
         registration: None,

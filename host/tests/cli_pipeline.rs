@@ -303,6 +303,7 @@ fn calibration_json() -> String {
         poses_used: vec![1],
         loads_kg: vec![LOAD_KG],
         fit_residual: ErrorStats::of(&[1e-4]),
+        converged: true,
         validation: None,
         registration: None,
         targets: vec![],

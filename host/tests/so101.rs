@@ -307,5 +307,9 @@ fn the_demo_of_the_urdf_arm_skips_the_board_and_says_why() {
     );
     assert!(t.contains("elasto-kinematic-servo  "), "{t}");
     assert!(!out_dir.join("positioning.svg").exists());
-    assert!(out_dir.join("calibration-paper-elasto-kinematic.json").exists());
+    assert!(
+        out_dir
+            .join("calibration-paper-elasto-kinematic.json")
+            .exists()
+    );
 }

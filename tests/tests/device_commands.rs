@@ -115,6 +115,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         poses_used: vec![],
         loads_kg: vec![],
         fit_residual: ErrorStats::of(&[0.001]),
+        converged: true,
         validation: None,
         targets: vec![],
         registration: None,

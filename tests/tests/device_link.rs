@@ -75,6 +75,7 @@ fn calibration_file() -> CalibrationFile {
         poses_used: vec![],
         loads_kg: vec![0.0663],
         fit_residual: ErrorStats::of(&[0.001]),
+        converged: true,
         validation: None,
         targets: vec![],
         registration: None,

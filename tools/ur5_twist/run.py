@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Simulate the perturbed UR5 for some seeds, calibrate it with lrmcal's
-`kinematic` option and ours (`elasto-kinematic-servo`), validate both on the
-held-out poses, and print the table of README.md.
+`paper-kinematic` option (plain DH) and ours (`elasto-kinematic-servo`), validate both on the
+held-out poses, and print the table of docs/RESULTS.md ("Parallel axes: a UR5
+from its URDF").
 
     python run.py --lrmcal PATH/TO/lrmcal --urdf ur5.urdf --work DIR [--seeds 1 2 3] [--no-register]
 
@@ -25,7 +26,7 @@ import sys
 import time
 
 HERE = pathlib.Path(__file__).resolve().parent
-OPTIONS = ("kinematic", "elasto-kinematic-servo")
+OPTIONS = ("paper-kinematic", "elasto-kinematic-servo")
 ROW = re.compile(r"^\s*0\s+200\s*\|\s*([\d.]+)\s+[\d.]+\s+([\d.]+)\s+[\d.]+\s+([\d.]+)\s*\|"
                  r"\s*([\d.]+)\s+[\d.]+\s+([\d.]+)\s+[\d.]+\s+([\d.]+)\s*\|", re.M)
 

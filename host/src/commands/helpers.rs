@@ -93,7 +93,7 @@ mod tests {
         assert!(
             e.contains("rigid")
                 && e.contains(
-                    "kinematic, elastic, elasto-kinematic or elasto-kinematic-servo or all"
+                    "kinematic, elastic, elasto-kinematic, elasto-kinematic-servo, paper-kinematic or paper-elasto-kinematic or all"
                 )
         );
     }

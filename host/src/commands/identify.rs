@@ -70,8 +70,10 @@ pub struct Args {
     #[arg(long, value_name = "FILE")]
     pub poses: Option<PathBuf>,
     /// Model option: elasto-kinematic-servo (each servo's own curve, backlash
-    /// and stiffening too), elasto-kinematic, kinematic, elastic (the paper's
-    /// three) or all.
+    /// and stiffening too, as far as the measurements carry them),
+    /// elasto-kinematic, kinematic, elastic (the paper's three, the geometry
+    /// complete for every chain), paper-elasto-kinematic, paper-kinematic
+    /// (the paper's plain DH) or all (the first four).
     #[arg(long, default_value_t = OptionChoice::One(lrmcal_engine::calib::parameters::option::DEFAULT))]
     pub option: OptionChoice,
     /// Load whose measurements the fit uses, kg.

@@ -50,6 +50,12 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<(), Error> {
     let file = CalibrationFile::read(&args.calibration)?;
     let joints = file.arm.joints.len();
+    if !file.converged {
+        return Err(Error::DeviceInput {
+            what: format!("prepare `{}` for the board", args.calibration.display()),
+            reason: "its fit did not converge (`converged`: false), so it may leave the arm worse than uncalibrated; identify again from more poses or with a simpler --option".into(),
+        });
+    }
     if let Err(refused) = calibration::drivable(&file.arm) {
         let way_out = match refused {
             NotDriven::Joints { .. } => {

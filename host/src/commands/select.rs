@@ -36,7 +36,8 @@ pub struct Args {
     #[arg(long, default_value_t = 60)]
     pub n: usize,
     /// Model option: elasto-kinematic-servo (each servo's own curve too),
-    /// elasto-kinematic, kinematic, elastic (the paper's three) or all.
+    /// elasto-kinematic, kinematic, elastic (the paper's three),
+    /// paper-elasto-kinematic, paper-kinematic (the paper's plain DH) or all.
     #[arg(long, default_value = "elasto-kinematic-servo")]
     pub option: OptionChoice,
     /// Loads each pose will be measured under, kg (repeat or comma-separate).

@@ -31,13 +31,14 @@ use html::{escape, para};
 pub const PAGE: &str = "report.html";
 
 /// The ids of the page's sections, in order, with their headings.
-pub const SECTIONS: [(&str, &str); 8] = [
+pub const SECTIONS: [(&str, &str); 9] = [
     ("next", "What to do next"),
     ("summary", "Summary"),
     ("errors", "Errors before and after"),
     ("suspect", "Suspect measurements"),
     ("parameters", "Parameters"),
     ("selection", "Selection and observability"),
+    ("model", "How much model the poses carry"),
     ("knots", "Servo curve knots"),
     ("registration", "Registration"),
 ];
@@ -89,6 +90,7 @@ pub fn render(report: &Report, page: &Path) -> Result<String, Error> {
             "suspect" => sections::suspect(report),
             "parameters" => sections::parameters(report),
             "selection" => sections::selection(report),
+            "model" => sections::model(report),
             "knots" => sections::knots(report),
             _ => sections::registration(report),
         };

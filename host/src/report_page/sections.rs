@@ -244,6 +244,55 @@ pub fn selection(report: &Report) -> String {
     out
 }
 
+/// The model each laddered option kept and the rungs compared.
+pub fn model(report: &Report) -> String {
+    let with: Vec<(usize, &OptionReport)> = report
+        .options
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| o.model.is_some())
+        .collect();
+    if with.is_empty() {
+        return para(
+            "No option of this run was fitted as a ladder of models (ours and elasto-kinematic are): each holds the parameters it was asked for.",
+        );
+    }
+    let mut out = String::new();
+    for (i, o) in with {
+        let Some(m) = &o.model else { continue };
+        let rows: Vec<Vec<String>> = m
+            .trials
+            .iter()
+            .map(|t| {
+                vec![
+                    t.model.to_string(),
+                    t.parameters.to_string(),
+                    match (t.loo_mean_mm, t.loo_se_mm) {
+                        (Some(mean), Some(se)) => format!("{mean:.3} ± {se:.3}"),
+                        _ => "-".into(),
+                    },
+                    if t.model == m.chosen {
+                        "kept".into()
+                    } else {
+                        t.failure.clone().unwrap_or_default()
+                    },
+                ]
+            })
+            .collect();
+        out.push_str(&table(
+            &format!("model-{i}"),
+            &format!(
+                "{}: holds the {} model, the simplest whose fit predicts the fitted poses left out within one standard error of the best",
+                title(o),
+                m.chosen
+            ),
+            &["model", "parameters", "leave-one-out mean ± standard error, mm", "outcome"],
+            &rows,
+        ));
+    }
+    out
+}
+
 /// The servo curves' knot spacing chosen and the ones compared.
 pub fn knots(report: &Report) -> String {
     let with: Vec<(usize, &OptionReport)> = report

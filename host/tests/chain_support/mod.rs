@@ -83,7 +83,6 @@ impl Chain {
         Chain { joints }
     }
 
-
     /// The moving joints' kinds, base to tip.
     pub fn kinds(&self) -> Vec<Motion> {
         self.joints
@@ -202,9 +201,7 @@ impl Measured {
                 down[c] -= h;
                 jac.set_column(c, &((residuals(&up) - residuals(&down)) / (2.0 * h)));
             }
-            let norms: Vec<f64> = (0..n)
-                .map(|c| jac.column(c).norm().max(1e-300))
-                .collect();
+            let norms: Vec<f64> = (0..n).map(|c| jac.column(c).norm().max(1e-300)).collect();
             for c in 0..n {
                 jac.column_mut(c).scale_mut(1.0 / norms[c]);
             }
@@ -378,9 +375,17 @@ pub fn random_chain_urdf(rng: &mut impl Rng, moving: usize) -> String {
                 rng.random_range(-1.0..1.0),
                 rng.random_range(-1.0..1.0),
             );
-            joint(&mut urdf, &mut parent, "fixed", xyz, rpy, Vector3::z(), (0.0, 0.0));
-            previous_axis = UnitQuaternion::from_euler_angles(rpy.x, rpy.y, rpy.z).inverse()
-                * previous_axis;
+            joint(
+                &mut urdf,
+                &mut parent,
+                "fixed",
+                xyz,
+                rpy,
+                Vector3::z(),
+                (0.0, 0.0),
+            );
+            previous_axis =
+                UnitQuaternion::from_euler_angles(rpy.x, rpy.y, rpy.z).inverse() * previous_axis;
         }
         // The axis relative to the one before, in this joint's frame.
         let parallel = rng.random_range(0..3) == 0;
@@ -420,7 +425,15 @@ pub fn random_chain_urdf(rng: &mut impl Rng, moving: usize) -> String {
             .cross(&Vector3::new(0.3, -0.5, 0.8))
             .normalize();
         let xyz = previous_axis * along + side * across;
-        joint(&mut urdf, &mut parent, kind, xyz, Vector3::zeros(), axis, limits);
+        joint(
+            &mut urdf,
+            &mut parent,
+            kind,
+            xyz,
+            Vector3::zeros(),
+            axis,
+            limits,
+        );
         previous_axis = axis;
         previous_kind = kind;
     }
@@ -436,7 +449,10 @@ pub fn random_chain_urdf(rng: &mut impl Rng, moving: usize) -> String {
     );
     urdf += "</robot>\n";
     urdf.replace(&format!("<link name=\"{parent}\">"), "<link name=\"tip\">")
-        .replace(&format!("<child link=\"{parent}\"/>"), "<child link=\"tip\"/>")
+        .replace(
+            &format!("<child link=\"{parent}\"/>"),
+            "<child link=\"tip\"/>",
+        )
 }
 
 /// Tracker noise per axis, m.
@@ -516,50 +532,58 @@ pub fn calibrate(
         std::fs::write(&path, content).unwrap();
         path
     };
-    let measurements = file(
-        "fit.csv",
-        measurements_csv(&nominal, &fit_poses, &measured),
-    );
+    let measurements = file("fit.csv", measurements_csv(&nominal, &fit_poses, &measured));
     let fitted_list = file("fit-poses.csv", pose_list_csv(&nominal, &fit_poses));
-    let check_list = file(
-        "check-poses.csv",
-        pose_list_csv(&nominal, &check_poses),
-    );
+    let check_list = file("check-poses.csv", pose_list_csv(&nominal, &check_poses));
     let out = dir.path().join("cal");
-    let ran = run(lrmcal, &[
-        "identify",
-        "--arm",
-        p(urdf),
-        "--base-link",
-        base,
-        "--tip-link",
-        tip,
-        "--measurements",
-        p(&measurements),
-        "--option",
-        option,
-        // The true chain stands level in its own frame, wherever the
-        // tracker sees it from.
-        "--level-base",
-        "--out",
-        p(&out),
-    ]);
-    assert!(ran.status.success(), "{}", String::from_utf8_lossy(&ran.stderr));
+    let ran = run(
+        lrmcal,
+        &[
+            "identify",
+            "--arm",
+            p(urdf),
+            "--base-link",
+            base,
+            "--tip-link",
+            tip,
+            "--measurements",
+            p(&measurements),
+            "--option",
+            option,
+            // The true chain stands level in its own frame, wherever the
+            // tracker sees it from.
+            "--level-base",
+            "--out",
+            p(&out),
+        ],
+    );
+    assert!(
+        ran.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ran.stderr)
+    );
     let calibration = out.join(format!("calibration-{option}.json"));
     let predict = |poses: &Path, name: &str| {
         let path = dir.path().join(name);
-        let ran = run(lrmcal, &[
-            "predict",
-            "--arm",
-            p(&calibration),
-            "--poses",
-            p(poses),
-            "--approach",
-            "middle",
-            "--out",
-            p(&path),
-        ]);
-        assert!(ran.status.success(), "{}", String::from_utf8_lossy(&ran.stderr));
+        let ran = run(
+            lrmcal,
+            &[
+                "predict",
+                "--arm",
+                p(&calibration),
+                "--poses",
+                p(poses),
+                "--approach",
+                "middle",
+                "--out",
+                p(&path),
+            ],
+        );
+        assert!(
+            ran.status.success(),
+            "{}",
+            String::from_utf8_lossy(&ran.stderr)
+        );
         predicted_points(&std::fs::read_to_string(path).unwrap())
     };
     let at_fit = predict(&fitted_list, "at-fit.csv");
@@ -571,7 +595,6 @@ pub fn calibrate(
         independent_mean: mean_error(&independent_points, &exact),
     }
 }
-
 
 /// Runs the `lrmcal` at `path` with `args`, its output captured.
 fn run(path: &Path, args: &[&str]) -> Output {

@@ -174,6 +174,11 @@ pub struct CalibrationFile {
     pub loads_kg: Vec<f64>,
     /// Residual of the fit on its own measurements (3D error norm), m.
     pub fit_residual: ErrorStats,
+    /// Whether the fit converged. `lrmcal identify` writes no calibration of
+    /// a fit that did not, and `push` refuses a file that says so; true in
+    /// files written before it was recorded.
+    #[serde(default = "converged_when_unrecorded")]
+    pub converged: bool,
     /// Validation on held-out measurements, when there were any.
     pub validation: Option<ValidationSummary>,
     /// The measured targets, in the order the measurements named them; absent
@@ -187,6 +192,12 @@ pub struct CalibrationFile {
     /// (which measures in the arm file's own frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration: Option<RegistrationRecord>,
+}
+
+/// What a file written before convergence was recorded says of it: only
+/// converged fits are pushed since.
+fn converged_when_unrecorded() -> bool {
+    true
 }
 
 /// The arm's place in the measurement frame, as `lrmcal identify` found it.
@@ -554,6 +565,7 @@ pub(super) mod test_support {
             poses_used: vec![1, 2],
             loads_kg: vec![0.0663],
             fit_residual: ErrorStats::of(&[0.001]),
+            converged: true,
             validation: None,
             registration: None,
             targets: vec![],

@@ -8,7 +8,7 @@ use serde::{Deserialize, Deserializer, Serializer, de::Error};
 
 /// The names every option has, for messages: `a, b, c or d`.
 pub fn names() -> String {
-    let names = ModelOption::ALL.map(ModelOption::name);
+    let names = ModelOption::EVERY.map(ModelOption::name);
     format!(
         "{} or {}",
         names[..names.len() - 1].join(", "),
@@ -41,14 +41,14 @@ mod tests {
 
     #[test]
     fn every_option_is_written_and_read_by_its_name() {
-        for o in ModelOption::ALL {
+        for o in ModelOption::EVERY {
             let json = serde_json::to_string(&Named(o)).unwrap();
             assert_eq!(json, format!("\"{}\"", o.name()));
             assert_eq!(serde_json::from_str::<Named>(&json).unwrap(), Named(o));
         }
         assert_eq!(
             names(),
-            "kinematic, elastic, elasto-kinematic or elasto-kinematic-servo"
+            "kinematic, elastic, elasto-kinematic, elasto-kinematic-servo, paper-kinematic or paper-elasto-kinematic"
         );
     }
 
@@ -58,7 +58,7 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("unknown model option `rigid`: expected kinematic, elastic, elasto-kinematic or elasto-kinematic-servo"),
+            e.contains("unknown model option `rigid`: expected kinematic, elastic, elasto-kinematic, elasto-kinematic-servo, paper-kinematic or paper-elasto-kinematic"),
             "{e}"
         );
     }

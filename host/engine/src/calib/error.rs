@@ -136,6 +136,17 @@ pub enum CalibError {
         /// What the solver said.
         reason: String,
     },
+    /// A fit that would leave the arm worse than where it started, or that
+    /// did not converge: no calibration file is made of it.
+    #[error("calibrate with the {option} model: {what}; no calibration was written. {advice}")]
+    Refused {
+        /// Model option name.
+        option: String,
+        /// What went wrong, with the figures.
+        what: String,
+        /// What to try.
+        advice: String,
+    },
     /// The input leaves a choice open that the user must make.
     #[error("{what}")]
     Ambiguous {

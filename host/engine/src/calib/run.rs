@@ -10,7 +10,8 @@
 //! kept), the measurements carried into the arm's frame and checked for
 //! plausibility and against the candidates, the poses chosen, then per
 //! option the candidates' analysis, the structure check and the fit
-//! (`fit::pipeline`). With several options, one the measurements cannot
+//! (`fit::pipeline`), and the fit refused when it leaves the arm worse
+//! than it started (`fit::guard`). With several options, one the measurements cannot
 //! determine is skipped with its reason and the others are still fitted.
 
 use model::Arm;
@@ -18,6 +19,7 @@ use model::Arm;
 use super::analysis::detmax::DetmaxOptions;
 use super::analysis::identifiability::Structures;
 use super::fit::checks::{check_in_candidates, check_measured, identification_load};
+use super::fit::guard;
 use super::fit::identify::IdentifyOptions;
 use super::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks,
@@ -227,7 +229,15 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
                 let params = blocks.identifiability.kept.len();
                 check_registered_count(settings.choice.poses(), params, option)?;
             }
-            calibrate_blocks(&inputs, blocks, &settings, progress)
+            let result = calibrate_blocks(&inputs, blocks, &settings, progress)?;
+            // No calibration worse than where the arm started reaches a file.
+            guard::check(
+                option,
+                &inputs.nominal.arm,
+                &result.identified,
+                result.placement.as_ref(),
+            )?;
+            Ok(result)
         })();
         match result {
             Ok(r) => results.push(r),

@@ -138,7 +138,7 @@ fn rejects_other_schemas_versions_and_bad_values() {
         e.contains("key `option`")
             && e.contains("rigid")
             && e.contains("line 4")
-            && e.contains("elasto-kinematic or elasto-kinematic-servo"),
+            && e.contains("elasto-kinematic-servo, paper-kinematic or paper-elasto-kinematic"),
         "{e}"
     );
     let e = refused(&json.replacen("\"mean_m\"", "\"mean_mm\"", 1));

@@ -3,7 +3,7 @@
 //!
 //! ```text
 //! kept (the candidates' analysis, structure checked)
-//!   → model (model_choice: the option's effects, simplest first, on each rung)
+//!   → model (model_choice: the placement, then the option's effects, on each rung)
 //!   → knot spacing (knot_choice: the servo curves' knots on each spacing tried)
 //!     → play widths (backlash: the joints the measurements show arriving both ways)
 //!       → the fit (identify)
@@ -16,7 +16,7 @@
 
 use crate::calib::fit::identify::{Identified, IdentifyOptions, identify};
 use crate::calib::fit::knot_choice::{self, ChosenFit};
-use crate::calib::fit::model_choice;
+use crate::calib::fit::model_choice::{self, Ladder, Rung};
 use crate::calib::fit::refresh::refreshed;
 use crate::calib::parameters::backlash;
 use crate::calib::parameters::params::ParamKey;
@@ -24,19 +24,25 @@ use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
 
 /// Fits `option`'s `kept` parameters to `measurements` from `nominal`
-/// through every stage.
+/// through every stage, and the nominal arm placed beside it.
 pub fn grow(
     nominal: &Rig,
     option: ModelOption,
     kept: &[ParamKey],
     measurements: &[Measurement],
     options: &IdentifyOptions,
-) -> Result<ChosenFit, CalibError> {
-    model_choice::choose(option, kept, |model, kept| {
-        knot_choice::choose(kept, |keys| {
+) -> Result<Ladder, CalibError> {
+    model_choice::choose(option, kept, |rung, kept| match rung {
+        // The base and tool points only: no refresh may add the arm's own.
+        Rung::Placement => Ok(ChosenFit {
+            identified: identify(nominal, option, kept, measurements, options)?,
+            knots: None,
+            model: None,
+        }),
+        Rung::Model(model) => knot_choice::choose(kept, |keys| {
             let keys = backlash::with_widths(nominal, model, keys, measurements)?;
             fit_refreshed(nominal, model, &keys, measurements, options)
-        })
+        }),
     })
 }
 

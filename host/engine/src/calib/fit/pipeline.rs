@@ -22,7 +22,7 @@ use crate::calib::analysis::observability::{ColumnScale, Observability};
 use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
 use crate::calib::fit::knot_choice::{ChosenFit, KnotChoice};
-use crate::calib::fit::model_choice::ModelChoice;
+use crate::calib::fit::model_choice::{Ladder, ModelChoice};
 use crate::calib::fit::validate::{LoadValidation, Validation, validate};
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;
@@ -440,6 +440,9 @@ pub struct OptionResult {
     pub knots: Option<KnotChoice>,
     /// How the model was chosen, for an option fitted as a ladder of them.
     pub model: Option<ModelChoice>,
+    /// The nominal arm placed (base and tool points only) on the same
+    /// poses: where the arm started; `None` when that fit failed.
+    pub placement: Option<Identified>,
     /// Validation on the other candidates under the identification load
     /// (none when every candidate was used for the fit).
     pub validation: Option<Validation>,
@@ -538,10 +541,13 @@ pub fn calibrate_blocks(
         .nominal
         .targets
         .check_poses(&fit_set, &format!("the {} selected poses", chosen.len()))?;
-    let ChosenFit {
-        identified,
-        knots,
-        model,
+    let Ladder {
+        chosen: ChosenFit {
+            identified,
+            knots,
+            model,
+        },
+        placement,
     } = grow(
         &inputs.nominal,
         selection.option,
@@ -573,6 +579,7 @@ pub fn calibrate_blocks(
         identified,
         knots,
         model,
+        placement: placement.map(|p| p.identified),
         validation,
         cross_load,
     })

@@ -304,7 +304,8 @@ mod tests {
             refresh: false,
             ..Default::default()
         };
-        let first = fit_refreshed(&nominal, ModelOption::PaperKinematic, &keys, &meas, &plain).unwrap();
+        let first =
+            fit_refreshed(&nominal, ModelOption::PaperKinematic, &keys, &meas, &plain).unwrap();
         assert!(
             first.diagnostics.rms_after_m > 1e-6,
             "{:?}",

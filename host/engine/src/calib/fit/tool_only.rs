@@ -3,6 +3,7 @@
 //! held fixed, and that calibration written again with the new points.
 
 use crate::calib::CalibError;
+use crate::calib::fit::guard;
 use crate::calib::fit::identify::{IdentifyOptions, identify};
 use crate::calib::parameters::targets::{Rig, Targets, tool_keys};
 use crate::calib::results::export::target_tools;
@@ -27,6 +28,7 @@ pub fn retaught(
     }
     let keys = tool_keys(0..rig.targets.len());
     let fit = identify(&rig, old.option, &keys, measurements, options)?;
+    guard::check(old.option, &old.arm, &fit, None)?;
     let mut poses: Vec<u32> = measurements.iter().map(|m| m.pose.id).collect();
     poses.dedup();
     let mut parameters: Vec<_> = old
@@ -42,6 +44,7 @@ pub fn retaught(
         poses_used: poses,
         loads_kg: vec![load],
         fit_residual: fit.fit_residual,
+        converged: fit.diagnostics.converged,
         // Every measurement fitted the tool points: none is left to validate on.
         validation: None,
         targets: target_tools(&fit, &[]),

@@ -61,6 +61,7 @@ pub fn calibration_file(
         poses_used,
         loads_kg,
         fit_residual,
+        converged: identified.diagnostics.converged,
         validation,
         registration: None,
         targets: if identified.rig.targets.named() {

@@ -4,6 +4,7 @@
 
 use crate::calib::CalibError;
 use crate::calib::ParamKey;
+use crate::calib::fit::model_choice::Rung;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use crate::calib::parameters::option::DEFAULT;
 use crate::calib::results::experiments::{ErrorPoint, GridErrors, RandomBaseline};
@@ -138,7 +139,7 @@ pub fn model(o: &OptionReport) -> Option<String> {
             _ => format!("{} failed", t.model),
         })
         .collect();
-    let why = if m.chosen == o.option {
+    let why = if m.chosen == Rung::Model(o.option) {
         "the richest model predicts the fitted poses left out best"
     } else {
         "the richer models do not predict the fitted poses left out better by more than a standard error"

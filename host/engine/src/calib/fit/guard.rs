@@ -1,0 +1,261 @@
+//! What a fit must show before a calibration is made of it: that it
+//! converged, and that it leaves the arm no worse than it started. A
+//! calibration file is what `push` sends to the board, so a fit that
+//! diverged, or that meets its own poses worse than the nominal arm placed,
+//! or that predicts the poses it leaves out worse than that (by more than a
+//! standard error), or that moves the arm's geometry by more than any real
+//! arm is off, is refused here with what happened and what to try.
+//!
+//! "Where it started" is the nominal arm placed: its base and tool points
+//! fitted to the same poses, nothing of the arm itself
+//! (`calib::model_choice`'s placement, what registration finds). Its
+//! leave-one-out error is the bar for the fit's: both fits are judged on
+//! the poses they leave out, so a fit with more parameters than the poses
+//! carry loses even where its residual is small. Without that fit (no base
+//! or tool point among the parameters) the bar is the nominal arm's
+//! residual as the fit started.
+
+use crate::calib::fit::identify::Identified;
+use crate::calib::parameters::params::ParamKey;
+use crate::calib::{CalibError, ModelOption};
+use model::params::ParamPart;
+use model::{Arm, JointKind};
+
+/// The largest correction of a DH length a real arm needs, as a fraction
+/// of its reach: a tenth of the arm. A fit past it has wandered into a
+/// region the measurements do not pin (two parameters trading off).
+pub const LENGTH_FRACTION_OF_REACH: f64 = 0.1;
+
+/// The largest correction of a link's twist (`alpha`, `beta`) a real arm
+/// needs, rad (10°). A joint's zero (`theta`) is not held to it: a servo
+/// horn one spline tooth off is 14° off.
+pub const MAX_TWIST_RAD: f64 = 10.0 * std::f64::consts::PI / 180.0;
+
+/// Refuses `fit` of `option` on `nominal` when it did not converge, made
+/// the arm worse than `placement` (the nominal arm placed on the same
+/// poses) or than it started, or moved its geometry past a physical size
+/// (module docs).
+pub fn check(
+    option: ModelOption,
+    nominal: &Arm<f64>,
+    fit: &Identified,
+    placement: Option<&Identified>,
+) -> Result<(), CalibError> {
+    let d = &fit.diagnostics;
+    // A simpler model is the way out, unless the option is already the
+    // geometry alone: then the arm's other effects may be what it bends to.
+    let simpler = if matches!(option, ModelOption::Kinematic | ModelOption::PaperKinematic) {
+        "the geometry alone may be bending to effects it does not have (springs, servo curves): try the default option, elasto-kinematic-servo"
+    } else {
+        "try a simpler model: --option kinematic"
+    };
+    let refuse = |what: String, first: &str| CalibError::Refused {
+        option: option.name().into(),
+        what,
+        advice: format!("{first}, or {simpler}."),
+    };
+    let mm = |m: f64| format!("{:.2} mm", m * 1e3);
+    if !d.converged {
+        return Err(refuse(
+            format!(
+                "the fit did not converge ({}), ending at {} residual RMS where it started at {}",
+                d.termination,
+                mm(d.rms_after_m),
+                mm(d.rms_before_m)
+            ),
+            "Measure more poses (or let `lrmcal select` choose them)",
+        ));
+    }
+    let (bar_rms, bar_loo, bar) = match placement {
+        Some(p) => {
+            let n = p.fit_residual.count.max(1) as f64;
+            let p = &p.diagnostics;
+            (
+                p.rms_after_m,
+                p.loo_mean_m + p.loo_sd_m / n.sqrt(),
+                "the nominal arm placed (its base and tool points fitted)",
+            )
+        }
+        None => (d.rms_before_m, d.rms_before_m, "the nominal arm"),
+    };
+    if d.rms_after_m > bar_rms {
+        return Err(refuse(
+            format!(
+                "the fit meets its own poses worse than {bar} ({} residual RMS against {})",
+                mm(d.rms_after_m),
+                mm(bar_rms)
+            ),
+            "Check the measurements against the poses (the same order, the arm's joint signs)",
+        ));
+    }
+    if d.loo_mean_m > bar_loo {
+        return Err(refuse(
+            format!(
+                "the fit predicts the fitted poses left out worse than {bar} (leave-one-out mean error {} against {}): the poses do not carry this model",
+                mm(d.loo_mean_m),
+                mm(bar_loo)
+            ),
+            "Measure more poses",
+        ));
+    }
+    let reach = crate::ik::reach_m(nominal);
+    for e in &fit.estimates {
+        let ParamKey::Arm(id) = e.id else { continue };
+        let ParamPart::Dh { joint, field } = id.part() else {
+            continue;
+        };
+        let slides = nominal.joints[joint].kind == JointKind::Prismatic;
+        let size = match field {
+            // A slide's `d` is its zero, like a turn's `theta`.
+            1 if slides => None,
+            1 | 2 if e.error.abs() > LENGTH_FRACTION_OF_REACH * reach => Some(mm(e.error)),
+            3 | 4 if e.error.abs() > MAX_TWIST_RAD => Some(format!("{:.1}°", e.error.to_degrees())),
+            _ => None,
+        };
+        if let Some(size) = size {
+            return Err(refuse(
+                format!(
+                    "the fit moves {id} by {size}, more than any arm of this size is off (lengths {} at most, twists {:.0}°): the measurements do not pin it",
+                    mm(LENGTH_FRACTION_OF_REACH * reach),
+                    MAX_TWIST_RAD.to_degrees()
+                ),
+                "Check that the arm file is this arm (its joint signs and zero angles), measure more poses",
+            ));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::fit::identify::{Diagnostics, Estimate};
+    use crate::calib::testing::{key, test_arm};
+    use crate::calib::{ModelOption, Rig};
+    use lrmcal_core::io::calibration_file::ErrorStats;
+
+    fn fit(
+        converged: bool,
+        before: f64,
+        after: f64,
+        loo: f64,
+        estimates: Vec<Estimate>,
+    ) -> Identified {
+        Identified {
+            option: ModelOption::Kinematic,
+            rig: Rig::from(test_arm()),
+            estimates,
+            diagnostics: Diagnostics {
+                termination: if converged {
+                    "Converged"
+                } else {
+                    "LostPatience"
+                }
+                .into(),
+                converged,
+                exhausted: !converged,
+                evaluations: 10,
+                active_set_rounds: 1,
+                failed_steps: 0,
+                irls_rounds: 1,
+                at_bound: vec![],
+                rms_before_m: before,
+                rms_after_m: after,
+                sigma_m: after,
+                condition: 10.0,
+                loo_mean_m: loo,
+                loo_sd_m: loo / 2.0,
+            },
+            fit_residual: ErrorStats::of(&[after; 100]),
+            fit_residual_per_target: vec![ErrorStats::of(&[after; 100])],
+            outliers: vec![],
+        }
+    }
+
+    fn estimate(name: &str, error: f64) -> Estimate {
+        Estimate {
+            id: key(name),
+            error,
+            value: error,
+            std: Some(1e-4),
+            weak: false,
+        }
+    }
+
+    #[test]
+    fn a_fit_that_helps_passes() {
+        let arm = test_arm();
+        let good = fit(true, 4e-3, 1e-3, 1.5e-3, vec![estimate("j2.a", 2e-3)]);
+        assert!(check(ModelOption::Kinematic, &arm, &good, None).is_ok());
+        // A joint's zero may be a spline tooth off.
+        let zero = fit(true, 4e-3, 1e-3, 1.5e-3, vec![estimate("j2.theta", 0.25)]);
+        assert!(check(ModelOption::Kinematic, &arm, &zero, None).is_ok());
+    }
+
+    #[test]
+    fn diverged_worse_and_overfitted_fits_are_refused_with_their_figures() {
+        let arm = test_arm();
+        let o = ModelOption::ElastoKinematicServo;
+        let message = |f: Identified| check(o, &arm, &f, None).unwrap_err().to_string();
+        // The TIAGo split that ended at 56 mm after registration left 3.9 mm.
+        let diverged = message(fit(false, 3.9e-3, 56.3e-3, 1.156, vec![]));
+        assert!(
+            diverged.contains("did not converge (LostPatience)")
+                && diverged.contains("56.30 mm")
+                && diverged.contains("3.90 mm")
+                && diverged.contains("no calibration was written"),
+            "{diverged}"
+        );
+        let worse = message(fit(true, 3.9e-3, 4.1e-3, 4.5e-3, vec![]));
+        assert!(
+            worse.contains("worse than the nominal arm (4.10 mm"),
+            "{worse}"
+        );
+        let overfitted = message(fit(true, 4.1e-3, 1.7e-3, 5.6e-3, vec![]));
+        assert!(
+            overfitted.contains("leave-one-out mean error 5.60 mm"),
+            "{overfitted}"
+        );
+        // Beside the placement: judged on the poses both leave out.
+        let placed = fit(true, 40e-3, 3.2e-3, 3.9e-3, vec![]);
+        let loses = fit(true, 40e-3, 2.0e-3, 4.2e-3, vec![]);
+        let e = check(o, &arm, &loses, Some(&placed))
+            .unwrap_err()
+            .to_string();
+        // Its bar: 3.9 mm and a standard error of 1.95 mm over 100 poses.
+        assert!(
+            e.contains("worse than the nominal arm placed")
+                && e.contains("leave-one-out mean error 4.20 mm against 4.09 mm"),
+            "{e}"
+        );
+        let level = fit(true, 40e-3, 2.0e-3, 4.0e-3, vec![]);
+        assert!(check(o, &arm, &level, Some(&placed)).is_ok());
+        let far = message(fit(
+            true,
+            4e-3,
+            1e-3,
+            1.5e-3,
+            vec![estimate("j3.alpha", 0.3)],
+        ));
+        assert!(
+            far.contains("moves j3.alpha by 17.2°") && far.contains("--option kinematic"),
+            "{far}"
+        );
+        // The geometry alone is sent to the richer model instead.
+        let kinematic = check(
+            ModelOption::Kinematic,
+            &arm,
+            &fit(true, 4e-3, 1e-3, 1.5e-3, vec![estimate("j5.alpha", -0.23)]),
+            None,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            kinematic.contains("try the default option, elasto-kinematic-servo"),
+            "{kinematic}"
+        );
+        // The base and the tool point may be anywhere: registration found them.
+        let base = fit(true, 4e-3, 1e-3, 1.5e-3, vec![estimate("base.x", 0.5)]);
+        assert!(check(o, &arm, &base, None).is_ok());
+    }
+}
