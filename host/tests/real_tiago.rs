@@ -9,10 +9,10 @@
 //! Fold 0 is calibrated with the kinematic option (the arm's DH geometry,
 //! the base and one tool point per target) and validated on its 7 held-out
 //! poses. `tools/figaroh/lrmcal_tiago_cv.py` runs every fold and option
-//! (README.md, "Real data: a TIAGo"); measured there on this fold: 3.11 mm
-//! mean over the three points (FIGAROH 1.0.2's full calibration of the same
-//! split: 3.46 mm), and 3.19 mm on point 1 where the registered nominal arm
-//! (base and tool point only) misses by 4.64 mm.
+//! (docs/RESULTS.md, "Real data: a TIAGo"); measured there on this fold:
+//! 3.29 mm mean over the three points (FIGAROH 1.0.2's full calibration of
+//! the same split: 3.46 mm), and 3.15 mm on point 1 where the registered
+//! nominal arm (base and tool point only) misses by 4.64 mm.
 
 mod common;
 
@@ -28,8 +28,8 @@ use model::JointKind;
 const TIP: &str = "wrist_ft_tool_link";
 
 /// Measured mean held-out errors of fold 0 (mm), the bounds below allow 20 % more.
-const MEASURED_MEAN_MM: f64 = 3.11;
-const MEASURED_P1_MEAN_MM: f64 = 3.19;
+const MEASURED_MEAN_MM: f64 = 3.29;
+const MEASURED_P1_MEAN_MM: f64 = 3.15;
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -151,4 +151,76 @@ fn a_real_tiago_calibrates_from_three_mocap_points_per_pose() {
         mean < 1.2 * MEASURED_P1_MEAN_MM && mean < registered,
         "point 1: {registered} mm registered, {mean} mm calibrated\n{printed}"
     );
+}
+
+/// Few real poses and the default option: on seeded draws of 24 of the 34
+/// poses (point 1), 10 held out, `identify` either refuses (exit 5, no
+/// calibration file) or writes one that misses the held-out poses by no
+/// more than the registered nominal arm does, within their noise. Before
+/// the default sized its model from the data and refused what leaves the
+/// arm worse, such draws wrote a diverged fit (56 mm RMS where
+/// registration left 3.9 mm) and fits three to six times worse than the
+/// registered arm.
+#[test]
+fn the_default_never_writes_a_calibration_worse_than_the_registered_arm() {
+    use rand::SeedableRng;
+    use rand::seq::SliceRandom;
+
+    let dir = tempfile::tempdir().unwrap();
+    let all = std::fs::read_to_string(data("lrmcal/all-p1.csv")).unwrap();
+    let mut lines = all.lines().filter(|l| !l.starts_with('#'));
+    let header = lines.next().unwrap();
+    let rows: Vec<&str> = lines.collect();
+    let mut poses: Vec<&str> = rows.iter().map(|r| r.split(',').next().unwrap()).collect();
+    poses.dedup();
+    assert_eq!(poses.len(), 34);
+    let mut worst: f64 = 0.0;
+    for seed in 1..=12u64 {
+        let mut order = poses.clone();
+        order.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed));
+        let held: Vec<&str> = order[..10].to_vec();
+        let write = |name: &str, keep: &dyn Fn(&str) -> bool| {
+            let path = dir.path().join(format!("{name}-{seed}.csv"));
+            let body: Vec<&str> = rows
+                .iter()
+                .copied()
+                .filter(|r| keep(r.split(',').next().unwrap()))
+                .collect();
+            std::fs::write(&path, format!("{header}\n{}\n", body.join("\n"))).unwrap();
+            path
+        };
+        let fit = write("fit", &|p| !held.contains(&p));
+        let check = write("held", &|p| held.contains(&p));
+        let out = dir.path().join(format!("cal-{seed}"));
+        let run = lrmcal(&[
+            "identify",
+            "--measurements",
+            p(&fit),
+            "--arm",
+            p(&data("tiago.urdf")),
+            "--tip-link",
+            TIP,
+            "--allow-outside-limits",
+            "--out",
+            p(&out),
+        ]);
+        let printed = text(&run);
+        let cal = out.join(common::default_calibration_file());
+        if run.status.code() == Some(5) {
+            assert!(
+                !cal.exists(),
+                "seed {seed}: refused, yet written\n{printed}"
+            );
+            continue;
+        }
+        assert!(run.status.success(), "seed {seed}\n{printed}");
+        assert!(printed.contains("model: "), "seed {seed}\n{printed}");
+        let (registered, calibrated, printed) = validate(&cal, &check);
+        worst = worst.max(calibrated / registered);
+        assert!(
+            calibrated < 1.5 * registered,
+            "seed {seed}: {registered} mm registered, {calibrated} mm calibrated\n{printed}"
+        );
+    }
+    println!("worst held-out ratio to the registered arm: {worst:.2}");
 }

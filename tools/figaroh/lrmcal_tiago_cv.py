@@ -64,13 +64,18 @@ def sha256(path):
         return hashlib.sha256(f.read()).hexdigest()
 
 
-def run(cmd):
+# `identify`'s exit code for a fit it refuses to write (no calibration
+# worse than where the arm started): recorded as a refused fold.
+REFUSED = 5
+
+
+def run(cmd, refusable=False):
     t0 = time.perf_counter()
     p = subprocess.run(cmd, capture_output=True, text=True)
     dt = time.perf_counter() - t0
-    if p.returncode != 0:
+    if p.returncode != 0 and not (refusable and p.returncode == REFUSED):
         sys.exit(f"failed ({p.returncode}): {' '.join(cmd)}\n{p.stdout}\n{p.stderr}")
-    return p.stdout + p.stderr, dt
+    return p.stdout + p.stderr, dt, p.returncode
 
 
 def parse_validate(text):
@@ -88,6 +93,10 @@ def parse_validate(text):
 
 
 def pool(folds):
+    """The held-out rows of the folds calibrated (a refused fold has none)."""
+    folds = [f for f in folds if not f.get("refused")]
+    if not folds:
+        return None
     n = sum(f["n"] for f in folds)
     return {
         "n": n,
@@ -98,12 +107,17 @@ def pool(folds):
 
 
 def span(values, form):
-    """`values`' range, or their one value, formatted."""
+    """`values`' range, or their one value, formatted (`–` for none)."""
+    values = [v for v in values if v is not None]
+    if not values:
+        return "–"
     lo, hi = min(values), max(values)
     return form.format(lo) if form.format(lo) == form.format(hi) else f"{form.format(lo)}–{form.format(hi)}"
 
 
 def fmt(s):
+    if s is None or s.get("refused"):
+        return "refused"
     return f"{s['mean']:.2f} / {s['rms']:.2f} / {s['max']:.2f}"
 
 
@@ -135,7 +149,7 @@ def main():
     options = args.options.split(",")
     marker_sets = args.marker_sets.split(",")
     check_files()
-    version, _ = run([args.lrmcal, "--version"])
+    version, _, _ = run([args.lrmcal, "--version"])
 
     results = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -148,20 +162,24 @@ def main():
                     out = os.path.join(tmp, f"{ms}-{option}-{k}")
                     train = os.path.join(FILES, f"train-{k}{suffix}.csv")
                     test = os.path.join(FILES, f"test-{k}{suffix}.csv")
-                    printed, dt = run(
+                    printed, dt, code = run(
                         [args.lrmcal, "identify", "--measurements", train]
                         + ARM
                         + IDENTIFY_EXTRA
                         + args.flags.split()
-                        + ["--option", option, "--out", out]
+                        + ["--option", option, "--out", out],
+                        refusable=True,
                     )
+                    if code == REFUSED:
+                        folds.append({"fold": k, "refused": True, "identify_s": dt})
+                        continue
                     fit_rms = re.search(r"residual RMS ([0-9.]+) mm", printed)
                     cal = os.path.join(out, f"calibration-{option}.json")
                     with open(cal) as f:
                         n_params = len(json.load(f)["parameters"])
                     with open(os.path.join(out, "report.json")) as f:
                         loo = json.load(f)["options"][0]["fit"]["loo_mean_mm"]
-                    printed, _ = run(
+                    printed, _, _ = run(
                         [args.lrmcal, "validate", "--calibration", cal, "--measurements", test]
                     )
                     n, b, a = parse_validate(printed)
@@ -177,7 +195,7 @@ def main():
                         }
                     )
                     before.append({"fold": k, "n": n, **b})
-                if baseline is None:
+                if baseline is None and len(before) == len(FOLDS):
                     baseline = before
                 results[f"{ms}/{option}"] = {
                     "folds": folds,
@@ -201,11 +219,11 @@ def main():
         if model == "registration":
             extra, params = "– | – | (in each identify)", "9"
         else:
-            params = span([f["parameters"] for f in r["folds"]], "{}")
+            params = span([f.get("parameters") for f in r["folds"]], "{}")
             extra = (
-                span([f["fit_rms"] for f in r["folds"]], "{:.2f}")
+                span([f.get("fit_rms") for f in r["folds"]], "{:.2f}")
                 + " | "
-                + span([f["loo_mean"] for f in r["folds"]], "{:.2f}")
+                + span([f.get("loo_mean") for f in r["folds"]], "{:.2f}")
                 + f" | {r['identify_s_total']:.2f} s"
             )
         print(
@@ -240,7 +258,7 @@ def main():
                 if model == "registration":
                     params, t = "9", "–"
                 else:
-                    params = span([f["parameters"] for f in r["folds"]], "{}")
+                    params = span([f.get("parameters") for f in r["folds"]], "{}")
                     t = f"{r['identify_s_total']:.2f} s identify"
                 print(f"| {ms} | lrmcal | {model} | {params} | {fmt(r['pooled'])} | {t} |")
 

@@ -182,6 +182,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     for (option, e) in &run.skipped {
         eprintln!("{option}: not fitted: {e}");
     }
+    for (option, note) in &run.notes {
+        eprintln!(
+            "warning: {option}: {note}; those are held at their nominal values, and the model is sized from what the poses carry"
+        );
+    }
     for (cal, details) in run.files.iter().zip(&run.report.options) {
         let path = args.out.join(format!("calibration-{}.json", cal.option));
         write_text(&path, &cal.to_json())?;

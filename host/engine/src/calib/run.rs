@@ -21,6 +21,7 @@ use super::analysis::identifiability::Structures;
 use super::fit::checks::{check_in_candidates, check_measured, identification_load};
 use super::fit::guard;
 use super::fit::identify::IdentifyOptions;
+use super::fit::model_choice;
 use super::fit::pipeline::{
     CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks,
 };
@@ -28,6 +29,7 @@ use super::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
 use super::fit::tool_only::retaught;
+use super::parameters::params::ParamKey;
 use super::parameters::targets::Targets;
 use super::progress::Progress;
 use super::results::export::registered_calibration_file;
@@ -102,6 +104,9 @@ pub struct Run {
     pub results: Vec<OptionResult>,
     /// Each option that could not be fitted (only when several were asked for), with why.
     pub skipped: Vec<(ModelOption, CalibError)>,
+    /// What the measured poses leave undetermined of an option fitted as a
+    /// ladder of models (held at nominal, the fit goes on), per option.
+    pub notes: Vec<(ModelOption, String)>,
     /// The machine-readable report.
     pub report: Report,
     /// One calibration file per result, in the measurement frame.
@@ -213,6 +218,7 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
     let structures = Structures::new(&inputs.nominal.arm, load);
     let mut results = Vec::new();
     let mut skipped = Vec::new();
+    let mut notes = Vec::new();
     for &option in &request.options {
         let result = (|| {
             let blocks = CandidateBlocks::build_for(
@@ -223,8 +229,21 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
                 settings.choice.poses(),
                 &structures,
             )?;
-            // The measured poses must identify what positions can reveal on this arm at all.
-            structures.check(&blocks.identifiability)?;
+            // The measured poses must identify what positions can reveal on
+            // this arm at all. An option fitted as a ladder of models holds
+            // an effect beyond the geometry they leave undetermined (a
+            // spring, a knot) and lets the ladder judge the rest; the
+            // geometry they must determine.
+            if let (missing, Some(e)) = structures.missing(&blocks.identifiability)? {
+                let beyond_geometry = missing.iter().all(|k| match k {
+                    ParamKey::Arm(id) => !id.is_geometric(),
+                    _ => true,
+                });
+                if model_choice::ladder(option).len() == 1 || !beyond_geometry {
+                    return Err(e);
+                }
+                notes.push((option, e.to_string()));
+            }
             if registered {
                 let params = blocks.identifiability.kept.len();
                 check_registered_count(settings.choice.poses(), params, option)?;
@@ -265,6 +284,7 @@ pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, Cali
         load_kg: load,
         results,
         skipped,
+        notes,
         report,
         files,
     })

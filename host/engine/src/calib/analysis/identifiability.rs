@@ -423,6 +423,20 @@ impl<'a> Structures<'a> {
     /// Refuses a measured pose set that identifies fewer of
     /// `measured.option`'s parameters than the arm's structure allows.
     pub fn check(&self, measured: &Identifiability) -> Result<(), CalibError> {
+        match self.missing(measured)? {
+            (_, Some(e)) => Err(e),
+            _ => Ok(()),
+        }
+    }
+
+    /// The parameters the arm's structure identifies for
+    /// `measured.option` that the measured poses leave undetermined, and
+    /// the refusal [`Structures::check`] makes of them (`None` when none is
+    /// missing).
+    pub fn missing(
+        &self,
+        measured: &Identifiability,
+    ) -> Result<(Vec<ParamKey>, Option<CalibError>), CalibError> {
         let spacing = measured.knots.unwrap_or(KnotSpacing::FINEST);
         let structural = self.kept(measured.option, spacing)?;
         // Compared over the rig's own parameters: further targets' tool points
@@ -433,19 +447,21 @@ impl<'a> Structures<'a> {
             .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
             .count();
         if own_kept >= structural.len() {
-            return Ok(());
+            return Ok((Vec::new(), None));
         }
-        let missing: Vec<String> = structural
+        let missing: Vec<ParamKey> = structural
             .iter()
             .filter(|p| !measured.kept.contains(p))
-            .map(|p| p.to_string())
+            .copied()
             .collect();
-        Err(CalibError::Unidentifiable {
+        let names: Vec<String> = missing.iter().map(|p| p.to_string()).collect();
+        let refusal = CalibError::Unidentifiable {
             option: measured.option.name().into(),
             identified: own_kept,
             structural: structural.len(),
-            missing: missing.join(", "),
-        })
+            missing: names.join(", "),
+        };
+        Ok((missing, Some(refusal)))
     }
 
     /// The parameters the grid identifies for `option` on `spacing`: worked

@@ -16,6 +16,7 @@
 //! residual as the fit started.
 
 use crate::calib::fit::identify::Identified;
+use crate::calib::fit::model_choice::paired;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::{CalibError, ModelOption};
 use model::params::ParamPart;
@@ -66,18 +67,11 @@ pub fn check(
             "Measure more poses (or let `lrmcal select` choose them)",
         ));
     }
-    let (bar_rms, bar_loo, bar) = match placement {
-        Some(p) => {
-            let n = p.fit_residual.count.max(1) as f64;
-            let p = &p.diagnostics;
-            (
-                p.rms_after_m,
-                p.loo_mean_m + p.loo_sd_m / n.sqrt(),
-                "the nominal arm placed (its base and tool points fitted)",
-            )
-        }
-        None => (d.rms_before_m, d.rms_before_m, "the nominal arm"),
+    let bar = match placement {
+        Some(_) => "the nominal arm placed (its base and tool points fitted)",
+        None => "the nominal arm",
     };
+    let bar_rms = placement.map_or(d.rms_before_m, |p| p.diagnostics.rms_after_m);
     if d.rms_after_m > bar_rms {
         return Err(refuse(
             format!(
@@ -88,7 +82,18 @@ pub fn check(
             "Check the measurements against the poses (the same order, the arm's joint signs)",
         ));
     }
-    if d.loo_mean_m > bar_loo {
+    // Both fits' leave-one-out errors, measurement by measurement: worse by
+    // more than the standard error of the difference; without a placement,
+    // against the nominal arm's residual.
+    let (worse, bar_loo) = match placement {
+        Some(p) => {
+            let p = &p.diagnostics;
+            let (difference, se) = paired(&d.loo_errors_m, &p.loo_errors_m);
+            (difference > se, p.loo_mean_m + se)
+        }
+        None => (d.loo_mean_m > d.rms_before_m, d.rms_before_m),
+    };
+    if worse || !d.loo_mean_m.is_finite() {
         return Err(refuse(
             format!(
                 "the fit predicts the fitted poses left out worse than {bar} (leave-one-out mean error {} against {}): the poses do not carry this model",
@@ -164,7 +169,10 @@ mod tests {
                 sigma_m: after,
                 condition: 10.0,
                 loo_mean_m: loo,
-                loo_sd_m: loo / 2.0,
+                // Each pose's error, the mean `loo`, spread by ±`loo / 2`.
+                loo_errors_m: (0..100)
+                    .map(|k| loo * if k % 2 == 0 { 1.5 } else { 0.5 })
+                    .collect(),
             },
             fit_residual: ErrorStats::of(&[after; 100]),
             fit_residual_per_target: vec![ErrorStats::of(&[after; 100])],
@@ -222,13 +230,13 @@ mod tests {
         let e = check(o, &arm, &loses, Some(&placed))
             .unwrap_err()
             .to_string();
-        // Its bar: 3.9 mm and a standard error of 1.95 mm over 100 poses.
+        // Its bar: 3.9 mm and the standard error of the difference.
         assert!(
             e.contains("worse than the nominal arm placed")
-                && e.contains("leave-one-out mean error 4.20 mm against 4.09 mm"),
+                && e.contains("leave-one-out mean error 4.20 mm against 3.9"),
             "{e}"
         );
-        let level = fit(true, 40e-3, 2.0e-3, 4.0e-3, vec![]);
+        let level = fit(true, 40e-3, 2.0e-3, 3.9e-3, vec![]);
         assert!(check(o, &arm, &level, Some(&placed)).is_ok());
         let far = message(fit(
             true,

@@ -178,8 +178,10 @@ pub struct Diagnostics {
     /// (leave-one-out, from the linearised fit: see the module docs), m;
     /// infinite when a measurement alone decides a parameter.
     pub loo_mean_m: f64,
-    /// Standard deviation of the measurements' leave-one-out errors, m.
-    pub loo_sd_m: f64,
+    /// Each fitted measurement's leave-one-out error, in the measurements'
+    /// order, m: what [`Diagnostics::loo_mean_m`] is the mean of, for
+    /// comparing two fits of the same measurements pair by pair.
+    pub loo_errors_m: Vec<f64>,
 }
 
 /// The outcome of an identification.
@@ -633,7 +635,7 @@ pub fn identify(
             sigma_m: cov.sigma_m,
             condition: cov.condition,
             loo_mean_m: cov.loo_mean_m,
-            loo_sd_m: cov.loo_sd_m,
+            loo_errors_m: cov.loo_errors_m,
         },
         fit_residual: ErrorStats::of(&norms),
         fit_residual_per_target: (0..data.nominal.targets.len())

@@ -13,10 +13,14 @@
 //! softening; for elasto-kinematic its geometry, then the springs. Each
 //! rung's leave-one-out error (each fitted measurement's error in the fit
 //! without it, `calib::identify`) says how well it predicts; the simplest
-//! rung within one standard error of the best one's mean is kept (the usual
+//! rung within one standard error of the best one is kept (the usual
 //! one-standard-error rule: a richer model must predict better by more
-//! than the measurements can tell apart). A rung whose fit fails loses to
-//! any that does. The calibration keeps the option asked for (its file,
+//! than the measurements can tell apart). The rungs are fitted to the same
+//! measurements, so they are compared measurement by measurement: the
+//! standard error is that of the mean difference of their leave-one-out
+//! errors, which the poses' own spread (a hard pose is hard for every
+//! model) does not blur. A rung whose fit fails or does not converge loses
+//! to any that does. The calibration keeps the option asked for (its file,
 //! its name on the board); what the ladder chose is reported beside it.
 //!
 //! The placement is fitted for every option, in or out of its ladder: it
@@ -61,8 +65,8 @@ pub struct ModelTrial {
     pub parameters: usize,
     /// Mean leave-one-out error of its fit, mm; `None` when it failed.
     pub loo_mean_mm: Option<f64>,
-    /// Standard error of that mean, mm (the errors' deviation over the
-    /// square root of their count).
+    /// Standard error of the mean difference of its leave-one-out errors
+    /// from the best rung's, the measurements paired, mm (0 for the best).
     pub loo_se_mm: Option<f64>,
     /// Why its fit failed, if it did.
     pub failure: Option<String>,
@@ -120,20 +124,47 @@ pub fn keys_for(rung: Rung, kept: &[ParamKey]) -> Vec<ParamKey> {
         .collect()
 }
 
-/// Which of `trials` (mean and standard error of each rung's leave-one-out
-/// error, simplest first; `None` for a rung that failed) to keep: the first
-/// whose mean is within one standard error of the best mean. `None` when
-/// every rung failed.
-pub fn pick(trials: &[Option<(f64, f64)>]) -> Option<usize> {
-    let (best_mean, best_se) = trials
+/// The mean of `a − b` and its standard error, measurement by measurement.
+pub fn paired(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let n = a.len().min(b.len()).max(1) as f64;
+    let d: Vec<f64> = a.iter().zip(b).map(|(a, b)| a - b).collect();
+    let mean = d.iter().sum::<f64>() / n;
+    let variance = d.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean, (variance / n).sqrt())
+}
+
+/// Which of `trials` (each rung's leave-one-out errors, measurement by
+/// measurement, simplest first; `None` for a rung that failed) to keep,
+/// and each rung's standard error against the best: the first rung whose
+/// mean difference from the best rung's errors is within its standard
+/// error. `None` when every rung failed.
+pub fn pick(trials: &[Option<Vec<f64>>]) -> (Option<usize>, Vec<Option<f64>>) {
+    let mean = |e: &Vec<f64>| e.iter().sum::<f64>() / e.len().max(1) as f64;
+    let best = trials
         .iter()
-        .flatten()
-        .filter(|(mean, _)| mean.is_finite())
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .copied()?;
-    trials
+        .enumerate()
+        .filter_map(|(i, t)| t.as_ref().map(|e| (i, mean(e))))
+        .filter(|(_, m)| m.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    let Some((best, _)) = best else {
+        return (None, vec![None; trials.len()]);
+    };
+    let best_errors = trials[best].as_ref().expect("the best rung has errors");
+    let against: Vec<Option<(f64, f64)>> = trials
         .iter()
-        .position(|t| t.is_some_and(|(mean, _)| mean <= best_mean + best_se))
+        .map(|t| {
+            t.as_ref()
+                .filter(|e| mean(e).is_finite())
+                .map(|e| paired(e, best_errors))
+        })
+        .collect();
+    let chosen = against
+        .iter()
+        .position(|d| d.is_some_and(|(difference, se)| difference <= se));
+    (
+        chosen,
+        against.iter().map(|d| d.map(|(_, se)| se)).collect(),
+    )
 }
 
 /// An option's fit with the placement it is held to.
@@ -183,25 +214,36 @@ pub fn choose(
             fits.push((rung, fit_rung(rung)));
         }
     }
-    let samples = |f: &ChosenFit| f.identified.fit_residual.count.max(1) as f64;
-    let summary: Vec<Option<(f64, f64)>> = fits
+    // A rung that did not converge is no candidate: its error says nothing.
+    let errors: Vec<Option<Vec<f64>>> = fits
         .iter()
         .map(|(_, f)| {
-            f.as_ref().ok().map(|f| {
-                let d = &f.identified.diagnostics;
-                (d.loo_mean_m, d.loo_sd_m / samples(f).sqrt())
-            })
+            f.as_ref()
+                .ok()
+                .filter(|f| f.identified.diagnostics.converged)
+                .map(|f| f.identified.diagnostics.loo_errors_m.clone())
         })
         .collect();
+    let (picked, se) = pick(&errors);
     let trials = fits
         .iter()
-        .zip(&summary)
-        .map(|((rung, f), s)| ModelTrial {
+        .zip(&errors)
+        .zip(&se)
+        .map(|(((rung, f), e), se)| ModelTrial {
             model: *rung,
             parameters: f.as_ref().map_or(0, |f| f.identified.estimates.len()),
-            loo_mean_mm: s.map(|(mean, _)| mean * 1e3),
-            loo_se_mm: s.map(|(_, se)| se * 1e3),
-            failure: f.as_ref().err().map(|e| e.to_string()),
+            loo_mean_mm: e
+                .as_ref()
+                .map(|e| 1e3 * e.iter().sum::<f64>() / e.len().max(1) as f64),
+            loo_se_mm: se.map(|se| se * 1e3),
+            failure: match f {
+                Err(e) => Some(e.to_string()),
+                Ok(f) if !f.identified.diagnostics.converged => Some(format!(
+                    "did not converge ({})",
+                    f.identified.diagnostics.termination
+                )),
+                Ok(_) => None,
+            },
         })
         .collect();
     let placement = match fits.iter().find(|(rung, _)| *rung == Rung::Placement) {
@@ -210,7 +252,7 @@ pub fn choose(
         None => None,
     };
     // Every rung failed: the option's own reason.
-    let i = pick(&summary).unwrap_or(fits.len() - 1);
+    let i = picked.unwrap_or(fits.len() - 1);
     let (chosen, fit) = fits.swap_remove(i);
     let mut fit = fit?;
     fit.identified.option = option;
@@ -228,23 +270,33 @@ mod tests {
 
     #[test]
     fn the_simpler_model_is_kept_unless_the_richer_predicts_better() {
-        // Kinematic 1.00 ± 0.05, elasto-kinematic 0.98: within one standard
-        // error of the best, so the simpler one.
-        assert_eq!(pick(&[Some((1.00, 0.05)), Some((0.98, 0.04))]), Some(0));
-        // The richer one better by more than its standard error.
-        assert_eq!(pick(&[Some((1.00, 0.05)), Some((0.50, 0.04))]), Some(1));
-        // Three rungs: the middle one within reach of the best.
+        let chosen = |t: &[Option<Vec<f64>>]| pick(t).0;
+        // The richer one 0.02 lower on average, but by +0.2 on one pose and
+        // -0.2 on the next: no better than the noise, so the simpler one.
+        let simple = vec![1.0; 10];
+        let wobbly: Vec<f64> = (0..10)
+            .map(|k| if k % 2 == 0 { 1.18 } else { 0.78 })
+            .collect();
+        assert_eq!(chosen(&[Some(simple.clone()), Some(wobbly)]), Some(0));
+        // The richer one lower on every pose, if only by a little: better.
+        let steady: Vec<f64> = (0..10).map(|k| 0.97 - 0.001 * k as f64).collect();
+        assert_eq!(chosen(&[Some(simple.clone()), Some(steady)]), Some(1));
+        // Three rungs: the middle one as good as the best.
+        let best = vec![0.5; 10];
         assert_eq!(
-            pick(&[Some((2.0, 0.1)), Some((0.62, 0.05)), Some((0.60, 0.03))]),
+            chosen(&[Some(vec![2.0; 10]), Some(best.clone()), Some(best.clone())]),
             Some(1)
         );
         // A failed or undetermined rung loses to any that fits.
-        assert_eq!(pick(&[None, Some((3.0, 0.2))]), Some(1));
+        assert_eq!(chosen(&[None, Some(vec![3.0; 4])]), Some(1));
         assert_eq!(
-            pick(&[Some((f64::INFINITY, f64::INFINITY)), Some((3.0, 0.2))]),
+            chosen(&[Some(vec![f64::INFINITY, 1.0]), Some(vec![3.0, 3.0])]),
             Some(1)
         );
-        assert_eq!(pick(&[None, None]), None);
+        assert_eq!(chosen(&[None, None]), None);
+        // The paired difference and its standard error.
+        let (d, se) = paired(&[2.0, 4.0], &[1.0, 1.0]);
+        assert_eq!((d, se), (2.0, 1.0));
     }
 
     #[test]

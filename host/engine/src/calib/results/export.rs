@@ -231,7 +231,7 @@ mod tests {
                 sigma_m: 0.001,
                 condition: 1.0,
                 loo_mean_m: 0.0012,
-                loo_sd_m: 0.0004,
+                loo_errors_m: vec![0.0012],
             },
             fit_residual: ErrorStats::of(&[0.001]),
             fit_residual_per_target: vec![ErrorStats::of(&[0.001])],

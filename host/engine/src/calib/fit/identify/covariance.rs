@@ -22,19 +22,18 @@ pub(super) struct Covariance {
     pub(super) std: Vec<f64>,
     /// Mean leave-one-out error of the measurements, m.
     pub(super) loo_mean_m: f64,
-    /// Standard deviation of the measurements' leave-one-out errors, m.
-    pub(super) loo_sd_m: f64,
+    /// Each measurement's leave-one-out error, in the measurements' order, m.
+    pub(super) loo_errors_m: Vec<f64>,
 }
 
-/// Mean and standard deviation over the measurements of the norm of their
-/// leave-one-out residual `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of
+/// Each measurement's norm of its leave-one-out residual, and their mean `(I − H_kk)⁻¹ r_k`, m: `r_k` the 3D residual of
 /// measurement `k`, `H_kk` its 3×3 block of the hat matrix `U Uᵀ` of the
 /// weighted Jacobian (`U` its left singular vectors; a measurement's weight
 /// scales its residual and its rows alike, so it cancels). Exact for a
 /// linear least-squares fit, the classic PRESS statistic; infinite when
 /// `I − H_kk` is singular (the measurement alone decides a direction of the
 /// parameters).
-pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (f64, f64) {
+pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (Vec<f64>, f64) {
     let errors: Vec<f64> = residuals
         .iter()
         .enumerate()
@@ -48,13 +47,8 @@ pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (f6
                 .map_or(f64::INFINITY, |e| e.norm())
         })
         .collect();
-    let n = errors.len().max(1) as f64;
-    let mean = errors.iter().sum::<f64>() / n;
-    if !mean.is_finite() {
-        return (f64::INFINITY, f64::INFINITY);
-    }
-    let variance = errors.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-    (mean, variance.sqrt())
+    let mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
+    (errors, mean)
 }
 
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
@@ -79,10 +73,10 @@ pub(super) fn covariance(
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
-    let (loo_mean_m, loo_sd_m) = svd
+    let (loo_errors_m, loo_mean_m) = svd
         .u
         .as_ref()
-        .map_or((f64::NAN, f64::NAN), |u| leave_one_out(u, residuals));
+        .map_or((Vec::new(), f64::NAN), |u| leave_one_out(u, residuals));
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
     let vt = svd.v_t.as_ref();
     let std = (0..free.len())
@@ -104,7 +98,7 @@ pub(super) fn covariance(
         condition,
         std,
         loo_mean_m,
-        loo_sd_m,
+        loo_errors_m,
     })
 }
 
