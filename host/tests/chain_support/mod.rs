@@ -202,8 +202,8 @@ impl Measured {
                 jac.set_column(c, &((residuals(&up) - residuals(&down)) / (2.0 * h)));
             }
             let norms: Vec<f64> = (0..n).map(|c| jac.column(c).norm().max(1e-300)).collect();
-            for c in 0..n {
-                jac.column_mut(c).scale_mut(1.0 / norms[c]);
+            for (c, norm) in norms.iter().enumerate() {
+                jac.column_mut(c).scale_mut(1.0 / norm);
             }
             let svd = jac.svd(true, true);
             let largest = svd.singular_values.max();
