@@ -231,6 +231,8 @@ fn dry_run_with_a_calibration_keeps_the_compensated_commands_within_the_limits()
         loads_kg: vec![0.0],
         fit_residual: ErrorStats::of(&[]),
         converged: true,
+        arm_name: None,
+        joint_names: vec![],
         validation: None,
         targets: vec![],
         registration: None,

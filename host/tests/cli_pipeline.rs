@@ -304,6 +304,8 @@ fn calibration_json() -> String {
         loads_kg: vec![LOAD_KG],
         fit_residual: ErrorStats::of(&[1e-4]),
         converged: true,
+        arm_name: None,
+        joint_names: vec![],
         validation: None,
         registration: None,
         targets: vec![],

@@ -270,6 +270,32 @@ fn the_demo_runs_on_the_so101_and_the_board_takes_its_calibration() {
             && t.contains("`servo` table"),
         "{t}"
     );
+    // The calibration knows its arm: exported as a URDF without --arm, its
+    // joints keep the URDF's names.
+    let exported = dir.path().join("calibrated.urdf");
+    let out = lrmcal(&[
+        "export",
+        "--urdf",
+        "--calibration",
+        p(&urdf_cal),
+        "--out",
+        p(&exported),
+    ]);
+    assert!(out.status.success(), "{}", text(&out));
+    let urdf = std::fs::read_to_string(&exported).unwrap();
+    for name in [
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow_flex",
+        "wrist_flex",
+        "wrist_roll",
+    ] {
+        assert!(
+            urdf.contains(&format!("<joint name=\"{name}\"")),
+            "{name} missing from\n{urdf}"
+        );
+    }
+    assert!(!urdf.contains("joint_1"), "{urdf}");
 }
 
 /// The demo of an arm the board cannot drive (the URDF's, without servo

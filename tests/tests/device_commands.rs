@@ -116,6 +116,8 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
         loads_kg: vec![],
         fit_residual: ErrorStats::of(&[0.001]),
         converged: true,
+        arm_name: None,
+        joint_names: vec![],
         validation: None,
         targets: vec![],
         registration: None,

@@ -76,6 +76,8 @@ fn calibration_file() -> CalibrationFile {
         loads_kg: vec![0.0663],
         fit_residual: ErrorStats::of(&[0.001]),
         converged: true,
+        arm_name: None,
+        joint_names: vec![],
         validation: None,
         targets: vec![],
         registration: None,

@@ -189,7 +189,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )?;
     let mut files = Vec::with_capacity(study.results.len());
     for r in &study.results {
-        let file = result_calibration_file(&nominal, &r.identified, r);
+        let file = result_calibration_file(&nominal, &r.identified, r)
+            .for_arm(&loaded.name, &loaded.joint_names);
         let path = args.out.join(format!("calibration-{}.json", r.option()));
         write_text(&path, &file.to_json())?;
         files.push((r.option(), file));

@@ -266,13 +266,12 @@ fn from_calibration(path: &Path, names: Option<&ArmSource>) -> Result<Exported, 
         let nominal = d.calibration.as_ref().map_or(&d.arm, |c| &c.nominal);
         file.check_describes_nominal(nominal, &d.origin, path)?;
     }
+    // Without --arm, the names the calibration recorded of its arm.
     let (default_name, joint_names, collision) = match described {
         Some(d) => (d.name, d.joint_names, d.collision),
         None => (
-            "arm".to_owned(),
-            (1..=file.arm.joints.len())
-                .map(|i| format!("joint_{i}"))
-                .collect(),
+            file.arm_name.clone().unwrap_or_else(|| "arm".to_owned()),
+            file.joint_names_or_numbered(),
             CollisionSpec::default(),
         ),
     };

@@ -155,7 +155,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let gravity = Gravity::chosen(&nominal, args.up.map(Up::rotation), args.level_base);
     let request = Request {
         nominal: &nominal,
-        arm_origin: loaded.origin,
+        arm_origin: loaded.origin.clone(),
         measurements: &all,
         measurements_file: args.measurements.display().to_string(),
         load_kg: args.load_kg,
@@ -188,6 +188,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         );
     }
     for (cal, details) in run.files.iter().zip(&run.report.options) {
+        // The file knows the arm it was made for: its name and joints' names.
+        let cal = cal.clone().for_arm(&loaded.name, &loaded.joint_names);
         let path = args.out.join(format!("calibration-{}.json", cal.option));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));

@@ -61,8 +61,8 @@ pub struct LoadedArm {
     pub name: String,
     /// The arm.
     pub arm: Arm<f64>,
-    /// Its joints' names, base to tip: the arm file's (`joint_1` … for a
-    /// calibration file, which holds none).
+    /// Its joints' names, base to tip: the arm file's (a calibration
+    /// file's recorded ones, `joint_1` … for one that holds none).
     pub joint_names: Vec<String>,
     /// Its bodies, floor and clearance for the planner: the arm file's, or
     /// the defaults (the arm's skeleton) for a calibration file, which holds none.
@@ -156,10 +156,11 @@ impl ArmSource {
             Self::Calibration(path) => {
                 let file = CalibrationFile::read(path)?;
                 let d = ArmDescription {
-                    name: format!("calibrated, {} model", file.option.name()),
-                    joint_names: (1..=file.arm.joints.len())
-                        .map(|i| format!("joint_{i}"))
-                        .collect(),
+                    name: file
+                        .arm_name
+                        .clone()
+                        .unwrap_or_else(|| format!("calibrated, {} model", file.option.name())),
+                    joint_names: file.joint_names_or_numbered(),
                     arm: file.arm,
                     collision: CollisionSpec::default(),
                     levels_deg: None,

@@ -192,6 +192,16 @@ pub struct CalibrationFile {
     /// (which measures in the arm file's own frame).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub registration: Option<RegistrationRecord>,
+    /// The name of the arm it was made for (the arm file's `name`, the
+    /// bundled arm's, the URDF's robot); absent in files written before it
+    /// was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arm_name: Option<String>,
+    /// Its joints' names, base to tip, one per joint (the arm file's, the
+    /// URDF's): what `export --urdf`, `move` and the page call them without
+    /// the arm file; empty in files written before they were recorded.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joint_names: Vec<String>,
 }
 
 /// What a file written before convergence was recorded says of it: only
@@ -287,6 +297,21 @@ impl CalibrationFile {
                          found {} and {joints}",
                         model::MAX_JOINTS,
                         file.arm.joints.len()
+                    ),
+                },
+            ));
+        }
+        // The joints' names, when recorded: one per joint, none empty.
+        let names = &file.joint_names;
+        if !names.is_empty() && (names.len() != joints || names.iter().any(|n| n.trim().is_empty()))
+        {
+            return Err(InputError::new(
+                Location::key(None, "joint_names"),
+                Problem::Invalid {
+                    message: format!(
+                        "expected one name per joint of the arm ({joints}), none empty, found {} ({})",
+                        names.len(),
+                        names.join(", ")
                     ),
                 },
             ));
@@ -410,6 +435,27 @@ impl CalibrationFile {
         let mut nominal = self.nominal;
         nominal.base = self.arm.base;
         (nominal, self.arm)
+    }
+
+    /// The joints' names it records, or `joint_1` … for a file that holds none.
+    pub fn joint_names_or_numbered(&self) -> Vec<String> {
+        if self.joint_names.is_empty() {
+            (1..=self.arm.joints.len())
+                .map(|i| format!("joint_{i}"))
+                .collect()
+        } else {
+            self.joint_names.clone()
+        }
+    }
+
+    /// The same file, knowing the arm it was made for: its name and its
+    /// joints' names (one per joint).
+    pub fn for_arm(self, name: &str, joint_names: &[String]) -> Self {
+        Self {
+            arm_name: Some(name.to_owned()),
+            joint_names: joint_names.to_vec(),
+            ..self
+        }
     }
 
     /// The same file recording `registration`.
@@ -569,6 +615,8 @@ pub(super) mod test_support {
             validation: None,
             registration: None,
             targets: vec![],
+            arm_name: None,
+            joint_names: vec![],
         }
     }
 }

@@ -336,3 +336,28 @@ fn the_boards_nominal_arm_stands_where_the_calibrated_one_does() {
     rest.base = file.nominal.base;
     assert_eq!(rest, file.nominal);
 }
+
+/// A file knows the arm it was made for: its name and its joints' names
+/// read back as written, and a list of names that is not one per joint is
+/// refused naming the key; files without them read as before.
+#[test]
+fn the_arms_name_and_joint_names_round_trip_and_are_checked() {
+    let names: Vec<String> = (1..=6).map(|i| format!("j{i}_servo")).collect();
+    let named = sample_file().for_arm("my arm", &names);
+    let json = named.to_json();
+    let back = CalibrationFile::parse(&json).unwrap();
+    assert_eq!(back, named);
+    assert_eq!(back.joint_names_or_numbered(), names);
+    assert_eq!(back.arm_name.as_deref(), Some("my arm"));
+    let unnamed = sample_file();
+    assert!(!unnamed.to_json().contains("joint_names"));
+    assert_eq!(unnamed.joint_names_or_numbered()[5], "joint_6");
+    let five = sample_file().for_arm("my arm", &names[..5]);
+    let e = CalibrationFile::parse(&five.to_json())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("key `joint_names`") && e.contains("one name per joint of the arm (6)"),
+        "{e}"
+    );
+}

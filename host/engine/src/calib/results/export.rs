@@ -69,6 +69,9 @@ pub fn calibration_file(
         } else {
             Vec::new()
         },
+        // The command that knows the arm's names adds them (`CalibrationFile::for_arm`).
+        arm_name: None,
+        joint_names: Vec::new(),
     }
 }
 
