@@ -59,7 +59,7 @@ fn device_commands_drive_the_emulated_board() {
         "--out",
         path(&dir),
     ]);
-    let file = dir.join("calibration-elasto-kinematic.json");
+    let file = dir.join("calibration-paper-elasto-kinematic.json");
     let payload = lrmcal_engine::device::calibration::payload(
         &CalibrationFile::read(&file).expect("the demo's calibration file"),
         [0.0; 6].into(),

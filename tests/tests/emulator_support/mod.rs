@@ -633,5 +633,5 @@ pub fn demo_calibrations(dir: &std::path::Path) -> PathBuf {
         .status()
         .expect("lrmcal demo runs");
     assert!(status.success(), "lrmcal demo failed: {status}");
-    dir.join("calibration-elasto-kinematic.json")
+    dir.join("calibration-paper-elasto-kinematic.json")
 }
