@@ -9,8 +9,9 @@
 use lrmcal_engine::calib::ModelOption;
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::fit::pipeline::{Choice, RunSettings};
 use lrmcal_engine::calib::results::experiments::outlier_trial;
+use lrmcal_engine::calib::run::Request;
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{SimConfig, TrueArm};
 use nalgebra::Vector3;
@@ -24,7 +25,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for seed in 1..=10u64 {
         let truth = TrueArm::draw(&nominal, seed, &SimConfig::default())?;
         let all = truth.measure(&poses, &[load])?;
-        let inputs = Inputs::new(&nominal, &poses, &all);
+        let request = Request::new(&nominal, &all);
         let mut row = Vec::new();
         let mut named = Vec::new();
         for robust in [false, true] {
@@ -41,7 +42,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 },
             };
             let t = outlier_trial(
-                &inputs,
+                &request,
                 ModelOption::ElastoKinematic,
                 &settings,
                 3,

@@ -5,15 +5,14 @@
 use lrmcal_core::dataset::{Measurement, Pose, from_home};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::{IdentifyOptions, identify};
-use lrmcal_engine::calib::fit::pipeline::{
-    Choice, Inputs, OptionResult, RunSettings, calibrate_option,
-};
+use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, OptionResult, RunSettings};
 use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::calib::results::experiments::{
     grid_and_off_grid, outlier_trial, random_baseline,
 };
 use lrmcal_engine::calib::results::report::IdentifiabilityReport;
+use lrmcal_engine::calib::run::{Calibration, Request};
 use lrmcal_engine::calib::{ModelOption, ParamKey, ParamVector, Sample};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
@@ -85,13 +84,9 @@ fn exact_data_gives_exact_parameters() {
     for option in ModelOption::ALL {
         // The identifiable set of this option decides which errors the truth may carry.
         let probe = exact_measurements(&nominal, &poses, &[LOAD]);
-        let first = calibrate_option(
-            &Inputs::new(&nominal, &poses, &probe),
-            option,
-            &settings(LOAD, None, 2),
-            &Silent,
-        )
-        .expect("calibrate");
+        let first = Calibration::open(&Request::new(&nominal, &probe))
+            .and_then(|c| c.option(option, &settings(LOAD, None, 2), &Silent))
+            .expect("calibrate");
         let kept = first.selection.candidates.identifiability.kept.clone();
         let mut truth = ParamVector::new(kept.iter().copied()).expect("distinct keys");
         for (id, error) in drawn.named_errors() {
@@ -164,9 +159,10 @@ fn demo_figures(seed: u64) -> DemoFigures {
     let poses = candidate_poses(&nominal);
     let truth = TrueArm::draw(&nominal, seed, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[0.0, LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &all);
+    let calibration = Calibration::open(&Request::new(&nominal, &all).load(LOAD)).expect("open");
     let run = |option, load, other| {
-        calibrate_option(&inputs, option, &settings(load, Some(other), 8), &Silent)
+        calibration
+            .option(option, &settings(load, Some(other), 8), &Silent)
             .expect("calibrate")
     };
     let held_out = |r: &OptionResult| r.validation.clone().expect("held-out poses");
@@ -255,16 +251,12 @@ fn detmax_beats_random_selection() {
     let poses = candidate_poses(&nominal);
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &all);
-    let ek = calibrate_option(
-        &inputs,
-        ModelOption::PaperElastoKinematic,
-        &settings(LOAD, None, 8),
-        &Silent,
-    )
-    .expect("calibrate");
-    let b =
-        random_baseline(&inputs, &ek, 20, &IdentifyOptions::default(), &Silent).expect("baseline");
+    let calibration = Calibration::open(&Request::new(&nominal, &all)).expect("open");
+    let run = settings(LOAD, None, 8);
+    let ek = calibration
+        .option(ModelOption::PaperElastoKinematic, &run, &Silent)
+        .expect("calibrate");
+    let b = random_baseline(&calibration, &ek, 20, &run, &Silent).expect("baseline");
     assert_eq!((b.sets, b.poses), (20, 50));
     assert_eq!(b.detmax_o1, ek.selection.observability.o1);
     assert!(b.detmax_o1 > b.random_o1_median, "{b:?}");
@@ -362,10 +354,11 @@ fn a_soft_light_wrist_is_fitted_and_its_weak_compliances_named() {
     };
     let truth = TrueArm::draw(&nominal, 1, &config).expect("draw");
     let all = truth.measure(&poses, &[0.0]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &all);
+    let calibration = Calibration::open(&Request::new(&nominal, &all)).expect("open");
     let wrist = ["k4", "k5", "k6"].map(|n| ParamKey::from_name(n).expect("name"));
     for option in [ModelOption::Elastic, ModelOption::PaperElastoKinematic] {
-        let r = calibrate_option(&inputs, option, &settings(0.0, None, 2), &Silent)
+        let r = calibration
+            .option(option, &settings(0.0, None, 2), &Silent)
             .unwrap_or_else(|e| panic!("{option}: {e}"));
         let weak: Vec<_> = r.identified.estimates.iter().filter(|e| e.weak).collect();
         assert!(
@@ -393,14 +386,14 @@ fn three_gross_errors_are_named_and_do_not_pull_the_default_fit() {
     let poses = candidate_poses(&nominal);
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &all);
+    let request = Request::new(&nominal, &all);
     let up = nalgebra::Vector3::new(0.0, 0.0, 0.02);
     let run = |identify| {
         let s = RunSettings {
             identify,
             ..settings(LOAD, None, 2)
         };
-        outlier_trial(&inputs, ModelOption::PaperElastoKinematic, &s, 3, up).expect("trial")
+        outlier_trial(&request, ModelOption::PaperElastoKinematic, &s, 3, up).expect("trial")
     };
     let robust = run(IdentifyOptions::default());
     assert_eq!(robust.displaced.len(), 3);
@@ -451,7 +444,7 @@ fn off_grid_figures(seed: u64) -> OffGridFigures {
     let truth = TrueArm::draw(&nominal, seed, &SimConfig::default()).expect("draw");
     let all = truth.measure(&plan.kept, &[LOAD]).expect("measure");
     let off_grid = truth.measure(&off_grid_poses, &[LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &plan.kept, &all);
+    let calibration = Calibration::open(&Request::new(&nominal, &all)).expect("open");
     let means = |option, n| {
         let mut s = settings(LOAD, None, 8);
         s.choice = Choice::Detmax(DetmaxOptions {
@@ -459,8 +452,9 @@ fn off_grid_figures(seed: u64) -> OffGridFigures {
             starts: 8,
             ..Default::default()
         });
-        let r = calibrate_option(&inputs, option, &s, &Silent).expect("calibrate");
-        let e = grid_and_off_grid(&inputs, &r, plan.grid_size, &off_grid).expect("validate");
+        let r = calibration.option(option, &s, &Silent).expect("calibrate");
+        let e = grid_and_off_grid(calibration.inputs(), &r, plan.grid_size, &off_grid)
+            .expect("validate");
         (e.grid.mean_m * 1e3, e.off_grid.mean_m * 1e3)
     };
     OffGridFigures {
@@ -511,7 +505,7 @@ fn the_knot_spacing_follows_the_number_of_poses() {
     let poses = candidates(&nominal, &config).expect("plan").kept;
     let truth = TrueArm::draw(&nominal, DEFAULT_SEED, &SimConfig::default()).expect("draw");
     let all = truth.measure(&poses, &[LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &all);
+    let calibration = Calibration::open(&Request::new(&nominal, &all)).expect("open");
     let run = |n| {
         let mut s = settings(LOAD, None, 4);
         s.choice = Choice::Detmax(DetmaxOptions {
@@ -519,7 +513,8 @@ fn the_knot_spacing_follows_the_number_of_poses() {
             starts: 4,
             ..Default::default()
         });
-        calibrate_option(&inputs, ModelOption::ElastoKinematicServo, &s, &Silent)
+        calibration
+            .option(ModelOption::ElastoKinematicServo, &s, &Silent)
             .expect("calibrate")
     };
     let many = run(60);

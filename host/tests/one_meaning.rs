@@ -10,10 +10,11 @@
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::fit::pipeline::{Choice, RunSettings};
 use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::calib::results::export::{result_calibration_file, rigs_of};
+use lrmcal_engine::calib::run::{Calibration, Request};
 use lrmcal_engine::calib::{Sample, parameters::option};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::{ServoErrorShape, SimConfig, TrueArm};
@@ -70,7 +71,8 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
     for case in cases() {
         let truth = TrueArm::draw(&nominal, case.seed, &case.config).unwrap();
         let measured = truth.measure(&poses, &[0.0, LOAD_KG]).unwrap();
-        let inputs = Inputs::new(&nominal, &poses, &measured);
+        let calibration = Calibration::open(&Request::new(&nominal, &measured).load(LOAD_KG))
+            .unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let settings = RunSettings {
             identify_load_kg: LOAD_KG,
             other_load_kg: None,
@@ -80,7 +82,8 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
             }),
             identify: IdentifyOptions::default(),
         };
-        let r = calibrate_option(&inputs, option::DEFAULT, &settings, &Silent)
+        let r = calibration
+            .option(option::DEFAULT, &settings, &Silent)
             .unwrap_or_else(|e| panic!("{}: {e}", case.name));
         let name = case.name;
 
@@ -92,9 +95,10 @@ fn a_calibration_means_the_same_written_read_validated_and_on_the_board() {
 
         // The file's rig predicts every held-out pose as identify's did.
         let (nominal_rig, calibrated) = rigs_of(&read);
-        let held_out = inputs
+        let held_out = calibration
+            .inputs()
             .measurements
-            .of(inputs.held_out(&r.pose_ids()), LOAD_KG);
+            .of(calibration.inputs().held_out(&r.pose_ids()), LOAD_KG);
         let samples: Vec<Sample> = held_out.iter().map(Sample::from).collect();
         let in_memory = r.identified.rig.tool_points(&samples).unwrap();
         let from_file = calibrated.tool_points(&samples).unwrap();

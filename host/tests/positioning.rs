@@ -6,9 +6,10 @@
 
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
+use lrmcal_engine::calib::fit::pipeline::{Choice, RunSettings};
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::calib::results::export::calibration_file;
+use lrmcal_engine::calib::run::{Calibration, Request};
 use lrmcal_engine::calib::{ModelOption, parameters::option};
 use lrmcal_engine::plan::{PlanConfig, candidates};
 use lrmcal_engine::sim::positioning::{self, Positioning};
@@ -31,7 +32,8 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
     };
     let truth = TrueArm::draw(&nominal, 1, &config).expect("true arm");
     let measured = truth.measure(&poses, &[0.0, LOAD_KG]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &measured);
+    let calibration =
+        Calibration::open(&Request::new(&nominal, &measured).load(LOAD_KG)).expect("open");
     let settings = RunSettings {
         identify_load_kg: LOAD_KG,
         other_load_kg: None,
@@ -46,7 +48,9 @@ fn calibration_and_the_boards_play_offset_bring_the_tool_to_its_targets() {
         if files.iter().any(|(o, _)| *o == option) {
             continue;
         }
-        let r = calibrate_option(&inputs, option, &settings, &Silent).expect("calibrate");
+        let r = calibration
+            .option(option, &settings, &Silent)
+            .expect("calibrate");
         let file = calibration_file(
             &nominal,
             &r.identified,

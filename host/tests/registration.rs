@@ -7,14 +7,13 @@
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{
-    Choice, Inputs, OptionResult, RunSettings, calibrate_option,
-};
-use lrmcal_engine::calib::fit::registration::{Gravity, Registration, register};
+use lrmcal_engine::calib::fit::pipeline::{Choice, OptionResult, RunSettings};
+use lrmcal_engine::calib::fit::registration::{Gravity, Registration};
 use lrmcal_engine::calib::fit::validate::validate;
 use lrmcal_engine::calib::parameters::params::Key as _;
 use lrmcal_engine::calib::progress::Silent;
 use lrmcal_engine::calib::results::export::registered_calibration_file;
+use lrmcal_engine::calib::run::{Calibration, Placement, Request};
 use lrmcal_engine::calib::{ModelOption, ParamKey, Rig};
 use lrmcal_engine::device::calibration::payload;
 use lrmcal_engine::plan::{PlanConfig, candidates};
@@ -67,17 +66,17 @@ fn registered_run(
     measured: &[Measurement],
     gravity: Vector3<f64>,
 ) -> (OptionResult, Registration) {
-    let reg = register(nominal, measured, Gravity::Measured(gravity)).expect("register");
-    let arm = reg.arm_for_fit(nominal);
-    let moved = reg.to_arm_frame(measured);
-    let result = calibrate_option(
-        &Inputs::new(&arm, poses, &moved),
-        ModelOption::ElastoKinematic,
-        &settings(true),
-        &Silent,
+    let calibration = Calibration::open(
+        &Request::new(nominal, measured)
+            .candidates(poses)
+            .load(LOAD)
+            .placement(Placement::Register(Gravity::Measured(gravity))),
     )
-    .expect("calibrate");
-    (result, reg)
+    .expect("register");
+    let result = calibration
+        .option(ModelOption::ElastoKinematic, &settings(true), &Silent)
+        .expect("calibrate");
+    (result, calibration.registration().clone())
 }
 
 fn held_out_mean_m(r: &OptionResult) -> f64 {
@@ -246,13 +245,9 @@ fn tool_point_run(r: f64, refresh: bool) -> (OptionResult, Arm<f64>) {
     // Put the true point r off the axis, along x6 (alpha6 stays near zero).
     truth.arm.tool.xyz = [r - j6.a, 0.0, 0.04];
     let measured = truth.measure(&poses, &[LOAD]).expect("measure");
-    let result = calibrate_option(
-        &Inputs::new(&nominal, &poses, &measured),
-        ModelOption::ElastoKinematic,
-        &settings(refresh),
-        &Silent,
-    )
-    .expect("calibrate");
+    let result = Calibration::open(&Request::new(&nominal, &measured))
+        .and_then(|c| c.option(ModelOption::ElastoKinematic, &settings(refresh), &Silent))
+        .expect("calibrate");
     (result, truth.arm)
 }
 
@@ -294,16 +289,12 @@ fn refreshing_the_rank_analysis_removes_the_structural_error() {
         .kept;
     let truth = TrueArm::draw(&nominal, 1, &SimConfig::model_only()).expect("draw");
     let measured = truth.measure(&poses, &[LOAD]).expect("measure");
-    let inputs = Inputs::new(&nominal, &poses, &measured);
+    let calibration = Calibration::open(&Request::new(&nominal, &measured)).expect("open");
     let run = |refresh| {
         held_out_mean_m(
-            &calibrate_option(
-                &inputs,
-                ModelOption::ElastoKinematic,
-                &settings(refresh),
-                &Silent,
-            )
-            .expect("calibrate"),
+            &calibration
+                .option(ModelOption::ElastoKinematic, &settings(refresh), &Silent)
+                .expect("calibrate"),
         )
     };
     let (paper, refreshed) = (run(false), run(true));

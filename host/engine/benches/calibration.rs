@@ -19,10 +19,9 @@ use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_engine::calib::ModelOption;
 use lrmcal_engine::calib::analysis::detmax::{DetmaxOptions, detmax};
 use lrmcal_engine::calib::fit::identify::{IdentifyOptions, identify};
-use lrmcal_engine::calib::fit::pipeline::{
-    CandidateBlocks, Choice, Inputs, MeasurementIndex, RunSettings, calibrate_option,
-};
+use lrmcal_engine::calib::fit::pipeline::{CandidateBlocks, Choice, MeasurementIndex, RunSettings};
 use lrmcal_engine::calib::progress::Silent;
+use lrmcal_engine::calib::run::{Calibration, Request};
 use lrmcal_engine::plan::{Levels, PlanConfig, candidates};
 use lrmcal_engine::sim::{DEFAULT_SEED, SimConfig, TrueArm};
 use model::Arm;
@@ -112,7 +111,8 @@ fn benches(c: &mut Criterion) {
     g.sample_size(10).measurement_time(Duration::from_secs(40));
     g.bench_function("demo_three_options_and_reverse_cross_load", |b| {
         b.iter(|| {
-            let inputs = Inputs::new(&nominal, &poses, &all);
+            let calibration =
+                Calibration::open(&Request::new(&nominal, &all).load(LOAD)).expect("open");
             let run = |option, load, other| {
                 let settings = RunSettings {
                     identify_load_kg: load,
@@ -120,7 +120,9 @@ fn benches(c: &mut Criterion) {
                     choice: Choice::Detmax(DetmaxOptions::default()),
                     identify: IdentifyOptions::default(),
                 };
-                calibrate_option(&inputs, option, &settings, &Silent).expect("calibrate")
+                calibration
+                    .option(option, &settings, &Silent)
+                    .expect("calibrate")
             };
             for option in ModelOption::ALL {
                 black_box(run(option, LOAD, 0.0));

@@ -12,10 +12,11 @@ use std::time::Instant;
 
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
-use lrmcal_engine::calib::fit::pipeline::{Choice, Inputs, RunSettings};
+use lrmcal_engine::calib::fit::pipeline::{Choice, RunSettings};
 use lrmcal_engine::calib::results::export::result_calibration_file;
 use lrmcal_engine::calib::results::study::{StudySettings, study};
 use lrmcal_engine::calib::results::summary;
+use lrmcal_engine::calib::run::{Calibration, Request};
 use lrmcal_engine::device::calibration;
 
 use crate::commands::helpers::write_text;
@@ -155,7 +156,20 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
     );
 
-    let inputs = Inputs::new(&nominal, &poses, &all);
+    // The measurements are the simulated arm's, in its world frame: the
+    // arm stands where its file says, and every fit goes through the one
+    // calibration run a user's `identify` makes.
+    let identify = IdentifyOptions {
+        robust: !args.no_robust,
+        ..Default::default()
+    };
+    let calibration = Calibration::open(
+        &Request::new(&nominal, &all)
+            .named(loaded.origin.clone(), "the simulated measurements")
+            .candidates(&poses)
+            .load(PAPER_LOAD_KG)
+            .identify(identify),
+    )?;
     let settings = StudySettings {
         run: RunSettings {
             identify_load_kg: PAPER_LOAD_KG,
@@ -165,10 +179,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 starts: args.starts,
                 ..Default::default()
             }),
-            identify: IdentifyOptions {
-                robust: !args.no_robust,
-                ..Default::default()
-            },
+            identify,
         },
         compare_random: args.compare_random,
         error_sweep: args.error_sweep,
@@ -180,7 +191,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         "config": config,
     });
     let study = study(
-        &inputs,
+        &calibration,
         plan.grid_size,
         &off_grid,
         &settings,

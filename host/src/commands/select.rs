@@ -11,9 +11,10 @@ use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::pose_list;
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
-use lrmcal_engine::calib::fit::pipeline::{Choice, select};
+use lrmcal_engine::calib::fit::pipeline::Choice;
 use lrmcal_engine::calib::results::experiments::{median, random_o1};
 use lrmcal_engine::calib::results::report::IdentifiabilityReport;
+use lrmcal_engine::calib::run::Calibration;
 
 /// Choose the N candidate poses that identify the model best (D-optimal, DETMAX).
 #[derive(Debug, clap::Args)]
@@ -70,6 +71,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .collect();
     let options = args.option.options();
     let bar = Steps::new();
+    // One plan for every option: the analyses are those `identify` will make.
+    let planned = Calibration::plan(&nominal, &candidates, &args.load_kg)?;
     for option in &options {
         let choice = match &args.evaluate {
             Some(path) => Choice::Given(pose_list::read(path)?.iter().map(|r| r.pose.id).collect()),
@@ -80,7 +83,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 ..Default::default()
             }),
         };
-        let s = select(&nominal, *option, &candidates, &args.load_kg, &choice, &bar)?;
+        let s = planned.select(*option, &choice, &bar)?;
         let ident = IdentifiabilityReport::from(&s.candidates.identifiability);
         println!(
             "{option}: {} of {} candidate parameters identifiable over {} candidate poses (SVD rank {})",

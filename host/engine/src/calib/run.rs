@@ -1,18 +1,25 @@
-//! One calibration run, as `lrmcal identify` asks for it: a [`Request`]
-//! (the nominal arm, every measurement read, the options, how poses are
-//! chosen and the arm placed) in, one [`Run`] out (the registration, each
-//! option's result, the report, the calibration files). The command line
-//! reads the files, makes one call and writes and prints what comes back.
+//! The one calibration run of the project: a [`Request`] (the nominal arm,
+//! every measurement read, the options, how poses are chosen and the arm
+//! placed) in, one [`Run`] out (the registration, each option's result, the
+//! report, the calibration files). `lrmcal identify` makes one call
+//! ([`calibrate`]); the demo's study and its experiments open one
+//! [`Calibration`] and fit options on it again (other poses, the other
+//! load); `lrmcal select` plans one before anything is measured. No other
+//! path assembles a fit, so what the demo reports is what a user gets.
 //!
 //! The steps, in order: the load to fit (the file's only one, or the one
 //! asked for), each target seen in enough poses, registration of the arm in
 //! the measurement frame on the first target's rows (or the arm file's base
 //! kept), the measurements carried into the arm's frame and checked for
 //! plausibility and against the candidates, the poses chosen, then per
-//! option the candidates' analysis, the structure check and the fit
-//! (`fit::pipeline`), and the fit refused when it leaves the arm worse
-//! than it started (`fit::guard`). With several options, one the measurements cannot
-//! determine is skipped with its reason and the others are still fitted.
+//! option the candidates' analysis (built once per option, load and knot
+//! spacing and reused by every later fit), the structure check and the fit
+//! (`fit::pipeline`), and the fit refused when it leaves the arm worse than
+//! it started (`fit::guard`). With several options, one the measurements
+//! cannot determine is skipped with its reason and the others are still
+//! fitted.
+
+use std::sync::{Arc, Mutex, PoisonError};
 
 use model::Arm;
 
@@ -23,13 +30,15 @@ use super::fit::guard;
 use super::fit::identify::IdentifyOptions;
 use super::fit::model_choice;
 use super::fit::pipeline::{
-    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks,
+    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, Selection, calibrate_blocks,
 };
 use super::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
 use super::fit::tool_only::retaught;
+use super::parameters::option::DEFAULT;
 use super::parameters::params::ParamKey;
+use super::parameters::servo_knots::KnotSpacing;
 use super::parameters::targets::Targets;
 use super::progress::Progress;
 use super::results::export::registered_calibration_file;
@@ -91,6 +100,76 @@ pub struct Request<'a> {
     pub placement: Placement,
     /// How the fit runs.
     pub identify: IdentifyOptions,
+}
+
+impl<'a> Request<'a> {
+    /// Calibrating `nominal` from `measurements` taken in its file's world
+    /// frame (a simulation's): the default option fitted to every pose
+    /// measured under the file's only load, the arm kept where its file
+    /// stands it, gravity as the file says.
+    pub fn new(nominal: &'a Arm<f64>, measurements: &'a [Measurement]) -> Self {
+        Self {
+            nominal,
+            arm_origin: "the nominal arm".into(),
+            measurements,
+            measurements_file: "the measurements".into(),
+            load_kg: None,
+            candidates: None,
+            poses: PoseChoice::All,
+            options: vec![DEFAULT],
+            placement: Placement::Keep(Gravity::Measured(nominal.gravity_vector())),
+            identify: IdentifyOptions::default(),
+        }
+    }
+
+    /// Names the arm and the measurements in the report and in messages.
+    pub fn named(
+        self,
+        arm_origin: impl Into<String>,
+        measurements_file: impl Into<String>,
+    ) -> Self {
+        Self {
+            arm_origin: arm_origin.into(),
+            measurements_file: measurements_file.into(),
+            ..self
+        }
+    }
+
+    /// Fits under the load `load_kg`.
+    pub fn load(self, load_kg: f64) -> Self {
+        Self {
+            load_kg: Some(load_kg),
+            ..self
+        }
+    }
+
+    /// Every measured pose must be one of `candidates`.
+    pub fn candidates(self, candidates: &'a [Pose]) -> Self {
+        Self {
+            candidates: Some(candidates),
+            ..self
+        }
+    }
+
+    /// Fits `options`, in order.
+    pub fn options(self, options: Vec<ModelOption>) -> Self {
+        Self { options, ..self }
+    }
+
+    /// Chooses the poses to fit as `poses` says.
+    pub fn poses(self, poses: PoseChoice) -> Self {
+        Self { poses, ..self }
+    }
+
+    /// Places the arm as `placement` says.
+    pub fn placement(self, placement: Placement) -> Self {
+        Self { placement, ..self }
+    }
+
+    /// Runs the fits as `identify` says.
+    pub fn identify(self, identify: IdentifyOptions) -> Self {
+        Self { identify, ..self }
+    }
 }
 
 /// Everything a run gives back.
@@ -168,126 +247,351 @@ pub fn reteach(
 
 /// Runs the calibration `request` asks for; long steps report to `progress`.
 pub fn calibrate(request: &Request, progress: &dyn Progress) -> Result<Run, CalibError> {
-    let file = request.measurements_file.as_str();
-    let all = request.measurements;
-    let FitLoad {
-        loads,
-        load_kg: load,
-        targets,
-        ..
-    } = FitLoad::of(all, request.load_kg, file)?;
-    // The nominal arm knows the first target's tool point only: the others
-    // may sit anywhere on the flange.
-    let first: Vec<_> = all
-        .iter()
-        .filter(|m| targets.index(m.target) == Some(0))
-        .copied()
-        .collect();
-    let registration = place(request, &first)?;
-    // The fit runs in the arm file's world frame, where the base's angles
-    // are small corrections; the files get the result in the measurement frame.
-    let nominal = registration.arm_for_fit(request.nominal);
-    let all = registration.to_arm_frame(all);
-    check_plausible_registered(&nominal, &registration.to_arm_frame(&first), file)?;
-    if let Some(candidates) = request.candidates {
-        check_in_candidates(&all, candidates, file)?;
-    }
-    let measured = poses_under(&all, load);
-    let choice = match &request.poses {
-        PoseChoice::Detmax { n, starts } => Choice::Detmax(DetmaxOptions {
-            n: *n,
-            starts: *starts,
-            ..Default::default()
-        }),
-        PoseChoice::Listed { ids, file: list } => {
-            check_measured(ids, &measured, list, file, load)?;
-            Choice::Given(ids.clone())
+    Calibration::open(request)?.run(progress)
+}
+
+/// A calibration opened on a [`Request`]: the arm placed in the measurement
+/// frame, the measurements checked and carried into the arm's frame, and
+/// each option's candidates' analysis kept for every fit that reuses it.
+/// The one way the project calibrates: `identify` runs the request's options
+/// ([`Calibration::run`]), the demo's study and its experiments fit options
+/// again on other poses and loads ([`Calibration::option`]), and `select`
+/// chooses poses before anything is measured ([`Calibration::plan`],
+/// [`Calibration::select`]) through the same analysis.
+pub struct Calibration<'a> {
+    request: Request<'a>,
+    registration: Registration,
+    loads: Vec<f64>,
+    load_kg: f64,
+    inputs: Inputs,
+    structures: Mutex<Vec<Arc<Structures>>>,
+    analyses: Mutex<Vec<(Analysed, Arc<CandidateBlocks>)>>,
+}
+
+/// What a candidates' analysis was built for.
+#[derive(Clone, Debug, PartialEq)]
+struct Analysed {
+    option: ModelOption,
+    loads: Vec<u64>,
+    spacing: KnotSpacing,
+}
+
+impl<'a> Calibration<'a> {
+    /// Places the arm and checks the measurements of `request`.
+    pub fn open(request: &Request<'a>) -> Result<Self, CalibError> {
+        let file = request.measurements_file.as_str();
+        let all = request.measurements;
+        let FitLoad {
+            loads,
+            load_kg: load,
+            targets,
+            ..
+        } = FitLoad::of(all, request.load_kg, file)?;
+        // The nominal arm knows the first target's tool point only: the others
+        // may sit anywhere on the flange.
+        let first: Vec<_> = all
+            .iter()
+            .filter(|m| targets.index(m.target) == Some(0))
+            .copied()
+            .collect();
+        let registration = place(request, &first)?;
+        // The fit runs in the arm file's world frame, where the base's angles
+        // are small corrections; the files get the result in the measurement frame.
+        let nominal = registration.arm_for_fit(request.nominal);
+        let all = registration.to_arm_frame(all);
+        check_plausible_registered(&nominal, &registration.to_arm_frame(&first), file)?;
+        if let Some(candidates) = request.candidates {
+            check_in_candidates(&all, candidates, file)?;
         }
-        PoseChoice::All => Choice::Given(measured.iter().map(|p| p.id).collect()),
-    };
-    let settings = RunSettings {
-        identify_load_kg: load,
-        other_load_kg: loads.iter().copied().find(|l| *l != load),
-        choice,
-        identify: request.identify,
-    };
-    let registered = matches!(request.placement, Placement::Register(_));
-    let inputs = Inputs::new(&nominal, &measured, &all);
-    // Worked out once per option and spacing, for the candidates' analysis
-    // and the check below alike.
-    let structures = Structures::new(&inputs.nominal.arm, load);
-    let mut results = Vec::new();
-    let mut skipped = Vec::new();
-    let mut notes = Vec::new();
-    for &option in &request.options {
-        let result = (|| {
-            let blocks = CandidateBlocks::build_for(
-                &inputs.nominal,
-                option,
-                &measured,
-                &[load],
-                settings.choice.poses(),
-                &structures,
-            )?;
-            // The measured poses must identify what positions can reveal on
-            // this arm at all. An option fitted as a ladder of models holds
-            // an effect beyond the geometry they leave undetermined (a
-            // spring, a knot) and lets the ladder judge the rest; the
-            // geometry they must determine.
-            if let (missing, Some(e)) = structures.missing(&blocks.identifiability)? {
-                let beyond_geometry = missing.iter().all(|k| match k {
-                    ParamKey::Arm(id) => !id.is_geometric(),
-                    _ => true,
-                });
-                if model_choice::ladder(option).len() == 1 || !beyond_geometry {
-                    return Err(e);
+        let measured = poses_under(&all, load);
+        Ok(Self {
+            request: request.clone(),
+            registration,
+            loads,
+            load_kg: load,
+            inputs: Inputs::new(&nominal, &measured, &all),
+            structures: Mutex::new(Vec::new()),
+            analyses: Mutex::new(Vec::new()),
+        })
+    }
+
+    /// A calibration planned before anything is measured: `nominal` at
+    /// `candidates`, to be measured under each of `loads_kg`, for
+    /// [`Calibration::select`].
+    pub fn plan(
+        nominal: &'a Arm<f64>,
+        candidates: &'a [Pose],
+        loads_kg: &[f64],
+    ) -> Result<Self, CalibError> {
+        let Some(&load_kg) = loads_kg.first() else {
+            return Err(CalibError::Empty {
+                what: "analyse the candidate poses: no load to measure them under".into(),
+            });
+        };
+        Ok(Self {
+            request: Request::new(nominal, &[]).candidates(candidates),
+            registration: Registration::identity(nominal, nominal.gravity_vector()),
+            loads: loads_kg.to_vec(),
+            load_kg,
+            inputs: Inputs::new(nominal, candidates, &[]),
+            structures: Mutex::new(Vec::new()),
+            analyses: Mutex::new(Vec::new()),
+        })
+    }
+
+    /// Chooses poses for `option` among the candidates, analysed under
+    /// every load of the plan (or the measured loads).
+    pub fn select(
+        &self,
+        option: ModelOption,
+        choice: &Choice,
+        progress: &dyn Progress,
+    ) -> Result<Selection, CalibError> {
+        let blocks = self.analysis(option, &self.loads, choice.poses())?;
+        Selection::choose((*blocks).clone(), &self.inputs.candidates, choice, progress)
+    }
+
+    /// Fits every option of the request on the poses it chose.
+    pub fn run(&self, progress: &dyn Progress) -> Result<Run, CalibError> {
+        let request = &self.request;
+        let file = request.measurements_file.as_str();
+        let load = self.load_kg;
+        let measured = &self.inputs.candidates;
+        let choice = match &request.poses {
+            PoseChoice::Detmax { n, starts } => Choice::Detmax(DetmaxOptions {
+                n: *n,
+                starts: *starts,
+                ..Default::default()
+            }),
+            PoseChoice::Listed { ids, file: list } => {
+                check_measured(ids, measured, list, file, load)?;
+                Choice::Given(ids.clone())
+            }
+            PoseChoice::All => Choice::Given(measured.iter().map(|p| p.id).collect()),
+        };
+        let settings = self.settings(choice);
+        let mut results = Vec::new();
+        let mut skipped = Vec::new();
+        let mut notes = Vec::new();
+        for &option in &request.options {
+            match self.fit(option, &settings, progress) {
+                Ok((r, note)) => {
+                    notes.extend(note.map(|n| (option, n)));
+                    results.push(r);
                 }
-                notes.push((option, e.to_string()));
+                Err(e) if request.options.len() > 1 => skipped.push((option, e)),
+                Err(e) => return Err(e),
             }
-            if registered {
-                let params = blocks.identifiability.kept.len();
-                check_registered_count(settings.choice.poses(), params, option)?;
-            }
-            let result = calibrate_blocks(&inputs, blocks, &settings, progress)?;
-            // No calibration worse than where the arm started reaches a file.
-            guard::check(
-                option,
-                &inputs.nominal.arm,
-                &result.identified,
-                result.placement.as_ref(),
-            )?;
-            Ok(result)
-        })();
-        match result {
-            Ok(r) => results.push(r),
-            Err(e) if request.options.len() > 1 => skipped.push((option, e)),
-            Err(e) => return Err(e),
+        }
+        if results.is_empty() && !skipped.is_empty() {
+            return Err(skipped.swap_remove(0).1);
+        }
+        let registered = self.registered();
+        let mut report = Report::new(
+            request.arm_origin.clone(),
+            measured.len(),
+            load,
+            serde_json::json!({ "source": file, "loads_kg": self.loads }),
+            &results,
+        );
+        report.registration = registered.then(|| RegistrationReport::from(&self.registration));
+        let files = results
+            .iter()
+            .map(|r| {
+                registered_calibration_file(
+                    &self.registration,
+                    registered,
+                    &self.inputs.nominal.arm,
+                    r,
+                )
+            })
+            .collect();
+        Ok(Run {
+            registration: self.registration.clone(),
+            load_kg: load,
+            results,
+            skipped,
+            notes,
+            report,
+            files,
+        })
+    }
+
+    /// How the request's options are fitted: under its load, checked
+    /// against another measured load if there is one, on the poses `choice` takes.
+    pub fn settings(&self, choice: Choice) -> RunSettings {
+        RunSettings {
+            identify_load_kg: self.load_kg,
+            other_load_kg: self.loads.iter().copied().find(|l| *l != self.load_kg),
+            choice,
+            identify: self.request.identify,
         }
     }
-    if results.is_empty() && !skipped.is_empty() {
-        return Err(skipped.swap_remove(0).1);
+
+    /// Fits `option` as `settings` say (another load, other poses than the
+    /// request's), with every check of [`Calibration::run`].
+    pub fn option(
+        &self,
+        option: ModelOption,
+        settings: &RunSettings,
+        progress: &dyn Progress,
+    ) -> Result<OptionResult, CalibError> {
+        self.fit(option, settings, progress).map(|(r, _)| r)
     }
-    let mut report = Report::new(
-        request.arm_origin.clone(),
-        measured.len(),
-        load,
-        serde_json::json!({ "source": file, "loads_kg": loads }),
-        &results,
-    );
-    report.registration = registered.then(|| RegistrationReport::from(&registration));
-    let files = results
-        .iter()
-        .map(|r| registered_calibration_file(&registration, registered, &nominal, r))
-        .collect();
-    Ok(Run {
-        registration,
-        load_kg: load,
-        results,
-        skipped,
-        notes,
-        report,
-        files,
-    })
+
+    /// The candidates and measurements, in the arm file's world frame.
+    pub fn inputs(&self) -> &Inputs {
+        &self.inputs
+    }
+
+    /// Where the arm was found (or kept) in the measurement frame.
+    pub fn registration(&self) -> &Registration {
+        &self.registration
+    }
+
+    /// Whether the arm was registered in the measurement frame (rather
+    /// than kept where its file says).
+    fn registered(&self) -> bool {
+        matches!(self.request.placement, Placement::Register(_))
+    }
+
+    /// [`Calibration::option`], with what the poses leave undetermined
+    /// beyond the geometry of an option fitted as a ladder of models (held
+    /// at nominal, the fit goes on).
+    fn fit(
+        &self,
+        option: ModelOption,
+        settings: &RunSettings,
+        progress: &dyn Progress,
+    ) -> Result<(OptionResult, Option<String>), CalibError> {
+        let load = settings.identify_load_kg;
+        let poses = settings.choice.poses();
+        let blocks = self.analysis(option, &[load], poses)?;
+        if matches!(settings.choice, Choice::Detmax(_)) && !blocks.selects_for(poses) {
+            return Err(CalibError::TooFewPoses {
+                poses,
+                rows: poses * blocks.blocks.first().map_or(0, |b| b.nrows()),
+                params: blocks.identifiability.kept.len(),
+            });
+        }
+        // The measured poses must identify what positions can reveal on
+        // this arm at all. An option fitted as a ladder of models holds an
+        // effect beyond the geometry they leave undetermined (a spring, a
+        // knot) and lets the ladder judge the rest; the geometry they must
+        // determine.
+        let mut note = None;
+        if let (missing, Some(e)) = self.structures(load).missing(&blocks.identifiability)? {
+            let beyond_geometry = missing.iter().all(|k| match k {
+                ParamKey::Arm(id) => !id.is_geometric(),
+                _ => true,
+            });
+            if model_choice::ladder(option).len() == 1 || !beyond_geometry {
+                return Err(e);
+            }
+            note = Some(e.to_string());
+        }
+        if self.registered() {
+            let params = blocks.identifiability.kept.len();
+            check_registered_count(poses, params, option)?;
+        }
+        let result = calibrate_blocks(&self.inputs, (*blocks).clone(), settings, progress)?;
+        // No calibration worse than where the arm started reaches a file.
+        guard::check(
+            option,
+            &self.inputs.nominal.arm,
+            &result.identified,
+            result.placement.as_ref(),
+        )?;
+        Ok((result, note))
+    }
+
+    /// What the arm's structure identifies under `load_kg`, worked out once.
+    fn structures(&self, load_kg: f64) -> Arc<Structures> {
+        let mut known = self
+            .structures
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        if let Some(s) = known.iter().find(|s| s.load_kg() == load_kg) {
+            return s.clone();
+        }
+        let s = Arc::new(Structures::new(&self.inputs.nominal.arm, load_kg));
+        known.push(s.clone());
+        s
+    }
+
+    /// The candidates' analysis for `option` under `loads_kg` on the finest
+    /// knot spacing whose parameters `poses` of the candidates can
+    /// determine (an option without knots has one): coarser grids while a
+    /// selection of `poses` is not made for the kept parameters
+    /// ([`CandidateBlocks::selects_for`]) or, when all the candidates are
+    /// to be fitted, they leave some of what the arm's structure identifies
+    /// undetermined. The coarsest grid's when none will do: the checks of
+    /// the fit then say why.
+    fn analysis(
+        &self,
+        option: ModelOption,
+        loads_kg: &[f64],
+        poses: usize,
+    ) -> Result<Arc<CandidateBlocks>, CalibError> {
+        let structures = self.structures(loads_kg[0]);
+        let mut spacing = KnotSpacing::FINEST;
+        loop {
+            let blocks = self.analysed(option, loads_kg, spacing)?;
+            // When every candidate is fitted the analysis is over the fitted
+            // poses themselves: they must determine all the structure allows.
+            let carried = || {
+                blocks.selects_for(poses)
+                    && (poses < self.inputs.candidates.len()
+                        || structures.check(&blocks.identifiability).is_ok())
+            };
+            match spacing.coarser() {
+                Some(coarser) if blocks.identifiability.knots.is_some() && !carried() => {
+                    spacing = coarser;
+                }
+                _ => return Ok(blocks),
+            }
+        }
+    }
+
+    /// The candidates' analysis for `option` under `loads_kg` on `spacing`,
+    /// built the first time it is asked for.
+    fn analysed(
+        &self,
+        option: ModelOption,
+        loads_kg: &[f64],
+        spacing: KnotSpacing,
+    ) -> Result<Arc<CandidateBlocks>, CalibError> {
+        let key = Analysed {
+            option,
+            loads: loads_kg.iter().map(|l| l.to_bits()).collect(),
+            spacing,
+        };
+        let cached = |analyses: &Mutex<Vec<(Analysed, Arc<CandidateBlocks>)>>| {
+            analyses
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, b)| b.clone())
+        };
+        if let Some(blocks) = cached(&self.analyses) {
+            return Ok(blocks);
+        }
+        // Built outside the lock: fits on other threads go on meanwhile.
+        let blocks = Arc::new(CandidateBlocks::build_spaced(
+            &self.inputs.nominal,
+            option,
+            spacing,
+            &self.inputs.candidates,
+            loads_kg,
+        )?);
+        let mut analyses = self.analyses.lock().unwrap_or_else(PoisonError::into_inner);
+        if let Some((_, b)) = analyses.iter().find(|(k, _)| *k == key) {
+            return Ok(b.clone());
+        }
+        analyses.push((key, blocks.clone()));
+        Ok(blocks)
+    }
 }
 
 /// Registers the arm on `first` (the first target's rows), or keeps the

@@ -8,8 +8,11 @@ use rand::{SeedableRng, rngs::StdRng};
 
 use super::analysis::detmax::DetmaxOptions;
 use super::fit::identify::IdentifyOptions;
-use super::fit::pipeline::{Choice, RunSettings};
+use super::fit::pipeline::{Choice, OptionResult, RunSettings};
 use super::parameters::params::{ParamKey, ParamVector};
+use super::progress::Silent;
+use super::run::{Calibration, Request};
+use super::{CalibError, ModelOption};
 use super::{Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose};
 
@@ -128,4 +131,16 @@ pub fn elastic_settings() -> RunSettings {
 /// The parameter called `name`.
 pub fn key(name: &str) -> ParamKey {
     ParamKey::from_name(name).expect("a parameter name")
+}
+
+/// `option` calibrated as `settings` say through the one calibration run,
+/// from `measurements` of `nominal` taken in its file's world frame.
+pub fn calibrate_in_arm_frame(
+    nominal: &Arm<f64>,
+    measurements: &[Measurement],
+    option: ModelOption,
+    settings: &RunSettings,
+) -> Result<OptionResult, CalibError> {
+    Calibration::open(&Request::new(nominal, measurements).load(settings.identify_load_kg))?
+        .option(option, settings, &Silent)
 }

@@ -36,7 +36,7 @@
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
 
-use std::cell::RefCell;
+use std::sync::{Mutex, PoisonError};
 
 use model::Arm;
 use model::params::ParamKind;
@@ -401,23 +401,28 @@ pub fn check_full_rank(
 /// and load: the parameters the -100/0/+100° grid of every joint identifies
 /// (each level within the joint's limits; servo knots on the spacing
 /// checked) is what positions can reveal at all.
-pub struct Structures<'a> {
-    nominal: &'a Arm<f64>,
+pub struct Structures {
+    nominal: Arm<f64>,
     load_kg: f64,
-    known: RefCell<Vec<Structure>>,
+    known: Mutex<Vec<Structure>>,
 }
 
 /// The parameters the grid identifies for an option and knot spacing.
 type Structure = ((ModelOption, KnotSpacing), Vec<ParamKey>);
 
-impl<'a> Structures<'a> {
+impl Structures {
     /// The structures of `nominal` under `load_kg`, none worked out yet.
-    pub fn new(nominal: &'a Arm<f64>, load_kg: f64) -> Self {
+    pub fn new(nominal: &Arm<f64>, load_kg: f64) -> Self {
         Self {
-            nominal,
+            nominal: *nominal,
             load_kg,
-            known: RefCell::new(Vec::new()),
+            known: Mutex::new(Vec::new()),
         }
+    }
+
+    /// The load the structures are worked out under, kg.
+    pub fn load_kg(&self) -> f64 {
+        self.load_kg
     }
 
     /// Refuses a measured pose set that identifies fewer of
@@ -469,7 +474,8 @@ impl<'a> Structures<'a> {
     fn kept(&self, option: ModelOption, spacing: KnotSpacing) -> Result<Vec<ParamKey>, CalibError> {
         if let Some((_, kept)) = self
             .known
-            .borrow()
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
             .iter()
             .find(|(k, _)| *k == (option, spacing))
         {
@@ -493,9 +499,10 @@ impl<'a> Structures<'a> {
                 approach: lrmcal_core::dataset::from_home(p.q.len()),
             })
             .collect();
-        let kept = analyse(self.nominal, option, spacing, &grid)?.kept;
+        let kept = analyse(&self.nominal, option, spacing, &grid)?.kept;
         self.known
-            .borrow_mut()
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
             .push(((option, spacing), kept.clone()));
         Ok(kept)
     }

@@ -12,11 +12,18 @@ use crate::calib::{CalibError, Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose};
 
 /// A measured point farther than this from the nominal model's prediction is
-/// refused, m. An uncalibrated hobby arm misses by centimetres (the paper: 33 mm
-/// mean); 150 mm means a wrong unit, a wrong pose or a wrong arm.
+/// implausible, m. An uncalibrated hobby arm misses by centimetres (the
+/// paper: 33 mm mean, the demo's simulated arms about 50 mm and at their
+/// worst poses beyond this); 150 mm on many points means a wrong unit, a
+/// wrong pose or a wrong arm.
 pub const IMPLAUSIBLE_M: f64 = 0.15;
 
-/// Refuses measurements that no plausible version of `nominal` could produce.
+/// Refuses measurements that no plausible version of `nominal` could
+/// produce: any point twice [`IMPLAUSIBLE_M`] off (or not finite), or more
+/// than a quarter beyond it (a wrong unit, arm or frame puts most points
+/// there). Some points just beyond it are a much-bent arm at its worst
+/// poses (the project's simulated arms reach 200 mm at a few), or glitches
+/// the fit's robust weighting deals with.
 pub fn check_plausible(
     nominal: &Arm<f64>,
     measurements: &[Measurement],
@@ -24,10 +31,32 @@ pub fn check_plausible(
 ) -> Result<(), CalibError> {
     let samples: Vec<Sample> = measurements.iter().map(Sample::from).collect();
     let predicted = Rig::from(*nominal).tool_points(&samples)?;
-    for (m, p) in measurements.iter().zip(&predicted) {
-        implausible(m, p, file, "the nominal arm puts the tool", "")?;
+    let miss = |(m, p): &(&Measurement, &Vector3<f64>)| (m.position - *p).norm();
+    let pairs: Vec<_> = measurements.iter().zip(&predicted).collect();
+    // Not finite, or far: NaN compares as neither near nor far, so it is far.
+    let far: Vec<_> = pairs
+        .iter()
+        .filter(|pair| miss(pair).partial_cmp(&IMPLAUSIBLE_M) != Some(Ordering::Less))
+        .collect();
+    let Some(worst) = far.iter().max_by(|a, b| miss(a).total_cmp(&miss(b))) else {
+        return Ok(());
+    };
+    let refused = !(miss(worst) < 2.0 * IMPLAUSIBLE_M) || 4 * far.len() > measurements.len();
+    if !refused {
+        return Ok(());
     }
-    Ok(())
+    let share = if far.len() > 1 {
+        format!(
+            "; {} of the {} measurements are over {:.0} mm off",
+            far.len(),
+            measurements.len(),
+            IMPLAUSIBLE_M * 1e3
+        )
+    } else {
+        String::new()
+    };
+    let (m, p) = **worst;
+    implausible(m, p, file, "the nominal arm puts the tool", &share)
 }
 
 /// Refuses measurements to validate `calibrated` on when more than half of
@@ -188,14 +217,38 @@ mod tests {
     fn metres_instead_of_millimetres_are_named() {
         let mut m = measured();
         assert!(check_plausible(&rigid_nominal(), &m, "m.csv").is_ok());
-        m[2].position /= 1000.0;
+        for row in &mut m {
+            row.position /= 1000.0;
+        }
         let e = check_plausible(&rigid_nominal(), &m, "m.csv")
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("m.csv") && e.contains("pose 2") && e.contains("metres"),
+            e.contains("m.csv") && e.contains("pose ") && e.contains("metres"),
             "{e}"
         );
+    }
+
+    /// Some points just beyond the limit are an arm at its worst poses;
+    /// most are a wrong arm, and one far beyond it is a wrong row.
+    #[test]
+    fn a_few_points_just_beyond_the_limit_pass_many_do_not() {
+        let arm = rigid_nominal();
+        let mut m = measure(&arm, &small_samples(40));
+        let off = Vector3::new(0.0, 0.0, 1.2 * IMPLAUSIBLE_M);
+        for k in 0..10 {
+            m[3 * k].position += off;
+        }
+        assert!(check_plausible(&arm, &m, "m.csv").is_ok());
+        m[31].position += off;
+        let e = check_plausible(&arm, &m, "m.csv").unwrap_err().to_string();
+        assert!(e.contains("11 of the 40 measurements"), "{e}");
+        let mut one = measure(&arm, &small_samples(40));
+        one[8].position += 2.5 * off;
+        let e = check_plausible(&arm, &one, "m.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("pose 8") && e.contains("m.csv"), "{e}");
     }
 
     #[test]

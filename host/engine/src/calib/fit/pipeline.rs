@@ -1,12 +1,12 @@
-//! The stages chained for one model option, as `lrmcal identify` and the demo
-//! run them: rank analysis over the candidates, pose selection (DETMAX or
-//! given), identification on the selected poses, validation on the rest, and
-//! the cross-load check.
+//! The stages of one model option's calibration, which the one calibration
+//! run (`calib::run`) chains for every caller: rank analysis over the
+//! candidates, pose selection (DETMAX or given), identification on the
+//! selected poses, validation on the rest, and the cross-load check.
 //!
 //! The candidates' analysis ([`CandidateBlocks`]: the Jacobian over every
-//! candidate) is the costly part; it is built once per
-//! option and carried in the result, so what follows (checks, experiments,
-//! reports) reuses it.
+//! candidate) is the costly part; the run builds it once per option, load
+//! and knot spacing, and it is carried in the result, so what follows
+//! (checks, experiments, reports) reuses it.
 
 use std::collections::{HashMap, HashSet};
 
@@ -15,7 +15,7 @@ use nalgebra::DMatrix;
 
 use crate::calib::analysis::detmax::{Design, DetmaxOptions, detmax, log_det, split_blocks, stack};
 use crate::calib::analysis::identifiability::{
-    Identifiability, RANK_TOLERANCE, Structures, TypicalErrors, analyse_jacobian,
+    Identifiability, RANK_TOLERANCE, TypicalErrors, analyse_jacobian,
 };
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::{ColumnScale, Observability};
@@ -57,42 +57,6 @@ impl CandidateBlocks {
         loads_kg: &[f64],
     ) -> Result<Self, CalibError> {
         Self::build_spaced(nominal, option, KnotSpacing::FINEST, candidates, loads_kg)
-    }
-
-    /// The analysis for the finest knot spacing whose parameters `poses` of
-    /// the candidates can determine (an option without knots has one):
-    /// [`CandidateBlocks::build`], then coarser grids while a selection of
-    /// `poses` is not made for the kept parameters
-    /// ([`CandidateBlocks::selects_for`]) or, when all the candidates are
-    /// to be fitted, they leave some of what the arm's structure identifies
-    /// undetermined
-    /// (`structures`, the arm's under the first load). The coarsest grid's
-    /// when none will do: the callers' checks then say why.
-    pub fn build_for(
-        nominal: &Rig,
-        option: ModelOption,
-        candidates: &[Pose],
-        loads_kg: &[f64],
-        poses: usize,
-        structures: &Structures,
-    ) -> Result<Self, CalibError> {
-        let mut spacing = KnotSpacing::FINEST;
-        loop {
-            let blocks = Self::build_spaced(nominal, option, spacing, candidates, loads_kg)?;
-            // When every candidate is fitted the analysis is over the fitted
-            // poses themselves: they must determine all the structure allows.
-            let carried = || {
-                blocks.selects_for(poses)
-                    && (poses < candidates.len()
-                        || structures.check(&blocks.identifiability).is_ok())
-            };
-            match spacing.coarser() {
-                Some(coarser) if blocks.identifiability.knots.is_some() && !carried() => {
-                    spacing = coarser;
-                }
-                _ => return Ok(blocks),
-            }
-        }
     }
 
     /// [`CandidateBlocks::build`] with the servo knots on the grid of `spacing`.
@@ -310,40 +274,20 @@ pub fn canonical_order(candidates: &[Pose]) -> Vec<usize> {
     order
 }
 
-/// Chooses poses among `candidates` for `option`, measured under `loads_kg`.
-pub fn select(
-    nominal: &Arm<f64>,
-    option: ModelOption,
-    candidates: &[Pose],
-    loads_kg: &[f64],
-    choice: &Choice,
-    progress: &dyn Progress,
-) -> Result<Selection, CalibError> {
-    let blocks = CandidateBlocks::build_for(
-        &(*nominal).into(),
-        option,
-        candidates,
-        loads_kg,
-        choice.poses(),
-        &Structures::new(nominal, loads_kg[0]),
-    )?;
-    Selection::choose(blocks, candidates, choice, progress)
-}
-
 /// Measurements indexed by (pose id, load), each key with the measurements
 /// of all its targets.
-pub struct MeasurementIndex<'a> {
-    map: HashMap<(u32, u64), Vec<&'a Measurement>>,
+pub struct MeasurementIndex {
+    map: HashMap<(u32, u64), Vec<Measurement>>,
 }
 
-impl<'a> MeasurementIndex<'a> {
+impl MeasurementIndex {
     /// Indexes `measurements`.
-    pub fn new(measurements: &'a [Measurement]) -> Self {
-        let mut map: HashMap<(u32, u64), Vec<&'a Measurement>> = HashMap::new();
+    pub fn new(measurements: &[Measurement]) -> Self {
+        let mut map: HashMap<(u32, u64), Vec<Measurement>> = HashMap::new();
         for m in measurements {
             map.entry((m.pose.id, m.load_kg.to_bits()))
                 .or_default()
-                .push(m);
+                .push(*m);
         }
         Self { map }
     }
@@ -355,7 +299,7 @@ impl<'a> MeasurementIndex<'a> {
             .into_iter()
             .filter_map(|p| self.map.get(&(p, load_kg.to_bits())))
             .flatten()
-            .map(|m| **m)
+            .copied()
             .collect()
     }
 }
@@ -363,31 +307,27 @@ impl<'a> MeasurementIndex<'a> {
 /// What the runs of one calibration work from: the nominal arm with the
 /// measured targets, the candidate poses selection chooses among, and every
 /// measurement, indexed once.
-pub struct Inputs<'a> {
+pub struct Inputs {
     /// The nominal arm and the measurements' targets (further targets'
     /// tool points start at the arm's).
     pub nominal: Rig,
     /// The candidate poses, in order (a selection's indices point here).
-    pub candidates: &'a [Pose],
+    pub candidates: Vec<Pose>,
     /// The measurements by (pose, load).
-    pub measurements: MeasurementIndex<'a>,
+    pub measurements: MeasurementIndex,
 }
 
-impl<'a> Inputs<'a> {
+impl Inputs {
     /// Indexes `measurements` of `candidates` for `nominal`, whose rated
     /// payload is raised to the heaviest load measured ([`rated_for`]).
-    pub fn new(
-        nominal: &Arm<f64>,
-        candidates: &'a [Pose],
-        measurements: &'a [Measurement],
-    ) -> Self {
+    pub fn new(nominal: &Arm<f64>, candidates: &[Pose], measurements: &[Measurement]) -> Self {
         let nominal = Arm {
             rated_payload_kg: rated_for(nominal, measurements),
             ..*nominal
         };
         Self {
             nominal: Rig::new(nominal, Targets::of(measurements)),
-            candidates,
+            candidates: candidates.to_vec(),
             measurements: MeasurementIndex::new(measurements),
         }
     }
@@ -494,34 +434,17 @@ pub fn nominal_with_fitted_targets(nominal: &Rig, fitted: &Rig) -> Rig {
     }
 }
 
-/// Selects, identifies and validates `option` over `inputs` as `settings` say.
-pub fn calibrate_option(
-    inputs: &Inputs,
-    option: ModelOption,
-    settings: &RunSettings,
-    progress: &dyn Progress,
-) -> Result<OptionResult, CalibError> {
-    let blocks = CandidateBlocks::build_for(
-        &inputs.nominal,
-        option,
-        inputs.candidates,
-        &[settings.identify_load_kg],
-        settings.choice.poses(),
-        &Structures::new(&inputs.nominal.arm, settings.identify_load_kg),
-    )?;
-    calibrate_blocks(inputs, blocks, settings, progress)
-}
-
-/// [`calibrate_option`] from the candidates' analysis `blocks` (built under
-/// the identification load), when the caller needed it first.
-pub fn calibrate_blocks(
+/// Selects, identifies and validates over `inputs` as `settings` say, from
+/// the candidates' analysis `blocks` (built under the identification load).
+/// Only the one calibration run (`calib::run`) calls it.
+pub(crate) fn calibrate_blocks(
     inputs: &Inputs,
     blocks: CandidateBlocks,
     settings: &RunSettings,
     progress: &dyn Progress,
 ) -> Result<OptionResult, CalibError> {
     let load = settings.identify_load_kg;
-    let selection = Selection::choose(blocks, inputs.candidates, &settings.choice, progress)?;
+    let selection = Selection::choose(blocks, &inputs.candidates, &settings.choice, progress)?;
     let chosen: Vec<u32> = selection.poses.iter().map(|p| p.id).collect();
     let fit_set = inputs.measurements.of(chosen.iter().copied(), load);
     let measured = fit_set

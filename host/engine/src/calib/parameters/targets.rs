@@ -466,8 +466,8 @@ mod tests {
     #[test]
     fn three_targets_fitted_together_beat_each_alone_on_held_out_poses() {
         use crate::calib::ModelOption;
-        use crate::calib::fit::pipeline::{Choice, Inputs, RunSettings, calibrate_option};
-        use crate::calib::progress::Silent;
+        use crate::calib::fit::pipeline::{Choice, RunSettings};
+        use crate::calib::testing::calibrate_in_arm_frame;
         use lrmcal_core::dataset::Pose;
 
         let nominal = rigid_nominal();
@@ -518,13 +518,7 @@ mod tests {
             identify: Default::default(),
         };
         let option = ModelOption::ElastoKinematic;
-        let together = calibrate_option(
-            &Inputs::new(&nominal, &poses, &rows),
-            option,
-            &settings,
-            &Silent,
-        )
-        .unwrap();
+        let together = calibrate_in_arm_frame(&nominal, &rows, option, &settings).unwrap();
         let rig = &together.identified.rig;
         assert_eq!(rig.targets.names(), ["m0", "m30", "m60"]);
         // The tool points' offsets from the first are found to about a mm: they
@@ -548,13 +542,7 @@ mod tests {
             // Alone, a marker is the arm's tool point: its arm file would say where.
             let mut own = nominal;
             own.tool.xyz = truth.tool_point(t).unwrap().into();
-            let alone = calibrate_option(
-                &Inputs::new(&own, &poses, &alone_rows),
-                option,
-                &settings,
-                &Silent,
-            )
-            .unwrap();
+            let alone = calibrate_in_arm_frame(&own, &alone_rows, option, &settings).unwrap();
             let alone_after = alone.validation.as_ref().unwrap().after;
             assert_eq!(joint[t].count, alone_after.count);
             assert!(

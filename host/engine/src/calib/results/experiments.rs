@@ -8,15 +8,11 @@ use serde::{Deserialize, Serialize};
 use nalgebra::Vector3;
 
 use crate::calib::analysis::detmax::{DetmaxOptions, detmax, random_design};
-use crate::calib::analysis::identifiability::Structures;
-use crate::calib::fit::grow::fit_refreshed;
-use crate::calib::fit::identify::IdentifyOptions;
-use crate::calib::fit::pipeline::{
-    CandidateBlocks, Choice, Inputs, OptionResult, RunSettings, calibrate_blocks, calibrate_option,
-};
+use crate::calib::fit::pipeline::{CandidateBlocks, Choice, Inputs, OptionResult, RunSettings};
 use crate::calib::fit::validate::{ErrorStats, validate};
 use crate::calib::parameters::servo_knots::KnotSpacing;
 use crate::calib::progress::{Progress, Silent, par_map};
+use crate::calib::run::{Calibration, Request};
 use crate::calib::{CalibError, ModelOption};
 use lrmcal_core::dataset::Measurement;
 
@@ -75,29 +71,34 @@ pub struct RandomBaseline {
     pub random_mean_median_m: f64,
 }
 
-/// Identifies `result`'s option from `sets` random selections of as many
-/// candidates as it selected, validates each on the rest, and compares O1
-/// and the mean validation error with `result`'s own. One progress unit per set.
+/// Calibrates `result`'s option on `calibration` from `sets` random
+/// selections of as many candidates as it selected (every other setting as
+/// `settings` say, no cross-load check), validates each on the rest, and
+/// compares O1 and the mean validation error with `result`'s own. One
+/// progress unit per set.
 pub fn random_baseline(
-    inputs: &Inputs,
+    calibration: &Calibration,
     result: &OptionResult,
     sets: usize,
-    options: &IdentifyOptions,
+    settings: &RunSettings,
     progress: &dyn Progress,
 ) -> Result<RandomBaseline, CalibError> {
-    let load = result.identify_load_kg;
-    let keys = &result.selection.candidates.identifiability.kept;
+    let candidates = &calibration.inputs().candidates;
     let n = result.selection.poses.len();
     progress.begin("random selections: identify + validate", sets as u64);
     let mut means = Vec::new();
     for s in 0..sets {
-        let chosen = random_design(inputs.candidates.len(), n, RANDOM_SEED + s as u64);
-        let chosen_ids: Vec<u32> = chosen.iter().map(|&c| inputs.candidates[c].id).collect();
-        let fit = inputs.measurements.of(chosen_ids.iter().copied(), load);
-        let rest = inputs.measurements.of(inputs.held_out(&chosen_ids), load);
-        // A random set may be rank deficient: that is a loss for random selection.
-        let mean = match fit_refreshed(&inputs.nominal, result.option(), keys, &fit, options) {
-            Ok(f) => validate(&inputs.nominal, &f.rig, &rest)?.after.mean_m,
+        let chosen = random_design(candidates.len(), n, RANDOM_SEED + s as u64);
+        let random = RunSettings {
+            identify_load_kg: result.identify_load_kg,
+            other_load_kg: None,
+            choice: Choice::Given(chosen.iter().map(|&c| candidates[c].id).collect()),
+            ..settings.clone()
+        };
+        // A random set may be rank deficient, or its fit refused: that is a
+        // loss for random selection.
+        let mean = match calibration.option(result.option(), &random, &Silent) {
+            Ok(r) => r.held_out()?.after.mean_m,
             Err(_) => f64::INFINITY,
         };
         means.push(mean);
@@ -130,35 +131,41 @@ pub struct OutlierTrial {
     pub named: Vec<u32>,
 }
 
-/// Calibrates `option` over `inputs` as `settings` say, then again on the
-/// same poses with the identification-load measurements of `count` of them
-/// (spread over the selection) moved by `offset_m`, and compares the
-/// held-out errors.
+/// Calibrates `option` from `request`'s measurements as `settings` say,
+/// then again on the same poses with the fitted measurements of `count` of
+/// them (spread over the selection) moved by `offset_m` in the measurement
+/// frame (as a tracker that jumped), and compares the held-out errors.
 pub fn outlier_trial(
-    inputs: &Inputs,
+    request: &Request,
     option: ModelOption,
     settings: &RunSettings,
     count: usize,
     offset_m: Vector3<f64>,
 ) -> Result<OutlierTrial, CalibError> {
-    let clean = calibrate_option(inputs, option, settings, &Silent)?;
+    let calibration = Calibration::open(request)?;
+    let clean = calibration.option(option, settings, &Silent)?;
     let chosen = clean.pose_ids();
     let stride = (chosen.len() / count.max(1)).max(1);
     let displaced: Vec<u32> = chosen.iter().step_by(stride).take(count).copied().collect();
     let load = settings.identify_load_kg;
-    let moved: Vec<_> = inputs
-        .candidates
+    let moved: Vec<_> = request
+        .measurements
         .iter()
-        .flat_map(|p| inputs.measurements.of([p.id], load))
-        .map(|mut m| {
+        .filter(|m| m.load_kg == load)
+        .map(|m| {
+            let mut m = *m;
             if displaced.contains(&m.pose.id) {
                 m.position += offset_m;
             }
             m
         })
         .collect();
-    let dirty = calibrate_option(
-        &Inputs::new(&inputs.nominal.arm, inputs.candidates, &moved),
+    let dirty = Calibration::open(&Request {
+        measurements: &moved,
+        load_kg: Some(load),
+        ..request.clone()
+    })?;
+    let dirty = dirty.option(
         option,
         &RunSettings {
             choice: Choice::Given(chosen),
@@ -245,17 +252,17 @@ pub struct ErrorPoint {
     pub failure: Option<String>,
 }
 
-/// The error of each of `results`' options calibrated from DETMAX
-/// selections of each of `sizes` poses as `settings` say (every other
-/// setting as in the runs, [`ERROR_SWEEP_STARTS`] starts, no cross-load
-/// check), validated as [`grid_and_off_grid`] does. A size a run already
-/// selected is that run; the others reuse its candidates' analysis, or one
-/// with a coarser knot grid when the poses cannot carry its parameters
-/// (`CandidateBlocks::build_for`); a size too small even for the coarsest
-/// has no calibration (`CandidateBlocks::selects_for`). The sizes run on
-/// every core; one progress unit per option and size.
+/// The error of each of `results`' options calibrated on `calibration`
+/// from DETMAX selections of each of `sizes` poses as `settings` say (every
+/// other setting as in the runs, [`ERROR_SWEEP_STARTS`] starts, no
+/// cross-load check), validated as [`grid_and_off_grid`] does. A size a run
+/// already selected is that run; the others reuse its candidates' analysis,
+/// or one with a coarser knot grid when the poses cannot carry its
+/// parameters; a size too small even for the coarsest has no calibration
+/// (`CandidateBlocks::selects_for`). The sizes run on every core; one
+/// progress unit per option and size.
 pub fn error_vs_poses(
-    inputs: &Inputs,
+    calibration: &Calibration,
     results: &[&OptionResult],
     settings: &RunSettings,
     sizes: &[usize],
@@ -274,7 +281,8 @@ pub fn error_vs_poses(
             let option = r.option();
             let point = |run: Result<OptionResult, CalibError>| {
                 let errors = run.and_then(|run| {
-                    let errors = grid_and_off_grid(inputs, &run, grid_size, off_grid)?;
+                    let errors =
+                        grid_and_off_grid(calibration.inputs(), &run, grid_size, off_grid)?;
                     Ok((run.knots.map(|k| k.chosen), errors))
                 });
                 match errors {
@@ -306,28 +314,7 @@ pub fn error_vs_poses(
                 other_load_kg: None,
                 ..settings.clone()
             };
-            let blocks = if r.selection.candidates.selects_for(n) {
-                Ok(r.selection.candidates.clone())
-            } else {
-                CandidateBlocks::build_for(
-                    &inputs.nominal,
-                    option,
-                    inputs.candidates,
-                    &[r.identify_load_kg],
-                    n,
-                    &Structures::new(&inputs.nominal.arm, r.identify_load_kg),
-                )
-            };
-            point(blocks.and_then(|b| {
-                if !b.selects_for(n) {
-                    return Err(CalibError::TooFewPoses {
-                        poses: n,
-                        rows: n * b.blocks.first().map_or(0, |b| b.nrows()),
-                        params: b.identifiability.kept.len(),
-                    });
-                }
-                calibrate_blocks(inputs, b, &run_settings, &Silent)
-            }))
+            point(calibration.option(option, &run_settings, &Silent))
         },
         progress,
     );
@@ -374,8 +361,7 @@ mod tests {
     use std::cell::Cell;
 
     use super::*;
-    use crate::calib::fit::pipeline::calibrate_option;
-    use crate::calib::testing::{elastic_run, elastic_settings};
+    use crate::calib::testing::{calibrate_in_arm_frame, elastic_run, elastic_settings};
 
     /// Counts what the engine reports.
     #[derive(Default)]
@@ -410,10 +396,9 @@ mod tests {
     /// are skipped; every size is reported as progress.
     #[test]
     fn o1_sweep_covers_the_feasible_sizes() {
-        let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
-        let r =
-            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let (nominal, _, all) = elastic_run();
+        let r = calibrate_in_arm_frame(&nominal, &all, ModelOption::Elastic, &elastic_settings())
+            .unwrap();
         // Two poses give 6 coordinates, too few for the kept compliances and a margin of 3.
         assert!(r.selection.candidates.identifiability.kept.len() > 3);
         let count = Count::default();
@@ -441,14 +426,16 @@ mod tests {
     /// parameters a failure that says so; every one is reported as progress.
     #[test]
     fn error_sweep_calibrates_each_size_or_says_why_not() {
-        let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
+        let (nominal, _, all) = elastic_run();
+        let calibration = Calibration::open(&Request::new(&nominal, &all)).unwrap();
         let settings = elastic_settings();
-        let r = calibrate_option(&inputs, ModelOption::Elastic, &settings, &Silent).unwrap();
+        let r = calibration
+            .option(ModelOption::Elastic, &settings, &Silent)
+            .unwrap();
         let count = Count::default();
         // No candidate is off the grid here: the off-grid set is some of the measurements.
         let points = error_vs_poses(
-            &inputs,
+            &calibration,
             &[&r],
             &settings,
             &[1, 6, 10],
@@ -480,7 +467,7 @@ mod tests {
         // The run's own size is the run itself.
         assert_eq!(
             points[2].errors.as_ref().unwrap().grid,
-            grid_and_off_grid(&inputs, &r, usize::MAX, &all[..5])
+            grid_and_off_grid(calibration.inputs(), &r, usize::MAX, &all[..5])
                 .unwrap()
                 .grid
         );
@@ -494,12 +481,14 @@ mod tests {
     /// DETMAX's O1 is at least the random sets' median.
     #[test]
     fn random_baseline_compares_like_with_like() {
-        let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
-        let r =
-            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let (nominal, _, all) = elastic_run();
+        let calibration = Calibration::open(&Request::new(&nominal, &all)).unwrap();
+        let settings = elastic_settings();
+        let r = calibration
+            .option(ModelOption::Elastic, &settings, &Silent)
+            .unwrap();
         let count = Count::default();
-        let b = random_baseline(&inputs, &r, 3, &IdentifyOptions::default(), &count).unwrap();
+        let b = random_baseline(&calibration, &r, 3, &settings, &count).unwrap();
         assert_eq!((b.option, b.sets, b.poses), (ModelOption::Elastic, 3, 10));
         assert_eq!(b.detmax_o1, r.selection.observability.o1);
         assert_eq!(

@@ -479,19 +479,17 @@ impl Report {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::fit::pipeline::{Inputs, calibrate_option};
     use crate::calib::progress::Silent;
     use crate::calib::results::experiments::{O1_SIZES, o1_vs_poses};
-    use crate::calib::testing::{LOAD_KG, elastic_run, elastic_settings};
+    use crate::calib::testing::{LOAD_KG, calibrate_in_arm_frame, elastic_run, elastic_settings};
 
     /// The schema header comes from one place, and every list entry is an
     /// object with named fields.
     #[test]
     fn report_json_has_its_header_and_named_entries() {
         let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
-        let r =
-            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let r = calibrate_in_arm_frame(&nominal, &all, ModelOption::Elastic, &elastic_settings())
+            .unwrap();
         let mut report = Report::new(
             "test arm".into(),
             poses.len(),
@@ -538,9 +536,8 @@ mod tests {
     #[test]
     fn report_json_reads_back_as_written() {
         let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
-        let r =
-            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let r = calibrate_in_arm_frame(&nominal, &all, ModelOption::Elastic, &elastic_settings())
+            .unwrap();
         let report = Report::new("test arm".into(), poses.len(), LOAD_KG, 0.into(), [&r]);
         let validation = report.options[0].validation.as_ref().unwrap();
         assert_eq!(validation.per_pose.len(), validation.after.count);

@@ -4,7 +4,7 @@
 //! (DETMAX against random sets, O1 and the error against the number of
 //! poses), in one report.
 
-use crate::calib::fit::pipeline::{Inputs, OptionResult, RunSettings, calibrate_option};
+use crate::calib::fit::pipeline::{OptionResult, RunSettings};
 use crate::calib::parameters::option::DEFAULT;
 use crate::calib::progress::Progress;
 use crate::calib::results::experiments::{
@@ -12,6 +12,7 @@ use crate::calib::results::experiments::{
     random_baseline,
 };
 use crate::calib::results::report::Report;
+use crate::calib::run::Calibration;
 use crate::calib::{CalibError, ModelOption};
 use lrmcal_core::dataset::Measurement;
 
@@ -31,8 +32,13 @@ pub struct StudySettings {
 /// Everything the study learnt.
 #[derive(Debug)]
 pub struct Study {
-    /// Every option's run, in [`ModelOption::ALL`] order.
+    /// Every option's run, in [`ModelOption::PAPER_STUDY`] order, but
+    /// those refused.
     pub results: Vec<OptionResult>,
+    /// The options whose fit was refused (it would leave the arm worse,
+    /// or bend the geometry out of its physical range), with why: a user
+    /// asking for them gets no calibration either.
+    pub refused: Vec<(ModelOption, CalibError)>,
     /// Ours fitted under the other load and validated under the first.
     pub reverse: OptionResult,
     /// Each option's error on the held-out grid poses and off the grid.
@@ -58,13 +64,13 @@ fn run_of(results: &[OptionResult], option: ModelOption) -> Result<&OptionResult
         })
 }
 
-/// Studies the arm measured in `inputs` as `settings` say: every option
+/// Studies the arm measured in the calibration `calibration` as `settings` say: every option
 /// calibrated and validated on its held-out candidates (the grid's are those
 /// with ids below `grid_size`) and on `off_grid`, ours again fitted under
 /// the other load, then the experiments. The report names the arm by `arm`
 /// and says how the measurements were made with `measurements`.
 pub fn study(
-    inputs: &Inputs,
+    calibration: &Calibration,
     grid_size: usize,
     off_grid: &[Measurement],
     settings: &StudySettings,
@@ -77,18 +83,22 @@ pub fn study(
             what: "check across loads: the study needs measurements under two loads".into(),
         });
     };
-    let results = ModelOption::PAPER_STUDY
-        .iter()
-        .map(|&option| {
-            let r = calibrate_option(inputs, option, run, progress)?;
-            r.held_out()?;
-            Ok(r)
-        })
-        .collect::<Result<Vec<OptionResult>, CalibError>>()?;
+    let mut results = Vec::new();
+    let mut refused = Vec::new();
+    for option in ModelOption::PAPER_STUDY {
+        match calibration.option(option, run, progress) {
+            Ok(r) => {
+                r.held_out()?;
+                results.push(r);
+            }
+            // The default is the study's subject: it must be made.
+            Err(e @ CalibError::Refused { .. }) if option != DEFAULT => refused.push((option, e)),
+            Err(e) => return Err(e),
+        }
+    }
     // The other direction of the cross-load check: fit under the other load,
     // validate under the first.
-    let reverse = calibrate_option(
-        inputs,
+    let reverse = calibration.option(
         DEFAULT,
         &RunSettings {
             identify_load_kg: other_load_kg,
@@ -99,32 +109,35 @@ pub fn study(
     )?;
     let grid_errors = results
         .iter()
-        .map(|r| grid_and_off_grid(inputs, r, grid_size, off_grid))
+        .map(|r| grid_and_off_grid(calibration.inputs(), r, grid_size, off_grid))
         .collect::<Result<Vec<GridErrors>, CalibError>>()?;
     let mut report = Report::new(
         arm,
-        inputs.candidates.len(),
+        calibration.inputs().candidates.len(),
         run.identify_load_kg,
         measurements,
         results.iter().chain([&reverse]),
     );
     // The paper's comparison, on its model: a random set cannot determine
     // ours at all (its fits fail after long searches).
-    let paper = run_of(&results, ModelOption::PaperElastoKinematic)?;
-    if settings.compare_random > 0 {
+    let paper = run_of(&results, ModelOption::PaperElastoKinematic).ok();
+    if let (Some(paper), true) = (paper, settings.compare_random > 0) {
         report.random_baseline = Some(random_baseline(
-            inputs,
+            calibration,
             paper,
             settings.compare_random,
-            &run.identify,
+            run,
             progress,
         )?);
     }
     report.o1_vs_poses = o1_vs_poses(&results, &O1_SIZES, progress)?;
     if settings.error_sweep {
-        let swept = [paper, run_of(&results, DEFAULT)?];
+        let swept: Vec<&OptionResult> = [paper, Some(run_of(&results, DEFAULT)?)]
+            .into_iter()
+            .flatten()
+            .collect();
         report.error_vs_poses = error_vs_poses(
-            inputs,
+            calibration,
             &swept,
             run,
             &ERROR_SIZES,
@@ -135,6 +148,7 @@ pub fn study(
     }
     Ok(Study {
         results,
+        refused,
         reverse,
         grid_errors,
         report,

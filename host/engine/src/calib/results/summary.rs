@@ -165,6 +165,9 @@ pub fn study(study: &Study, off_grid: usize) -> Result<String, CalibError> {
     );
     let (forward, reversed) = study.report.options.split_at(study.results.len());
     s.push_str(&table(forward));
+    for (option, e) in &study.refused {
+        s.push_str(&format!("{option}: refused, no calibration: {e}\n"));
+    }
     if let Some(line) = reversed.first().and_then(cross_load) {
         s.push_str(&format!("{line}\n"));
     }
@@ -506,15 +509,12 @@ pub fn unweighted_outliers(o: &OptionReport, file: &str) -> Option<String> {
 mod tests {
     use super::*;
     use crate::calib::ModelOption;
-    use crate::calib::fit::pipeline::{Inputs, calibrate_option};
-    use crate::calib::progress::Silent;
-    use crate::calib::testing::{elastic_run, elastic_settings};
+    use crate::calib::testing::{calibrate_in_arm_frame, elastic_run, elastic_settings};
 
     fn elastic_report() -> OptionReport {
-        let (nominal, poses, all) = elastic_run();
-        let inputs = Inputs::new(&nominal, &poses, &all);
-        let r =
-            calibrate_option(&inputs, ModelOption::Elastic, &elastic_settings(), &Silent).unwrap();
+        let (nominal, _, all) = elastic_run();
+        let r = calibrate_in_arm_frame(&nominal, &all, ModelOption::Elastic, &elastic_settings())
+            .unwrap();
         OptionReport::from(&r)
     }
 
