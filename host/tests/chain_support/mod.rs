@@ -303,20 +303,6 @@ pub fn pose_list_csv(chain: &Chain, poses: &[Vec<f64>]) -> String {
     text
 }
 
-/// Reads the points (m) of a prediction file, in its row order.
-pub fn predicted_points(csv_text: &str) -> Vec<Vector3<f64>> {
-    let mut lines = csv_text.lines().filter(|l| !l.starts_with('#'));
-    let header: Vec<&str> = lines.next().expect("a header").split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
-    let (x, y, z) = (col("x_mm"), col("y_mm"), col("z_mm"));
-    lines
-        .map(|l| {
-            let cells: Vec<f64> = l.split(',').map(|c| c.parse().expect("a number")).collect();
-            Vector3::new(cells[x], cells[y], cells[z]) * 1e-3
-        })
-        .collect()
-}
-
 /// Mean distance between two lists of points, m.
 pub fn mean_error(a: &[Vector3<f64>], b: &[Vector3<f64>]) -> f64 {
     assert_eq!(a.len(), b.len());
@@ -584,7 +570,11 @@ pub fn calibrate(
             "{}",
             String::from_utf8_lossy(&ran.stderr)
         );
-        predicted_points(&std::fs::read_to_string(path).unwrap())
+        lrmcal_core::io::predictions::read(&path)
+            .expect("predict's own file reads back")
+            .into_iter()
+            .map(|p| p.position)
+            .collect::<Vec<_>>()
     };
     let at_fit = predict(&fitted_list, "at-fit.csv");
     let at_check = predict(&check_list, "at-check.csv");
