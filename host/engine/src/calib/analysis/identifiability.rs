@@ -191,25 +191,7 @@ pub fn analyse_jacobian(
     tolerance: f64,
 ) -> Identifiability {
     let samples = (j.nrows() / 3).max(1) as f64;
-    // What a typical error of each parameter moves the points by, RMS, m.
-    let effect: Vec<f64> = j
-        .column_iter()
-        .zip(ids)
-        .map(|(c, id)| c.norm() * typical.of(*id) / samples.sqrt())
-        .collect();
-    let unit: Vec<DVector<f64>> = j
-        .column_iter()
-        .zip(&effect)
-        .map(|(c, &effect)| {
-            // A parameter that moves no point by a resolution has no effect
-            // a tracker could see: what is left is rounding and load coupling.
-            if effect > RESOLUTION_M {
-                c.normalize()
-            } else {
-                DVector::zeros(c.len())
-            }
-        })
-        .collect();
+    let (effect, unit) = effects_and_units(ids, j, typical);
     // Everything below depends on the unit columns only through their inner
     // products: read it on their triangular factor, a column per parameter.
     let unit: Vec<DVector<f64>> = triangular_factor(&DMatrix::from_columns(&unit))
@@ -217,36 +199,25 @@ pub fn analyse_jacobian(
         .map(|c| c.into_owned())
         .collect();
 
-    // A compliance cannot go below zero, a geometric parameter can go either
-    // way: a compliance whose column the geometric candidates reproduce (a
-    // slide's spring under a constant force is a constant offset) is left to
-    // them, or the half of that direction the spring cannot take is lost.
-    let one_sided = |id: ParamKey| id.kind() == ParamKind::Compliance;
-    let geometric_span = orthonormal_span(
-        ids.iter()
-            .zip(&unit)
-            .filter(|(id, _)| !one_sided(**id))
-            .map(|(_, u)| u),
-        tolerance,
-    );
+    let geometric_span = geometric_span(ids, &unit, tolerance);
     let mut basis: Vec<DVector<f64>> = Vec::new();
     let mut kept = Vec::new();
     let mut kept_cols = Vec::new();
     let mut pending = Vec::new();
     for (c, &id) in ids.iter().enumerate() {
-        if one_sided(id) && outside(&geometric_span, &unit[c]) * effect[c] <= RESOLUTION_M {
-            let residual = outside(&basis, &unit[c]);
-            pending.push((c, id, residual));
-            continue;
-        }
-        let r = remainder(&basis, &unit[c]);
-        let residual = r.norm();
-        if residual > tolerance && residual * effect[c] > RESOLUTION_M {
-            basis.push(r / residual);
-            kept.push(id);
-            kept_cols.push(c);
-        } else {
-            pending.push((c, id, residual));
+        match admit(
+            &mut basis,
+            &geometric_span,
+            id,
+            &unit[c],
+            effect[c],
+            tolerance,
+        ) {
+            Ok(()) => {
+                kept.push(id);
+                kept_cols.push(c);
+            }
+            Err(residual) => pending.push((c, id, residual)),
         }
     }
 
@@ -314,6 +285,117 @@ pub fn analyse_jacobian(
         svd_rank,
         kept_condition,
         knots: servo_knots::spacing_of(ids),
+    }
+}
+
+/// The parameters of `new` that join `kept` at a later stage of the fit
+/// (play widths at the fit's start, the refresh at its estimate), `j`'s
+/// columns being `kept` then `new` over the fitted poses: each new column is
+/// judged in order exactly as [`analyse_jacobian`] judges a column after
+/// the kept ones, against the span of the kept columns and of the new ones
+/// admitted before it. The kept ones are the fit's already and are not
+/// judged again: the stage updates the analysis with what it adds instead
+/// of starting over.
+pub fn joining(
+    kept: &[ParamKey],
+    new: &[ParamKey],
+    j: &DMatrix<f64>,
+    typical: &TypicalErrors,
+    tolerance: f64,
+) -> Vec<ParamKey> {
+    let ids: Vec<ParamKey> = kept.iter().chain(new).copied().collect();
+    let (effect, unit) = effects_and_units(&ids, j, typical);
+    let geometric_span = geometric_span(&ids, &unit, tolerance);
+    let mut basis = orthonormal_span(unit[..kept.len()].iter(), tolerance);
+    (kept.len()..ids.len())
+        .filter(|&c| {
+            admit(
+                &mut basis,
+                &geometric_span,
+                ids[c],
+                &unit[c],
+                effect[c],
+                tolerance,
+            )
+            .is_ok()
+        })
+        .map(|c| ids[c])
+        .collect()
+}
+
+/// Per column of `j` (columns `ids`): what a typical error of the
+/// parameter moves the points by (RMS, m), and the column normalised — or
+/// zero when that effect is below [`RESOLUTION_M`] (a parameter that moves
+/// no point by a resolution has no effect a tracker could see: what is
+/// left is rounding and load coupling).
+fn effects_and_units(
+    ids: &[ParamKey],
+    j: &DMatrix<f64>,
+    typical: &TypicalErrors,
+) -> (Vec<f64>, Vec<DVector<f64>>) {
+    let samples = (j.nrows() / 3).max(1) as f64;
+    let effect: Vec<f64> = j
+        .column_iter()
+        .zip(ids)
+        .map(|(c, id)| c.norm() * typical.of(*id) / samples.sqrt())
+        .collect();
+    let unit = j
+        .column_iter()
+        .zip(&effect)
+        .map(|(c, &effect)| {
+            if effect > RESOLUTION_M {
+                c.normalize()
+            } else {
+                DVector::zeros(c.len())
+            }
+        })
+        .collect();
+    (effect, unit)
+}
+
+/// A compliance cannot go below zero, a geometric parameter can go either
+/// way.
+fn one_sided(id: ParamKey) -> bool {
+    id.kind() == ParamKind::Compliance
+}
+
+/// The span of the two-sided (geometric) columns among `unit` (columns `ids`).
+fn geometric_span(ids: &[ParamKey], unit: &[DVector<f64>], tolerance: f64) -> Vec<DVector<f64>> {
+    orthonormal_span(
+        ids.iter()
+            .zip(unit)
+            .filter(|(id, _)| !one_sided(**id))
+            .map(|(_, u)| u),
+        tolerance,
+    )
+}
+
+/// Judges the column `unit` of `id` (its typical error moving the points by
+/// `effect`) against the kept columns' orthonormal `basis`, and adds it
+/// when it is kept; the length of its part outside the basis when it is not.
+/// A compliance whose column the geometric columns reproduce (a slide's
+/// spring under a constant force is a constant offset) is left to them, or
+/// the half of that direction the spring cannot take is lost. A column is
+/// kept when its part outside the basis exceeds `tolerance` and a typical
+/// error moves the points by more than [`RESOLUTION_M`] along that part.
+fn admit(
+    basis: &mut Vec<DVector<f64>>,
+    geometric_span: &[DVector<f64>],
+    id: ParamKey,
+    unit: &DVector<f64>,
+    effect: f64,
+    tolerance: f64,
+) -> Result<(), f64> {
+    if one_sided(id) && outside(geometric_span, unit) * effect <= RESOLUTION_M {
+        return Err(outside(basis, unit));
+    }
+    let r = remainder(basis, unit);
+    let residual = r.norm();
+    if residual > tolerance && residual * effect > RESOLUTION_M {
+        basis.push(r / residual);
+        Ok(())
+    } else {
+        Err(residual)
     }
 }
 
@@ -512,6 +594,61 @@ impl Structures {
 mod tests {
     use super::*;
     use crate::calib::testing::{key as name, rigid_nominal, small_samples, test_arm};
+
+    /// A later stage's update (the kept columns, then what it adds) admits
+    /// exactly what a full recomputation over all the columns keeps of the
+    /// added ones, given the same kept ones, for several places the stage
+    /// could split the columns: on the model with servo curves (geometry,
+    /// springs, knots) and on few poses, where many columns are dependent.
+    #[test]
+    fn a_stage_update_matches_the_full_recomputation() {
+        let arm = test_arm();
+        for (option, poses) in [
+            (ModelOption::ElastoKinematicServo, 40),
+            (ModelOption::ElastoKinematic, 6),
+        ] {
+            let ids = candidates(option, &arm, KnotSpacing::Deg50);
+            let j = jacobian(&Rig::from(arm), &ids, &small_samples(poses)).unwrap();
+            let typical = TypicalErrors::of_arm(&arm);
+            let full = analyse_jacobian(option, &ids, &j, &typical, RANK_TOLERANCE);
+            let mut admitted = 0;
+            for split in [ids.len() / 4, ids.len() / 2, 3 * ids.len() / 4] {
+                let (first, added) = ids.split_at(split);
+                let kept: Vec<ParamKey> = full
+                    .kept
+                    .iter()
+                    .filter(|k| first.contains(k))
+                    .copied()
+                    .collect();
+                // The stage's columns: the kept ones, then the added ones.
+                let columns: Vec<usize> = kept
+                    .iter()
+                    .chain(added)
+                    .map(|k| ids.iter().position(|i| i == k).unwrap())
+                    .collect();
+                let updated = joining(
+                    &kept,
+                    added,
+                    &j.select_columns(&columns),
+                    &typical,
+                    RANK_TOLERANCE,
+                );
+                let recomputed: Vec<ParamKey> = full
+                    .kept
+                    .iter()
+                    .filter(|k| added.contains(k))
+                    .copied()
+                    .collect();
+                admitted += recomputed.len();
+                assert_eq!(
+                    updated, recomputed,
+                    "{option}, {poses} poses: split at {split}"
+                );
+            }
+            // Not vacuous: the added columns carry something somewhere.
+            assert!(admitted > 0, "{option}: nothing added at any split");
+        }
+    }
 
     #[test]
     fn removes_tool_rotation_and_known_redundancies() {

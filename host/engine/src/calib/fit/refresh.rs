@@ -44,8 +44,9 @@
 //! reduction 0.19 mm). With noise the residual hardly drops and the second
 //! round adds nothing (the default demo's figures and time are unchanged).
 
-use crate::calib::analysis::identifiability::{TypicalErrors, analyse_jacobian};
+use crate::calib::analysis::identifiability::{TypicalErrors, joining};
 use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::analysis::observability::ColumnScale;
 use crate::calib::fit::identify::{Estimate, Identified, IdentifyOptions, identify};
 use crate::calib::parameters::option::{candidates, refresh_candidates};
 use crate::calib::parameters::params::Key as _;
@@ -187,13 +188,7 @@ fn joining_at(
         )
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
-    let analysis = analyse_jacobian(option, &ordered, &j, typical, REFRESH_TOLERANCE);
-    let joining: Vec<ParamKey> = analysis
-        .kept
-        .iter()
-        .copied()
-        .filter(|k| !keys.contains(k))
-        .collect();
+    let joining = joining(keys, &ordered[keys.len()..], &j, typical, REFRESH_TOLERANCE);
     if joining.is_empty() {
         return Ok(joining);
     }
@@ -203,16 +198,13 @@ fn joining_at(
         .filter_map(|k| ordered.iter().position(|o| o == k))
         .collect();
     let a = j.select_columns(&columns);
-    // Columns scaled to unit length keep the normal matrix well conditioned.
-    let norms: Vec<f64> = a
-        .column_iter()
-        .map(|c| c.norm().max(f64::MIN_POSITIVE))
-        .collect();
-    let mut scaled = a.clone();
-    for (mut c, n) in scaled.column_iter_mut().zip(&norms) {
-        c /= *n;
-    }
-    let Some(inverse) = (scaled.transpose() * &scaled).try_inverse() else {
+    // The columns scaled as everywhere else keep the normal matrix well conditioned.
+    let scale = ColumnScale::from_jacobian(&a, samples.len());
+    let Some(inverse) = ({
+        let scaled = scale.apply(&a);
+        scaled.transpose() * &scaled
+    })
+    .try_inverse() else {
         return Ok(Vec::new());
     };
     let sigma = first.diagnostics.sigma_m;
@@ -221,7 +213,7 @@ fn joining_at(
         .enumerate()
         .filter(|(i, k)| {
             let c = keys.len() + i;
-            let std = sigma * inverse[(c, c)].max(0.0).sqrt() / norms[c];
+            let std = sigma * inverse[(c, c)].max(0.0).sqrt() * scale.factors[c];
             std.is_finite() && std <= HOPELESS_FACTOR * typical.of(**k)
         })
         .map(|(_, k)| *k)

@@ -20,7 +20,7 @@
 //! the calibration always reaches the board; one wider than
 //! [`PLAUSIBLE_MAX_RAD`] is flagged (`calib::summary::backlash`).
 
-use crate::calib::analysis::identifiability::{RANK_TOLERANCE, TypicalErrors, analyse_jacobian};
+use crate::calib::analysis::identifiability::{RANK_TOLERANCE, TypicalErrors, joining};
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::fit_start;
@@ -77,16 +77,12 @@ pub fn with_widths(
     let ids: Vec<ParamKey> = kept.iter().chain(&widths).copied().collect();
     let start = fit_start(nominal, &ids);
     let j = jacobian(&start, &ids, &samples)?;
-    let analysis = analyse_jacobian(
-        option,
-        &ids,
+    let joining = joining(
+        kept,
+        &widths,
         &j,
         &TypicalErrors::of_arm(&nominal.arm),
         RANK_TOLERANCE,
     );
-    Ok(kept
-        .iter()
-        .copied()
-        .chain(widths.into_iter().filter(|k| analysis.kept.contains(k)))
-        .collect())
+    Ok(kept.iter().chain(&joining).copied().collect())
 }
