@@ -3,7 +3,8 @@
 //! distribution per option before/after (box and points, like the paper's
 //! figure 2), the error of every validation pose, and O1 against the number
 //! of selected poses. [`demo_figures`] shapes a run's report into them; the
-//! figures ([`Boxes`], [`Lines`]) take plain series.
+//! figures ([`Boxes`], [`Lines`]) take plain series. The report page's own
+//! figures (errors per measurement, the workspace, servo curves) are in [`page`].
 //!
 //! The PNG's text is drawn with DejaVu Sans embedded in the binary (the
 //! `dejavu` crate), so plotting needs no system fonts; an SVG names the
@@ -22,6 +23,8 @@ use lrmcal_engine::calib::results::report::{OptionReport, ValidationReport};
 use lrmcal_engine::sim::positioning::Positioning;
 
 use crate::Error;
+
+pub mod page;
 
 const SIZE: (u32, u32) = (960, 600);
 static FONT: Once = Once::new();

@@ -465,7 +465,8 @@ fn off_grid_figures(seed: u64) -> OffGridFigures {
 }
 
 /// One test per seed: our option beats the paper's model off the grid, and
-/// from 30 poses it beats the paper's model from 60 on the grid and off it.
+/// from 30 poses it beats the paper's model from 60 on the grid and off it,
+/// and misses the random poses off the grid by 2 mm or less on average.
 macro_rules! off_grid_claims {
     ($($name:ident: $seed:expr,)*) => {$(
         #[test]
@@ -473,6 +474,7 @@ macro_rules! off_grid_claims {
             let f = off_grid_figures($seed);
             assert!(f.ours.1 < f.paper.1, "seed {}: {f:?}", $seed);
             assert!(f.ours_30.0 < f.paper.0 && f.ours_30.1 < f.paper.1, "seed {}: {f:?}", $seed);
+            assert!(f.ours_30.1 <= 2.0, "seed {}: {f:?}", $seed);
         }
     )*};
 }
@@ -490,12 +492,12 @@ off_grid_claims! {
     servo_beats_paper_seed_10: 10,
 }
 
-/// Ours fits its servo curves on the knot spacing that predicts the fitted
-/// poses best when each is left out: from 60 DETMAX poses every 25°, having
-/// tried every 50° and found it worse; from 30 a coarser grid, DETMAX having
-/// selected for it (seed 1, the demo's candidates).
+/// Ours fits its servo curves under its prior on knots every 25°: from 60
+/// DETMAX poses, and from 30, DETMAX having selected for a coarser grid (the
+/// prior determines the knots the poses do not; seed 1, the demo's
+/// candidates). The calibration's leave-one-out error is that spacing's.
 #[test]
-fn the_knot_spacing_follows_the_number_of_poses() {
+fn ours_fits_its_curves_every_25_degrees_whatever_the_selection() {
     use lrmcal_engine::calib::parameters::servo_knots::KnotSpacing;
     let nominal = bundled();
     let config = PlanConfig {
@@ -517,29 +519,26 @@ fn the_knot_spacing_follows_the_number_of_poses() {
             .option(ModelOption::ElastoKinematicServo, &s, &Silent)
             .expect("calibrate")
     };
-    let many = run(60);
-    let knots = many.knots.as_ref().expect("ours chooses a spacing");
-    assert_eq!(knots.chosen, KnotSpacing::Deg25, "{knots:?}");
-    let loo = |s| {
-        knots
-            .trials
+    for (n, selected_for) in [(60, KnotSpacing::Deg25), (30, KnotSpacing::Deg50)] {
+        let r = run(n);
+        assert_eq!(
+            r.selection.candidates.identifiability.knots,
+            Some(selected_for)
+        );
+        let knots = r.knots.as_ref().expect("ours has a spacing");
+        assert_eq!(knots.chosen, KnotSpacing::Deg25, "{n} poses: {knots:?}");
+        assert_eq!(knots.trials.len(), 1, "{n} poses: {knots:?}");
+        assert_eq!(
+            Some(r.identified.diagnostics.loo_mean_m * 1e3),
+            knots.trials[0].loo_mean_mm
+        );
+        let curves = r
+            .identified
+            .estimates
             .iter()
-            .find(|t| t.spacing == s)
-            .and_then(|t| t.loo_mean_mm)
-    };
-    assert!(
-        loo(KnotSpacing::Deg25) < loo(KnotSpacing::Deg50),
-        "{knots:?}"
-    );
-    assert_eq!(
-        many.identified.diagnostics.loo_mean_m * 1e3,
-        loo(KnotSpacing::Deg25).expect("fitted")
-    );
-    let few = run(30);
-    assert_eq!(
-        few.selection.candidates.identifiability.knots,
-        Some(KnotSpacing::Deg50)
-    );
-    let chosen = few.knots.as_ref().expect("ours chooses a spacing").chosen;
-    assert!(chosen > KnotSpacing::Deg25, "{:?}", few.knots);
+            .filter(|e| matches!(e.id, ParamKey::ServoKnot { .. }))
+            .count();
+        // Eight knots a joint, the ninth held (its offset is the joint's zero).
+        assert_eq!(curves, 6 * 8, "{n} poses");
+    }
 }

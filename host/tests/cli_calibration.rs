@@ -206,7 +206,8 @@ fn option_all_from_few_poses_writes_what_the_poses_carry_and_says_why_not_the_re
             && t.contains("no calibration was written"),
         "{t}"
     );
-    // Ours holds the elasto-kinematic rung: its servo curves do not fit in 15 poses.
+    // Ours holds the elasto-kinematic rung: its servo curves, compared on
+    // the same poses, do not predict the left-out ones better.
     let ours = CalibrationFile::read(&cal.join("calibration-elasto-kinematic-servo.json")).unwrap();
     assert!(
         ours.parameters.iter().all(|p| !p.name.contains("servo")),
@@ -215,7 +216,7 @@ fn option_all_from_few_poses_writes_what_the_poses_carry_and_says_why_not_the_re
     assert!(
         t.contains("model: elasto-kinematic (the richer models do not predict")
             && t.contains("placement ")
-            && t.contains("elasto-kinematic-servo failed"),
+            && t.contains("elasto-kinematic-servo "),
         "{t}"
     );
     // Asked for alone, kinematic is refused: exit code 5, no file.

@@ -120,6 +120,7 @@ fn every_code_block_is_checked_or_marked_abridged_or_messages() {
             "checked measurements",
             "checked measurements",
             "checked pose list",
+            "checked pose list",
             "checked joint stream",
             "checked predictions",
             "checked dtrack datagram",

@@ -1,7 +1,8 @@
 //! `lrmcal identify`: fit the error parameters to a measurement file, from a
 //! DETMAX selection of N poses or an explicit pose list, for one model option
-//! or all three; validate on the measured poses not used; write the
-//! calibration file(s) and a report. Measurements of several targets per
+//! or all three; validate on the measured poses not used (a list that marks
+//! validation poses, as `lrmcal select` writes it, names exactly those);
+//! write the calibration file(s) and a report. Measurements of several targets per
 //! pose (a `target` column) fit one arm and a tool point per target; with
 //! `--tool-only`, only the tool points are fitted, the arm of an earlier
 //! calibration held fixed (after a tool change).
@@ -9,6 +10,7 @@
 //! (`lrmcal_engine::calib::fit::registration`, on the first target's rows) unless
 //! `--no-register` keeps the arm file's base.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 use crate::commands::helpers::OptionChoice;
@@ -19,6 +21,7 @@ use crate::report_page;
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::io::pose_list::PoseRole;
 use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
@@ -39,7 +42,10 @@ lrmcal identify --measurements new-tool.csv --calibration cal/calibration-elasto
 The fit uses the measurements under one load (--load-kg; the file's only load by default). \
 With --select N, DETMAX picks N of the measured poses (D-optimal for the option); with \
 --poses, the list's poses are used; with neither, every measured pose is. Measured poses \
-not used for the fit validate it, under every load in the file. Measurements far off the \
+not used for the fit validate it, under every load in the file. A list from `lrmcal select` \
+marks its validation poses (role `validate`): they are held out of the fit and validate it, \
+and measured poses the list does not name are left out (--no-hold-out fits the validation \
+poses too). Measurements far off the \
 others are down-weighted (Huber) and named, in the fit and in the validation. Writes \
 calibration-<option>.json (the file `lrmcal push` sends to the board), report.json and report.html \
 (one page: the errors, the parameters, suspect measurements and what to do next; `lrmcal report DIR` \
@@ -66,9 +72,13 @@ pub struct Args {
     /// Select this many poses with DETMAX.
     #[arg(long, value_name = "N", conflicts_with = "poses")]
     pub select: Option<usize>,
-    /// Use exactly the poses of this pose list.
+    /// Fit the poses of this pose list; those it marks `validate` (role
+    /// column) are held out of the fit to validate it.
     #[arg(long, value_name = "FILE")]
     pub poses: Option<PathBuf>,
+    /// Fit the validation poses of --poses too: nothing is held out.
+    #[arg(long, requires = "poses")]
+    pub no_hold_out: bool,
     /// Model option: elasto-kinematic-servo (each servo's own curve, backlash
     /// and stiffening too, as far as the measurements carry them),
     /// elasto-kinematic, kinematic, elastic (the paper's three, the geometry
@@ -133,7 +143,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )? {
         eprintln!("warning: {warning}");
     }
-    let all = measurements::unlisted(&listed);
+    let mut all = measurements::unlisted(&listed);
     if let Some(path) = &args.calibration {
         return reteach(args, path, &all);
     }
@@ -146,10 +156,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             n: *n,
             starts: args.starts,
         },
-        (None, Some(path)) => PoseChoice::Listed {
-            ids: pose_list::read(path)?.iter().map(|r| r.pose.id).collect(),
-            file: path.display().to_string(),
-        },
+        (None, Some(path)) => {
+            let (ids, kept) = listed_poses(args, path, &all)?;
+            all = kept;
+            PoseChoice::Listed {
+                ids,
+                file: path.display().to_string(),
+            }
+        }
         (None, None) => PoseChoice::All,
     };
     let gravity = Gravity::chosen(&nominal, args.up.map(Up::rotation), args.level_base);
@@ -237,6 +251,62 @@ fn reteach(args: &Args, path: &Path, all: &[Measurement]) -> Result<(), Error> {
     print!("{}", summary::targets_table(&cal.targets));
     println!("  wrote {}", out.display());
     Ok(())
+}
+
+/// The poses of the list at `path` to fit, and the measurements to work
+/// from: all of `all` for a list without validation poses (every measured
+/// pose not fitted validates); for a list that marks some, only the
+/// measurements of the poses it names, so that exactly its validation poses
+/// are held out (none with `--no-hold-out`, which fits them too).
+fn listed_poses(
+    args: &Args,
+    path: &Path,
+    all: &[Measurement],
+) -> Result<(Vec<u32>, Vec<Measurement>), Error> {
+    let list = pose_list::read_listed(path)?;
+    let mut fit = pose_list::ids_with_role(&list, PoseRole::Fit);
+    let validate = pose_list::ids_with_role(&list, PoseRole::Validate);
+    if validate.is_empty() {
+        return Ok((fit, all.to_vec()));
+    }
+    let named: HashSet<u32> = fit.iter().chain(&validate).copied().collect();
+    let kept: Vec<Measurement> = all
+        .iter()
+        .filter(|m| named.contains(&m.pose.id))
+        .copied()
+        .collect();
+    let measured: HashSet<u32> = all.iter().map(|m| m.pose.id).collect();
+    let unnamed = measured.iter().filter(|id| !named.contains(id)).count();
+    if unnamed > 0 {
+        println!(
+            "{unnamed} measured poses are not in {} and are left out (it names the poses to fit and those to validate on)",
+            path.display()
+        );
+    }
+    let unmeasured = validate.iter().filter(|id| !measured.contains(id)).count();
+    if unmeasured > 0 {
+        eprintln!(
+            "warning: {unmeasured} of the {} validation poses of {} have no measurement: the fit is validated on the other {}",
+            validate.len(),
+            path.display(),
+            validate.len() - unmeasured
+        );
+    }
+    if args.no_hold_out {
+        println!(
+            "fitting the {} validation poses of {} too (--no-hold-out): nothing is held out",
+            validate.len(),
+            path.display()
+        );
+        fit.extend(validate.iter().filter(|id| measured.contains(id)));
+    } else {
+        println!(
+            "holding out the {} validation poses of {} (role `validate`): the fit never sees them",
+            validate.len() - unmeasured,
+            path.display()
+        );
+    }
+    Ok((fit, kept))
 }
 
 /// The fit's options as the arguments set them.

@@ -1,6 +1,9 @@
 //! `lrmcal select`: choose the poses to measure. Rank analysis of the option's
 //! parameters over the candidates, then DETMAX for the N poses that maximise
-//! O1; prints O1..O5 and how a random choice of N compares, writes the pose list.
+//! O1; prints O1..O5 and how a random choice of N compares; sets a few other
+//! candidates aside to validate the fit on (`--validate`,
+//! `lrmcal_engine::plan::validation`) and writes the pose list, each pose
+//! with its role (`fit` or `validate`).
 
 use std::path::PathBuf;
 
@@ -9,12 +12,13 @@ use crate::error::Error;
 use crate::progress::Steps;
 use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
-use lrmcal_core::io::pose_list;
+use lrmcal_core::io::pose_list::{self, PoseRole};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::pipeline::Choice;
 use lrmcal_engine::calib::results::experiments::{median, random_o1};
 use lrmcal_engine::calib::results::report::IdentifiabilityReport;
 use lrmcal_engine::calib::run::Calibration;
+use lrmcal_engine::plan::validation::{DEFAULT_VALIDATION_POSES, validation_poses};
 
 /// Choose the N candidate poses that identify the model best (D-optimal, DETMAX).
 #[derive(Debug, clap::Args)]
@@ -24,7 +28,11 @@ lrmcal select --candidates candidates.csv --n 60 --option all --out selection.cs
 lrmcal select --candidates candidates.csv --evaluate my_poses.csv   # O1..O5 of your own set\n\n\
 The Jacobian is taken on the nominal arm under each --load-kg (default: the paper's \
 0.0663 kg). With --option all, one list per option is written, named \
-<out stem>-<option>.csv.")]
+<out stem>-<option>.csv.\n\n\
+Besides the N poses to fit, the list holds --validate poses (10 by default) marked \
+`validate` in its `role` column: other candidates, each the farthest in joint space from \
+the poses already chosen. Measure them with the others; `identify --poses` holds them out \
+of the fit and shows the calibration's error on them.")]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
     /// URDF `.urdf` file (its chain from --base-link to --tip-link).
@@ -50,6 +58,10 @@ pub struct Args {
     /// Seed of the first DETMAX start.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Validation poses to set aside besides the N (role `validate` in the
+    /// list): measured with the others, held out of the fit; 0 for none.
+    #[arg(long, value_name = "N", default_value_t = DEFAULT_VALIDATION_POSES)]
+    pub validate: usize,
     /// Random N-pose sets to compare O1 with; 0 skips the comparison.
     #[arg(long, default_value_t = 20)]
     pub compare_random: usize,
@@ -75,7 +87,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let planned = Calibration::plan(&nominal, &candidates, &args.load_kg)?;
     for option in &options {
         let choice = match &args.evaluate {
-            Some(path) => Choice::Given(pose_list::read(path)?.iter().map(|r| r.pose.id).collect()),
+            // A selection's validation poses are not fitted: its fit poses are evaluated.
+            Some(path) => Choice::Given(pose_list::ids_with_role(
+                &pose_list::read_listed(path)?,
+                PoseRole::Fit,
+            )),
             None => Choice::Detmax(DetmaxOptions {
                 n: args.n,
                 starts: args.starts,
@@ -128,15 +144,32 @@ pub fn run(args: &Args) -> Result<(), Error> {
         } else {
             out.clone()
         };
-        let rows: Vec<PoseRow> = s
-            .poses
-            .iter()
-            .map(|p| PoseRow {
-                pose: *p,
-                load_kg: None,
-            })
-            .collect();
-        pose_list::write(&out, &rows, &nominal.kinds())?;
+        let fit_ids: Vec<u32> = s.poses.iter().map(|p| p.id).collect();
+        let validation = validation_poses(&nominal, &candidates, &fit_ids, args.validate);
+        if args.validate > 0 {
+            let ids: Vec<String> = validation.iter().map(|p| p.id.to_string()).collect();
+            println!(
+                "  {} validation poses set aside (measure them too; identify --poses holds them out): {}",
+                validation.len(),
+                ids.join(", ")
+            );
+        }
+        let row = |p: &Pose| PoseRow {
+            pose: *p,
+            load_kg: None,
+        };
+        let rows: Vec<PoseRow> = s.poses.iter().chain(&validation).map(row).collect();
+        if validation.is_empty() {
+            pose_list::write(&out, &rows, &nominal.kinds())?;
+        } else {
+            let roles: Vec<PoseRole> = s
+                .poses
+                .iter()
+                .map(|_| PoseRole::Fit)
+                .chain(validation.iter().map(|_| PoseRole::Validate))
+                .collect();
+            pose_list::write_with_roles(&out, &rows, &roles, &nominal.kinds())?;
+        }
         println!("  wrote {}", out.display());
     }
     Ok(())

@@ -34,11 +34,28 @@ const PROBLEMS: [fn(&Report) -> Vec<String>; 9] = [
 
 /// Each piece of advice, most pressing first: problems, then which file to push.
 pub fn advice(report: &Report) -> Vec<String> {
-    PROBLEMS
-        .iter()
-        .flat_map(|rule| rule(report))
+    problems(report)
+        .into_iter()
         .chain(push_best(report))
         .collect()
+}
+
+/// The problems the rules find, most pressing first.
+pub fn problems(report: &Report) -> Vec<String> {
+    PROBLEMS.iter().flat_map(|rule| rule(report)).collect()
+}
+
+/// The option the page shows first: the one to push ([`best`]), or, when
+/// none was validated, the converged one whose fit predicts its own poses
+/// left out best; the first fitted when none converged.
+pub fn focus(report: &Report) -> Option<&OptionReport> {
+    if let Some((o, _)) = best(report) {
+        return Some(o);
+    }
+    fitted(report)
+        .filter(|o| o.fit.converged && o.fit.loo_mean_mm.is_finite())
+        .min_by(|a, b| a.fit.loo_mean_mm.total_cmp(&b.fit.loo_mean_mm))
+        .or_else(|| fitted(report).next())
 }
 
 /// The options fitted under the run's load (the demo adds fits under the
@@ -63,8 +80,8 @@ fn judged(report: &Report) -> Vec<&OptionReport> {
 }
 
 /// The converged option fitted under the run's load with the smallest
-/// mean validation error, and its validation.
-fn best(report: &Report) -> Option<(&OptionReport, &ValidationReport)> {
+/// mean validation error, and its validation: the calibration to push.
+pub fn best(report: &Report) -> Option<(&OptionReport, &ValidationReport)> {
     fitted(report)
         .filter(|o| o.fit.converged)
         .filter_map(|o| Some((o, o.validation.as_ref()?)))

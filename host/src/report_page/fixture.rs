@@ -1,6 +1,6 @@
 //! A small report for the page's tests: one option of ours, fitted from
-//! 6 poses and validated on 4, with nothing suspect; each test changes what
-//! its rule or section looks at.
+//! 6 poses and validated on 4, with nothing suspect, joint 2's servo curve
+//! identified; each test changes what its rule or section looks at.
 
 use lrmcal_engine::calib::results::report::Report;
 use serde_json::json;
@@ -15,16 +15,37 @@ fn stats(count: usize, mean_mm: f64, rms_mm: f64) -> serde_json::Value {
 
 /// The fixture's report, as `lrmcal identify` would write it.
 pub fn report() -> Report {
-    let per_pose: Vec<_> = [(7, 30.0, 1.0), (8, 40.0, 1.2), (9, 35.0, 0.8), (10, 50.0, 1.1)]
-        .iter()
-        .map(|&(pose, before, after)| {
-            json!({"pose": pose, "target": 0, "before_mm": before, "after_mm": after})
+    let per_pose: Vec<_> = [
+        (7, 30.0, 1.0),
+        (8, 40.0, 1.2),
+        (9, 35.0, 0.8),
+        (10, 50.0, 1.1),
+    ]
+    .iter()
+    .map(|&(pose, before, after)| {
+        json!({"pose": pose, "target": 0, "before_mm": before, "after_mm": after,
+                   "xyz_mm": [100.0 + f64::from(pose), -50.0, 200.0]})
+    })
+    .collect();
+    let fitted: Vec<_> = (1..=6)
+        .map(|pose| {
+            let k = f64::from(pose);
+            json!({"pose": pose, "load_kg": 0.0663, "target": 0,
+                   "xyz_mm": [150.0 - 20.0 * k, 30.0 * k, 250.0 - 10.0 * k],
+                   "before_mm": 30.0 + k, "after_mm": 0.5 + 0.1 * k, "loo_mm": 0.8 + 0.1 * k})
+        })
+        .collect();
+    let knot = |name: &str, deg: f64, offset: f64, std: Option<f64>| json!({"name": name, "commanded_deg": deg, "offset_deg": offset, "std_deg": std});
+    let curve: Vec<_> = (-40..=40)
+        .map(|k| {
+            let deg = 2.5 * f64::from(k);
+            json!({"commanded_deg": deg, "offset_deg": 0.3 * (deg / 100.0), "std_deg": 0.02 + 0.0002 * deg.abs()})
         })
         .collect();
     let param = |name: &str, error: f64, std: Option<f64>| json!({"name": name, "error": error, "value": error, "std": std});
     let text = json!({
         "schema": "lrmcal-report",
-        "schema_version": 4,
+        "schema_version": 5,
         "arm": "bundled:lrm",
         "candidates": 10,
         "identify_load_kg": 0.0663,
@@ -51,9 +72,11 @@ pub fn report() -> Report {
                 "parameters": [
                     param("j2.d", 0.001, Some(1e-5)),
                     param("k2", 0.002, Some(1e-4)),
-                    param("j6.backlash", 0.01, Some(1e-3))
+                    param("j6.backlash", 0.01, Some(1e-3)),
+                    param("j2.servo[1]", -0.005, Some(3e-4))
                 ],
-                "outliers": []
+                "outliers": [],
+                "per_pose": fitted
             },
             "knots": {"chosen": "50deg", "trials": [
                 {"spacing": "25deg", "loo_mean_mm": 1.4, "failure": null},
@@ -64,7 +87,12 @@ pub fn report() -> Report {
                 "load_kg": 0.0663, "before": stats(4, 38.75, 39.5), "after": stats(4, 1.03, 1.04),
                 "reduction_pct": 97.3, "outliers": [], "per_pose": per_pose
             },
-            "cross_load": null
+            "cross_load": null,
+            "servo_curves": [{"joint": 2, "knots": [
+                knot("j2.servo[1]", -100.0, -0.3, Some(0.017)),
+                knot("j2.servo[5]", 0.0, 0.0, None),
+                knot("j2.servo[9]", 100.0, 0.3, Some(0.02))
+            ], "curve": curve}]
         }],
         "random_baseline": null,
         "o1_vs_poses": [],

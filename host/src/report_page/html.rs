@@ -1,6 +1,7 @@
 //! The HTML the page is made of: text escaped for an element or an
-//! attribute, tables and numbers. Everything a file or a user named passes
-//! through [`escape`] before it reaches the page.
+//! attribute, tables (plain and in groups of rows), figures and numbers.
+//! Everything a file or a user named passes through [`escape`] before it
+//! reaches the page.
 
 use std::fmt::Write;
 
@@ -42,6 +43,54 @@ pub fn table(id: &str, caption: &str, head: &[&str], rows: &[Vec<String>]) -> St
     }
     out.push_str("</tbody>\n</table>\n");
     out
+}
+
+/// A table whose body rows come in named groups, each its own `<tbody>`
+/// headed by a row naming it (`<th scope="rowgroup">`); every cell, group
+/// name and the caption are escaped here.
+pub fn grouped_table(
+    id: &str,
+    caption: &str,
+    head: &[&str],
+    groups: &[(String, Vec<Vec<String>>)],
+) -> String {
+    let mut out = format!(
+        "<table id=\"{}\">\n<caption>{}</caption>\n<thead><tr>",
+        escape(id),
+        escape(caption)
+    );
+    for h in head {
+        let _ = write!(out, "<th scope=\"col\">{}</th>", escape(h));
+    }
+    out.push_str("</tr></thead>\n");
+    for (name, rows) in groups {
+        let _ = write!(
+            out,
+            "<tbody>\n<tr><th scope=\"rowgroup\" colspan=\"{}\">{}</th></tr>\n",
+            head.len().max(1),
+            escape(name)
+        );
+        for row in rows {
+            out.push_str("<tr>");
+            for cell in row {
+                let _ = write!(out, "<td>{}</td>", escape(cell));
+            }
+            out.push_str("</tr>\n");
+        }
+        out.push_str("</tbody>\n");
+    }
+    out.push_str("</table>\n");
+    out
+}
+
+/// A figure: its id, the drawing (inline SVG, trusted: drawn here) and an
+/// escaped caption.
+pub fn figure(id: &str, svg: &str, caption: &str) -> String {
+    format!(
+        "<figure id=\"{}\">\n{svg}\n<figcaption>{}</figcaption>\n</figure>\n",
+        escape(id),
+        escape(caption)
+    )
 }
 
 /// A paragraph of escaped text.
@@ -90,6 +139,25 @@ mod tests {
         assert!(t.contains("<th scope=\"col\">&lt;th&gt;</th>"), "{t}");
         assert!(t.contains("<td>&lt;img src=x&gt;</td><td>1</td>"), "{t}");
         assert!(!t.contains("<img"), "{t}");
+    }
+
+    #[test]
+    fn a_grouped_table_heads_each_group_and_escapes_its_name() {
+        let t = grouped_table(
+            "g",
+            "c",
+            &["a", "b"],
+            &[
+                ("joint 1".into(), vec![vec!["x".into(), "1".into()]]),
+                ("<base>".into(), vec![vec!["y".into(), "2".into()]]),
+            ],
+        );
+        assert_eq!(t.matches("<tbody>").count(), 2, "{t}");
+        assert!(
+            t.contains("<tbody>\n<tr><th scope=\"rowgroup\" colspan=\"2\">joint 1</th></tr>\n<tr><td>x</td><td>1</td></tr>"),
+            "{t}"
+        );
+        assert!(t.contains(">&lt;base&gt;</th>"), "{t}");
     }
 
     #[test]

@@ -1,10 +1,14 @@
 //! `report.html`: one self-contained page per calibration, built from the
 //! report (`lrmcal_engine::calib::results::report::Report`) that
 //! `report.json` holds, so `identify`, `demo` and `lrmcal report` write the
-//! same page for the same report. It shows what was fitted and how well
-//! (the summary table and the error plots), the parameters, the suspect
-//! measurements, the selection, the knot choice, the registration, and what
-//! to do next ([`advice`]).
+//! same page for the same report. Its first screen answers whether the
+//! calibration is good and what to do next (the verdict, the headline
+//! numbers before → after, the file to push and the [`advice`]); below
+//! come the summary, the error of every measurement (fitted, left out,
+//! held out), where in the workspace the arm was worst, each identified
+//! servo curve, each joint's play and spring, the suspect measurements, the
+//! parameters in a person's units grouped per joint, the selection, the
+//! model and knot choices and the registration.
 //!
 //! Everything is inline: the CSS, the plots as SVG; the page loads nothing
 //! (no script, image, font or style from anywhere) and needs no JavaScript.
@@ -13,6 +17,7 @@
 pub mod advice;
 mod figures;
 pub mod html;
+mod parameters;
 mod sections;
 
 #[cfg(test)]
@@ -21,20 +26,23 @@ mod fixture;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-use lrmcal_engine::calib::results::report::Report;
+use lrmcal_engine::calib::results::report::{OptionReport, Report};
 
 use crate::commands::helpers::write_text;
 use crate::error::Error;
-use html::{escape, para};
+use html::{escape, num, para};
 
 /// The page's file name in a calibration folder.
 pub const PAGE: &str = "report.html";
 
 /// The ids of the page's sections, in order, with their headings.
-pub const SECTIONS: [(&str, &str); 9] = [
-    ("next", "What to do next"),
+pub const SECTIONS: [(&str, &str); 12] = [
+    ("next", "Is it good, and what to do next"),
     ("summary", "Summary"),
-    ("errors", "Errors before and after"),
+    ("errors", "Errors before and after, pose by pose"),
+    ("workspace", "Where in the workspace the arm was worst"),
+    ("servo", "Servo curves"),
+    ("mechanics", "Play and springs"),
     ("suspect", "Suspect measurements"),
     ("parameters", "Parameters"),
     ("selection", "Selection and observability"),
@@ -49,7 +57,9 @@ nav ul{list-style:none;padding:0;display:flex;flex-wrap:wrap;gap:.4em 1.2em}\
 table{border-collapse:collapse;margin:1em 0;font-size:.9em}caption{text-align:left;font-weight:600;padding:.3em 0}\
 th,td{border:1px solid #ccc;padding:.25em .5em;text-align:left;vertical-align:top}th{background:#f2f2f2}\
 tbody tr:nth-child(even){background:#fafafa}figure{margin:1em 0}svg{max-width:100%;height:auto;border:1px solid #eee}\
-figcaption{font-size:.9em;color:#555}#next li{margin:.4em 0}.meta{color:#555}";
+figcaption{font-size:.9em;color:#555}#next li{margin:.4em 0}.meta{color:#555}\
+#verdict{font-size:1.15em}#push{font-weight:600}code{background:#f4f4f4;padding:0 .2em}\
+th[scope=rowgroup]{background:#e8eef5}";
 
 /// The page of `report`, which is to be written to `page` (named in errors).
 pub fn render(report: &Report, page: &Path) -> Result<String, Error> {
@@ -87,8 +97,11 @@ pub fn render(report: &Report, page: &Path) -> Result<String, Error> {
             "next" => next(report),
             "summary" => sections::summary(report),
             "errors" => errors(report, page)?,
+            "workspace" => workspace(report, page)?,
+            "servo" => servo(report, page)?,
+            "mechanics" => parameters::mechanics(report),
             "suspect" => sections::suspect(report),
-            "parameters" => sections::parameters(report),
+            "parameters" => parameters::parameters(report),
             "selection" => sections::selection(report),
             "model" => sections::model(report),
             "knots" => sections::knots(report),
@@ -110,40 +123,178 @@ pub fn write(dir: &Path, report: &Report) -> Result<PathBuf, Error> {
     Ok(path)
 }
 
-/// The advice as a list.
+/// The first screen: is it good (the verdict), the headline numbers of the
+/// calibration it is about before → after, the file to push, and the advice.
 fn next(report: &Report) -> String {
-    let items = advice::advice(report);
-    if items.is_empty() {
+    let Some(o) = advice::focus(report) else {
         return para("Nothing to advise: no option was fitted.");
+    };
+    let problems = advice::problems(report).len();
+    let look = match problems {
+        0 => String::new(),
+        1 => " Look at the point below first.".into(),
+        n => format!(" Look at the {n} points below first."),
+    };
+    let best = advice::best(report);
+    let verdict = match best {
+        Some((o, v)) if v.reduction_pct > 0.0 => format!(
+            "{}: on the {} measurements held out of the fit (poses it never saw), calibration-{}.json cuts the mean error from {} to {} mm ({} % less).{look}",
+            if problems == 0 {
+                "Good"
+            } else {
+                "Good, with reservations"
+            },
+            v.after.count,
+            o.option,
+            num(v.before.mean_m * 1e3, 2),
+            num(v.after.mean_m * 1e3, 2),
+            num(v.reduction_pct, 1),
+        ),
+        Some((o, v)) => format!(
+            "Not good: on the {} measurements held out of the fit, calibration-{}.json is no better than the arm uncalibrated ({} mm mean before, {} after).{look}",
+            v.after.count,
+            o.option,
+            num(v.before.mean_m * 1e3, 2),
+            num(v.after.mean_m * 1e3, 2),
+        ),
+        None if !o.fit.converged => format!(
+            "Not good: no option's fit converged ({} ended with {}).{look}",
+            o.option, o.fit.termination
+        ),
+        None => format!(
+            "Not known yet: no measured pose was held out of the fit, so there are only the fit's own numbers ({}: residual {} mm RMS, {} mm mean when each measurement is left out). Measure validation poses too (lrmcal select sets them aside) to know.{look}",
+            o.option,
+            num(o.fit.rms_after_mm, 2),
+            num(o.fit.loo_mean_mm, 2),
+        ),
+    };
+    let mut out = format!("<p id=\"verdict\">{}</p>\n", escape(&verdict));
+    out.push_str(&headline(o));
+    let push = match best {
+        Some((o, _)) => format!(
+            "File to push: calibration-{}.json, from this folder: lrmcal push calibration-{}.json (with --dry-run first, the board's checks without a board).",
+            o.option, o.option
+        ),
+        None => "No file to push yet: none was validated on poses held out of the fit.".into(),
+    };
+    let _ = writeln!(out, "<p id=\"push\">{}</p>", escape(&push));
+    let items = advice::advice(report);
+    if !items.is_empty() {
+        out.push_str("<ul id=\"advice\">\n");
+        for item in items {
+            let _ = writeln!(out, "<li>{}</li>", escape(&item));
+        }
+        out.push_str("</ul>\n");
     }
-    let mut out = String::from("<ul id=\"advice\">\n");
-    for item in items {
-        let _ = writeln!(out, "<li>{}</li>", escape(&item));
-    }
-    out.push_str("</ul>\n");
     out
 }
 
-/// The plots, each in a figure with its caption.
+/// The headline numbers of `o`, before → after: on the poses held out, on
+/// the fitted ones, and on the fitted ones left out one at a time.
+fn headline(o: &OptionReport) -> String {
+    let mm = |m: f64| num(m * 1e3, 2);
+    let arrow = |b: String, a: String| format!("{b} → {a}");
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let max = |v: &[f64]| v.iter().copied().fold(f64::NAN, f64::max);
+    let mut rows = Vec::new();
+    if let Some(v) = &o.validation {
+        rows.push(vec![
+            format!("held out of the fit ({} kg)", v.load_kg),
+            v.after.count.to_string(),
+            arrow(mm(v.before.mean_m), mm(v.after.mean_m)),
+            arrow(mm(v.before.max_m), mm(v.after.max_m)),
+        ]);
+    }
+    let fit = &o.fit.per_pose;
+    let before: Vec<f64> = fit.iter().map(|p| p.before_mm).collect();
+    let after: Vec<f64> = fit.iter().map(|p| p.after_mm).collect();
+    let loo: Vec<f64> = fit.iter().map(|p| p.loo_mm).collect();
+    if fit.is_empty() {
+        rows.push(vec![
+            "fitted (RMS)".into(),
+            o.selected_poses.len().to_string(),
+            arrow(num(o.fit.rms_before_mm, 2), num(o.fit.rms_after_mm, 2)),
+            "–".into(),
+        ]);
+    } else {
+        rows.push(vec![
+            format!("fitted ({} kg)", o.identify_load_kg),
+            fit.len().to_string(),
+            arrow(num(mean(&before), 2), num(mean(&after), 2)),
+            arrow(num(max(&before), 2), num(max(&after), 2)),
+        ]);
+        rows.push(vec![
+            "fitted, each left out of the fit".into(),
+            loo.len().to_string(),
+            arrow(num(mean(&before), 2), num(mean(&loo), 2)),
+            arrow(num(max(&before), 2), num(max(&loo), 2)),
+        ]);
+    }
+    if let Some(c) = &o.cross_load {
+        rows.push(vec![
+            format!("held out, under the other load ({} kg)", c.load_kg),
+            c.after.count.to_string(),
+            arrow(mm(c.before.mean_m), mm(c.after.mean_m)),
+            arrow(mm(c.before.max_m), mm(c.after.max_m)),
+        ]);
+    }
+    html::table(
+        "headline-table",
+        &format!(
+            "{}: 3D error uncalibrated → calibrated, mm",
+            sections::title(o)
+        ),
+        &["measurements", "count", "mean", "largest"],
+        &rows,
+    )
+}
+
+/// The error plots: the validation boxes, every option's error per
+/// measurement, and the demo's experiments; what was held out, said first.
 fn errors(report: &Report, page: &Path) -> Result<String, Error> {
-    let plots: Vec<_> = figures::errors(report, page)?
-        .into_iter()
-        .chain(figures::experiments(report, page)?)
-        .collect();
-    if plots.is_empty() {
-        return Ok(para(
-            "No measured pose was held out of the fit, so there are no validation errors to plot (see the summary for the fit's own residuals).",
+    let mut out = String::new();
+    if !report.options.iter().any(|o| o.validation.is_some()) {
+        out.push_str(&para(
+            "No measured pose was held out of the fit, so there are no validation errors: the figures show the fit's own residuals and each fitted measurement's error when it is left out of the fit (leave-one-out), the nearest to a validation the fit gives.",
         ));
     }
+    for p in figures::validation(report, page)?
+        .into_iter()
+        .chain(figures::per_pose(report, page)?)
+        .chain(figures::experiments(report, page)?)
+    {
+        out.push_str(&p.html());
+    }
+    Ok(out)
+}
+
+/// Where the arm was worst: the option the page is about, seen from above
+/// and from the side.
+fn workspace(report: &Report, page: &Path) -> Result<String, Error> {
+    let plots = match advice::focus(report) {
+        Some(o) => figures::workspace(o, page)?,
+        None => Vec::new(),
+    };
+    if plots.is_empty() {
+        return Ok(para(
+            "The report has no measured positions to draw (no option was fitted, or it was written before reports had them).",
+        ));
+    }
+    Ok(plots.iter().map(figures::Plot::html).collect())
+}
+
+/// Each identified servo curve, one figure per joint and option.
+fn servo(report: &Report, page: &Path) -> Result<String, Error> {
     let mut out = String::new();
-    for p in plots {
-        let _ = write!(
-            out,
-            "<figure id=\"{}\">\n{}\n<figcaption>{}</figcaption>\n</figure>\n",
-            escape(&p.id),
-            p.svg,
-            escape(&p.caption)
-        );
+    for (i, o) in report.options.iter().enumerate() {
+        for p in figures::servo(i, o, page)? {
+            out.push_str(&p.html());
+        }
+    }
+    if out.is_empty() {
+        return Ok(para(
+            "No servo curve was identified: no option of this run fits them, or the poses did not carry them (the model kept is simpler; see \"How much model the poses carry\"), or report.json was written before it held them (version 5).",
+        ));
     }
     Ok(out)
 }
@@ -167,8 +318,10 @@ mod tests {
             assert!(html.contains(&format!("<a href=\"#{id}\">")), "{id}");
         }
         for id in [
+            "headline-table",
             "summary-table",
             "params-0",
+            "mechanics-0",
             "suspect-table",
             "selection-table",
             "knots-0",
@@ -176,7 +329,13 @@ mod tests {
         ] {
             assert!(html.contains(&format!("<table id=\"{id}\">")), "{id}");
         }
-        for id in ["fig-errors", "fig-per-pose-0"] {
+        for id in [
+            "fig-errors",
+            "fig-per-pose-0",
+            "fig-workspace-top",
+            "fig-workspace-side",
+            "fig-servo-0-j2",
+        ] {
             let start = html.find(&format!("<figure id=\"{id}\">")).expect(id);
             let figure = &html[start..start + html[start..].find("</figure>").unwrap()];
             assert!(
@@ -187,6 +346,74 @@ mod tests {
         assert!(html.contains("<li>Push calibration-elasto-kinematic-servo.json"));
         // The held parameter, with why.
         assert!(html.contains("held at nominal: j1.d: confounded with +1.000·base.z"));
+        // The first screen: the verdict from the held-out numbers, the file to push.
+        assert!(
+            html.contains("<p id=\"verdict\">Good: on the 4 measurements held out of the fit (poses it never saw), calibration-elasto-kinematic-servo.json cuts the mean error from 38.75 to 1.03 mm (97.3 % less).</p>"),
+            "{html}"
+        );
+        assert!(
+            html.contains("<p id=\"push\">File to push: calibration-elasto-kinematic-servo.json")
+        );
+        let first_figure = html.find("<figure").unwrap();
+        for first in [
+            "id=\"verdict\"",
+            "id=\"headline-table\"",
+            "id=\"push\"",
+            "id=\"advice\"",
+        ] {
+            assert!(html.find(first).unwrap() < first_figure, "{first}");
+        }
+    }
+
+    /// The headline: held out, fitted and left out, before → after, worked
+    /// out from the measurements' errors.
+    #[test]
+    fn the_headline_gives_before_and_after() {
+        let html = page(&fixture::report());
+        let start = html.find("<table id=\"headline-table\">").unwrap();
+        let table = &html[start..start + html[start..].find("</table>").unwrap()];
+        // Fixture: fitted before 31..36 (mean 33.5), after 0.6..1.1 (mean 0.85), left out 0.9..1.4.
+        for row in [
+            "<td>held out of the fit (0.0663 kg)</td><td>4</td><td>38.75 → 1.03</td><td>79.00 → 2.08</td>",
+            "<td>fitted (0.0663 kg)</td><td>6</td><td>33.50 → 0.85</td><td>36.00 → 1.10</td>",
+            "<td>fitted, each left out of the fit</td><td>6</td><td>33.50 → 1.15</td><td>36.00 → 1.40</td>",
+        ] {
+            assert!(table.contains(row), "{row}\n{table}");
+        }
+    }
+
+    /// Parameters in mm, degrees and degrees per N·m, one group per part of
+    /// the arm; the play and spring of each joint on their own.
+    #[test]
+    fn parameters_are_in_a_person_s_units_grouped_per_joint() {
+        let html = page(&fixture::report());
+        let start = html.find("<table id=\"params-0\">").unwrap();
+        let table = &html[start..start + html[start..].find("</table>").unwrap()];
+        let groups: Vec<&str> = table
+            .split("<th scope=\"rowgroup\" colspan=\"6\">")
+            .skip(1)
+            .map(|g| &g[..g.find('<').unwrap()])
+            .collect();
+        assert_eq!(groups, ["joint 1", "joint 2", "joint 6"], "{table}");
+        for row in [
+            "<td>j2.d</td><td>+1.000</td><td>1.0000</td><td>±\u{a0}0.010</td><td>mm</td><td>fitted</td>",
+            "<td>k2</td><td>+0.1146</td><td>0.11459</td><td>±\u{a0}0.0057</td><td>°/(N·m)</td><td>fitted</td>",
+            "<td>j6.backlash</td><td>+0.5730</td><td>0.57296</td><td>±\u{a0}0.057</td><td>°</td><td>fitted</td>",
+        ] {
+            assert!(table.contains(row), "{row}\n{table}");
+        }
+        let start = html.find("<table id=\"mechanics-0\">").unwrap();
+        let table = &html[start..start + html[start..].find("</table>").unwrap()];
+        assert!(
+            table.contains("<td>joint 2</td><td>–</td><td>0.1146 ±\u{a0}0.0057</td><td>–</td>")
+                && table
+                    .contains("<td>joint 6</td><td>0.5730 ±\u{a0}0.057</td><td>–</td><td>–</td>")
+                && !table.contains("<td>joint 3</td>"),
+            "{table}"
+        );
+        let mut weak = fixture::report();
+        weak.options[0].fit.weak = vec!["k2".into()];
+        assert!(page(&weak).contains("<td>k2</td><td>+0.1146</td><td>0.11459</td><td>±\u{a0}0.0057</td><td>°/(N·m)</td><td>fitted, poorly determined</td>"));
     }
 
     #[test]
@@ -219,13 +446,43 @@ mod tests {
         let o = &mut report.options[0];
         o.validation = None;
         o.knots = None;
+        o.servo_curves.clear();
         report.registration = None;
         let html = page(&report);
-        assert!(!html.contains("<svg"));
+        // The fit's own errors are still drawn, with nothing held out.
+        assert!(!html.contains("<figure id=\"fig-errors\">"));
+        for id in ["fig-per-pose-0", "fig-workspace-top", "fig-workspace-side"] {
+            assert!(html.contains(&format!("<figure id=\"{id}\">")), "{id}");
+        }
+        assert!(html.contains("no measurement was held out of the fit"));
         assert!(html.contains("No measured pose was held out of the fit"));
+        assert!(html.contains("<p id=\"verdict\">Not known yet: no measured pose was held out"));
+        assert!(html.contains("<p id=\"push\">No file to push yet"));
+        assert!(html.contains("No servo curve was identified"));
         assert!(html.contains("No option of this run fits servo curves"));
         assert!(html.contains("The arm was not registered"));
         assert!(html.contains("<li>Every measured pose was fitted"));
+    }
+
+    /// A report written before the measurements' positions, the fit's own
+    /// errors and the servo curves were in it still makes a page: the
+    /// held-out errors drawn, the rest said missing.
+    #[test]
+    fn an_older_report_still_makes_a_page() {
+        let mut report = fixture::report();
+        let o = &mut report.options[0];
+        o.fit.per_pose.clear();
+        o.servo_curves.clear();
+        for p in &mut o.validation.as_mut().unwrap().per_pose {
+            p.xyz_mm = None;
+        }
+        let html = page(&report);
+        assert!(html.contains("<figure id=\"fig-per-pose-0\">"));
+        assert!(html.contains("the fitted measurements&#39; errors are not in this report"));
+        assert!(!html.contains("fig-workspace"));
+        assert!(html.contains("The report has no measured positions to draw"));
+        assert!(html.contains("No servo curve was identified"));
+        assert!(html.contains("<td>fitted (RMS)</td><td>6</td><td>40.00 → 0.90</td>"));
     }
 
     #[test]

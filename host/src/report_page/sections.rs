@@ -1,6 +1,7 @@
 //! The page's sections, each from the report alone: the summary table,
-//! the parameters, the suspect measurements, the selection, the knot
-//! choice and the registration. A section whose data the run did not
+//! the suspect measurements, the selection, the model and knot choices and
+//! the registration ([`per_option`] is the shape of those that are a table
+//! per option). A section whose data the run did not
 //! produce says so instead of being left out, so every page has the same
 //! outline.
 
@@ -9,7 +10,7 @@ use lrmcal_engine::calib::results::report::{OptionReport, Report};
 use super::html::{escape, num, opt_num, para, table};
 
 /// An option's name and the load it was fitted with, for headings.
-fn title(o: &OptionReport) -> String {
+pub fn title(o: &OptionReport) -> String {
     format!("{} (fitted with {} kg)", o.option, o.identify_load_kg)
 }
 
@@ -71,59 +72,6 @@ pub fn summary(report: &Report) -> String {
         ],
         &rows,
     )
-}
-
-/// Each option's parameters: fitted (with their deviations), held at a
-/// bound, barely determined, and those held at nominal with why.
-pub fn parameters(report: &Report) -> String {
-    let mut out = para(
-        "Corrections and values in SI units (m, rad, rad/Nm, 1/Nm); ± one standard deviation of the correction.",
-    );
-    for (i, o) in report.options.iter().enumerate() {
-        let f = &o.fit;
-        let mut rows: Vec<Vec<String>> = f
-            .parameters
-            .iter()
-            .map(|p| {
-                let status = if p.std.is_none() || f.at_bound.contains(&p.name) {
-                    "held at its bound"
-                } else if f.weak.contains(&p.name) {
-                    "fitted, poorly determined"
-                } else {
-                    "fitted"
-                };
-                vec![
-                    p.name.clone(),
-                    format!("{:+.4e}", p.error),
-                    format!("{:.6e}", p.value),
-                    p.std.map_or("–".into(), |s| format!("{s:.2e}")),
-                    status.into(),
-                ]
-            })
-            .collect();
-        rows.extend(
-            o.identifiability
-                .removed
-                .iter()
-                .filter(|r| !f.parameters.iter().any(|p| p.name == r.name))
-                .map(|r| {
-                    vec![
-                        r.name.clone(),
-                        "0".into(),
-                        "nominal".into(),
-                        "–".into(),
-                        format!("held at nominal: {}", r.explain()),
-                    ]
-                }),
-        );
-        out.push_str(&table(
-            &format!("params-{i}"),
-            &format!("{}: {} parameters fitted", title(o), f.parameters.len()),
-            &["parameter", "correction", "value", "std", "status"],
-            &rows,
-        ));
-    }
-    out
 }
 
 /// The measurements the fit and the validation named as far off the others,
@@ -244,102 +192,108 @@ pub fn selection(report: &Report) -> String {
     out
 }
 
-/// The model each laddered option kept and the rungs compared.
-pub fn model(report: &Report) -> String {
-    let with: Vec<(usize, &OptionReport)> = report
+/// One table per option that has what `part` picks out, made by `table`
+/// from the option's place in the report, the option and that part; the
+/// sentence `none` when no option has it. The shape of every section that
+/// is a table per option (the model ladder, the knots, play and springs).
+pub fn per_option<T>(
+    report: &Report,
+    part: impl Fn(&OptionReport) -> Option<&T>,
+    none: &str,
+    table: impl Fn(usize, &OptionReport, &T) -> String,
+) -> String {
+    let out: String = report
         .options
         .iter()
         .enumerate()
-        .filter(|(_, o)| o.model.is_some())
+        .filter_map(|(i, o)| part(o).map(|t| table(i, o, t)))
         .collect();
-    if with.is_empty() {
-        return para(
-            "No option of this run was fitted as a ladder of models (ours and elasto-kinematic are): each holds the parameters it was asked for.",
-        );
-    }
-    let mut out = String::new();
-    for (i, o) in with {
-        let Some(m) = &o.model else { continue };
-        let rows: Vec<Vec<String>> = m
-            .trials
-            .iter()
-            .map(|t| {
-                vec![
-                    t.model.to_string(),
-                    t.parameters.to_string(),
-                    match (t.loo_mean_mm, t.loo_se_mm) {
-                        (Some(mean), Some(se)) => format!("{mean:.3} ± {se:.3}"),
-                        _ => "-".into(),
-                    },
-                    if t.model == m.chosen {
-                        "kept".into()
-                    } else {
-                        t.failure.clone().unwrap_or_default()
-                    },
-                ]
-            })
-            .collect();
-        out.push_str(&table(
-            &format!("model-{i}"),
-            &format!(
-                "{}: holds the {} model, the simplest whose fit predicts the fitted poses left out within one standard error of the best",
-                title(o),
-                m.chosen
-            ),
-            &["model", "parameters", "leave-one-out mean ± standard error, mm", "outcome"],
-            &rows,
-        ));
-    }
-    out
+    if out.is_empty() { para(none) } else { out }
+}
+
+/// The model each laddered option kept and the rungs compared.
+pub fn model(report: &Report) -> String {
+    per_option(
+        report,
+        |o| o.model.as_ref(),
+        "No option of this run was fitted as a ladder of models (ours and elasto-kinematic are): each holds the parameters it was asked for.",
+        |i, o, m| {
+            let rows: Vec<Vec<String>> = m
+                .trials
+                .iter()
+                .map(|t| {
+                    vec![
+                        t.model.to_string(),
+                        t.parameters.to_string(),
+                        match (t.loo_mean_mm, t.loo_se_mm) {
+                            (Some(mean), Some(se)) => format!("{mean:.3} ± {se:.3}"),
+                            _ => "-".into(),
+                        },
+                        if t.model == m.chosen {
+                            "kept".into()
+                        } else {
+                            t.failure.clone().unwrap_or_default()
+                        },
+                    ]
+                })
+                .collect();
+            table(
+                &format!("model-{i}"),
+                &format!(
+                    "{}: holds the {} model, the simplest whose fit predicts the fitted poses left out within one standard error of the best",
+                    title(o),
+                    m.chosen
+                ),
+                &[
+                    "model",
+                    "parameters",
+                    "leave-one-out mean ± standard error, mm",
+                    "outcome",
+                ],
+                &rows,
+            )
+        },
+    )
 }
 
 /// The servo curves' knot spacing chosen and the ones compared.
 pub fn knots(report: &Report) -> String {
-    let with: Vec<(usize, &OptionReport)> = report
-        .options
-        .iter()
-        .enumerate()
-        .filter(|(_, o)| o.knots.is_some())
-        .collect();
-    if with.is_empty() {
-        return para(
-            "No option of this run fits servo curves: there was no knot spacing to choose.",
-        );
-    }
-    let mut out = String::new();
-    for (i, o) in with {
-        let Some(k) = &o.knots else { continue };
-        let rows: Vec<Vec<String>> = k
-            .trials
-            .iter()
-            .map(|t| {
-                vec![
-                    format!(
-                        "every {:.0}° ({} knots)",
-                        t.spacing.degrees(),
-                        t.spacing.knots()
-                    ),
-                    opt_num(t.loo_mean_mm, 2),
-                    if t.spacing == k.chosen {
-                        "chosen".into()
-                    } else {
-                        t.failure.clone().unwrap_or_default()
-                    },
-                ]
-            })
-            .collect();
-        out.push_str(&table(
-            &format!("knots-{i}"),
-            &format!(
-                "{}: knots every {:.0}°, the spacing whose fit best predicts each fitted pose left out",
-                title(o),
-                k.chosen.degrees()
-            ),
-            &["spacing", "leave-one-out mean mm", "outcome"],
-            &rows,
-        ));
-    }
-    out
+    per_option(
+        report,
+        |o| o.knots.as_ref(),
+        "No option of this run fits servo curves: there was no knot spacing to choose.",
+        |i, o, k| {
+            let rows: Vec<Vec<String>> = k
+                .trials
+                .iter()
+                .map(|t| {
+                    vec![
+                        format!(
+                            "every {:.0}° ({} knots)",
+                            t.spacing.degrees(),
+                            t.spacing.knots()
+                        ),
+                        opt_num(t.loo_mean_mm, 2),
+                        if t.spacing == k.chosen {
+                            "chosen".into()
+                        } else {
+                            t.failure.clone().unwrap_or_default()
+                        },
+                    ]
+                })
+                .collect();
+            table(
+                &format!("knots-{i}"),
+                &format!(
+                    "{}: knots every {:.0}°, the spacing whose fit best predicts each fitted pose left out",
+                    title(o),
+                    k.chosen.degrees()
+                ),
+                &["spacing", "leave-one-out mean mm", "outcome"],
+                &rows,
+            )
+        },
+    )
 }
 
 /// Where registration found the arm's base, and how far the arm was from the measurements.

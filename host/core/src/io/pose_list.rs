@@ -1,10 +1,15 @@
 //! Pose lists (`docs/FORMATS.md`, "Pose lists"): candidates and selections,
-//! `pose[,load_kg],q1_deg..q6_deg`, and the check of their angles against
-//! an arm's joint limits.
+//! `pose[,load_kg],q1_deg..q6_deg[,role]`, and the check of their angles
+//! against an arm's joint limits.
 //!
 //! Any CSV with the pose columns is a pose list: a measurement file, a
 //! prediction joined with its poses, a spreadsheet. Other columns are
-//! ignored, except one that looks like a misspelt `load_kg`.
+//! ignored, except one that looks like a misspelt `load_kg`, and `role`:
+//! what a selection's pose is for, `fit` or `validate` ([`PoseRole`]; a
+//! list without the column is all `fit`, as lists were before it).
+//!
+//! The file is long for its tests: the reader whole and as a stream, the
+//! roles and the writer are one set of rules, pinned side by side.
 
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -42,6 +47,43 @@ const SCHEMA: Schema = Schema {
     extra: Extra::Ignore,
 };
 
+/// The column that says what a selection's pose is for.
+pub const ROLE_COLUMN: &str = "role";
+
+/// What a listed pose is for: `lrmcal select` sets a few poses aside for
+/// validation, which `identify --poses` then holds out of the fit.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum PoseRole {
+    /// Fitted (every pose of a list without a `role` column).
+    #[default]
+    Fit,
+    /// Measured like the others but held out of the fit, to validate it.
+    Validate,
+}
+
+impl PoseRole {
+    /// How the `role` column writes it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Fit => "fit",
+            Self::Validate => "validate",
+        }
+    }
+
+    /// The role a `role` cell names (case and surrounding spaces aside).
+    pub fn from_name(text: &str) -> Option<Self> {
+        [Self::Fit, Self::Validate]
+            .into_iter()
+            .find(|r| r.name().eq_ignore_ascii_case(text.trim()))
+    }
+}
+
+impl std::fmt::Display for PoseRole {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// A pose-list row and the line of the file it was read from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ListedPose {
@@ -51,6 +93,19 @@ pub struct ListedPose {
     pub row: PoseRow,
     /// How the file gives each joint: `qi_deg` revolute, `qi_mm` prismatic.
     pub units: PerJoint<JointKind>,
+    /// What the pose is for (`fit` when the file has no `role` column).
+    pub role: PoseRole,
+}
+
+/// The ids of `rows` whose role is `role`, each once, in file order.
+pub fn ids_with_role(rows: &[ListedPose], role: PoseRole) -> Vec<u32> {
+    let mut ids: Vec<u32> = Vec::new();
+    for r in rows.iter().filter(|r| r.role == role) {
+        if !ids.contains(&r.row.pose.id) {
+            ids.push(r.row.pose.id);
+        }
+    }
+    ids
 }
 
 /// Reads a pose list.
@@ -88,6 +143,8 @@ struct Book {
     poses: PoseBook,
     /// (pose, load) pairs already listed from a file of several targets.
     listed: std::collections::HashSet<(u32, Option<u64>)>,
+    /// Each pose id's role and the line that first gave it.
+    roles: std::collections::HashMap<u32, (PoseRole, u64)>,
 }
 
 impl Book {
@@ -107,6 +164,7 @@ impl Book {
             .ignored_text(TARGET_COLUMN)
             .and_then(|t| TargetName::from(t).ok());
         self.poses.record(row, id, &q, load_kg, target)?;
+        let role = self.role(row, id)?;
         if target.is_some() && !self.listed.insert((id, load_kg.map(f64::to_bits))) {
             return Ok(None);
         }
@@ -117,7 +175,37 @@ impl Book {
                 load_kg,
             },
             units: row.joint_units(),
+            role,
         }))
+    }
+
+    /// The role `row` gives pose `id`: its `role` cell, `fit` without the
+    /// column; one role per pose id.
+    fn role(&mut self, row: &Row<'_>, id: u32) -> Result<PoseRole, InputError> {
+        let Some(text) = row.ignored_text(ROLE_COLUMN) else {
+            return Ok(PoseRole::Fit);
+        };
+        let invalid = |message: String| {
+            InputError::new(
+                Location::column(row.line, ROLE_COLUMN),
+                Problem::Invalid { message },
+            )
+        };
+        let role = PoseRole::from_name(text).ok_or_else(|| {
+            invalid(format!(
+                "expected `fit` or `validate` (what the pose is for), found `{text}`"
+            ))
+        })?;
+        match self.roles.get(&id) {
+            Some(&(first, line)) if first != role => Err(invalid(format!(
+                "pose {id} is `{role}` here and `{first}` on line {line}: a pose is either fitted or held out"
+            ))),
+            Some(_) => Ok(role),
+            None => {
+                self.roles.insert(id, (role, row.line));
+                Ok(role)
+            }
+        }
     }
 }
 
@@ -293,6 +381,7 @@ pub fn of_measurements(rows: &[ListedMeasurement]) -> Vec<ListedPose> {
         .map(|l| ListedPose {
             units: l.units,
             line: l.line,
+            role: PoseRole::Fit,
             row: PoseRow {
                 pose: l.measurement.pose,
                 load_kg: Some(l.measurement.load_kg),
@@ -310,8 +399,29 @@ pub fn write(path: &Path, rows: &[PoseRow], kinds: &[JointKind]) -> Result<(), E
     atomic::write(path, |w| write_to(w, rows, kinds))
 }
 
+/// Writes a pose list with a `role` column atomically: each row of `rows`
+/// with the role of the same place in `roles` (see [`write`]).
+pub fn write_with_roles(
+    path: &Path,
+    rows: &[PoseRow],
+    roles: &[PoseRole],
+    kinds: &[JointKind],
+) -> Result<(), Error> {
+    atomic::write(path, |w| write_rows(w, rows, Some(roles), kinds))
+}
+
 /// Writes pose-list CSV to any writer (see [`write`]).
 pub fn write_to(w: &mut dyn Write, rows: &[PoseRow], kinds: &[JointKind]) -> std::io::Result<()> {
+    write_rows(w, rows, None, kinds)
+}
+
+/// Writes pose-list CSV, with a `role` column when `roles` are given.
+fn write_rows(
+    w: &mut dyn Write,
+    rows: &[PoseRow],
+    roles: Option<&[PoseRole]>,
+    kinds: &[JointKind],
+) -> std::io::Result<()> {
     let with_load = rows.iter().any(|r| r.load_kg.is_some());
     let mut csv = csv::Writer::from_writer(w);
     let mut columns = vec!["pose"];
@@ -319,8 +429,11 @@ pub fn write_to(w: &mut dyn Write, rows: &[PoseRow], kinds: &[JointKind]) -> std
         columns.push("load_kg");
     }
     columns.extend(kinds.iter().enumerate().map(|(i, &k)| q_column(i, k)));
+    if roles.is_some() {
+        columns.push(ROLE_COLUMN);
+    }
     csv.write_record(&columns)?;
-    for r in rows {
+    for (k, r) in rows.iter().enumerate() {
         let mut record = vec![r.pose.id.to_string()];
         if with_load {
             record.push(r.load_kg.unwrap_or(0.0).to_string());
@@ -331,6 +444,9 @@ pub fn write_to(w: &mut dyn Write, rows: &[PoseRow], kinds: &[JointKind]) -> std
                 .zip(&r.pose.q)
                 .map(|(&k, &q)| format_joint(k, q)),
         );
+        if let Some(roles) = roles {
+            record.push(roles.get(k).copied().unwrap_or_default().name().into());
+        }
         csv.write_record(&record)?;
     }
     csv.flush()
@@ -436,6 +552,61 @@ mod tests {
                 && msg.contains("line 3, column `q6_deg`")
                 && msg.contains("200°"),
             "{msg}"
+        );
+    }
+
+    /// A selection with validation poses writes a `role` column and reads
+    /// back row for row with its roles; a list without the column is all
+    /// `fit`; a role other than the two, or two roles for one pose, is
+    /// refused naming the line and the column.
+    #[test]
+    fn roles_round_trip_and_old_lists_are_all_fit() {
+        let q = |d: f64| PerJoint::splat(6, d.to_radians());
+        let rows: Vec<PoseRow> = [(3, 10.0), (8, -20.0), (5, 0.0)]
+            .iter()
+            .map(|&(id, d)| PoseRow {
+                pose: Pose { id, q: q(d) },
+                load_kg: None,
+            })
+            .collect();
+        let roles = [PoseRole::Fit, PoseRole::Validate, PoseRole::Fit];
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("selected.csv");
+        write_with_roles(&path, &rows, &roles, &[JointKind::Revolute; 6]).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert!(
+            text.starts_with("pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,role\n")
+                && text.contains("\n8,-20,-20,-20,-20,-20,-20,validate\n"),
+            "{text}"
+        );
+        let listed = read_listed(&path).unwrap();
+        assert_eq!(
+            listed.iter().map(|l| (l.row, l.role)).collect::<Vec<_>>(),
+            rows.iter().copied().zip(roles).collect::<Vec<_>>()
+        );
+        assert_eq!(ids_with_role(&listed, PoseRole::Fit), [3, 5]);
+        assert_eq!(ids_with_role(&listed, PoseRole::Validate), [8]);
+        // The plain reader still gives every pose.
+        assert_eq!(read(&path).unwrap(), rows);
+        // Without the column (an older list): every pose is fitted.
+        let old = parse_listed(&format!("{HEADER}1,0,0,0,0,0,0\n2,5,0,0,0,0,0\n")).unwrap();
+        assert!(old.iter().all(|l| l.role == PoseRole::Fit));
+        // Spelt in capitals with spaces around: still read.
+        let loose = format!("{}, role\n1,0,0,0,0,0,0, Validate \n", HEADER.trim_end());
+        assert_eq!(parse_listed(&loose).unwrap()[0].role, PoseRole::Validate);
+        let e = parse(&format!("{},role\n1,0,0,0,0,0,0,test\n", HEADER.trim_end()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("line 2, column `role`") && e.contains("found `test`"),
+            "{e}"
+        );
+        let both = "pose,load_kg,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,role\n\
+                    1,0,0,0,0,0,0,0,fit\n1,0.5,0,0,0,0,0,0,validate\n";
+        let e = parse(both).unwrap_err().to_string();
+        assert!(
+            e.contains("line 3, column `role`") && e.contains("`fit` on line 2"),
+            "{e}"
         );
     }
 

@@ -16,12 +16,14 @@
 //! |---|---|
 //! | `grid` | [`Levels`] and the `L^6` grid with stable pose ids |
 //! | [`random`] | random poses off the grid |
+//! | [`validation`] | the poses a selection sets aside to validate the fit on |
 //!
 //! The arm's collision bodies, as described and as placed on the arm, are
 //! `lrmcal_core::collision`.
 
 mod grid;
 pub mod random;
+pub mod validation;
 
 use std::fmt;
 

@@ -41,7 +41,8 @@ pub fn check_plausible(
     let Some(worst) = far.iter().max_by(|a, b| miss(a).total_cmp(&miss(b))) else {
         return Ok(());
     };
-    let refused = !(miss(worst) < 2.0 * IMPLAUSIBLE_M) || 4 * far.len() > measurements.len();
+    let refused = miss(worst).partial_cmp(&(2.0 * IMPLAUSIBLE_M)) != Some(Ordering::Less)
+        || 4 * far.len() > measurements.len();
     if !refused {
         return Ok(());
     }

@@ -13,13 +13,20 @@
 //! The model and spacing stages compare the fits they end in and keep the
 //! one that predicts best; the stages after each run once per rung or
 //! spacing.
+//!
+//! Ours is fitted, on every rung, under the prior of its effects
+//! (`calib::parameters::prior`): the most probable corrections given the
+//! measurements and the effects' physical sizes. The paper's options and
+//! the options of one effect are fitted by least squares, as the paper
+//! fitted them.
 
-use crate::calib::fit::identify::{Identified, IdentifyOptions, identify};
+use crate::calib::fit::identify::{Identified, IdentifyOptions, identify, identify_scored};
 use crate::calib::fit::knot_choice::{self, ChosenFit};
 use crate::calib::fit::model_choice::{self, Ladder, Rung};
 use crate::calib::fit::refresh::refreshed;
-use crate::calib::parameters::backlash;
 use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
+use crate::calib::parameters::{backlash, option};
 use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
 
@@ -32,6 +39,10 @@ pub fn grow(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Ladder, CalibError> {
+    let options = &IdentifyOptions {
+        prior: options.prior && option == ModelOption::ElastoKinematicServo,
+        ..*options
+    };
     model_choice::choose(option, kept, |rung, kept| match rung {
         // The base and tool points only: no refresh may add the arm's own.
         Rung::Placement => Ok(ChosenFit {
@@ -39,15 +50,20 @@ pub fn grow(
             knots: None,
             model: None,
         }),
-        Rung::Model(model) => knot_choice::choose(kept, |keys| {
-            let keys = backlash::with_widths(nominal, model, keys, measurements)?;
+        Rung::Model(model) => knot_choice::choose(kept, options.prior, |keys| {
+            let mut keys =
+                backlash::with_widths(nominal, model, keys, measurements, options.prior)?;
+            if options.prior {
+                keys.extend(option::softenings_of(model, &keys));
+            }
             fit_refreshed(nominal, model, &keys, measurements, options)
         }),
     })
 }
 
 /// The last two stages for `keys`: the fit, then, when `options.refresh`,
-/// the refresh at its estimate.
+/// the refresh at its estimate. Under a prior with servo curves, the fit
+/// is the most probable of [`smoothest_probable`]'s.
 pub fn fit_refreshed(
     nominal: &Rig,
     option: ModelOption,
@@ -55,9 +71,60 @@ pub fn fit_refreshed(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
-    let fit = identify(nominal, option, keys, measurements, options)?;
+    let knots = keys.iter().any(|k| matches!(k, ParamKey::ServoKnot { .. }));
+    let (fit, options) = match options.prior && knots {
+        true => smoothest_probable(nominal, option, keys, measurements, options)?,
+        false => (
+            identify(nominal, option, keys, measurements, options)?,
+            *options,
+        ),
+    };
     if !options.refresh {
         return Ok(fit);
     }
-    refreshed(nominal, option, keys, fit, measurements, options)
+    refreshed(nominal, option, keys, fit, measurements, &options)
+}
+
+/// How smooth the servo curves are: the fit of `keys` under the prior with
+/// each of [`SERVO_CORRELATIONS_DEG`] (the correlation lengths of a curve's
+/// error), the one whose measurements are the most probable (the largest
+/// evidence, `identify::identify_scored`), and the options it was fitted
+/// with. The middle one and the roughest are fitted side by side, the
+/// smoothest only when the middle one beat the roughest.
+pub fn smoothest_probable(
+    nominal: &Rig,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<(Identified, IdentifyOptions), CalibError> {
+    let with = |correlation_deg: f64| IdentifyOptions {
+        servo_correlation_deg: correlation_deg,
+        ..*options
+    };
+    let fit = |correlation_deg: f64| {
+        let options = with(correlation_deg);
+        identify_scored(nominal, nominal, option, keys, measurements, &options)
+            .map(|(fit, evidence)| (fit, evidence.unwrap_or(f64::NEG_INFINITY), options))
+    };
+    let [rough, middle, smooth] = SERVO_CORRELATIONS_DEG;
+    let (a, b) = rayon::join(|| fit(rough), || fit(middle));
+    let mut fits = vec![a, b];
+    let middle_won = match (&fits[0], &fits[1]) {
+        (Ok(r), Ok(m)) => m.1 > r.1,
+        (Err(_), Ok(_)) => true,
+        _ => false,
+    };
+    if middle_won {
+        fits.push(fit(smooth));
+    }
+    let best = fits
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| f.as_ref().ok().map(|f| (i, f.1)))
+        .max_by(|a, b| a.1.total_cmp(&b.1))
+        .map(|(i, _)| i);
+    // Every one failed: the middle one's reason.
+    let (fit, _, options) = fits.swap_remove(best.unwrap_or(1))?;
+    Ok((fit, options))
 }

@@ -67,11 +67,28 @@ pub fn check(
             "Measure more poses (or let `lrmcal select` choose them)",
         ));
     }
-    let bar = match placement {
-        Some(_) => "the nominal arm placed (its base and tool points fitted)",
-        None => "the nominal arm",
+    // What the fit must beat: the nominal arm placed on the same poses (its
+    // residual, and its leave-one-out errors measurement by measurement:
+    // worse by more than the standard error of the difference), or without
+    // a placement the nominal arm's residual.
+    let (bar, bar_rms, worse, bar_loo) = match placement {
+        Some(p) => {
+            let p = &p.diagnostics;
+            let (difference, se) = paired(&d.loo_errors_m, &p.loo_errors_m);
+            (
+                "the nominal arm placed (its base and tool points fitted)",
+                p.rms_after_m,
+                difference > se,
+                p.loo_mean_m + se,
+            )
+        }
+        None => (
+            "the nominal arm",
+            d.rms_before_m,
+            d.loo_mean_m > d.rms_before_m,
+            d.rms_before_m,
+        ),
     };
-    let bar_rms = placement.map_or(d.rms_before_m, |p| p.diagnostics.rms_after_m);
     if d.rms_after_m > bar_rms {
         return Err(refuse(
             format!(
@@ -82,17 +99,6 @@ pub fn check(
             "Check the measurements against the poses (the same order, the arm's joint signs)",
         ));
     }
-    // Both fits' leave-one-out errors, measurement by measurement: worse by
-    // more than the standard error of the difference; without a placement,
-    // against the nominal arm's residual.
-    let (worse, bar_loo) = match placement {
-        Some(p) => {
-            let p = &p.diagnostics;
-            let (difference, se) = paired(&d.loo_errors_m, &p.loo_errors_m);
-            (difference > se, p.loo_mean_m + se)
-        }
-        None => (d.loo_mean_m > d.rms_before_m, d.rms_before_m),
-    };
     if worse || !d.loo_mean_m.is_finite() {
         return Err(refuse(
             format!(
@@ -177,6 +183,8 @@ mod tests {
             fit_residual: ErrorStats::of(&[after; 100]),
             fit_residual_per_target: vec![ErrorStats::of(&[after; 100])],
             outliers: vec![],
+            per_measurement: vec![],
+            covariance: nalgebra::DMatrix::zeros(0, 0),
         }
     }
 

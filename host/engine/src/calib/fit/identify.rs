@@ -2,7 +2,31 @@
 //! match the measurements, by Levenberg–Marquardt (the `levenberg-marquardt`
 //! crate, MINPACK's algorithm on nalgebra), in named steps: *fit* (one LM run
 //! over the free parameters of a [`ParamVector`]), *active set* (bounds),
-//! *reweight* (Huber), *covariance* and *outliers*.
+//! *reweight* (Huber and the prior's noise), *covariance* and *outliers*.
+//!
+//! **Under a prior** ([`IdentifyOptions::prior`], ours): the fit is the
+//! most probable one given the measurements and what the arm's effects
+//! typically are before any is measured (`calib::parameters::prior`: one
+//! standard deviation per correction, the servo curves smooth). It
+//! minimises `Σ w_k |r_k|² + σ² |A (e − e₀)|²`, the measurements' weighted
+//! residuals and the prior's rows (`A (e − e₀)`, the corrections `e` from
+//! the prior's centre in standard deviations) scaled by the noise `σ` of a
+//! coordinate, which weighs the one against the other; the rows join LM's
+//! residuals and Jacobian as further measurements would. The noise is not
+//! known beforehand: it is estimated from the residual as
+//! `σ² = Σ w_k |r_k|² / (3n − γ)`, `γ` the number of parameters the
+//! measurements (not the prior) determine (the trace of the hat matrix over
+//! their rows), and each reweighting round fits with the last estimate,
+//! from the residual the fit starts with (the prior at its strongest) until
+//! it changes by less than [`SIGMA_SETTLED`]. Where the poses determine a
+//! parameter well its prior weighs nothing beside them and the fit is the
+//! least-squares one; where they do not, the prior holds it near its
+//! physical size instead of letting it run off with the noise. The keys the
+//! prior holds need no rank of their own: only the others must be
+//! determined by the poses. [`identify_scored`] also gives the evidence
+//! (the probability of the measurements under the prior, Laplace's
+//! approximation), by which `calib::grow` chooses how smooth the servo
+//! curves are.
 //!
 //! **Bounded parameters, by an active set.** Compliances, softenings and
 //! play widths have physical ranges (`model::bounds`: worked out from the
@@ -31,7 +55,10 @@
 //! point. The count is reported (`failed_steps`).
 //!
 //! **Standard deviations** come from the Jacobian J of the free parameters at
-//! the solution and the residual: `cov = s² (JᵀJ)⁻¹` with `s² = RSS / (3n − m)`.
+//! the solution and the residual: `cov = s² (JᵀJ)⁻¹` with `s² = RSS / (3n − m)`;
+//! under a prior, the posterior covariance `σ² (JᵀJ + σ² AᵀA)⁻¹` with `γ`
+//! for `m` (a parameter the poses do not determine keeps its prior's
+//! deviation, never an infinite or a vanishing one).
 //! Parameters fixed at a bound are reported with no deviation. A free
 //! parameter is named **weak** when the data barely determine it: a compliance
 //! whose deviation exceeds its value (the data cannot tell it from zero), a
@@ -45,7 +72,9 @@
 //! fit, `r_k` the measurement's residual; exact for a linear fit), and
 //! their mean norm is reported (`loo_mean_m`). A model with more parameters
 //! than the poses carry fits its own poses better and this worse; the
-//! servo curves' knot spacing is chosen by it (`calib::knot_choice`).
+//! servo curves' knot spacing is chosen by it (`calib::knot_choice`). Under
+//! a prior `H` is the regularised fit's (exact for it too: a measurement
+//! left out, the prior still holds).
 //!
 //! **Robust fit, the default (Huber, by iteratively reweighted least squares).** Each
 //! measurement's weight depends on the norm `e` of its 3D residual relative to
@@ -61,8 +90,10 @@ use nalgebra::{DMatrix, DVector, Dyn, Vector3};
 
 use crate::calib::analysis::identifiability::check_full_rank;
 use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::analysis::observability::ColumnScale;
 use crate::calib::parameters::params::Key as _;
 use crate::calib::parameters::params::{ParamKey, ParamVector};
+use crate::calib::parameters::prior::{self, Prior};
 use crate::calib::parameters::servo_knots;
 use crate::calib::{CalibError, ModelOption, Rig, Sample};
 use lrmcal_core::dataset::Measurement;
@@ -86,6 +117,9 @@ pub const WEAK_REACH_FRACTION: f64 = 1e-2;
 /// residual norm its LM run started from: far beyond the tenfold that makes
 /// LM count a step as failed.
 pub const FAILED_STEP_FACTOR: f64 = 1e6;
+/// The prior's noise scale is settled when a round changes it by less than
+/// this fraction.
+pub const SIGMA_SETTLED: f64 = 0.01;
 
 /// How to fit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +137,16 @@ pub struct IdentifyOptions {
     /// Most residual evaluations of one LM run, in units of the free
     /// parameters + 1 (MINPACK's `maxfev` factor).
     pub patience: usize,
+    /// Fit the most probable corrections under the prior of the keys that
+    /// have one (`calib::parameters::prior`) instead of plain least squares
+    /// (see the module docs); a fit of keys without one is the same either
+    /// way. `calib::grow` keeps it for ours only.
+    pub prior: bool,
+    /// How far apart, degrees, two angles of a servo curve have errors
+    /// correlated by `e^-½` under the prior
+    /// (`calib::parameters::prior::SERVO_CORRELATION_DEG`, which
+    /// `calib::grow` chooses among).
+    pub servo_correlation_deg: f64,
 }
 
 impl Default for IdentifyOptions {
@@ -113,6 +157,8 @@ impl Default for IdentifyOptions {
             max_irls_rounds: 12,
             refresh: true,
             patience: 50,
+            prior: true,
+            servo_correlation_deg: prior::SERVO_CORRELATION_DEG,
         }
     }
 }
@@ -170,7 +216,9 @@ pub struct Diagnostics {
     pub rms_before_m: f64,
     /// RMS of the 3D residual norm after the fit, m.
     pub rms_after_m: f64,
-    /// Residual standard deviation per coordinate, `sqrt(RSS / (3n − m))`, m.
+    /// Residual standard deviation per coordinate, `sqrt(RSS / (3n − m))`,
+    /// m; under a prior `m` counts what the measurements determine (the
+    /// noise the prior was weighed against, module docs).
     pub sigma_m: f64,
     /// Condition number of the column-scaled Jacobian at the solution.
     pub condition: f64,
@@ -201,6 +249,31 @@ pub struct Identified {
     pub fit_residual_per_target: Vec<ErrorStats>,
     /// Measurements named as outliers, largest residual first.
     pub outliers: Vec<Outlier>,
+    /// Each fitted measurement, in the measurements' order (the order of
+    /// [`Diagnostics::loo_errors_m`]): where it was measured and how far the
+    /// arm was from it before and after the fit.
+    pub per_measurement: Vec<FitPoint>,
+    /// The covariance of the free parameters' errors at the solution, SI
+    /// units: the estimates with a deviation, in the estimates' order, in
+    /// the frame the fit ran in. The deviations are the roots of its diagonal.
+    pub covariance: DMatrix<f64>,
+}
+
+/// One fitted measurement and the arm's distance from it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitPoint {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Index of the measured target in the rig's targets.
+    pub target: usize,
+    /// The measured point, in the frame the fit ran in, m.
+    pub measured_m: Vector3<f64>,
+    /// 3D error of the arm the fit started from (the nominal arm, placed), m.
+    pub before_m: f64,
+    /// 3D error of the fitted arm, m.
+    pub after_m: f64,
 }
 
 /// The measurements of one fit, as the solver sees them.
@@ -209,6 +282,8 @@ struct FitData<'a> {
     option: ModelOption,
     samples: Vec<Sample>,
     measured: Vec<Vector3<f64>>,
+    /// The prior on the corrections of the keys, if the fit has one.
+    prior: Option<Prior>,
 }
 
 impl<'a> FitData<'a> {
@@ -223,7 +298,47 @@ impl<'a> FitData<'a> {
             option,
             samples,
             measured: measurements.iter().map(|m| m.position).collect(),
+            prior: None,
         })
+    }
+
+    /// The prior's rows at the corrections of `params` with the free ones
+    /// taken from `free`, each times `sigma` (the measurements' noise, the
+    /// scale of the weighted residuals); `None` without a prior.
+    fn prior_residuals(
+        &self,
+        params: &ParamVector,
+        free: &[f64],
+        sigma: f64,
+    ) -> Option<DVector<f64>> {
+        let prior = self.prior.as_ref()?;
+        let mut trial = free.iter();
+        let errors: Vec<f64> = params
+            .iter()
+            .map(|p| match p.fixed {
+                true => p.error,
+                false => trial.next().copied().unwrap_or(p.error),
+            })
+            .collect();
+        Some(prior.residuals(&errors) * sigma)
+    }
+
+    /// The Jacobian of [`FitData::prior_residuals`] with respect to the
+    /// `fixed` or the free parameters of `params`; `None` without a prior.
+    fn prior_jacobian(
+        &self,
+        params: &ParamVector,
+        fixed: bool,
+        sigma: f64,
+    ) -> Option<DMatrix<f64>> {
+        let prior = self.prior.as_ref()?;
+        let columns: Vec<usize> = params
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.fixed == fixed)
+            .map(|(c, _)| c)
+            .collect();
+        Some(prior.columns(&columns) * sigma)
     }
 
     /// The smallest and largest value the fit may give `key`'s quantity, if bounded.
@@ -285,6 +400,8 @@ struct Problem<'a> {
     params: &'a ParamVector,
     free: Vec<ParamKey>,
     sqrt_w: &'a [f64],
+    /// The noise the prior's rows are scaled by, m.
+    sigma: f64,
     x: DVector<f64>,
     /// The residual of a trial point whose deflection cannot be solved
     /// (each entry), from the norm the run started from.
@@ -314,21 +431,29 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
+        let prior = self
+            .data
+            .prior_residuals(self.params, self.x.as_slice(), self.sigma);
         match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
-            Some(r) => Some(r),
+            Some(r) => Some(stack_rows(r, prior)),
             None => {
                 // A failed step, not the end of the fit (module docs).
                 self.failed.set(self.failed.get() + 1);
-                let rows = 3 * self.data.samples.len();
+                let rows = 3 * self.data.samples.len() + prior.map_or(0, |p| p.len());
                 Some(DVector::from_element(rows, self.failed_entry))
             }
         }
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        self.data
+        let j = self
+            .data
             .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
-            .ok()
+            .ok()?;
+        Some(stack_matrices(
+            j,
+            self.data.prior_jacobian(self.params, false, self.sigma),
+        ))
     }
 }
 
@@ -342,6 +467,32 @@ struct Tally {
     failed_steps: usize,
     termination: String,
     converged: bool,
+}
+
+/// `r` with the prior's rows below it, if any.
+fn stack_rows(r: DVector<f64>, prior: Option<DVector<f64>>) -> DVector<f64> {
+    match prior {
+        Some(p) => {
+            let rows = r.len();
+            let mut out = r.resize_vertically(rows + p.len(), 0.0);
+            out.rows_mut(rows, p.len()).copy_from(&p);
+            out
+        }
+        None => r,
+    }
+}
+
+/// `j` with the prior's rows below it, if any.
+fn stack_matrices(j: DMatrix<f64>, prior: Option<DMatrix<f64>>) -> DMatrix<f64> {
+    match prior {
+        Some(p) => {
+            let rows = j.nrows();
+            let mut out = j.resize_vertically(rows + p.nrows(), 0.0);
+            out.rows_mut(rows, p.nrows()).copy_from(&p);
+            out
+        }
+        None => j,
+    }
 }
 
 fn rms(v: &[f64]) -> f64 {
@@ -362,6 +513,7 @@ fn fit(
     data: &FitData,
     params: &mut ParamVector,
     sqrt_w: &[f64],
+    sigma: f64,
     patience: usize,
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
@@ -376,6 +528,7 @@ fn fit(
         params,
         free: params.free().collect(),
         sqrt_w,
+        sigma,
         x: DVector::from_vec(params.free_errors()),
         failed_entry: FAILED_STEP_FACTOR * start.norm().max(f64::MIN_POSITIVE) / rows.sqrt(),
         failed: std::cell::Cell::new(0),
@@ -434,13 +587,21 @@ fn release_candidate(
     params: &ParamVector,
     arm: &Rig,
     sqrt_w: &[f64],
+    sigma: f64,
 ) -> Option<ParamKey> {
     let fixed: Vec<ParamKey> = params.fixed().collect();
     if fixed.is_empty() {
         return None;
     }
-    let r = data.weighted_residuals(arm, sqrt_w)?;
-    let jf = data.weighted_jacobian(arm, &fixed, sqrt_w).ok()?;
+    // The prior's rows count in the cost like the measurements'.
+    let r = stack_rows(
+        data.weighted_residuals(arm, sqrt_w)?,
+        data.prior_residuals(params, &params.free_errors(), sigma),
+    );
+    let jf = stack_matrices(
+        data.weighted_jacobian(arm, &fixed, sqrt_w).ok()?,
+        data.prior_jacobian(params, true, sigma),
+    );
     // d(cost)/d(correction) for each fixed parameter at the solution.
     let g = jf.transpose() * r;
     let scale = jf
@@ -473,12 +634,13 @@ fn active_set(
     data: &FitData,
     params: &mut ParamVector,
     sqrt_w: &[f64],
+    sigma: f64,
     options: &IdentifyOptions,
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
     loop {
         tally.active_set_rounds += 1;
-        fit(data, params, sqrt_w, options.patience, tally)?;
+        fit(data, params, sqrt_w, sigma, options.patience, tally)?;
         let arm = params.apply(data.nominal);
         let outside = outside_bounds(data, params, &arm);
         // A run that spent its budget would spend it again from about there.
@@ -489,7 +651,7 @@ fn active_set(
             fix_at_bound(params, data.nominal, &outside)?;
             continue;
         }
-        match release_candidate(data, params, &arm, sqrt_w) {
+        match release_candidate(data, params, &arm, sqrt_w, sigma) {
             Some(key) => params.release(key)?,
             None => return Ok(()),
         }
@@ -546,26 +708,80 @@ pub fn identify(
     measurements: &[Measurement],
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
+    identify_about(nominal, nominal, option, keys, measurements, options)
+}
+
+/// [`identify`] from `nominal` with the prior (when `options.prior`)
+/// centred at `origin`: a refit from an estimate (`calib::refresh`) starts
+/// there and keeps the prior of the arm the calibration started from.
+pub fn identify_about(
+    nominal: &Rig,
+    origin: &Rig,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<Identified, CalibError> {
+    identify_scored(nominal, origin, option, keys, measurements, options).map(|(fit, _)| fit)
+}
+
+/// [`identify_about`], and with a prior the log of the evidence the
+/// measurements give its model (module docs): how probable they are under
+/// the prior, the parameters integrated out (Laplace's approximation at
+/// the solution, the noise at its estimate). It compares priors of one set
+/// of keys; the parameters without a prior contribute a constant only
+/// when that set is the same.
+pub fn identify_scored(
+    nominal: &Rig,
+    origin: &Rig,
+    option: ModelOption,
+    keys: &[ParamKey],
+    measurements: &[Measurement],
+    options: &IdentifyOptions,
+) -> Result<(Identified, Option<f64>), CalibError> {
     // Servo knots move the curves on their grid (the same map); the
     // measurements stay commanded through the nominal curves.
     let start = servo_knots::fit_start(nominal, keys);
     let nominal = &start;
-    let data = FitData::new(nominal, option, measurements)?;
+    let mut data = FitData::new(nominal, option, measurements)?;
+    if options.prior {
+        data.prior = Prior::new(
+            nominal,
+            &servo_knots::fit_start(origin, keys),
+            keys,
+            options.servo_correlation_deg,
+        );
+    }
     let n = data.samples.len();
-    if 3 * n < keys.len() || n == 0 {
+    // What the prior holds is determined whatever the poses; the rest must
+    // be determined by them.
+    let unheld: Vec<ParamKey> = keys
+        .iter()
+        .enumerate()
+        .filter(|(c, _)| !data.prior.as_ref().is_some_and(|p| p.holds(*c)))
+        .map(|(_, k)| *k)
+        .collect();
+    if 3 * n < unheld.len() || n == 0 {
         return Err(CalibError::TooFewPoses {
             poses: n,
             rows: 3 * n,
-            params: keys.len(),
+            params: unheld.len(),
         });
     }
-    check_full_rank(nominal, option, keys, &data.samples)?;
-    let rms_before_m = rms(&data.residual_norms(nominal)?);
+    if !unheld.is_empty() {
+        check_full_rank(nominal, option, &unheld, &data.samples)?;
+    }
+    let before_m = data.residual_norms(nominal)?;
+    let rms_before_m = rms(&before_m);
 
     let mut params = ParamVector::new(keys.iter().copied())?;
     let mut weights: Vec<f64> = vec![1.0; n];
     let mut tally = Tally::default();
-    let rounds = if options.robust {
+    // The prior weighs against the noise, which the residual tells: from
+    // the residual the fit starts with (the prior at its strongest), each
+    // round fits with the last estimate (module docs).
+    let mut sigma = rms_before_m / 3f64.sqrt();
+    let rounds = if options.robust || data.prior.is_some() {
         options.max_irls_rounds.max(1)
     } else {
         1
@@ -573,18 +789,31 @@ pub fn identify(
     for _ in 0..rounds {
         tally.irls_rounds += 1;
         let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-        active_set(&data, &mut params, &sqrt_w, options, &mut tally)?;
-        if !options.robust || tally.exhausted {
+        active_set(&data, &mut params, &sqrt_w, sigma, options, &mut tally)?;
+        if tally.exhausted {
             break;
         }
-        let new = huber_weights(&data.residual_norms(&params.apply(nominal))?);
-        let change = new
-            .iter()
-            .zip(&weights)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        weights = new;
-        if change < 1e-3 {
+        let arm = params.apply(nominal);
+        let mut settled = true;
+        if data.prior.is_some() {
+            let residuals = data.residuals(&arm)?;
+            let free: Vec<ParamKey> = params.free().collect();
+            let prior = data.prior_jacobian(&params, false, sigma);
+            let new = covariance(&data, &arm, &free, &weights, &residuals, prior.as_ref())?.sigma_m;
+            settled &= (new - sigma).abs() <= SIGMA_SETTLED * sigma;
+            sigma = new;
+        }
+        if options.robust {
+            let new = huber_weights(&data.residual_norms(&arm)?);
+            let change = new
+                .iter()
+                .zip(&weights)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            weights = new;
+            settled &= change < 1e-3;
+        }
+        if settled {
             break;
         }
     }
@@ -600,8 +829,21 @@ pub fn identify(
     })?;
     let norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let free: Vec<ParamKey> = params.free().collect();
-    let cov = covariance(&data, &rig, &free, &weights, &residuals)?;
-    let mut std = cov.std.into_iter();
+    let prior = data.prior_jacobian(&params, false, sigma);
+    let cov = covariance(&data, &rig, &free, &weights, &residuals, prior.as_ref())?;
+    let evidence = match &data.prior {
+        Some(p) => Some(log_evidence(
+            &data,
+            &rig,
+            &params,
+            p,
+            &weights,
+            &residuals,
+            cov.sigma_m,
+        )?),
+        None => None,
+    };
+    let mut std = cov.std.iter().copied();
     let reach = crate::ik::reach_m(&nominal.arm);
     let estimates = params
         .iter()
@@ -617,7 +859,7 @@ pub fn identify(
             }
         })
         .collect();
-    Ok(Identified {
+    let fit = Identified {
         option,
         rig,
         estimates,
@@ -650,7 +892,72 @@ pub fn identify(
             })
             .collect(),
         outliers: name_outliers(&data.samples, &norms, &weights),
-    })
+        per_measurement: data
+            .samples
+            .iter()
+            .zip(&data.measured)
+            .zip(before_m.iter().zip(&norms))
+            .map(|((s, m), (b, a))| FitPoint {
+                pose: s.id,
+                load_kg: s.load_kg,
+                target: s.target,
+                measured_m: *m,
+                before_m: *b,
+                after_m: *a,
+            })
+            .collect(),
+        covariance: cov.matrix,
+    };
+    Ok((fit, evidence))
+}
+
+/// The log evidence of a fit under `prior` (Laplace's approximation): the
+/// log likelihood of the measurements at the solution `params` (residuals
+/// `residuals`, weights `weights`, noise `sigma`), the log prior density
+/// there, and half the log determinant of the posterior covariance of every
+/// key, those held at a bound included (as if free: their curvature says
+/// how much of the prior's volume the measurements leave), up to terms in
+/// `2π` that depend on the keys only.
+fn log_evidence(
+    data: &FitData,
+    rig: &Rig,
+    params: &ParamVector,
+    prior: &Prior,
+    weights: &[f64],
+    residuals: &[Vector3<f64>],
+    sigma: f64,
+) -> Result<f64, CalibError> {
+    let sigma = sigma.max(f64::MIN_POSITIVE);
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let keys: Vec<ParamKey> = params.iter().map(|p| p.key).collect();
+    let all: Vec<usize> = (0..keys.len()).collect();
+    let j = stack_matrices(
+        data.weighted_jacobian(rig, &keys, &sqrt_w)?,
+        Some(prior.columns(&all) * sigma),
+    );
+    // log det(JᵀJ + σ² AᵀA) from the column-scaled singular values.
+    let scale = ColumnScale::from_jacobian(&j, data.samples.len());
+    let log_det_normal = 2.0
+        * scale
+            .apply(&j)
+            .singular_values()
+            .iter()
+            .map(|s| s.ln())
+            .sum::<f64>()
+        - 2.0 * scale.factors.iter().map(|f| f.ln()).sum::<f64>();
+    let rows = 3.0 * data.samples.len() as f64;
+    let rss: f64 = residuals
+        .iter()
+        .zip(weights)
+        .map(|(e, w)| w * e.norm_squared())
+        .sum();
+    let errors: Vec<f64> = params.iter().map(|p| p.error).collect();
+    let log_weights: f64 = weights.iter().map(|w| 3.0 * w.ln()).sum();
+    let likelihood = -0.5 * rss / (sigma * sigma) - rows * sigma.ln() + 0.5 * log_weights;
+    let log_prior = -prior.cost(&errors) + prior.log_det();
+    // The posterior precision is (JᵀJ + σ² AᵀA) / σ².
+    let log_det_posterior_precision = log_det_normal - 2.0 * keys.len() as f64 * sigma.ln();
+    Ok(likelihood + log_prior - 0.5 * log_det_posterior_precision)
 }
 
 #[cfg(test)]

@@ -47,10 +47,11 @@
 use crate::calib::analysis::identifiability::{TypicalErrors, joining};
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::ColumnScale;
-use crate::calib::fit::identify::{Estimate, Identified, IdentifyOptions, identify};
+use crate::calib::fit::identify::{Estimate, Identified, IdentifyOptions, identify_about};
 use crate::calib::parameters::option::{candidates, refresh_candidates};
 use crate::calib::parameters::params::Key as _;
 use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::prior::Prior;
 use crate::calib::parameters::servo_knots::{self, KnotSpacing};
 use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
@@ -93,14 +94,27 @@ pub fn refreshed(
     // Joined once and found undetermined: not proposed again.
     let mut undetermined: Vec<ParamKey> = Vec::new();
     for _ in 0..MAX_REFRESH_ROUNDS {
-        let added: Vec<ParamKey> = joining_at(&fit, option, &fitted, measurements, &typical)?
-            .into_iter()
-            .filter(|k| !undetermined.contains(k))
-            .collect();
+        let prior = options
+            .prior
+            .then_some((nominal, options.servo_correlation_deg));
+        let added: Vec<ParamKey> =
+            joining_at(&fit, prior, option, &fitted, measurements, &typical)?
+                .into_iter()
+                .filter(|k| !undetermined.contains(k))
+                .collect();
         if added.is_empty() {
             break;
         }
-        let Some(larger) = fit_from(&fit, option, &fitted, &added, measurements, options)? else {
+        let Some(larger) = fit_from(
+            nominal,
+            &fit,
+            option,
+            &fitted,
+            &added,
+            measurements,
+            options,
+        )?
+        else {
             break;
         };
         // Joined but not determined: left out, and the larger fit repeated without them.
@@ -119,7 +133,15 @@ pub fn refreshed(
         let larger = if determined.len() == added.len() {
             larger
         } else {
-            match fit_from(&fit, option, &fitted, &determined, measurements, options)? {
+            match fit_from(
+                nominal,
+                &fit,
+                option,
+                &fitted,
+                &determined,
+                measurements,
+                options,
+            )? {
                 Some(larger) => larger,
                 None => break,
             }
@@ -131,12 +153,14 @@ pub fn refreshed(
 }
 
 /// The fit of `keys` and `added` from `first`'s estimate (its rig is the
-/// nominal of this fit); `None` when the poses do not determine them all
+/// nominal of this fit; a prior stays centred at `nominal`, the arm the
+/// calibration started from); `None` when the poses do not determine them all
 /// together, and the first fit stands. A larger fit that has not converged
 /// within [`TRIAL_PATIENCE`] does not determine them either: such fits crawl
 /// along a direction the poses barely see (from 40 poses the bundled arm's
 /// spent 4,650 evaluations, 4 s, and was judged undetermined after all).
 fn fit_from(
+    nominal: &Rig,
     first: &Identified,
     option: ModelOption,
     keys: &[ParamKey],
@@ -149,7 +173,7 @@ fn fit_from(
         patience: TRIAL_PATIENCE.min(options.patience),
         ..*options
     };
-    match identify(&first.rig, option, &all, measurements, &trial) {
+    match identify_about(&first.rig, nominal, option, &all, measurements, &trial) {
         Ok(second) if second.diagnostics.exhausted => Ok(None),
         Ok(second) => Ok(Some(second)),
         Err(CalibError::RankDeficient { .. } | CalibError::TooFewPoses { .. }) => Ok(None),
@@ -165,8 +189,15 @@ fn fit_from(
 /// first residual still holds the error they may remove, so the bar is
 /// loose; the larger fit's own deviations decide). One Jacobian serves both
 /// questions, and a parameter no fit could determine never slows one.
+///
+/// A fit under a prior centred at `prior`'s arm, servo errors correlated
+/// over its degrees (`calib::parameters::prior`),
+/// determines the keys the prior holds whatever the poses: a candidate is
+/// judged against the columns of the others only, and its deviation
+/// predicted with the prior's rows (the posterior's).
 fn joining_at(
     first: &Identified,
+    prior: Option<(&Rig, f64)>,
     option: ModelOption,
     keys: &[ParamKey],
     measurements: &[Measurement],
@@ -188,16 +219,49 @@ fn joining_at(
         )
         .collect();
     let j = jacobian(&first.rig, &ordered, &samples)?;
-    let joining = joining(keys, &ordered[keys.len()..], &j, typical, REFRESH_TOLERANCE);
+    let sigma = first.diagnostics.sigma_m;
+    let prior_of = |keys: &[ParamKey]| {
+        prior.and_then(|(origin, correlation_deg)| {
+            Prior::new(
+                &servo_knots::fit_start(&first.rig, keys),
+                &servo_knots::fit_start(origin, keys),
+                keys,
+                correlation_deg,
+            )
+        })
+    };
+    let held = prior_of(keys);
+    let judged: Vec<usize> = (0..ordered.len())
+        .filter(|&c| c >= keys.len() || !held.as_ref().is_some_and(|p| p.holds(c)))
+        .collect();
+    let against = judged.iter().filter(|&&c| c < keys.len()).count();
+    let judged_keys: Vec<ParamKey> = judged.iter().map(|&c| ordered[c]).collect();
+    let joining = joining(
+        &judged_keys[..against],
+        &judged_keys[against..],
+        &j.select_columns(&judged),
+        typical,
+        REFRESH_TOLERANCE,
+    );
     if joining.is_empty() {
         return Ok(joining);
     }
-    let columns: Vec<usize> = keys
+    let all: Vec<ParamKey> = keys.iter().chain(&joining).copied().collect();
+    let columns: Vec<usize> = all
         .iter()
-        .chain(&joining)
         .filter_map(|k| ordered.iter().position(|o| o == k))
         .collect();
     let a = j.select_columns(&columns);
+    let a = match prior_of(&all) {
+        Some(p) => {
+            let rows = p.columns(&(0..all.len()).collect::<Vec<_>>()) * sigma;
+            let n = a.nrows();
+            let mut stacked = a.resize_vertically(n + rows.nrows(), 0.0);
+            stacked.rows_mut(n, rows.nrows()).copy_from(&rows);
+            stacked
+        }
+        None => a,
+    };
     // The columns scaled as everywhere else keep the normal matrix well conditioned.
     let scale = ColumnScale::from_jacobian(&a, samples.len());
     let Some(inverse) = ({
@@ -207,7 +271,6 @@ fn joining_at(
     .try_inverse() else {
         return Ok(Vec::new());
     };
-    let sigma = first.diagnostics.sigma_m;
     Ok(joining
         .iter()
         .enumerate()
@@ -255,9 +318,17 @@ fn combine(nominal: &Rig, first: &Identified, second: Identified) -> Identified 
             ),
         "the combined corrections apply to the nominal arm"
     );
+    // Each measurement's "before" is the nominal arm's, as the first fit saw it.
+    let mut per_measurement = second.per_measurement.clone();
+    if per_measurement.len() == first.per_measurement.len() {
+        for (p, f) in per_measurement.iter_mut().zip(&first.per_measurement) {
+            p.before_m = f.before_m;
+        }
+    }
     Identified {
         estimates,
         diagnostics,
+        per_measurement,
         ..second
     }
 }

@@ -23,6 +23,8 @@ pub struct PoseError {
     pub before_m: f64,
     /// 3D error of the calibrated model, m.
     pub after_m: f64,
+    /// The measured point, in the frame of the rigs compared, m.
+    pub measured_m: nalgebra::Vector3<f64>,
 }
 
 /// Before/after comparison on one measurement set.
@@ -108,6 +110,7 @@ pub fn validate(
             target: calibrated.targets.index(m.target).unwrap_or(0),
             before_m: *b,
             after_m: *a,
+            measured_m: m.position,
         })
         .collect();
     let mut outliers: Vec<PoseError> = outlier_indices(&after)

@@ -23,6 +23,7 @@
 use crate::calib::analysis::identifiability::{RANK_TOLERANCE, TypicalErrors, joining};
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::parameters::params::ParamKey;
+use crate::calib::parameters::prior::{Prior, SERVO_CORRELATION_DEG};
 use crate::calib::parameters::servo_knots::fit_start;
 use crate::calib::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::Measurement;
@@ -48,12 +49,15 @@ pub fn keys(joints: usize) -> impl Iterator<Item = ParamKey> {
 /// `kept` (the option's parameters the candidates' analysis kept) with the
 /// widths `measurements` identify appended, when `option` fits them: those
 /// of the joints that arrived each way at [`MIN_EACH_WAY`] poses or more,
-/// and that the rank analysis over the fitted samples keeps after `kept`.
+/// and that the rank analysis over the fitted samples keeps after `kept`
+/// (after those of `kept` the poses alone must determine, for a fit under
+/// a `prior`).
 pub fn with_widths(
     nominal: &Rig,
     option: ModelOption,
     kept: &[ParamKey],
     measurements: &[Measurement],
+    prior: bool,
 ) -> Result<Vec<ParamKey>, CalibError> {
     if !crate::calib::parameters::option::fits_backlash(option) {
         return Ok(kept.to_vec());
@@ -74,11 +78,26 @@ pub fn with_widths(
     if widths.is_empty() {
         return Ok(kept.to_vec());
     }
-    let ids: Vec<ParamKey> = kept.iter().chain(&widths).copied().collect();
+    // Under a prior the knots are determined by it too: a width is judged
+    // against the columns of the parameters the poses alone must determine.
+    let against: Vec<ParamKey> = match prior {
+        true => {
+            let start = fit_start(nominal, kept);
+            // Which keys it holds, whatever the servo curves' correlation.
+            let held = Prior::new(&start, &start, kept, SERVO_CORRELATION_DEG);
+            kept.iter()
+                .enumerate()
+                .filter(|(c, _)| !held.as_ref().is_some_and(|p| p.holds(*c)))
+                .map(|(_, k)| *k)
+                .collect()
+        }
+        false => kept.to_vec(),
+    };
+    let ids: Vec<ParamKey> = against.iter().chain(&widths).copied().collect();
     let start = fit_start(nominal, &ids);
     let j = jacobian(&start, &ids, &samples)?;
     let joining = joining(
-        kept,
+        &against,
         &widths,
         &j,
         &TypicalErrors::of_arm(&nominal.arm),

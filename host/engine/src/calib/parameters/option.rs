@@ -107,6 +107,26 @@ pub fn refresh_candidates(option: ModelOption, arm: &Arm<f64>) -> Vec<ParamKey> 
         .collect()
 }
 
+/// The softenings of the springs whose compliances are among `keys`, when
+/// `option` fits them: what a fit of ours under a prior
+/// (`calib::parameters::prior`) starts with, the prior determining a
+/// softening wherever the poses do not (a least-squares fit has only the
+/// refresh propose them, [`refresh_candidates`]).
+pub fn softenings_of(option: ModelOption, keys: &[ParamKey]) -> Vec<ParamKey> {
+    if !fits_servo_curves(option) {
+        return Vec::new();
+    }
+    keys.iter()
+        .filter_map(|k| match k.quantity() {
+            Some(model::bounds::Quantity::Compliance { spring }) => {
+                Some(ParamKey::Softening { spring })
+            }
+            _ => None,
+        })
+        .filter(|s| !keys.contains(s))
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -177,6 +177,62 @@ pub fn on_spacing(keys: &[ParamKey], spacing: KnotSpacing) -> Vec<ParamKey> {
         .collect()
 }
 
+/// `keys` with each joint's knots on the grid of `spacing`, finer or
+/// coarser than theirs: the knots of that grid, less those the knots among
+/// `keys` hold at the arm file's curve (the grid's knots of their spacing
+/// that are not among them, `calib::identifiability`), in the place of the
+/// first knot. A finer grid's knots are not all determined by poses
+/// chosen for a coarser one: only a fit under a prior
+/// (`calib::parameters::prior`) takes them.
+pub fn respaced(keys: &[ParamKey], spacing: KnotSpacing) -> Vec<ParamKey> {
+    let Some(own) = spacing_of(keys) else {
+        return keys.to_vec();
+    };
+    let knots_of = |joint: u8| -> Vec<usize> {
+        keys.iter()
+            .filter_map(|k| match k {
+                ParamKey::ServoKnot { joint: j, knot } if *j == joint => Some(usize::from(*knot)),
+                _ => None,
+            })
+            .collect()
+    };
+    let mut joints: Vec<u8> = Vec::new();
+    for k in keys {
+        if let ParamKey::ServoKnot { joint, .. } = k
+            && !joints.contains(joint)
+        {
+            joints.push(*joint);
+        }
+    }
+    let respaced = joints.iter().flat_map(|&joint| {
+        let fitted = knots_of(joint);
+        let held: Vec<usize> = (0..KNOTS)
+            .filter(|k| own.holds(*k) && !fitted.contains(k))
+            .collect();
+        (0..KNOTS)
+            .filter(move |k| spacing.holds(*k) && !held.contains(k))
+            .map(move |knot| ParamKey::ServoKnot {
+                joint,
+                knot: knot as u8,
+            })
+    });
+    let first = keys
+        .iter()
+        .position(|k| matches!(k, ParamKey::ServoKnot { .. }))
+        .unwrap_or(keys.len());
+    let others = |range: std::ops::Range<usize>| {
+        keys[range]
+            .iter()
+            .copied()
+            .filter(|k| !matches!(k, ParamKey::ServoKnot { .. }))
+            .collect::<Vec<_>>()
+    };
+    let mut out = others(0..first);
+    out.extend(respaced);
+    out.extend(others(first..keys.len()));
+    out
+}
+
 /// The spacing of the knots among `keys`: the coarsest grid holding every
 /// knot key; `None` when there is none.
 pub fn spacing_of(keys: &[ParamKey]) -> Option<KnotSpacing> {

@@ -239,6 +239,8 @@ mod tests {
             fit_residual: ErrorStats::of(&[0.001]),
             fit_residual_per_target: vec![ErrorStats::of(&[0.001])],
             outliers: vec![],
+            per_measurement: vec![],
+            covariance: nalgebra::DMatrix::zeros(0, 0),
         };
         let k1 = ParamId::from_name("k1").unwrap();
         let file = calibration_file(

@@ -1,10 +1,12 @@
 //! What a calibration run gives people and files: the calibration file's
 //! content ([`export`]), the machine-readable report ([`report`]), the lines
-//! and tables the commands print ([`summary`]), the demo's study of every
+//! and tables the commands print ([`summary`]), each identified servo curve
+//! with its uncertainty ([`servo_curves`]), the demo's study of every
 //! option ([`study`]) and its experiments ([`experiments`]).
 
 pub mod experiments;
 pub mod export;
 pub mod report;
+pub mod servo_curves;
 pub mod study;
 pub mod summary;

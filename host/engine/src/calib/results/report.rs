@@ -24,6 +24,7 @@ use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
 use crate::calib::results::experiments::{ErrorPoint, O1Point, RandomBaseline};
+use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
 use lrmcal_core::io::json;
@@ -32,8 +33,10 @@ use lrmcal_core::io::json;
 pub const REPORT_SCHEMA: &str = "lrmcal-report";
 /// Version of the report schema (2: named list entries; 3: the fit's
 /// leave-one-out error, the knot spacing chosen, the error against the
-/// number of poses; 4: each validation measurement's error, the registration).
-pub const REPORT_SCHEMA_VERSION: u32 = 4;
+/// number of poses; 4: each validation measurement's error, the registration;
+/// 5: each fitted measurement's errors, where each measurement was, the
+/// servo curves identified).
+pub const REPORT_SCHEMA_VERSION: u32 = 5;
 
 /// The oldest version [`Report::parse`] reads (its fields are all still there).
 pub const REPORT_OLDEST_READ: u32 = 3;
@@ -181,6 +184,32 @@ pub struct FitReport {
     pub parameters: Vec<FittedParam>,
     /// Measurements named as outliers, largest residual first.
     pub outliers: Vec<OutlierReport>,
+    /// Each fitted measurement, in the order fitted (since version 5;
+    /// empty when read from an older report).
+    #[serde(default)]
+    pub per_pose: Vec<FitPoseReport>,
+}
+
+/// One fitted measurement: where it was and the arm's error there, in report units.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FitPoseReport {
+    /// Pose id.
+    pub pose: u32,
+    /// Payload, kg.
+    pub load_kg: f64,
+    /// Index of the measured target in the calibration's targets.
+    pub target: usize,
+    /// The measured point in the arm's frame (the arm file's world, where
+    /// the fit runs: registration carried the measurements there), mm.
+    pub xyz_mm: [f64; 3],
+    /// 3D error of the nominal arm, placed, mm.
+    pub before_mm: f64,
+    /// 3D residual of the fit, mm.
+    pub after_mm: f64,
+    /// 3D error of the fit without this measurement (leave-one-out), mm;
+    /// `null` when it alone decides a parameter.
+    #[serde(deserialize_with = "json::nan_if_null")]
+    pub loo_mm: f64,
 }
 
 impl From<&Identified> for FitReport {
@@ -207,6 +236,20 @@ impl From<&Identified> for FitReport {
             loo_mean_mm: d.loo_mean_m * 1e3,
             parameters: f.estimates.iter().map(FittedParam::from).collect(),
             outliers: f.outliers.iter().map(OutlierReport::from).collect(),
+            per_pose: f
+                .per_measurement
+                .iter()
+                .enumerate()
+                .map(|(k, p)| FitPoseReport {
+                    pose: p.pose,
+                    load_kg: p.load_kg,
+                    target: p.target,
+                    xyz_mm: (p.measured_m * 1e3).into(),
+                    before_mm: p.before_m * 1e3,
+                    after_mm: p.after_m * 1e3,
+                    loo_mm: d.loo_errors_m.get(k).map_or(f64::NAN, |e| e * 1e3),
+                })
+                .collect(),
         }
     }
 }
@@ -241,6 +284,10 @@ pub struct PoseErrorReport {
     pub before_mm: f64,
     /// 3D error of the calibrated model, mm.
     pub after_mm: f64,
+    /// The measured point in the arm's frame, as [`FitPoseReport::xyz_mm`]
+    /// (since version 5; absent from older reports).
+    #[serde(default)]
+    pub xyz_mm: Option<[f64; 3]>,
 }
 
 /// A validation measurement named as an outlier, in report units.
@@ -279,6 +326,7 @@ impl ValidationReport {
                     target: p.target,
                     before_mm: p.before_m * 1e3,
                     after_mm: p.after_m * 1e3,
+                    xyz_mm: Some((p.measured_m * 1e3).into()),
                 })
                 .collect(),
         }
@@ -316,6 +364,10 @@ pub struct OptionReport {
     pub validation: Option<ValidationReport>,
     /// Validation under the other load.
     pub cross_load: Option<ValidationReport>,
+    /// Each servo curve the fit identified, joint by joint (since version 5;
+    /// empty for an option without servo curves and in older reports).
+    #[serde(default)]
+    pub servo_curves: Vec<ServoCurveReport>,
 }
 
 impl From<&OptionResult> for OptionReport {
@@ -339,6 +391,7 @@ impl From<&OptionResult> for OptionReport {
                 .cross_load
                 .as_ref()
                 .map(|c| ValidationReport::new(c.load_kg, &c.validation)),
+            servo_curves: servo_curves(&r.identified),
         }
     }
 }
@@ -464,7 +517,7 @@ impl Report {
             text,
             REPORT_SCHEMA,
             REPORT_OLDEST_READ..=REPORT_SCHEMA_VERSION,
-            // Version 3 lacks only optional fields.
+            // Versions 3 and 4 lack only optional fields.
             |_, _| Ok(()),
         )
     }
@@ -541,6 +594,18 @@ mod tests {
         let report = Report::new("test arm".into(), poses.len(), LOAD_KG, 0.into(), [&r]);
         let validation = report.options[0].validation.as_ref().unwrap();
         assert_eq!(validation.per_pose.len(), validation.after.count);
+        assert!(validation.per_pose.iter().all(|p| p.xyz_mm.is_some()));
+        // Every fitted measurement, with its leave-one-out error.
+        let fit = &report.options[0].fit;
+        assert_eq!(
+            fit.per_pose.len(),
+            r.identified.diagnostics.loo_errors_m.len()
+        );
+        assert!(
+            fit.per_pose
+                .iter()
+                .all(|p| p.loo_mm >= p.after_mm - 1e-9 && p.before_mm > 0.0)
+        );
         assert_eq!(Report::parse(&report.to_json()).unwrap(), report);
 
         let mut json: serde_json::Value = serde_json::from_str(&report.to_json()).unwrap();
@@ -551,6 +616,14 @@ mod tests {
             .unwrap()
             .remove("per_pose");
         json.as_object_mut().unwrap().remove("registration");
+        json["options"][0]["fit"]
+            .as_object_mut()
+            .unwrap()
+            .remove("per_pose");
+        json["options"][0]
+            .as_object_mut()
+            .unwrap()
+            .remove("servo_curves");
         let old = Report::parse(&json.to_string()).unwrap();
         assert!(old.options[0].fit.loo_mean_mm.is_nan());
         assert!(
@@ -561,6 +634,7 @@ mod tests {
                 .per_pose
                 .is_empty()
         );
+        assert!(old.options[0].fit.per_pose.is_empty() && old.options[0].servo_curves.is_empty());
 
         json["schema"] = "lrmcal-calibration".into();
         let e = Report::parse(&json.to_string()).unwrap_err().to_string();

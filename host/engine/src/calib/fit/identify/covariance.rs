@@ -20,6 +20,8 @@ pub(super) struct Covariance {
     pub(super) condition: f64,
     /// One standard deviation per free parameter, in `free` order, SI units.
     pub(super) std: Vec<f64>,
+    /// The covariance of the free parameters, in `free` order, SI units.
+    pub(super) matrix: DMatrix<f64>,
     /// Mean leave-one-out error of the measurements, m.
     pub(super) loo_mean_m: f64,
     /// Each measurement's leave-one-out error, in the measurements' order, m.
@@ -54,32 +56,67 @@ pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (Ve
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
 /// with `s² = RSS / (3n − m)` of the weighted residual norms, and the
 /// leave-one-out error of the measurements ([`leave_one_out`]).
+///
+/// With a prior, `prior` is its rows' Jacobian with respect to `free`,
+/// scaled by the noise the fit weighed it against, `σ A`: `J` has these rows
+/// below its own, which makes `cov` the posterior covariance
+/// `σ² (JᵀJ + σ² AᵀA)⁻¹`, the hat matrix that of the regularised fit (the
+/// leave-one-out errors its), and `m` the parameters the measurements
+/// determine, `tr H` over the measurements' rows (each parameter counts
+/// as far as the measurements, not the prior, decide it).
 pub(super) fn covariance(
     data: &FitData,
     arm: &Rig,
     free: &[ParamKey],
     weights: &[f64],
     residuals: &[Vector3<f64>],
+    prior: Option<&DMatrix<f64>>,
 ) -> Result<Covariance, CalibError> {
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = data.weighted_jacobian(arm, free, &sqrt_w)?;
+    let j = super::stack_matrices(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
     let rss: f64 = residuals
         .iter()
         .zip(weights)
         .map(|(e, w)| w * e.norm_squared())
         .sum();
-    let dof = (3 * data.samples.len()).saturating_sub(free.len()).max(1);
-    let sigma_m = (rss / dof as f64).sqrt();
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
+    let rows = 3 * data.samples.len();
+    let dof = match (prior, svd.u.as_ref()) {
+        (Some(_), Some(u)) => {
+            let determined: f64 = u.rows(0, rows).iter().map(|v| v * v).sum();
+            (rows as f64 - determined).max(1.0)
+        }
+        _ => rows.saturating_sub(free.len()).max(1) as f64,
+    };
+    let sigma_m = (rss / dof).sqrt();
     let (loo_errors_m, loo_mean_m) = svd
         .u
         .as_ref()
         .map_or((Vec::new(), f64::NAN), |u| leave_one_out(u, residuals));
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
+    let m = free.len();
+    let matrix = match svd.v_t.as_ref() {
+        Some(vt) => {
+            // Vᵀ's rows divided by their singular values: cov = s² Wᵀ W.
+            let mut w = vt.clone();
+            for (i, s) in svd.singular_values.iter().enumerate() {
+                w.row_mut(i).unscale_mut(*s);
+            }
+            let mut cov = w.transpose() * w * (sigma_m * sigma_m);
+            for r in 0..m {
+                for c in 0..m {
+                    cov[(r, c)] *= scale.factors[r] * scale.factors[c];
+                }
+            }
+            cov
+        }
+        None => DMatrix::from_element(m, m, f64::NAN),
+    };
+    // The deviations: the roots of the diagonal, each summed over the singular values.
     let vt = svd.v_t.as_ref();
-    let std = (0..free.len())
+    let std = (0..m)
         .map(|c| {
             let var: f64 = vt
                 .map(|vt| {
@@ -97,6 +134,7 @@ pub(super) fn covariance(
         sigma_m,
         condition,
         std,
+        matrix,
         loo_mean_m,
         loo_errors_m,
     })

@@ -1,6 +1,8 @@
 //! Tests of `identify`.
 
 use super::*;
+use crate::calib::parameters::prior::{self, Prior};
+use crate::calib::parameters::servo_knots;
 use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
 use covariance::leave_one_out;
 use model::ParamId;
@@ -96,9 +98,11 @@ fn compliances_never_go_negative() {
 #[test]
 fn a_spent_round_budget_still_ends_inside_the_bounds() {
     let nominal = Rig::from(rigid_nominal());
+    // Least squares: a prior's noise would be reweighted over more rounds.
     let one_round = IdentifyOptions {
         robust: false,
         max_active_set_rounds: 1,
+        prior: false,
         ..Default::default()
     };
     let fit = identify(
@@ -135,7 +139,7 @@ fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
     params.fix(key("k4"), 0.0).unwrap();
     let arm = params.apply(&nominal);
     assert_eq!(
-        release_candidate(&data, &params, &arm, &sqrt_w),
+        release_candidate(&data, &params, &arm, &sqrt_w, 0.0),
         Some(key("k4"))
     );
     let sagging_up = upward_sag(&nominal);
@@ -146,7 +150,7 @@ fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
     }
     params.fix(key("k3"), 0.0).unwrap();
     assert_eq!(
-        release_candidate(&data, &params, &params.apply(&nominal), &sqrt_w),
+        release_candidate(&data, &params, &params.apply(&nominal), &sqrt_w, 0.0),
         None
     );
 }
@@ -168,7 +172,7 @@ fn covariance_matches_the_normal_equations() {
     let residuals = data.residuals(&arm).unwrap();
     let norms: Vec<f64> = residuals.iter().map(|r| r.norm()).collect();
     let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
-    let cov = covariance(&data, &arm, &keys, &weights, &residuals).unwrap();
+    let cov = covariance(&data, &arm, &keys, &weights, &residuals, None).unwrap();
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
     let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
@@ -274,6 +278,7 @@ fn an_unsolvable_trial_point_is_a_failed_step() {
         params: &params,
         free: keys.clone(),
         sqrt_w: &sqrt_w,
+        sigma: 0.0,
         x: DVector::zeros(keys.len()),
         failed_entry: 7.0,
         failed: std::cell::Cell::new(0),
@@ -361,7 +366,10 @@ fn too_few_and_rank_deficient_sets_are_refused() {
         &with_errors(&nominal, &all, &true_errors(1)).arm,
         &small_samples(20),
     );
-    let opts = IdentifyOptions::default();
+    let opts = IdentifyOptions {
+        prior: false,
+        ..Default::default()
+    };
     assert!(matches!(
         identify(
             &nominal,
@@ -372,7 +380,287 @@ fn too_few_and_rank_deficient_sets_are_refused() {
         ),
         Err(CalibError::TooFewPoses { params: 43, .. })
     ));
+    // Under a prior the compliances are determined whatever the poses: the
+    // geometry's 36 are what the poses must carry.
+    assert!(matches!(
+        identify(
+            &nominal,
+            ModelOption::ElastoKinematic,
+            &all,
+            &meas[..5],
+            &IdentifyOptions::default()
+        ),
+        Err(CalibError::TooFewPoses { params: 36, .. })
+    ));
     // All 43 include the tool rotation, which no position can reveal.
     let err = identify(&nominal, ModelOption::ElastoKinematic, &all, &meas, &opts).unwrap_err();
     assert!(matches!(err, CalibError::RankDeficient { .. }), "{err}");
+}
+
+/// `measurements` with a deterministic noise of about `size` m on each axis.
+fn noisy(mut measurements: Vec<Measurement>, size: f64) -> Vec<Measurement> {
+    for (k, m) in measurements.iter_mut().enumerate() {
+        let wobble = |a: usize, b: usize| size * (((k * a + b) % 7) as f64 - 3.0) / 2.0;
+        m.position += Vector3::new(wobble(3, 1), wobble(5, 2), wobble(2, 4));
+    }
+    measurements
+}
+
+/// Where the poses determine every parameter well, the prior weighs
+/// nothing beside them: the most probable fit is the least-squares one,
+/// with the same deviations and the same noise.
+#[test]
+fn a_prior_changes_nothing_the_poses_determine() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let truth = [0.1, 0.05, 0.08, 0.03, 0.02];
+    let meas = noisy(
+        measure(
+            &with_errors(&nominal, &keys, &truth).arm,
+            &small_samples(40),
+        ),
+        1e-4,
+    );
+    let plain = IdentifyOptions {
+        prior: false,
+        ..Default::default()
+    };
+    let ls = identify(&nominal, ModelOption::Elastic, &keys, &meas, &plain).unwrap();
+    let (map, evidence) = identify_scored(
+        &nominal,
+        &nominal,
+        ModelOption::Elastic,
+        &keys,
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    assert!(evidence.is_some_and(f64::is_finite));
+    for (a, b) in ls.estimates.iter().zip(&map.estimates) {
+        let (sa, sb) = (a.std.unwrap(), b.std.unwrap());
+        assert!(
+            (a.error - b.error).abs() < 0.05 * sa,
+            "{}: {} vs {} (std {sa})",
+            a.id,
+            a.error,
+            b.error
+        );
+        assert!((sa - sb).abs() < 0.02 * sa, "{}: std {sa} vs {sb}", a.id);
+    }
+    let (s_ls, s_map) = (ls.diagnostics.sigma_m, map.diagnostics.sigma_m);
+    assert!((s_ls - s_map).abs() < 0.02 * s_ls, "{s_ls} vs {s_map}");
+    assert!(
+        (ls.diagnostics.loo_mean_m - map.diagnostics.loo_mean_m).abs()
+            < 0.02 * ls.diagnostics.loo_mean_m
+    );
+}
+
+/// Joint 2 never above 0°: the knots of its curve at 25°, 50° and 75° move
+/// no measured point. Least squares cannot fit them; under the prior they
+/// stay near the arm file's curve, as smooth a continuation of what the
+/// poses see as the prior says, with deviations that say so (neither
+/// vanishing nor unbounded), while the knots the poses see are found.
+#[test]
+fn a_prior_holds_what_the_poses_do_not_see() {
+    use crate::calib::parameters::prior::SERVO_SD_DEG;
+    let nominal = Rig::from(rigid_nominal());
+    let mut samples = small_samples(30);
+    let qs: Vec<model::PerJoint<f64>> = samples
+        .iter()
+        .map(|s| {
+            let mut q = s.q;
+            q[1] = -q[1].abs();
+            q
+        })
+        .collect();
+    for ((s, q), a) in samples
+        .iter_mut()
+        .zip(&qs)
+        .zip(lrmcal_core::dataset::approaches(&qs))
+    {
+        s.q = *q;
+        s.approach = a;
+    }
+    // Knots 0..=7 of joint 2 every 25°, the one at +100° held.
+    let knots: Vec<ParamKey> = (0..8)
+        .map(|knot| ParamKey::ServoKnot { joint: 1, knot })
+        .collect();
+    let keys: Vec<ParamKey> = ["base.x", "base.y", "base.z", "j2.a"]
+        .map(key)
+        .into_iter()
+        .chain(knots.iter().copied())
+        .collect();
+    let start = servo_knots::fit_start(&nominal, &keys);
+    let seen = [0.010, -0.006, 0.004, 0.012, 0.008];
+    let unseen = [0.030, -0.030, 0.030];
+    let mut offsets = vec![0.0005, -0.0003, 0.0004, 0.0002];
+    offsets.extend(seen.iter().chain(&unseen));
+    let truth = with_errors(&start, &keys, &offsets);
+    let meas = noisy(crate::calib::testing::measure_rig(&truth, &samples), 1e-4);
+    let plain = IdentifyOptions {
+        prior: false,
+        ..Default::default()
+    };
+    assert!(matches!(
+        identify(
+            &nominal,
+            ModelOption::ElastoKinematicServo,
+            &keys,
+            &meas,
+            &plain
+        ),
+        Err(CalibError::RankDeficient { .. })
+    ));
+    let fit = identify(
+        &nominal,
+        ModelOption::ElastoKinematicServo,
+        &keys,
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    let sd = SERVO_SD_DEG.to_radians();
+    let estimate = |k: ParamKey| fit.estimates.iter().find(|e| e.id == k).copied().unwrap();
+    for (k, t) in knots[..5].iter().zip(seen) {
+        let e = estimate(*k);
+        assert!((e.error - t).abs() < 0.1 * sd, "{k}: {} vs {t}", e.error);
+    }
+    for k in &knots[5..] {
+        let e = estimate(*k);
+        let std = e.std.unwrap();
+        assert!(e.error.abs() < 2.0 * sd, "{k}: {}", e.error);
+        // The smooth curve between 0° (seen) and +100° (held) pins the
+        // middle more than either end, never to nothing.
+        assert!(std > 0.05 * sd && std < 2.0 * sd, "{k}: std {std}");
+    }
+    assert!(fit.diagnostics.sigma_m < 3e-4, "{:?}", fit.diagnostics);
+}
+
+/// Under a prior the covariance is the posterior's, `s² (JᵀJ + PᵀP)⁻¹`
+/// (`P` the prior's rows scaled by the noise), and `s²` counts as
+/// parameters only what the measurements determine, `tr H`.
+#[test]
+fn the_posterior_covariance_matches_the_regularised_normal_equations() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let meas = noisy(
+        measure(
+            &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+            &small_samples(6),
+        ),
+        2e-4,
+    );
+    let data = fit_data(&nominal, &meas);
+    let arm = nominal.clone();
+    let residuals = data.residuals(&arm).unwrap();
+    let weights = vec![1.0; meas.len()];
+    let prior = Prior::new(&nominal, &nominal, &keys, prior::SERVO_CORRELATION_DEG).unwrap();
+    let sigma = 3e-3;
+    let p = prior.columns(&[0, 1, 2, 3, 4]) * sigma;
+    let cov = covariance(&data, &arm, &keys, &weights, &residuals, Some(&p)).unwrap();
+    let j = data.weighted_jacobian(&arm, &keys, &weights).unwrap();
+    let normal = (j.transpose() * &j + p.transpose() * &p)
+        .try_inverse()
+        .unwrap();
+    let determined = (&j * &normal * j.transpose()).trace();
+    assert!(
+        determined > 0.0 && determined < keys.len() as f64,
+        "{determined}"
+    );
+    let rss: f64 = residuals.iter().map(|r| r.norm_squared()).sum();
+    let s2 = rss / (3.0 * meas.len() as f64 - determined);
+    assert!((cov.sigma_m - s2.sqrt()).abs() < 1e-9 * s2.sqrt());
+    for c in 0..keys.len() {
+        let expected = (normal[(c, c)] * s2).sqrt();
+        assert!(
+            (cov.std[c] - expected).abs() < 1e-8 * expected,
+            "{}: {} vs {expected}",
+            keys[c],
+            cov.std[c]
+        );
+        assert!((cov.matrix[(c, c)].sqrt() - expected).abs() < 1e-8 * expected);
+    }
+}
+
+/// The leave-one-out errors of a regularised linear fit from its hat
+/// matrix equal those of refitting, prior kept, without each measurement.
+#[test]
+fn regularised_leave_one_out_equals_refitting_without_each_measurement() {
+    let (n, m) = (4, 6);
+    let j = DMatrix::from_fn(3 * n, m, |r, c| {
+        ((r * 7 + c * 13) % 11) as f64 - 5.0 + 0.1 * c as f64
+    });
+    let p = DMatrix::from_fn(m, m, |r, c| if r == c { 0.5 + 0.1 * r as f64 } else { 0.0 });
+    let y = DVector::from_fn(3 * n, |r, _| ((r * 5) % 9) as f64 * 0.3 - 1.0);
+    let fit = |rows: &[usize]| {
+        let a = j.select_rows(rows);
+        let b = y.select_rows(rows);
+        (a.transpose() * &a + p.transpose() * &p)
+            .try_inverse()
+            .unwrap()
+            * a.transpose()
+            * b
+    };
+    let all: Vec<usize> = (0..3 * n).collect();
+    let r = &y - &j * fit(&all);
+    let residuals: Vec<Vector3<f64>> = (0..n)
+        .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]))
+        .collect();
+    let u = stack_matrices(j.clone(), Some(p.clone()))
+        .svd(true, false)
+        .u
+        .unwrap();
+    let (each, _) = leave_one_out(&u, &residuals);
+    for (k, e) in each.iter().enumerate() {
+        let rest: Vec<usize> = all.iter().copied().filter(|i| i / 3 != k).collect();
+        let refitted = (y.rows(3 * k, 3) - j.rows(3 * k, 3) * fit(&rest)).norm();
+        assert!((e - refitted).abs() < 1e-9 * refitted, "{e} vs {refitted}");
+    }
+}
+
+/// The evidence tells how smooth a servo's error is: measurements of a
+/// curve that bends gently are more probable under the smoother prior,
+/// those of one that zigzags from knot to knot under the rougher one.
+#[test]
+fn the_evidence_prefers_the_smoothness_the_curve_has() {
+    let nominal = Rig::from(rigid_nominal());
+    let knots: Vec<ParamKey> = (0..8)
+        .map(|knot| ParamKey::ServoKnot { joint: 1, knot })
+        .collect();
+    let keys: Vec<ParamKey> = ["base.x", "base.y", "base.z"]
+        .map(key)
+        .into_iter()
+        .chain(knots.iter().copied())
+        .collect();
+    let start = servo_knots::fit_start(&nominal, &keys);
+    let angle = |k: usize| (k as f64 - 4.0) * 25f64.to_radians();
+    let evidence = |error: &dyn Fn(usize) -> f64, correlation_deg: f64| {
+        // Each knot's error less the held one's at +100°.
+        let mut offsets = vec![0.0; 3];
+        offsets.extend((0..8).map(|k| error(k) - error(8)));
+        let truth = with_errors(&start, &keys, &offsets);
+        let meas = noisy(
+            crate::calib::testing::measure_rig(&truth, &small_samples(40)),
+            1e-4,
+        );
+        let options = IdentifyOptions {
+            servo_correlation_deg: correlation_deg,
+            ..Default::default()
+        };
+        identify_scored(
+            &nominal,
+            &nominal,
+            ModelOption::ElastoKinematicServo,
+            &keys,
+            &meas,
+            &options,
+        )
+        .unwrap()
+        .1
+        .unwrap()
+    };
+    let gentle = |k: usize| 0.02 * (0.8 * angle(k)).sin();
+    let zigzag = |k: usize| if k.is_multiple_of(2) { 0.02 } else { -0.02 };
+    assert!(evidence(&gentle, 100.0) > evidence(&gentle, 25.0));
+    assert!(evidence(&zigzag, 25.0) > evidence(&zigzag, 100.0));
 }
