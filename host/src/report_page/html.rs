@@ -22,9 +22,9 @@ pub fn escape(text: &str) -> String {
     out
 }
 
-/// A table with an id, a caption, a header row and body rows; every cell
-/// and the caption are escaped here.
-pub fn table(id: &str, caption: &str, head: &[&str], rows: &[Vec<String>]) -> String {
+/// The opening of a table with an id, a caption and a header row, escaped,
+/// up to its body.
+fn table_head(id: &str, caption: &str, head: &[&str]) -> String {
     let mut out = format!(
         "<table id=\"{}\">\n<caption>{}</caption>\n<thead><tr>",
         escape(id),
@@ -33,7 +33,15 @@ pub fn table(id: &str, caption: &str, head: &[&str], rows: &[Vec<String>]) -> St
     for h in head {
         let _ = write!(out, "<th scope=\"col\">{}</th>", escape(h));
     }
-    out.push_str("</tr></thead>\n<tbody>\n");
+    out.push_str("</tr></thead>\n");
+    out
+}
+
+/// A table with an id, a caption, a header row and body rows; every cell
+/// and the caption are escaped here.
+pub fn table(id: &str, caption: &str, head: &[&str], rows: &[Vec<String>]) -> String {
+    let mut out = table_head(id, caption, head);
+    out.push_str("<tbody>\n");
     for row in rows {
         out.push_str("<tr>");
         for cell in row {
@@ -54,15 +62,7 @@ pub fn grouped_table(
     head: &[&str],
     groups: &[(String, Vec<Vec<String>>)],
 ) -> String {
-    let mut out = format!(
-        "<table id=\"{}\">\n<caption>{}</caption>\n<thead><tr>",
-        escape(id),
-        escape(caption)
-    );
-    for h in head {
-        let _ = write!(out, "<th scope=\"col\">{}</th>", escape(h));
-    }
-    out.push_str("</tr></thead>\n");
+    let mut out = table_head(id, caption, head);
     for (name, rows) in groups {
         let _ = write!(
             out,

@@ -85,8 +85,9 @@
 //! Gaussian residual exceeds 4.5 σ with probability 5e-4).
 
 use levenberg_marquardt::{LeastSquaresProblem, LevenbergMarquardt, TerminationReason};
+use nalgebra::allocator::Reallocator;
 use nalgebra::storage::Owned;
-use nalgebra::{DMatrix, DVector, Dyn, Vector3};
+use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, Vector3};
 
 use crate::calib::analysis::identifiability::check_full_rank;
 use crate::calib::analysis::jacobian::jacobian;
@@ -435,7 +436,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             .data
             .prior_residuals(self.params, self.x.as_slice(), self.sigma);
         match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
-            Some(r) => Some(stack_rows(r, prior)),
+            Some(r) => Some(stack(r, prior)),
             None => {
                 // A failed step, not the end of the fit (module docs).
                 self.failed.set(self.failed.get() + 1);
@@ -450,7 +451,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             .data
             .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
             .ok()?;
-        Some(stack_matrices(
+        Some(stack(
             j,
             self.data.prior_jacobian(self.params, false, self.sigma),
         ))
@@ -469,29 +470,23 @@ struct Tally {
     converged: bool,
 }
 
-/// `r` with the prior's rows below it, if any.
-fn stack_rows(r: DVector<f64>, prior: Option<DVector<f64>>) -> DVector<f64> {
+/// `top` (the measurements' residuals, or their Jacobian) with the prior's
+/// rows below it, if any.
+fn stack<C: Dim>(
+    top: OMatrix<f64, Dyn, C>,
+    prior: Option<OMatrix<f64, Dyn, C>>,
+) -> OMatrix<f64, Dyn, C>
+where
+    DefaultAllocator: Reallocator<f64, Dyn, C, Dyn, C>,
+{
     match prior {
         Some(p) => {
-            let rows = r.len();
-            let mut out = r.resize_vertically(rows + p.len(), 0.0);
-            out.rows_mut(rows, p.len()).copy_from(&p);
-            out
-        }
-        None => r,
-    }
-}
-
-/// `j` with the prior's rows below it, if any.
-fn stack_matrices(j: DMatrix<f64>, prior: Option<DMatrix<f64>>) -> DMatrix<f64> {
-    match prior {
-        Some(p) => {
-            let rows = j.nrows();
-            let mut out = j.resize_vertically(rows + p.nrows(), 0.0);
+            let rows = top.nrows();
+            let mut out = top.resize_vertically(rows + p.nrows(), 0.0);
             out.rows_mut(rows, p.nrows()).copy_from(&p);
             out
         }
-        None => j,
+        None => top,
     }
 }
 
@@ -594,11 +589,11 @@ fn release_candidate(
         return None;
     }
     // The prior's rows count in the cost like the measurements'.
-    let r = stack_rows(
+    let r = stack(
         data.weighted_residuals(arm, sqrt_w)?,
         data.prior_residuals(params, &params.free_errors(), sigma),
     );
-    let jf = stack_matrices(
+    let jf = stack(
         data.weighted_jacobian(arm, &fixed, sqrt_w).ok()?,
         data.prior_jacobian(params, true, sigma),
     );
@@ -931,7 +926,7 @@ fn log_evidence(
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let keys: Vec<ParamKey> = params.iter().map(|p| p.key).collect();
     let all: Vec<usize> = (0..keys.len()).collect();
-    let j = stack_matrices(
+    let j = stack(
         data.weighted_jacobian(rig, &keys, &sqrt_w)?,
         Some(prior.columns(&all) * sigma),
     );

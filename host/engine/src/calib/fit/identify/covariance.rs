@@ -73,7 +73,7 @@ pub(super) fn covariance(
     prior: Option<&DMatrix<f64>>,
 ) -> Result<Covariance, CalibError> {
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = super::stack_matrices(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
+    let j = super::stack(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
     let rss: f64 = residuals
         .iter()
         .zip(weights)

@@ -606,7 +606,7 @@ fn regularised_leave_one_out_equals_refitting_without_each_measurement() {
     let residuals: Vec<Vector3<f64>> = (0..n)
         .map(|k| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]))
         .collect();
-    let u = stack_matrices(j.clone(), Some(p.clone()))
+    let u = stack(j.clone(), Some(p.clone()))
         .svd(true, false)
         .u
         .unwrap();
