@@ -160,7 +160,7 @@ fn identify_calibrates_the_bundled_so101_as_its_urdf() {
     assert!(moved > 1e-5, "{moved}");
     assert_same_geometry(&from_toml.arm, &from_urdf.arm, 1e-9, "the two calibrations");
     let names = |f: &CalibrationFile| -> Vec<String> {
-        f.parameters.iter().map(|q| q.name.clone()).collect()
+        f.parameters.iter().map(|q| q.name.to_string()).collect()
     };
     assert_eq!(names(&from_toml), names(&from_urdf));
     assert_eq!(from_toml.removed, from_urdf.removed);

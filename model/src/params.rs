@@ -230,6 +230,21 @@ impl ParamId {
         }
     }
 
+    /// The parameter that corrects `part`, if the table has one (joints
+    /// past [`MAX_JOINTS`], fields past 4 and axes past 5 have none).
+    pub fn from_part(part: ParamPart) -> Option<Self> {
+        let index = match part {
+            ParamPart::Dh { joint, field } if joint < MAX_JOINTS && field < 4 => 4 * joint + field,
+            ParamPart::Dh { joint, field: 4 } if joint < MAX_JOINTS => BETA + joint,
+            ParamPart::Base { axis } if axis < 6 => BASE + axis,
+            ParamPart::Tool { axis } if axis < 6 => TOOL + axis,
+            ParamPart::Compliance { joint } if joint < MAX_JOINTS => SPRINGS + joint,
+            ParamPart::BaseCompliance => K0,
+            _ => return None,
+        };
+        Self::from_index(index)
+    }
+
     /// Whether an arm of `joints` joints has this parameter.
     pub fn fits(self, joints: usize) -> bool {
         self.joint().is_none_or(|j| j < joints)
@@ -319,6 +334,7 @@ impl<T: Real> Arm<T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::format;
 
     #[test]
     fn names_round_trip_and_are_unique() {
@@ -340,6 +356,41 @@ mod tests {
         assert_eq!(beta.part(), ParamPart::Dh { joint: 2, field: 4 });
         assert!(beta.fits(3) && !beta.fits(2) && beta.is_geometric());
         assert!(ParamId::all(MAX_JOINTS).all(|id| id != beta));
+    }
+
+    #[test]
+    fn parts_and_ids_are_one_to_one() {
+        let every = (0..IDS).map(|i| ParamId::from_index(i).unwrap());
+        for id in every {
+            assert_eq!(ParamId::from_part(id.part()), Some(id), "{id}");
+        }
+        assert_eq!(
+            ParamId::from_part(ParamPart::Base { axis: 4 }).map(ParamId::name),
+            Some("base.pitch")
+        );
+        assert_eq!(ParamId::from_part(ParamPart::Tool { axis: 6 }), None);
+        assert_eq!(
+            ParamId::from_part(ParamPart::Compliance { joint: MAX_JOINTS }),
+            None
+        );
+    }
+
+    #[test]
+    fn each_name_says_its_part() {
+        // The table of names is written out once; this holds it to the parts.
+        let axes = ["x", "y", "z", "roll", "pitch", "yaw"];
+        let fields = ["theta", "d", "a", "alpha", "beta"];
+        for i in 0..IDS {
+            let id = ParamId::from_index(i).unwrap();
+            let said = match id.part() {
+                ParamPart::Dh { joint, field } => format!("j{}.{}", joint + 1, fields[field]),
+                ParamPart::Base { axis } => format!("base.{}", axes[axis]),
+                ParamPart::Tool { axis } => format!("tool.{}", axes[axis]),
+                ParamPart::Compliance { joint } => format!("k{}", joint + 1),
+                ParamPart::BaseCompliance => "k0".into(),
+            };
+            assert_eq!(id.name(), said);
+        }
     }
 
     #[test]

@@ -8,9 +8,11 @@
 use std::borrow::Cow;
 use std::fmt;
 
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
 use model::ParamId;
 use model::bounds::{Bounds, FIT_MARGIN, Quantity};
-use model::params::ParamKind;
+use model::params::{ParamKind, ParamPart};
 
 /// A quantity the calibration may correct.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -109,7 +111,8 @@ impl ParamKey {
     /// the arm's `tool.x/y/z` for target 0. `None` past the last axis or key.
     pub fn tool(target: usize, axis: usize) -> Option<Self> {
         match target {
-            0 => ParamId::from_name(["tool.x", "tool.y", "tool.z"].get(axis)?).map(Self::Arm),
+            0 if axis < 3 => ParamId::from_part(ParamPart::Tool { axis }).map(Self::Arm),
+            0 => None,
             _ => Some(Self::TargetTool {
                 target: u8::try_from(target).ok()?,
                 axis: u8::try_from(axis).ok().filter(|a| *a < 3)?,
@@ -125,6 +128,16 @@ impl ParamKey {
             Self::ServoKnot { joint, .. } | Self::Backlash { joint } => Some(joint.into()),
             Self::Softening { spring } => usize::from(spring).checked_sub(1),
             Self::TargetTool { .. } => None,
+        }
+    }
+
+    /// Whether this is a coordinate of the tool: the arm's tool frame or a
+    /// further target's tool point.
+    pub fn is_tool(self) -> bool {
+        match self {
+            Self::Arm(id) => matches!(id.part(), ParamPart::Tool { .. }),
+            Self::TargetTool { .. } => true,
+            _ => false,
         }
     }
 
@@ -147,11 +160,14 @@ impl ParamKey {
     /// The arm's bounded quantity ([`model::bounds`]) this key corrects, if it is one.
     pub fn quantity(self) -> Option<Quantity> {
         match self {
-            Self::Arm(id) if id.kind() == ParamKind::Compliance => {
-                // k0 is the base's spring, k1..kn the joints'.
-                let spring = id.name().strip_prefix('k')?.parse::<u8>().ok()?;
-                Some(Quantity::Compliance { spring })
-            }
+            // k0 is the base's spring, k1..kn the joints'.
+            Self::Arm(id) => match id.part() {
+                ParamPart::BaseCompliance => Some(Quantity::Compliance { spring: 0 }),
+                ParamPart::Compliance { joint } => Some(Quantity::Compliance {
+                    spring: u8::try_from(joint + 1).ok()?,
+                }),
+                _ => None,
+            },
             Self::Softening { spring } => Some(Quantity::Softening { spring }),
             Self::Backlash { joint } => Some(Quantity::Backlash { joint }),
             _ => None,
@@ -181,6 +197,28 @@ impl From<ParamId> for ParamKey {
 impl fmt::Display for ParamKey {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(&self.name())
+    }
+}
+
+/// Files write a key by its [`ParamKey::name`].
+impl Serialize for ParamKey {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        serializer.serialize_str(&self.name())
+    }
+}
+
+/// A key is read from its [`ParamKey::name`]; any other text is refused,
+/// naming what was found.
+impl<'de> Deserialize<'de> for ParamKey {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Self::from_name(&name).ok_or_else(|| {
+            serde::de::Error::custom(format!(
+                "expected a parameter name (j1.theta … j10.beta, base.x … tool.yaw, k0 … k10, \
+                 s0 … s10, j1.servo[1] … j10.servo[9], j1.backlash … j10.backlash, tool[N].x … \
+                 tool[N].z), found `{name}`"
+            ))
+        })
     }
 }
 
@@ -236,6 +274,38 @@ mod tests {
         ] {
             assert_eq!(servo_knot_from_name(bad), None, "{bad}");
         }
+    }
+
+    #[test]
+    fn keys_are_written_and_read_as_their_names() {
+        let keys = [
+            "j3.d",
+            "k0",
+            "s2",
+            "tool[2].x",
+            "j3.servo[5]",
+            "j3.backlash",
+        ]
+        .map(|n| ParamKey::from_name(n).unwrap());
+        let json = serde_json::to_string(&keys).unwrap();
+        assert_eq!(
+            json,
+            r#"["j3.d","k0","s2","tool[2].x","j3.servo[5]","j3.backlash"]"#
+        );
+        assert_eq!(serde_json::from_str::<Vec<ParamKey>>(&json).unwrap(), keys);
+        let e = serde_json::from_str::<ParamKey>(r#""j3.dd""#).unwrap_err();
+        assert!(e.to_string().contains("found `j3.dd`"), "{e}");
+    }
+
+    #[test]
+    fn compliances_and_tool_axes_are_found_by_part() {
+        let k = |n| ParamKey::from_name(n).unwrap();
+        assert_eq!(k("k0").quantity(), Some(Quantity::Compliance { spring: 0 }));
+        assert_eq!(k("k4").quantity(), Some(Quantity::Compliance { spring: 4 }));
+        assert_eq!(k("j2.a").quantity(), None);
+        assert_eq!(ParamKey::tool(0, 2), Some(k("tool.z")));
+        assert_eq!(ParamKey::tool(0, 3), None);
+        assert_eq!(ParamKey::tool(2, 0), Some(k("tool[2].x")));
     }
 
     #[test]

@@ -199,31 +199,31 @@ fn nothing_held_out(report: &Report) -> Vec<String> {
 /// and a servo curve's knots joint by joint, with the poses that would
 /// determine them; the others together.
 fn poorly_determined(report: &Report) -> Vec<String> {
-    let mut names: Vec<&str> = Vec::new();
-    for name in judged(report).into_iter().flat_map(|o| &o.fit.weak) {
-        if !names.contains(&name.as_str()) {
-            names.push(name);
+    let mut keys: Vec<ParamKey> = Vec::new();
+    for key in judged(report).into_iter().flat_map(|o| &o.fit.weak) {
+        if !keys.contains(key) {
+            keys.push(*key);
         }
     }
     let mut out = Vec::new();
     // Per joint (from 0), the knot angles, degrees.
     let mut knots: Vec<(u8, Vec<f64>)> = Vec::new();
     let mut others = Vec::new();
-    for name in names {
-        match ParamKey::from_name(name) {
-            Some(ParamKey::Backlash { joint }) => out.push(format!(
-                "Joint {}'s play ({name}) is poorly determined: add poses that reverse joint {} (reach its angles from both directions).",
+    for key in keys {
+        match key {
+            ParamKey::Backlash { joint } => out.push(format!(
+                "Joint {}'s play ({key}) is poorly determined: add poses that reverse joint {} (reach its angles from both directions).",
                 joint + 1,
                 joint + 1
             )),
-            Some(ParamKey::ServoKnot { joint, knot }) => {
+            ParamKey::ServoKnot { joint, knot } => {
                 let deg = -100.0 + FINEST_SPACING_DEG * f64::from(knot);
                 match knots.iter_mut().find(|(j, _)| *j == joint) {
                     Some((_, angles)) => angles.push(deg),
                     None => knots.push((joint, vec![deg])),
                 }
             }
-            _ => others.push(name),
+            _ => others.push(key.to_string()),
         }
     }
     out.extend(knots.into_iter().map(|(joint, angles)| {
@@ -257,7 +257,7 @@ fn springs_at_bound(report: &Report) -> Vec<String> {
     judged(report)
         .into_iter()
         .filter_map(|o| {
-            let at_ceiling: Vec<&str> = o
+            let at_ceiling: Vec<String> = o
                 .fit
                 .at_bound
                 .iter()
@@ -265,7 +265,7 @@ fn springs_at_bound(report: &Report) -> Vec<String> {
                     let fitted = o.fit.parameters.iter().find(|p| &p.name == *name);
                     fitted.is_none_or(|p| p.value != 0.0)
                 })
-                .map(String::as_str)
+                .map(ParamKey::to_string)
                 .collect();
             (!at_ceiling.is_empty()).then(|| {
                 format!(
@@ -416,12 +416,12 @@ mod tests {
     fn weak_parameters_say_which_poses_would_determine_them() {
         let mut report = fixture::report();
         report.options[0].fit.weak = vec![
-            "j6.backlash".into(),
-            "j3.servo[7]".into(),
-            "j5.servo[1]".into(),
-            "j5.servo[9]".into(),
-            "k2".into(),
-            "j2.d".into(),
+            fixture::key("j6.backlash"),
+            fixture::key("j3.servo[7]"),
+            fixture::key("j5.servo[1]"),
+            fixture::key("j5.servo[9]"),
+            fixture::key("k2"),
+            fixture::key("j2.d"),
         ];
         let a = poorly_determined(&report);
         assert_eq!(a.len(), 4, "{a:?}");
@@ -454,9 +454,9 @@ mod tests {
         let mut report = fixture::report();
         // j6.backlash held at zero (no play) says nothing; k2 at its ceiling does.
         report.options[0].fit.parameters[2].value = 0.0;
-        report.options[0].fit.at_bound = vec!["j6.backlash".into()];
+        report.options[0].fit.at_bound = vec![fixture::key("j6.backlash")];
         assert!(springs_at_bound(&report).is_empty());
-        report.options[0].fit.at_bound.push("k2".into());
+        report.options[0].fit.at_bound.push(fixture::key("k2"));
         assert_eq!(
             springs_at_bound(&report),
             [
@@ -502,7 +502,7 @@ mod tests {
         let mut poor = report.options[0].clone();
         poor.option = lrmcal_engine::calib::ModelOption::Kinematic;
         poor.validation.as_mut().unwrap().after.mean_m = 0.03;
-        poor.fit.weak = vec!["j2.d".into()];
+        poor.fit.weak = vec![fixture::key("j2.d")];
         poor.fit.outliers = (0..20)
             .map(|pose| OutlierReport {
                 pose,

@@ -2,8 +2,14 @@
 //! 6 poses and validated on 4, with nothing suspect, joint 2's servo curve
 //! identified; each test changes what its rule or section looks at.
 
+use lrmcal_engine::calib::ParamKey;
 use lrmcal_engine::calib::results::report::Report;
 use serde_json::json;
+
+/// The parameter called `name`.
+pub fn key(name: &str) -> ParamKey {
+    ParamKey::from_name(name).expect("a parameter name")
+}
 
 /// Error statistics with `mean` and `rms` (mm) over `count` measurements.
 fn stats(count: usize, mean_mm: f64, rms_mm: f64) -> serde_json::Value {

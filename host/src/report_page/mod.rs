@@ -412,7 +412,7 @@ mod tests {
             "{table}"
         );
         let mut weak = fixture::report();
-        weak.options[0].fit.weak = vec!["k2".into()];
+        weak.options[0].fit.weak = vec![fixture::key("k2")];
         assert!(page(&weak).contains("<td>k2</td><td>+0.1146</td><td>0.11459</td><td>±\u{a0}0.0057</td><td>°/(N·m)</td><td>fitted, poorly determined</td>"));
     }
 

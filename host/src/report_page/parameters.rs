@@ -7,22 +7,22 @@
 use lrmcal_core::io::calibration_file::FittedParam;
 use lrmcal_engine::calib::ParamKey;
 use lrmcal_engine::calib::results::report::{OptionReport, Report};
-use model::params::ParamKind;
+use model::ParamId;
+use model::params::{ParamKind, ParamPart};
 
 use super::html::{grouped_table, para, table};
 use super::sections::{per_option, title};
 
 /// A parameter's unit on the page and the factor from its SI value.
-fn unit(name: &str) -> (&'static str, f64) {
+fn unit(key: ParamKey) -> (&'static str, f64) {
     let degrees = 1f64.to_degrees();
-    match ParamKey::from_name(name) {
-        Some(ParamKey::Softening { .. }) => ("1/(N·m)", 1.0),
-        Some(key) => match key.kind() {
+    match key {
+        ParamKey::Softening { .. } => ("1/(N·m)", 1.0),
+        key => match key.kind() {
             ParamKind::Length => ("mm", 1e3),
             ParamKind::Angle => ("°", degrees),
             ParamKind::Compliance => ("°/(N·m)", degrees),
         },
-        None => ("SI", 1.0),
     }
 }
 
@@ -45,14 +45,15 @@ pub fn significant(x: f64, digits: i32) -> String {
 
 /// Where a parameter belongs: `base` (its placement and spring), `joint
 /// N`, `tool` (the tool points), or `other`; with its order on the page.
-fn group(name: &str) -> (usize, String) {
-    if name.starts_with("tool") {
+fn group(key: ParamKey) -> (usize, String) {
+    if key.is_tool() {
         return (usize::MAX - 1, "tool".into());
     }
-    match ParamKey::from_name(name).and_then(ParamKey::joint) {
+    match key.joint() {
         Some(j) => (j + 1, format!("joint {}", j + 1)),
-        None if name.starts_with("base") || name == "k0" || name == "s0" => (0, "base".into()),
-        None => (usize::MAX, "other".into()),
+        // What belongs to no joint and no tool is the base's: its placement,
+        // its spring `k0` and that spring's softening `s0`.
+        None => (0, "base".into()),
     }
 }
 
@@ -60,7 +61,7 @@ fn group(name: &str) -> (usize, String) {
 /// unit, the unit, and its status.
 fn fitted_row(o: &OptionReport, p: &FittedParam) -> Vec<String> {
     let f = &o.fit;
-    let (unit, factor) = unit(&p.name);
+    let (unit, factor) = unit(p.name);
     let status = if p.std.is_none() || f.at_bound.contains(&p.name) {
         "held at its bound"
     } else if f.weak.contains(&p.name) {
@@ -69,7 +70,7 @@ fn fitted_row(o: &OptionReport, p: &FittedParam) -> Vec<String> {
         "fitted"
     };
     vec![
-        p.name.clone(),
+        p.name.to_string(),
         format!(
             "{}{}",
             if p.error >= 0.0 { "+" } else { "" },
@@ -97,7 +98,7 @@ pub fn parameters(report: &Report) -> String {
             .parameters
             .iter()
             .map(|p| {
-                let (order, name) = group(&p.name);
+                let (order, name) = group(p.name);
                 (order, name, fitted_row(o, p))
             })
             .collect();
@@ -107,16 +108,16 @@ pub fn parameters(report: &Report) -> String {
                 .iter()
                 .filter(|r| !f.parameters.iter().any(|p| p.name == r.name))
                 .map(|r| {
-                    let (order, name) = group(&r.name);
+                    let (order, name) = group(r.name);
                     (
                         order,
                         name,
                         vec![
-                            r.name.clone(),
+                            r.name.to_string(),
                             "0".into(),
                             "nominal".into(),
                             "–".into(),
-                            unit(&r.name).0.into(),
+                            unit(r.name).0.into(),
                             format!("held at nominal: {}", r.explain()),
                         ],
                     )
@@ -141,12 +142,12 @@ pub fn parameters(report: &Report) -> String {
     out
 }
 
-/// A parameter of `o` by name, as `value ± std` in its unit, or `–`.
-fn shown(o: &OptionReport, name: &str) -> String {
-    let Some(p) = o.fit.parameters.iter().find(|p| p.name == name) else {
+/// Parameter `key` of `o`, as `value ± std` in its unit, or `–`.
+fn shown(o: &OptionReport, key: Option<ParamKey>) -> String {
+    let Some(p) = o.fit.parameters.iter().find(|p| Some(p.name) == key) else {
         return "–".into();
     };
-    let (_, factor) = unit(name);
+    let (_, factor) = unit(p.name);
     let mut text = significant(p.value * factor, 4);
     match p.std {
         Some(s) => text.push_str(&format!(" ±\u{a0}{}", significant(s * factor, 2))),
@@ -169,9 +170,9 @@ pub fn mechanics(report: &Report) -> String {
                 .iter()
                 .any(|p| {
                     matches!(
-                        ParamKey::from_name(&p.name),
-                        Some(ParamKey::Backlash { .. } | ParamKey::Softening { .. })
-                    ) || unit(&p.name).0 == "°/(N·m)"
+                        p.name,
+                        ParamKey::Backlash { .. } | ParamKey::Softening { .. }
+                    ) || p.name.kind() == ParamKind::Compliance
                 })
                 .then_some(o)
         },
@@ -181,20 +182,31 @@ pub fn mechanics(report: &Report) -> String {
                 .fit
                 .parameters
                 .iter()
-                .filter_map(|p| ParamKey::from_name(&p.name)?.joint())
+                .filter_map(|p| p.name.joint())
                 .max()
                 .map_or(0, |j| j + 1);
-            let row = |label: String, play: String, k: &str, s: &str| {
-                vec![label, play, shown(o, k), shown(o, s)]
+            // Spring 0 is the base's, spring j + 1 joint j's.
+            let spring = |spring: usize| {
+                let compliance = match spring.checked_sub(1) {
+                    None => ParamPart::BaseCompliance,
+                    Some(joint) => ParamPart::Compliance { joint },
+                };
+                [
+                    ParamId::from_part(compliance).map(ParamKey::Arm),
+                    u8::try_from(spring)
+                        .ok()
+                        .map(|spring| ParamKey::Softening { spring }),
+                ]
+                .map(|key| shown(o, key))
             };
-            let mut rows = vec![row("base".into(), "–".into(), "k0", "s0")];
+            let [k, s] = spring(0);
+            let mut rows = vec![vec!["base".into(), "–".into(), k, s]];
             rows.extend((1..=joints).map(|j| {
-                row(
-                    format!("joint {j}"),
-                    shown(o, &format!("j{j}.backlash")),
-                    &format!("k{j}"),
-                    &format!("s{j}"),
-                )
+                let play = u8::try_from(j - 1)
+                    .ok()
+                    .map(|joint| ParamKey::Backlash { joint });
+                let [k, s] = spring(j);
+                vec![format!("joint {j}"), shown(o, play), k, s]
             }));
             rows.retain(|r| r[1..].iter().any(|c| c != "–"));
             table(
@@ -217,6 +229,7 @@ pub fn mechanics(report: &Report) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::super::fixture::key;
     use super::*;
 
     #[test]
@@ -231,16 +244,16 @@ mod tests {
 
     #[test]
     fn units_are_a_person_s() {
-        assert_eq!(unit("j2.d"), ("mm", 1e3));
-        assert_eq!(unit("tool[2].x").0, "mm");
-        assert_eq!(unit("j3.servo[5]").0, "°");
-        assert_eq!(unit("j6.backlash").0, "°");
-        assert_eq!(unit("k2").0, "°/(N·m)");
-        assert_eq!(unit("s2").0, "1/(N·m)");
-        assert_eq!(group("k2"), (2, "joint 2".into()));
-        assert_eq!(group("base.yaw"), (0, "base".into()));
-        assert_eq!(group("k0"), (0, "base".into()));
-        assert_eq!(group("tool[1].z").1, "tool");
-        assert_eq!(group("j3.servo[5]").1, "joint 3");
+        assert_eq!(unit(key("j2.d")), ("mm", 1e3));
+        assert_eq!(unit(key("tool[2].x")).0, "mm");
+        assert_eq!(unit(key("j3.servo[5]")).0, "°");
+        assert_eq!(unit(key("j6.backlash")).0, "°");
+        assert_eq!(unit(key("k2")).0, "°/(N·m)");
+        assert_eq!(unit(key("s2")).0, "1/(N·m)");
+        assert_eq!(group(key("k2")), (2, "joint 2".into()));
+        assert_eq!(group(key("base.yaw")), (0, "base".into()));
+        assert_eq!(group(key("k0")), (0, "base".into()));
+        assert_eq!(group(key("tool[1].z")).1, "tool");
+        assert_eq!(group(key("j3.servo[5]")).1, "joint 3");
     }
 }

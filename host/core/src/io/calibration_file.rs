@@ -26,6 +26,7 @@
 use std::path::Path;
 
 use crate::param_key::ParamKey;
+use model::params::ParamPart;
 use model::{Arm, Frame, ParamId, ServoCurve};
 use protocol::ModelOption;
 use serde::{Deserialize, Serialize};
@@ -83,8 +84,8 @@ fn upgrade_servo_curves(value: &mut serde_json::Value) -> Result<(), InputError>
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FittedParam {
-    /// Stable parameter name (`j2.theta`, `k0`, …).
-    pub name: String,
+    /// The parameter, written by its stable name (`j2.theta`, `k0`, …).
+    pub name: ParamKey,
     /// Identified correction, SI units (m, rad, rad/Nm).
     pub error: f64,
     /// Nominal + correction, SI units.
@@ -334,12 +335,9 @@ impl CalibrationFile {
         for (i, p) in file.parameters.iter().enumerate() {
             let repeated = file.parameters[..i].iter().any(|q| q.name == p.name);
             // A further target's tool point names a target the file lists.
-            let known = match ParamKey::from_name(&p.name) {
-                Some(ParamKey::TargetTool { target, .. }) => {
-                    usize::from(target) < file.targets.len()
-                }
-                Some(key) => key.fits(joints),
-                None => false,
+            let known = match p.name {
+                ParamKey::TargetTool { target, .. } => usize::from(target) < file.targets.len(),
+                key => key.fits(joints),
             };
             if !known || repeated {
                 let n = joints;
@@ -494,10 +492,12 @@ impl CalibrationFile {
             .as_ref()
             .is_some_and(|r| r.tool_m.is_some());
         for (id, (a, b)) in ParamId::of(nominal).zip(ours.iter().zip(&theirs)) {
-            let name = id.name();
-            if (registered && name.starts_with("base."))
-                || (tool_found && ["tool.x", "tool.y", "tool.z"].contains(&name))
-            {
+            let moved = match id.part() {
+                ParamPart::Base { .. } => registered,
+                ParamPart::Tool { axis } => tool_found && axis < 3,
+                _ => false,
+            };
+            if moved {
                 continue;
             }
             if (a - b).abs() > 1e-9 * (1.0 + a.abs()) {
@@ -601,7 +601,7 @@ pub(super) mod test_support {
             nominal,
             arm,
             parameters: vec![FittedParam {
-                name: "k2".into(),
+                name: ParamKey::from_name("k2").unwrap(),
                 error: 0.1,
                 value: 0.1,
                 std: Some(1e-3),

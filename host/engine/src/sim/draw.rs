@@ -69,7 +69,7 @@ impl TrueArm {
                     ParamKind::Angle if dh => normal * config.dh_angle_sigma_rad,
                     ParamKind::Angle => normal * config.frame_angle_sigma_rad,
                     ParamKind::Compliance => {
-                        let range = if id.name() == "k0" {
+                        let range = if id.part() == ParamPart::BaseCompliance {
                             config.base_compliance
                         } else {
                             config.joint_compliance

@@ -169,7 +169,7 @@ fn target_selection_moves_both_tool_points() {
         });
     }
     file.parameters.push(FittedParam {
-        name: "tool[1].y".into(),
+        name: ParamKey::from_name("tool[1].y").unwrap(),
         error: 0.03,
         value: 0.03,
         std: None,

@@ -39,7 +39,7 @@
 use std::sync::{Mutex, PoisonError};
 
 use model::Arm;
-use model::params::ParamKind;
+use model::params::{ParamKind, ParamPart};
 use nalgebra::{DMatrix, DVector};
 
 use crate::calib::analysis::jacobian::jacobian;
@@ -104,8 +104,12 @@ impl TypicalErrors {
             ParamKey::Softening { .. } => self.joint_softening,
             _ => match key.kind() {
                 ParamKind::Length | ParamKind::Angle => 1e-3,
-                ParamKind::Compliance if key.name() == "k0" => self.base_compliance,
-                ParamKind::Compliance => self.joint_compliance,
+                ParamKind::Compliance => match key {
+                    ParamKey::Arm(id) if id.part() == ParamPart::BaseCompliance => {
+                        self.base_compliance
+                    }
+                    _ => self.joint_compliance,
+                },
             },
         }
     }

@@ -34,7 +34,7 @@ pub fn retaught(
     let mut parameters: Vec<_> = old
         .parameters
         .iter()
-        .filter(|p| !p.name.starts_with("tool.") && !p.name.starts_with("tool["))
+        .filter(|p| !p.name.is_tool())
         .cloned()
         .collect();
     parameters.extend(fit.estimates.iter().map(Into::into));

@@ -5,6 +5,7 @@
 use crate::calib::ModelOption;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{self, KnotSpacing};
+use model::params::ParamPart;
 use model::{Arm, ParamId};
 
 /// The option `lrmcal identify` fits unless told otherwise; the demo's
@@ -53,7 +54,8 @@ pub fn fits_backlash(option: ModelOption) -> bool {
 /// already has, so the knot that only repeats it is the one removed.
 pub fn candidates(option: ModelOption, arm: &Arm<f64>, spacing: KnotSpacing) -> Vec<ParamKey> {
     let compliances = ParamId::of(arm).filter(|p| !p.is_geometric());
-    let is_frame = |p: &ParamId| p.name().starts_with("base.") || p.name().starts_with("tool.");
+    let is_frame =
+        |p: &ParamId| matches!(p.part(), ParamPart::Base { .. } | ParamPart::Tool { .. });
     let frames = ParamId::of(arm).filter(is_frame);
     let dh = ParamId::of(arm).filter(move |p| p.is_geometric() && !is_frame(p));
     let geometric = frames.chain(dh);

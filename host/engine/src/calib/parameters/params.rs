@@ -35,8 +35,6 @@ pub trait Key: Copy + Ord + fmt::Debug {
     type Model: Clone;
     /// The stable name written in files (`j2.theta`, `k0`, …).
     fn name(self) -> Cow<'static, str>;
-    /// The key called `name`, if there is one.
-    fn from_name(name: &str) -> Option<Self>;
     /// The current value of the quantity this key corrects.
     fn value(self, model: &Self::Model) -> f64;
     /// The quantity this key corrects.
@@ -48,10 +46,6 @@ impl Key for ParamKey {
 
     fn name(self) -> Cow<'static, str> {
         ParamKey::name(self)
-    }
-
-    fn from_name(name: &str) -> Option<Self> {
-        ParamKey::from_name(name)
     }
 
     /// The current value of the quantity in `rig`.
@@ -103,9 +97,6 @@ impl Key for ParamKey {
 /// Why a parameter vector cannot be built or changed as asked.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum ParamError {
-    /// A name no key has.
-    #[error("unknown parameter name `{0}`")]
-    UnknownName(String),
     /// A key given twice.
     #[error("parameter `{0}` appears twice")]
     Duplicate(String),
@@ -146,18 +137,6 @@ impl<K: Key> ParamVector<K> {
         Ok(v)
     }
 
-    /// Imports `(name, correction)` pairs, in their order, all free.
-    pub fn from_named<'a>(
-        pairs: impl IntoIterator<Item = (&'a str, f64)>,
-    ) -> Result<Self, ParamError> {
-        let mut v = Self::new([])?;
-        for (name, error) in pairs {
-            let key = K::from_name(name).ok_or_else(|| ParamError::UnknownName(name.into()))?;
-            v.push(key, error)?;
-        }
-        Ok(v)
-    }
-
     fn push(&mut self, key: K, error: f64) -> Result<(), ParamError> {
         if self.index.insert(key, self.params.len()).is_some() {
             return Err(ParamError::Duplicate(key.name().into_owned()));
@@ -168,11 +147,6 @@ impl<K: Key> ParamVector<K> {
             fixed: false,
         });
         Ok(())
-    }
-
-    /// Exports `(name, correction)` pairs in order.
-    pub fn named(&self) -> impl Iterator<Item = (Cow<'static, str>, f64)> + '_ {
-        self.params.iter().map(|p| (p.key.name(), p.error))
     }
 
     /// Number of parameters.
@@ -382,23 +356,9 @@ mod tests {
     }
 
     #[test]
-    fn export_and_import_by_name() {
-        let mut v = ParamVector::new([key("k0"), key("base.x")]).unwrap();
-        v.set(key("k0"), 0.25).unwrap();
-        let named: Vec<(String, f64)> = v.named().map(|(n, e)| (n.into_owned(), e)).collect();
+    fn a_key_given_twice_is_refused_by_name() {
         assert_eq!(
-            named,
-            [("k0".to_string(), 0.25), ("base.x".to_string(), 0.0)]
-        );
-        let back = ParamVector::<ParamKey>::from_named(named.iter().map(|(n, e)| (n.as_str(), *e)))
-            .unwrap();
-        assert_eq!(back, v);
-        assert_eq!(
-            ParamVector::<ParamKey>::from_named([("k11", 0.0)]),
-            Err(ParamError::UnknownName("k11".into()))
-        );
-        assert_eq!(
-            ParamVector::<ParamKey>::from_named([("k1", 0.0), ("k1", 1.0)]),
+            ParamVector::new([key("k1"), key("base.x"), key("k1")]),
             Err(ParamError::Duplicate("k1".into()))
         );
     }
@@ -423,17 +383,6 @@ mod tests {
             match self {
                 Self::Arm(id) => Cow::Borrowed(id.name()),
                 Self::Backlash(j) => Cow::Owned(format!("j{}.backlash", j + 1)),
-            }
-        }
-        fn from_name(name: &str) -> Option<Self> {
-            let backlash = name
-                .strip_prefix('j')
-                .and_then(|s| s.strip_suffix(".backlash"))
-                .and_then(|j| j.parse::<usize>().ok())
-                .filter(|j| (1..=6).contains(j));
-            match backlash {
-                Some(j) => Some(Self::Backlash(j - 1)),
-                None => ParamId::from_name(name).map(Self::Arm),
             }
         }
         fn value(self, rig: &BacklashRig) -> f64 {
@@ -470,16 +419,9 @@ mod tests {
         assert_eq!(rig.backlash_rad[2], 0.012);
         assert_eq!(rig.backlash_rad[3], 0.002);
         assert_eq!(rig.arm.joints[2].compliance, 0.05);
-
-        let mut named: Vec<(String, f64)> = v.named().map(|(n, e)| (n.into_owned(), e)).collect();
-        assert!(named.contains(&("j3.backlash".to_string(), 0.01)));
-        named.reverse();
-        let back =
-            ParamVector::<RigKey>::from_named(named.iter().map(|(n, e)| (n.as_str(), *e))).unwrap();
-        assert_eq!(back.len(), v.len());
-        for p in v.iter() {
-            assert_eq!(back.get(p.key).map(|b| b.error), Some(p.error));
-        }
-        assert_eq!(back.apply(&nominal), rig);
+        assert_eq!(
+            v.get(RigKey::Backlash(2)).map(|p| p.key.name()),
+            Some("j3.backlash".into())
+        );
     }
 }

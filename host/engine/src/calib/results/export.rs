@@ -18,7 +18,7 @@ use lrmcal_core::io::calibration_file::{
 impl From<&Estimate> for FittedParam {
     fn from(e: &Estimate) -> Self {
         Self {
-            name: e.id.name().into_owned(),
+            name: e.id,
             error: e.error,
             value: e.value,
             std: e.std,
@@ -259,7 +259,7 @@ mod tests {
         assert_eq!(
             file.parameters[0],
             FittedParam {
-                name: "k2".into(),
+                name: ParamKey::from_name("k2").unwrap(),
                 error: 0.1,
                 value: 0.1,
                 std: Some(1e-3)

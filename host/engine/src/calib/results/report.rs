@@ -28,6 +28,7 @@ use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
 use lrmcal_core::io::json;
+use lrmcal_core::param_key::ParamKey;
 
 /// Name of the report schema.
 pub const REPORT_SCHEMA: &str = "lrmcal-report";
@@ -44,8 +45,8 @@ pub const REPORT_OLDEST_READ: u32 = 3;
 /// A kept parameter that reproduces a removed one.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Confounder {
-    /// Kept parameter name.
-    pub name: String,
+    /// Kept parameter.
+    pub name: ParamKey,
     /// Its coefficient in the combination of unit columns.
     pub coefficient: f64,
 }
@@ -53,8 +54,8 @@ pub struct Confounder {
 /// A removed parameter and what explains it.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RemovedReport {
-    /// Parameter name.
-    pub name: String,
+    /// The parameter.
+    pub name: ParamKey,
     /// Sine of the angle between its column and the kept columns' span.
     pub residual: f64,
     /// Kept parameters reproducing its column, largest coefficient first.
@@ -85,8 +86,8 @@ impl RemovedReport {
 pub struct IdentifiabilityReport {
     /// Candidates before the analysis.
     pub candidates: usize,
-    /// Kept parameter names.
-    pub kept: Vec<String>,
+    /// Kept parameters.
+    pub kept: Vec<ParamKey>,
     /// Removed parameters.
     pub removed: Vec<RemovedReport>,
     /// Rank by SVD (must equal the number kept).
@@ -100,18 +101,18 @@ impl From<&Identifiability> for IdentifiabilityReport {
     fn from(a: &Identifiability) -> Self {
         Self {
             candidates: a.kept.len() + a.removed.len(),
-            kept: a.kept.iter().map(|p| p.to_string()).collect(),
+            kept: a.kept.clone(),
             removed: a
                 .removed
                 .iter()
                 .map(|r| RemovedReport {
-                    name: r.id.to_string(),
+                    name: r.id,
                     residual: r.residual,
                     confounded_with: r
                         .confounded_with
                         .iter()
                         .map(|(p, c)| Confounder {
-                            name: p.to_string(),
+                            name: *p,
                             coefficient: *c,
                         })
                         .collect(),
@@ -163,9 +164,9 @@ pub struct FitReport {
     /// Reweighting rounds.
     pub irls_rounds: usize,
     /// Compliances held at a bound (zero or their physical ceiling).
-    pub at_bound: Vec<String>,
+    pub at_bound: Vec<ParamKey>,
     /// Free parameters the data barely determine (see `calib::identify`).
-    pub weak: Vec<String>,
+    pub weak: Vec<ParamKey>,
     /// RMS 3D residual of the fit data before, mm.
     pub rms_before_mm: f64,
     /// RMS 3D residual of the fit data after, mm.
@@ -222,12 +223,12 @@ impl From<&Identified> for FitReport {
             active_set_rounds: d.active_set_rounds,
             failed_steps: d.failed_steps,
             irls_rounds: d.irls_rounds,
-            at_bound: d.at_bound.iter().map(|p| p.to_string()).collect(),
+            at_bound: d.at_bound.clone(),
             weak: f
                 .estimates
                 .iter()
                 .filter(|e| e.weak)
-                .map(|e| e.id.to_string())
+                .map(|e| e.id)
                 .collect(),
             rms_before_mm: d.rms_before_m * 1e3,
             rms_after_mm: d.rms_after_m * 1e3,
@@ -571,10 +572,10 @@ mod tests {
         .unwrap();
         assert_eq!(outlier["residual_mm"], 1.5);
         let removed = serde_json::to_value(RemovedReport {
-            name: "j3.d".into(),
+            name: ParamKey::from_name("j3.d").unwrap(),
             residual: 0.0,
             confounded_with: vec![Confounder {
-                name: "j2.d".into(),
+                name: ParamKey::from_name("j2.d").unwrap(),
                 coefficient: 1.0,
             }],
         })

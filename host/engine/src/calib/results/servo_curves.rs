@@ -36,8 +36,8 @@ pub struct ServoCurveReport {
 /// One knot of an identified curve.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct KnotReport {
-    /// The knot's parameter name (`j3.servo[5]`).
-    pub name: String,
+    /// The knot's parameter (written `j3.servo[5]`).
+    pub name: ParamKey,
     /// The angle commanded through the arm file's curve that sends the
     /// knot's pulse, degrees.
     pub commanded_deg: f64,
@@ -120,8 +120,7 @@ pub fn servo_curves(fit: &Identified) -> Vec<ServoCurveReport> {
                         name: ParamKey::ServoKnot {
                             joint: j as u8,
                             knot: k as u8,
-                        }
-                        .to_string(),
+                        },
                         commanded_deg: commanded.to_degrees(),
                         offset_deg: (own.angles_rad()[i] - commanded).to_degrees(),
                         std_deg: c.map(|c| fit.covariance[(c, c)].max(0.0).sqrt().to_degrees()),
@@ -216,7 +215,11 @@ mod tests {
         let std = at50.std_deg.unwrap();
         assert!((at50.offset_deg - 1.5).abs() < 0.05 + 3.0 * std, "{at50:?}");
         // The held knot (0°) has no deviation of its own.
-        let held = c.knots.iter().find(|k| k.name == "j2.servo[5]").unwrap();
+        let held = c
+            .knots
+            .iter()
+            .find(|k| k.name.to_string() == "j2.servo[5]")
+            .unwrap();
         assert_eq!(held.std_deg, None);
         let point = c
             .curve

@@ -257,14 +257,14 @@ pub fn option_details(o: &OptionReport) -> String {
 
 /// The parameters the rank analysis removed that stayed at their nominal
 /// values, and the names of those the refresh fitted after all.
-fn held_and_joined(o: &OptionReport) -> (Vec<&RemovedReport>, Vec<&str>) {
-    let fitted = |name: &str| o.fit.parameters.iter().any(|p| p.name == name);
+fn held_and_joined(o: &OptionReport) -> (Vec<&RemovedReport>, Vec<String>) {
+    let fitted = |name: &ParamKey| o.fit.parameters.iter().any(|p| p.name == *name);
     let (joined, held): (Vec<&RemovedReport>, Vec<&RemovedReport>) = o
         .identifiability
         .removed
         .iter()
         .partition(|r| fitted(&r.name));
-    (held, joined.iter().map(|r| r.name.as_str()).collect())
+    (held, joined.iter().map(|r| r.name.to_string()).collect())
 }
 
 /// Warnings on the fitted backlash widths: one the fit left at the widest
@@ -275,7 +275,7 @@ pub fn backlash(o: &OptionReport) -> Vec<String> {
         .parameters
         .iter()
         .filter_map(|p| {
-            let Some(ParamKey::Backlash { joint }) = ParamKey::from_name(&p.name) else {
+            let ParamKey::Backlash { joint } = p.name else {
                 return None;
             };
             let joint = joint + 1;
@@ -535,7 +535,7 @@ mod tests {
         .into_iter()
         .map(
             |(name, value)| lrmcal_core::io::calibration_file::FittedParam {
-                name: name.into(),
+                name: ParamKey::from_name(name).unwrap(),
                 value,
                 ..template.clone()
             },
@@ -564,7 +564,7 @@ mod tests {
         // k1 is removed at the nominal arm (no torque on the level base) and
         // fitted by the refresh (the tilted estimate loads it); k6 is held
         // (the tool point on its axis): each said once, as it ended.
-        let fitted = |n: &str| o.fit.parameters.iter().any(|p| p.name == n);
+        let fitted = |n: &str| o.fit.parameters.iter().any(|p| p.name.to_string() == n);
         assert!(fitted("k1") && !fitted("k6"), "{:?}", o.fit.parameters);
         assert_eq!(
             identifiable(&o),

@@ -50,7 +50,8 @@
 //! joint columns swapped, a joint counted the other way, a mirrored frame)
 //! and names the one that fits.
 
-use model::{Arm, Frame};
+use model::params::ParamPart;
+use model::{Arm, Frame, ParamId};
 use nalgebra::{IsometryMatrix3, Point3, Rotation3, Vector3};
 
 use crate::calib::fit::checks::IMPLAUSIBLE_M;
@@ -225,11 +226,12 @@ impl Registration {
         let nominal_m = Rig::from(self.arm_in_measurement_frame(nominal));
         let mut rig = identified.rig.clone();
         rig.arm = self.arm_in_measurement_frame(&rig.arm);
-        let std_of = |name: &str| {
+        let std_of = |axis: usize| {
+            let id = ParamId::from_part(ParamPart::Base { axis }).map(ParamKey::Arm);
             identified
                 .estimates
                 .iter()
-                .find(|e| e.id.name() == name)
+                .find(|e| Some(e.id) == id)
                 .and_then(|e| e.std)
         };
         let r = self.frame.rotation.matrix();
@@ -240,23 +242,20 @@ impl Registration {
                 let ParamKey::Arm(id) = e.id else {
                     return *e;
                 };
-                let name = id.name();
-                let Some(axis) = name.strip_prefix("base.") else {
+                let ParamPart::Base { axis } = id.part() else {
                     return *e;
                 };
                 let value = e.id.value(&rig);
                 let mut error = value - e.id.value(&nominal_m);
-                let std = match ["x", "y", "z"].iter().position(|a| *a == axis) {
+                let std = match axis {
                     // An axis not fitted has no uncertainty of its own.
-                    Some(i) => Some(
-                        ["base.x", "base.y", "base.z"]
-                            .iter()
-                            .enumerate()
-                            .map(|(j, n)| (r[(i, j)] * std_of(n).unwrap_or(0.0)).powi(2))
+                    i if i < 3 => Some(
+                        (0..3)
+                            .map(|j| (r[(i, j)] * std_of(j).unwrap_or(0.0)).powi(2))
                             .sum::<f64>()
                             .sqrt(),
                     ),
-                    None => {
+                    _ => {
                         error = (error + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
                             - std::f64::consts::PI;
                         e.std
