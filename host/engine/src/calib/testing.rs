@@ -7,7 +7,7 @@ use model::{Arm, PerJoint};
 use rand::{SeedableRng, rngs::StdRng};
 
 use super::analysis::detmax::DetmaxOptions;
-use super::fit::identify::IdentifyOptions;
+use super::fit::identify::{Diagnostics, Estimate, Identified, IdentifyOptions};
 use super::fit::pipeline::{Choice, OptionResult, RunSettings};
 use super::parameters::params::{ParamKey, ParamVector};
 use super::progress::Silent;
@@ -15,6 +15,7 @@ use super::run::{Calibration, Request};
 use super::{CalibError, ModelOption};
 use super::{Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose};
+use lrmcal_core::io::calibration_file::ErrorStats;
 
 /// The shared LRM-like test arm ([`lrm_like_arm`]) on a slightly tilted base,
 /// with the wrist's mass off its axis: gravity then loads every joint, so
@@ -143,4 +144,50 @@ pub fn calibrate_in_arm_frame(
 ) -> Result<OptionResult, CalibError> {
     Calibration::open(&Request::new(nominal, measurements).load(settings.identify_load_kg))?
         .option(option, settings, &Silent)
+}
+
+/// A kinematic fit of [`test_arm`] that converged or not, with residual
+/// RMS `before` and `after` (m), leave-one-out errors of mean `loo` spread by
+/// ±`loo / 2` over 100 measurements, and `estimates`.
+pub fn fitted(
+    converged: bool,
+    before: f64,
+    after: f64,
+    loo: f64,
+    estimates: Vec<Estimate>,
+) -> Identified {
+    Identified {
+        option: ModelOption::Kinematic,
+        rig: Rig::from(test_arm()),
+        estimates,
+        diagnostics: Diagnostics {
+            termination: if converged {
+                "Converged"
+            } else {
+                "LostPatience"
+            }
+            .into(),
+            converged,
+            exhausted: !converged,
+            evaluations: 10,
+            active_set_rounds: 1,
+            failed_steps: 0,
+            irls_rounds: 1,
+            at_bound: vec![],
+            rms_before_m: before,
+            rms_after_m: after,
+            sigma_m: after,
+            condition: 10.0,
+            loo_mean_m: loo,
+            // Each pose's error, the mean `loo`, spread by ±`loo / 2`.
+            loo_errors_m: (0..100)
+                .map(|k| loo * if k % 2 == 0 { 1.5 } else { 0.5 })
+                .collect(),
+        },
+        fit_residual: ErrorStats::of(&[after; 100]),
+        fit_residual_per_target: vec![ErrorStats::of(&[after; 100])],
+        outliers: vec![],
+        per_measurement: vec![],
+        covariance: nalgebra::DMatrix::zeros(0, 0),
+    }
 }

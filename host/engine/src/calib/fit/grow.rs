@@ -20,6 +20,7 @@
 //! the options of one effect are fitted by least squares, as the paper
 //! fitted them.
 
+use crate::calib::fit::guard;
 use crate::calib::fit::identify::{Identified, IdentifyOptions, identify, identify_scored};
 use crate::calib::fit::knot_choice::{self, ChosenFit};
 use crate::calib::fit::model_choice::{self, Ladder, Rung};
@@ -43,22 +44,27 @@ pub fn grow(
         prior: options.prior && option == ModelOption::ElastoKinematicServo,
         ..*options
     };
-    model_choice::choose(option, kept, |rung, kept| match rung {
-        // The base and tool points only: no refresh may add the arm's own.
-        Rung::Placement => Ok(ChosenFit {
-            identified: identify(nominal, option, kept, measurements, options)?,
-            knots: None,
-            model: None,
-        }),
-        Rung::Model(model) => knot_choice::choose(kept, options.prior, |keys| {
-            let mut keys =
-                backlash::with_widths(nominal, model, keys, measurements, options.prior)?;
-            if options.prior {
-                keys.extend(option::softenings_of(model, &keys));
-            }
-            fit_refreshed(nominal, model, &keys, measurements, options)
-        }),
-    })
+    model_choice::choose(
+        option,
+        kept,
+        |rung, kept| match rung {
+            // The base and tool points only: no refresh may add the arm's own.
+            Rung::Placement => Ok(ChosenFit {
+                identified: identify(nominal, option, kept, measurements, options)?,
+                knots: None,
+                model: None,
+            }),
+            Rung::Model(model) => knot_choice::choose(kept, options.prior, |keys| {
+                let mut keys =
+                    backlash::with_widths(nominal, model, keys, measurements, options.prior)?;
+                if options.prior {
+                    keys.extend(option::softenings_of(model, &keys));
+                }
+                fit_refreshed(nominal, model, &keys, measurements, options)
+            }),
+        },
+        |fit| guard::beyond_size(&nominal.arm, &fit.identified),
+    )
 }
 
 /// The last two stages for `keys`: the fit, then, when `options.refresh`,

@@ -109,6 +109,20 @@ pub fn check(
             "Measure more poses",
         ));
     }
+    match beyond_size(nominal, fit) {
+        Some(what) => Err(refuse(
+            what,
+            "Check that the arm file is this arm (its joint signs and zero angles), measure more poses",
+        )),
+        None => Ok(()),
+    }
+}
+
+/// What of `fit` moves `nominal`'s geometry further than any real arm of
+/// its size is off (a length by a tenth of its reach, a twist by 10°), if
+/// anything: the measurements do not pin what moved so far.
+pub fn beyond_size(nominal: &Arm<f64>, fit: &Identified) -> Option<String> {
+    let mm = |m: f64| format!("{:.2} mm", m * 1e3);
     let reach = crate::ik::reach_m(nominal);
     for e in &fit.estimates {
         let ParamKey::Arm(id) = e.id else { continue };
@@ -124,69 +138,21 @@ pub fn check(
             _ => None,
         };
         if let Some(size) = size {
-            return Err(refuse(
-                format!(
-                    "the fit moves {id} by {size}, more than any arm of this size is off (lengths {} at most, twists {:.0}°): the measurements do not pin it",
-                    mm(LENGTH_FRACTION_OF_REACH * reach),
-                    MAX_TWIST_RAD.to_degrees()
-                ),
-                "Check that the arm file is this arm (its joint signs and zero angles), measure more poses",
+            return Some(format!(
+                "the fit moves {id} by {size}, more than any arm of this size is off (lengths {} at most, twists {:.0}°): the measurements do not pin it",
+                mm(LENGTH_FRACTION_OF_REACH * reach),
+                MAX_TWIST_RAD.to_degrees()
             ));
         }
     }
-    Ok(())
+    None
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::calib::fit::identify::{Diagnostics, Estimate};
-    use crate::calib::testing::{key, test_arm};
-    use crate::calib::{ModelOption, Rig};
-    use lrmcal_core::io::calibration_file::ErrorStats;
-
-    fn fit(
-        converged: bool,
-        before: f64,
-        after: f64,
-        loo: f64,
-        estimates: Vec<Estimate>,
-    ) -> Identified {
-        Identified {
-            option: ModelOption::Kinematic,
-            rig: Rig::from(test_arm()),
-            estimates,
-            diagnostics: Diagnostics {
-                termination: if converged {
-                    "Converged"
-                } else {
-                    "LostPatience"
-                }
-                .into(),
-                converged,
-                exhausted: !converged,
-                evaluations: 10,
-                active_set_rounds: 1,
-                failed_steps: 0,
-                irls_rounds: 1,
-                at_bound: vec![],
-                rms_before_m: before,
-                rms_after_m: after,
-                sigma_m: after,
-                condition: 10.0,
-                loo_mean_m: loo,
-                // Each pose's error, the mean `loo`, spread by ±`loo / 2`.
-                loo_errors_m: (0..100)
-                    .map(|k| loo * if k % 2 == 0 { 1.5 } else { 0.5 })
-                    .collect(),
-            },
-            fit_residual: ErrorStats::of(&[after; 100]),
-            fit_residual_per_target: vec![ErrorStats::of(&[after; 100])],
-            outliers: vec![],
-            per_measurement: vec![],
-            covariance: nalgebra::DMatrix::zeros(0, 0),
-        }
-    }
+    use crate::calib::fit::identify::Estimate;
+    use crate::calib::testing::{fitted as fit, key, test_arm};
 
     fn estimate(name: &str, error: f64) -> Estimate {
         Estimate {

@@ -19,8 +19,10 @@
 //! measurements, so they are compared measurement by measurement: the
 //! standard error is that of the mean difference of their leave-one-out
 //! errors, which the poses' own spread (a hard pose is hard for every
-//! model) does not blur. A rung whose fit fails or does not converge loses
-//! to any that does. The calibration keeps the option asked for (its file,
+//! model) does not blur. A rung whose fit fails, does not converge or
+//! bends the geometry past any real arm's size (`calib::guard::beyond_size`)
+//! loses to any that does not: the default falls back to a simpler model
+//! rather than refusing. The calibration keeps the option asked for (its file,
 //! its name on the board); what the ladder chose is reported beside it.
 //!
 //! The placement is fitted for every option, in or out of its ladder: it
@@ -180,12 +182,15 @@ pub struct Ladder {
 
 /// Fits each rung of `option`'s ladder with `fit` (its rung and its
 /// parameters of `kept`) and keeps one (module docs); the placement is
-/// fitted too when the ladder has no such rung. An option of one rung
-/// keeps that rung's fit, or its failure.
+/// fitted too when the ladder has no such rung. A rung of which `flaw`
+/// says something (the geometry bent past a real arm's size) is no
+/// candidate, like one that did not converge. An option of one rung keeps
+/// that rung's fit, or its failure.
 pub fn choose(
     option: ModelOption,
     kept: &[ParamKey],
     fit: impl Fn(Rung, &[ParamKey]) -> Result<ChosenFit, CalibError>,
+    flaw: impl Fn(&ChosenFit) -> Option<String>,
 ) -> Result<Ladder, CalibError> {
     // A placement with nothing to place (the base kept, no tool point among
     // the parameters) is the nominal arm itself: no fit, no rung.
@@ -214,13 +219,19 @@ pub fn choose(
             fits.push((rung, fit_rung(rung)));
         }
     }
-    // A rung that did not converge is no candidate: its error says nothing.
+    // A rung that did not converge is no candidate: its error says nothing;
+    // nor is one with a flaw.
+    let flaws: Vec<Option<String>> = fits
+        .iter()
+        .map(|(_, f)| f.as_ref().ok().and_then(&flaw))
+        .collect();
     let errors: Vec<Option<Vec<f64>>> = fits
         .iter()
-        .map(|(_, f)| {
+        .zip(&flaws)
+        .map(|((_, f), flaw)| {
             f.as_ref()
                 .ok()
-                .filter(|f| f.identified.diagnostics.converged)
+                .filter(|f| f.identified.diagnostics.converged && flaw.is_none())
                 .map(|f| f.identified.diagnostics.loo_errors_m.clone())
         })
         .collect();
@@ -229,7 +240,8 @@ pub fn choose(
         .iter()
         .zip(&errors)
         .zip(&se)
-        .map(|(((rung, f), e), se)| ModelTrial {
+        .zip(flaws)
+        .map(|((((rung, f), e), se), flaw)| ModelTrial {
             model: *rung,
             parameters: f.as_ref().map_or(0, |f| f.identified.estimates.len()),
             loo_mean_mm: e
@@ -242,7 +254,7 @@ pub fn choose(
                     "did not converge ({})",
                     f.identified.diagnostics.termination
                 )),
-                Ok(_) => None,
+                Ok(_) => flaw,
             },
         })
         .collect();
@@ -346,6 +358,41 @@ mod tests {
         assert_eq!(
             serde_json::to_string(&[Rung::Placement, Rung::Model(ModelOption::Kinematic)]).unwrap(),
             r#"["placement","kinematic"]"#
+        );
+    }
+
+    #[test]
+    fn a_rung_with_a_flaw_gives_way_to_the_next_simpler() {
+        use crate::calib::testing::fitted;
+        let kept: Vec<ParamKey> = ["k2", "base.x", "j2.a"].iter().map(|n| key(n)).collect();
+        // Each richer rung predicts better; ours bends its geometry.
+        let fit = |rung: Rung, _: &[ParamKey]| {
+            let loo = match rung {
+                Rung::Placement => 4e-3,
+                Rung::Model(ModelOption::Kinematic) => 3e-3,
+                Rung::Model(ModelOption::ElastoKinematic) => 2e-3,
+                Rung::Model(_) => 1e-3,
+            };
+            Ok(ChosenFit {
+                identified: fitted(true, 5e-3, loo / 2.0, loo, vec![]),
+                knots: None,
+                model: None,
+            })
+        };
+        let bent = |f: &ChosenFit| {
+            (f.identified.diagnostics.loo_mean_m < 1.5e-3).then(|| "bent".to_string())
+        };
+        let ladder = choose(ModelOption::ElastoKinematicServo, &kept, fit, bent).unwrap();
+        let choice = ladder.chosen.model.unwrap();
+        assert_eq!(choice.chosen, Rung::Model(ModelOption::ElastoKinematic));
+        let ours = choice.trials.last().unwrap();
+        assert_eq!(ours.failure.as_deref(), Some("bent"));
+        assert_eq!(ours.loo_mean_mm, None);
+        // Without the flaw, ours.
+        let ladder = choose(ModelOption::ElastoKinematicServo, &kept, fit, |_| None).unwrap();
+        assert_eq!(
+            ladder.chosen.model.unwrap().chosen,
+            Rung::Model(ModelOption::ElastoKinematicServo)
         );
     }
 }

@@ -11,8 +11,9 @@
 //! | a joint's play | a fifth of the widest the board takes (1°) | a hobby servo's dead band and horn play add up to a degree or two |
 //! | a spring's compliance | half its ceiling (a sag of 0.25 rad under its largest torque) | the ceiling, two deviations out, is the sag beyond which a joint does not hold a pose |
 //! | a spring's softening | half its ceiling (its compliance half as large again at its largest torque) | likewise |
+//! | a link's twist (`alpha`, `beta`) | half the largest a calibration may make ([`TWIST_SD_OF_BOUND`] of `calib::guard::MAX_TWIST_RAD`: 5°) | a printed or bent link is a few degrees out of square; where the poses barely see a twist, it would otherwise bend to the noise |
 //!
-//! The geometry, the base and the tool points have none: a build is
+//! The rest of the geometry, the base and the tool points have none: a build is
 //! whatever it is (a servo horn one spline tooth off is 14°), and the
 //! registration's base and tool point are off by the sag they were found
 //! under; the poses determine them. A spring that carries no torque has
@@ -38,6 +39,7 @@ use nalgebra::{DMatrix, DVector};
 
 use model::JointKind;
 use model::bounds::{Bounds, Quantity};
+use model::params::ParamPart;
 
 use crate::calib::Rig;
 use crate::calib::parameters::params::{Key as _, ParamKey};
@@ -57,13 +59,18 @@ pub const SERVO_CORRELATIONS_DEG: [f64; 3] = [25.0, SERVO_CORRELATION_DEG, 100.0
 /// the board takes (`model::bounds::MAX_BACKLASH_RAD`, 5°): 1°.
 pub const PLAY_SD_OF_BOUND: f64 = 0.2;
 
+/// One standard deviation of a link's twist, as a fraction of the largest
+/// a calibration may make (`calib::guard::MAX_TWIST_RAD`, 10°): 5°.
+pub const TWIST_SD_OF_BOUND: f64 = 0.5;
+
 /// One standard deviation of a spring's compliance or softening, as a
 /// fraction of its ceiling (`model::bounds`).
 pub const SPRING_SD_OF_BOUND: f64 = 0.5;
 
 /// One standard deviation of the correction `key` a priori (module docs),
 /// on an arm whose joints are of `kinds` and whose physical bounds are
-/// `bounds`; `None` where the prior says nothing (geometry, placement, a
+/// `bounds`; `None` where the prior says nothing (the geometry but its
+/// twists, placement, a
 /// spring without torque, a slide's servo knots).
 pub fn sd(key: ParamKey, kinds: &[JointKind], bounds: &Bounds<f64>) -> Option<f64> {
     let finite = |x: f64| (x.is_finite() && x > 0.0 && x < f64::MAX / 2.0).then_some(x);
@@ -77,9 +84,12 @@ pub fn sd(key: ParamKey, kinds: &[JointKind], bounds: &Bounds<f64>) -> Option<f6
         ParamKey::Softening { spring } => {
             finite(SPRING_SD_OF_BOUND * bounds.range(Quantity::Softening { spring }).max)
         }
-        ParamKey::Arm(_) => match key.quantity() {
-            Some(q @ Quantity::Compliance { .. }) => {
+        ParamKey::Arm(id) => match (key.quantity(), id.part()) {
+            (Some(q @ Quantity::Compliance { .. }), _) => {
                 finite(SPRING_SD_OF_BOUND * bounds.range(q).max)
+            }
+            (_, ParamPart::Dh { field: 3 | 4, .. }) => {
+                Some(TWIST_SD_OF_BOUND * crate::calib::fit::guard::MAX_TWIST_RAD)
             }
             _ => None,
         },
@@ -254,13 +264,19 @@ mod tests {
     use crate::calib::parameters::servo_knots::{self, KnotSpacing};
     use crate::calib::testing::{key, rigid_nominal};
 
-    /// The independent corrections get `1/sd`; geometry and placement none.
+    /// The independent corrections get `1/sd`; the geometry but its twists,
+    /// and the placement, none.
     #[test]
-    fn each_effect_gets_its_size_and_the_geometry_none() {
+    fn each_effect_gets_its_size_and_the_geometry_but_twists_none() {
         let rig = Rig::from(rigid_nominal());
         let kinds: Vec<JointKind> = rig.arm.joints.iter().map(|j| j.kind).collect();
         let b = &rig.bounds;
         assert_eq!(sd(key("j2.a"), &kinds, b), None);
+        assert_eq!(sd(key("j2.theta"), &kinds, b), None);
+        for twist in ["j5.alpha", "j2.beta"] {
+            let s = sd(key(twist), &kinds, b).unwrap();
+            assert!((s.to_degrees() - 5.0).abs() < 1e-9, "{twist}: {s}");
+        }
         assert_eq!(sd(key("base.z"), &kinds, b), None);
         assert_eq!(sd(key("tool.x"), &kinds, b), None);
         let play = sd(key("j2.backlash"), &kinds, b).unwrap();

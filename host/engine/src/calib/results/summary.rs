@@ -136,7 +136,10 @@ pub fn model(o: &OptionReport) -> Option<String> {
         .iter()
         .map(|t| match (t.loo_mean_mm, t.loo_se_mm) {
             (Some(mean), Some(se)) => format!("{} {mean:.3} ± {se:.3} mm", t.model),
-            _ => format!("{} failed", t.model),
+            _ => match t.failure.as_deref().and_then(|f| f.split(':').next()) {
+                Some(why) => format!("{} failed ({why})", t.model),
+                None => format!("{} failed", t.model),
+            },
         })
         .collect();
     let why = if m.chosen == Rung::Model(o.option) {

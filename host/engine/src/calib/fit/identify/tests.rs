@@ -380,8 +380,9 @@ fn too_few_and_rank_deficient_sets_are_refused() {
         ),
         Err(CalibError::TooFewPoses { params: 43, .. })
     ));
-    // Under a prior the compliances are determined whatever the poses: the
-    // geometry's 36 are what the poses must carry.
+    // Under a prior the compliances and the six twists are determined
+    // whatever the poses: the rest of the geometry's 36 is what the poses
+    // must carry.
     assert!(matches!(
         identify(
             &nominal,
@@ -390,7 +391,7 @@ fn too_few_and_rank_deficient_sets_are_refused() {
             &meas[..5],
             &IdentifyOptions::default()
         ),
-        Err(CalibError::TooFewPoses { params: 36, .. })
+        Err(CalibError::TooFewPoses { params: 30, .. })
     ));
     // All 43 include the tool rotation, which no position can reveal.
     let err = identify(&nominal, ModelOption::ElastoKinematic, &all, &meas, &opts).unwrap_err();
