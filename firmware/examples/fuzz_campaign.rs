@@ -4,7 +4,7 @@
 //! checked after every step.
 //!
 //! ```text
-//! cargo run --release -p firmware --features sim --example fuzz_campaign -- \
+//! cargo run --release -p firmware --features fuzz --example fuzz_campaign -- \
 //!     [--frames N] [--sequences N] [--seed N] [--case frames:K | sequences:K]
 //! ```
 //!
@@ -205,7 +205,7 @@ fn report(
         Kind::Sequences => String::new(),
     };
     eprintln!(
-        "replay: cargo run --release -p firmware --features sim --example fuzz_campaign -- \
+        "replay: cargo run --release -p firmware --features fuzz --example fuzz_campaign -- \
          --seed {seed}{frames} --case {}:{index}",
         kind.name()
     );

@@ -219,7 +219,7 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
     }
 
     /// The flash (to cut its power in tests).
-    #[cfg(any(test, feature = "sim"))]
+    #[cfg(any(test, feature = "fuzz"))]
     pub fn flash_mut(&mut self) -> &mut F {
         self.storage.flash_mut()
     }

@@ -22,8 +22,8 @@
 //! | [`config`] | limits and tuning with their defaults |
 //! | `float` | float comparisons and rounding on the bits, where a float comparison would be a call |
 //! | `soft_float` | IEEE single-precision add/sub/mul for the Cortex-M0+ (common case in Thumb assembly), linked in place of the compiler's on the MCU |
-//! | `sim` | test doubles: a recording servo bus and a flash that can lose power (feature `sim`) |
-//! | `fuzz` | generated cases played against the device on those doubles, with the invariants checked (feature `sim`) |
+//! | `sim` | the board without hardware: a recording servo bus and a flash that can lose power (feature `sim`, which the host's in-memory board uses) |
+//! | `fuzz` | generated cases played against the device on those doubles, with the invariants checked (feature `fuzz`, for tests only) |
 //!
 //! Start-up: every channel starts limp (no pulses), so power-on never jerks
 //! the arm. The first `motion/move`, `motion/home` or `servo/attach` assumes
@@ -47,7 +47,7 @@ pub mod compensator;
 pub mod config;
 mod dispatch;
 mod float;
-#[cfg(any(test, feature = "sim"))]
+#[cfg(any(test, feature = "fuzz"))]
 pub mod fuzz;
 mod handlers;
 pub mod motion;

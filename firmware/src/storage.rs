@@ -173,7 +173,7 @@ impl<F: FlashStorage> Storage<F> {
     }
 
     /// The flash (to cut its power in tests).
-    #[cfg(any(test, feature = "sim"))]
+    #[cfg(any(test, feature = "fuzz"))]
     pub fn flash_mut(&mut self) -> &mut F {
         &mut self.flash
     }

@@ -13,6 +13,7 @@
 //! | [`elastic`] | the elastic deflection, solved by fixed-point iteration |
 //! | [`compensation`] | the joint commands that make the deflected calibrated arm reach a nominal pose |
 //! | [`bounds`] | the physical range of every bounded quantity, derived from the arm |
+//! | [`option`] | the model options: which parameters a calibration identifies, by name |
 //! | [`command`] | what a command does: the joint angles an arm stands at, its servo curves and play taken up |
 //! | [`backlash`] | play in a joint's drive: where a joint settles, given the way it arrived |
 //! | [`servo`] | the piecewise-linear servo curve through up to 9 knots (angle -> pulse) |
@@ -34,6 +35,7 @@ pub mod command;
 pub mod compensation;
 pub mod elastic;
 pub mod kinematics;
+pub mod option;
 pub mod params;
 pub mod per_joint;
 pub mod servo;
@@ -46,6 +48,7 @@ pub use arm::{Arm, Frame, Joint, JointKind};
 pub use compensation::{Compensation, CompensationOptions, Evaluation, Linearisation, Slope};
 pub use elastic::{Deflection, DeflectionError, SolverOptions};
 pub use kinematics::{Chain, ChainFrames};
+pub use option::ModelOption;
 pub use params::{MAX_PARAMS, ParamId, param_count};
 pub use per_joint::{ChainVec, MAX_JOINTS, PerFrame, PerJoint};
 pub use servo::ServoCurve;

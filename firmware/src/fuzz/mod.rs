@@ -1,4 +1,4 @@
-//! Fuzzing the whole [`Device`] on the host (feature `sim`): generated
+//! Fuzzing the whole [`Device`] on the host (feature `fuzz`): generated
 //! cases, a runner that checks the invariants after every step, and a
 //! shrinker for the case that broke one.
 //!

@@ -1,9 +1,11 @@
 //! How every device command finds and talks to the board: the arguments they
-//! share, and the connection they open with them.
+//! share, the connection they open with them, and the timing of a move they
+//! ask for.
 
 use std::time::Duration;
 
 use lrmcal_engine::device::{Client, ClientError, Link, open};
+use protocol::Timing;
 
 /// How every device command finds and talks to the board.
 #[derive(Clone, Debug, clap::Args)]
@@ -27,5 +29,16 @@ impl DeviceArgs {
         let mut client = Client::new(link, Duration::from_millis(self.timeout_ms), self.retries);
         client.hello()?;
         Ok(client)
+    }
+}
+
+/// The timing a move or `home` asks the board for: a speed of the joint that
+/// travels furthest if given, else a duration, else as fast as the board's
+/// limits allow (a duration of 0).
+pub fn timing(duration_ms: Option<u32>, speed_deg_s: Option<f64>) -> Timing {
+    match (duration_ms, speed_deg_s) {
+        (_, Some(v)) => Timing::SpeedRadPerS(v.to_radians() as f32),
+        (Some(ms), None) => Timing::DurationMs(ms),
+        (None, None) => Timing::DurationMs(0),
     }
 }

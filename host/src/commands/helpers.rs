@@ -1,6 +1,7 @@
 //! What several subcommands share: the `--option` choice of one model
-//! option or all, writing a text file whole, and the parsers of positive
-//! numbers.
+//! option or all, writing a text file whole, and the parsers of finite,
+//! positive and non-negative numbers. Commands never import each other:
+//! what two of them need lives here (or in `device_args`).
 
 use std::path::Path;
 
@@ -55,6 +56,14 @@ impl OptionChoice {
 /// Writes a text file (JSON, a report) whole or not at all (see [`atomic`]).
 pub(crate) fn write_text(path: &Path, text: &str) -> Result<(), Error> {
     Ok(atomic::write(path, |w| w.write_all(text.as_bytes()))?)
+}
+
+/// A clap parser for a finite height, mm, of either sign (`--ground-z-mm`).
+pub(crate) fn finite_height_mm(text: &str) -> Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("expected a finite height in mm, found `{text}`")),
+    }
 }
 
 /// A clap parser for a finite number > 0.

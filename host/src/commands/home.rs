@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use crate::commands::device_args::DeviceArgs;
+use crate::commands::device_args::{DeviceArgs, timing};
 use crate::error::Error;
 
 /// Move to the home pose (the calibration's, or all zeros).
@@ -24,7 +24,7 @@ pub struct Args {
 /// Runs `lrmcal home`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let mut client = args.device.connect()?;
-    client.home(super::move_::timing(args.duration_ms, None))?;
+    client.home(timing(args.duration_ms, None))?;
     client.wait_until_still(Duration::from_millis(100), Duration::from_secs(700))?;
     println!("at home");
     Ok(())

@@ -6,11 +6,11 @@ use std::time::Duration;
 
 use model::{Arm, MAX_JOINTS, PerJoint};
 use nalgebra::Vector3;
+use protocol::CompensationMode;
 use protocol::{CHANNELS, PerChannel};
-use protocol::{CompensationMode, Timing};
 
-use crate::commands::device_args::DeviceArgs;
-use crate::commands::helpers::non_negative;
+use crate::commands::device_args::{DeviceArgs, timing};
+use crate::commands::helpers::{finite_height_mm, non_negative};
 use crate::error::Error;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -106,7 +106,7 @@ pub struct Args {
     )]
     pub load_kg: f64,
     /// Height of the ground plane for --xyz, mm, world frame.
-    #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = super::plan::finite)]
+    #[arg(long, value_name = "MM", default_value_t = 0.0, allow_negative_numbers = true, value_parser = finite_height_mm)]
     pub ground_z_mm: f64,
     /// Let --xyz poses reach below the ground plane (e.g. an arm mounted at a table edge).
     #[arg(long, conflicts_with = "ground_z_mm")]
@@ -132,15 +132,6 @@ fn finite_number(text: &str) -> Result<f64, String> {
     match text.parse::<f64>() {
         Ok(v) if v.is_finite() => Ok(v),
         _ => Err(format!("expected a finite number, found `{text}`")),
-    }
-}
-
-/// The timing the board is asked for.
-pub fn timing(duration_ms: Option<u32>, speed_deg_s: Option<f64>) -> Timing {
-    match (duration_ms, speed_deg_s) {
-        (_, Some(v)) => Timing::SpeedRadPerS(v.to_radians() as f32),
-        (Some(ms), None) => Timing::DurationMs(ms),
-        (None, None) => Timing::DurationMs(0),
     }
 }
 

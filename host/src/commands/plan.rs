@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::commands::helpers::non_negative;
+use crate::commands::helpers::{finite_height_mm, non_negative};
 use crate::error::Error;
 use lrmcal_core::dataset::PoseRow;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
@@ -54,7 +54,7 @@ pub struct Args {
     pub seed: u64,
     /// Height of the ground plane in the world (measurement) frame, mm
     /// [default: the arm file's `[collision] floor`, else 0].
-    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = finite)]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = finite_height_mm)]
     pub ground_z_mm: Option<f64>,
     /// Do not test against the ground (e.g. an arm mounted at a table edge).
     #[arg(long, conflicts_with = "ground_z_mm")]
@@ -66,14 +66,6 @@ pub struct Args {
     /// Where to write the candidate pose list [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
-}
-
-/// Parses a finite height, mm (`--ground-z-mm`).
-pub(crate) fn finite(text: &str) -> Result<f64, String> {
-    match text.parse::<f64>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(format!("expected a finite height in mm, found `{text}`")),
-    }
 }
 
 /// Runs `lrmcal plan`.

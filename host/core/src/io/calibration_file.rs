@@ -27,8 +27,7 @@ use std::path::Path;
 
 use crate::param_key::ParamKey;
 use model::params::ParamPart;
-use model::{Arm, Frame, ParamId, ServoCurve};
-use protocol::ModelOption;
+use model::{Arm, Frame, ModelOption, ParamId, ServoCurve};
 use serde::{Deserialize, Serialize};
 
 use super::{json, read_text};

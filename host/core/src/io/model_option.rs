@@ -1,9 +1,9 @@
 //! The model option by name in the files and on the command line: a
 //! calibration file writes [`ModelOption::name`] and reads it back, refusing
 //! an unknown name with the list of the valid ones. The option itself is
-//! [`protocol::ModelOption`], the one the board stores.
+//! [`model::ModelOption`], the one the board stores.
 
-use protocol::ModelOption;
+use model::ModelOption;
 use serde::{Deserialize, Deserializer, Serializer, de::Error};
 
 /// The names every option has, for messages: `a, b, c or d`.

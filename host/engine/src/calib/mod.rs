@@ -30,9 +30,9 @@ pub mod run;
 mod testing;
 
 pub use error::CalibError;
+pub use model::ModelOption;
 pub use parameters::params::{ParamKey, ParamVector};
 pub use parameters::targets::Rig;
-pub use protocol::ModelOption;
 
 /// A commanded pose under a given payload: one 3-row block of the identification Jacobian.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,5 @@
 //! The parameters each model option may fit: the paper's three and ours
-//! (the option itself is [`protocol::ModelOption`], re-exported as
+//! (the option itself is [`model::ModelOption`], re-exported as
 //! `calib::ModelOption`), and which option is the default.
 
 use crate::calib::ModelOption;
