@@ -25,6 +25,13 @@ marker position(s) on wrist_ft_tool_link estimated:
 and two marker sets: "m1" (marker 1 only, as FIGAROH's example is
 configured) and "m123" (markers 1, 2 and 3; marker 4 is an exact copy of
 marker 3 in every row of the data and is left out).
+
+With --splits seeded, the same fits run on the seeded splits of splits.py
+(5-fold permutations and leave-10-out draws, the ones lrmcal_tiago_cv.py
+uses too), by default with the models nominal, full_params and
+full_params_elastic (full_params with FIGAROH's include_non_geometric
+switch: one gravity-torque compliance per active joint), and write
+results/tiago_splits.json: per split the mean held-out error.
 """
 
 import argparse
@@ -46,6 +53,9 @@ import warnings
 import numpy as np
 import yaml
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import splits as splits_mod  # noqa: E402  (beside this script)
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(os.path.dirname(HERE))
 DATA_DIR = os.path.join(REPO, "host", "tests", "data", "tiago")
@@ -54,6 +64,12 @@ EXAMPLE_CONFIG = os.path.join("examples", "tiago", "config", "tiago_unified_conf
 EXAMPLE_TOOLS = os.path.join("examples", "tiago", "utils", "tiago_tools.py")
 
 MODELS = ("nominal", "joint_offset", "full_params")
+# full_params_elastic: level full_params with parameters.include_non_geometric
+# true (FIGAROH 1.0.2 reads it in calibration/config.py
+# _extract_calibration_params; calc_updated_fkm then adds one compliance per
+# active joint, a deflection proportional to the joint's gravity torque).
+ALL_MODELS = MODELS + ("full_params_elastic",)
+SEEDED_MODELS = ("nominal", "full_params", "full_params_elastic")
 MARKER_SETS = {"m1": [1], "m123": [1, 2, 3]}
 
 
@@ -112,20 +128,25 @@ def marker_errors(calibration_tools, calib, var, q, pee_measured):
     return np.linalg.norm(diff, axis=1)
 
 
-def make_config(example_config, path, train_csv, test_csv, level, markers, seed):
+def make_config(example_config, path, train_csv, test_csv, level, markers, seed,
+                non_geometric=False):
     """The example's unified configuration with the fold's files.
 
     Changed: data.source_file, data.validation_data_file, the calibration
     level, and (for several markers) one marker entry per marker, each a
     copy of the example's single marker on arm_7_joint; with ``seed`` not
     None, parameters.random_seed (the seed of the random configurations of
-    FIGAROH's structural parameter selection, 0 when unset).
+    FIGAROH's structural parameter selection, 0 when unset); with
+    ``non_geometric``, parameters.include_non_geometric = true (the example
+    has false).
     """
     cfg = copy.deepcopy(example_config)
     task = cfg["tasks"]["calibration"]
     task["data"]["source_file"] = train_csv
     task["data"]["validation_data_file"] = test_csv
     task["parameters"]["calibration_level"] = level
+    if non_geometric:
+        task["parameters"]["include_non_geometric"] = True
     if seed is not None:
         task["parameters"]["random_seed"] = seed
     marker = task["measurements"]["markers"][0]
@@ -144,8 +165,9 @@ def fit_and_evaluate(figaroh, example_config, urdf, workdir, tag, level_model,
     cfg_path = os.path.join(workdir, f"{tag}.yaml")
     write_csv(train_csv, header, train_rows)
     write_csv(test_csv, header, test_rows)
-    level = "full_params" if level_model == "nominal" else level_model
-    make_config(example_config, cfg_path, train_csv, test_csv, level, markers, seed)
+    level = "full_params" if level_model in ("nominal", "full_params_elastic") else level_model
+    make_config(example_config, cfg_path, train_csv, test_csv, level, markers, seed,
+                non_geometric=level_model == "full_params_elastic")
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out), warnings.catch_warnings():
@@ -190,6 +212,193 @@ def fit_and_evaluate(figaroh, example_config, urdf, workdir, tag, level_model,
     }
 
 
+def cpu_name():
+    cpu = platform.processor()
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(l.split(":", 1)[1].strip() for l in f if l.startswith("model name"))
+    except Exception:
+        pass
+    return cpu
+
+
+def summary(values):
+    """median, min, max of a list (None for an empty one)."""
+    if not values:
+        return None
+    return {"n": len(values), "median": float(np.median(values)),
+            "min": float(min(values)), "max": float(max(values))}
+
+
+def run_seeded(args, fig, example_config, examples, header, rows, modules):
+    """Every model and marker set on every seeded split of splits.py.
+
+    Per split, the mean of the held-out 3D errors (every held-out row and
+    marker of the split's folds pooled: all 34 rows of a 5-fold
+    permutation, the 10 of a leave-10-out draw). A fit whose solver reports
+    no success or raises is counted "diverged"; as FIGAROH marks it FAILED
+    and refuses to export it, its held-out rows then take the nominal
+    model's errors of the same fold (what the user is left with), and the
+    as-fitted errors are kept beside them.
+    """
+    figaroh, pinocchio, scipy = modules
+    n = len(rows)
+    splits = splits_mod.seeded(n, splits_mod.parse_seeds(args.seeds))
+    splits_mod.check(splits, n)
+    models = args.models.split(",")
+    models = sorted(models, key=lambda m: m != "nominal")  # nominal first
+    marker_sets = args.marker_sets.split(",")
+    urdf = os.path.abspath(args.urdf)
+    log_path = args.log or os.path.splitext(args.out)[0] + ".log"
+    os.makedirs(os.path.dirname(os.path.abspath(args.out)), exist_ok=True)
+
+    per_split = []
+    t_start = time.perf_counter()
+    with tempfile.TemporaryDirectory() as workdir, open(log_path, "w") as log:
+        for sp in splits:
+            entry = {"split": sp["id"], "kind": sp["kind"], "seed": sp["seed"], "runs": {}}
+            for ms in marker_sets:
+                markers = MARKER_SETS[ms]
+                for model in models:
+                    folds, used = [], []
+                    for k, test_idx in enumerate(sp["folds"]):
+                        train_idx = splits_mod.train_rows(test_idx, n)
+                        tag = f"{sp['id']}_{ms}_{model}_fold{k}"
+                        fold = {"fold": k, "test_rows": test_idx}
+                        try:
+                            res = fit_and_evaluate(
+                                fig, example_config, urdf, workdir, tag, model, markers,
+                                header, [rows[r] for r in train_idx],
+                                [rows[r] for r in test_idx], train_idx, log, args.random_seed,
+                            )
+                        except Exception as e:  # FIGAROH's own failure: recorded
+                            log.write(f"===== {tag}\nraised {type(e).__name__}: {e}\n")
+                            res = None
+                            fold |= {"diverged": True, "error": f"{type(e).__name__}: {e}"}
+                        if res is not None:
+                            held = np.asarray(res["held_out_errors_m"]) * 1e3
+                            ok = res["solver_success"] and bool(np.all(np.isfinite(held)))
+                            fold |= {
+                                "n_parameters": len(res["parameters"]),
+                                "solver_success": res["solver_success"],
+                                "status": res["status"],
+                                "diverged": not ok,
+                                "excluded_training_rows": res["excluded_training_rows"],
+                                "time_initialize_s": res["time_initialize_s"],
+                                "time_solve_s": res["time_solve_s"],
+                                "held_out_errors_mm": np.round(held, 6).tolist(),
+                                "held_out_mean_mm": float(np.mean(held)),
+                                "training_rms_mm": res["training_kept"]["rms_mm"],
+                            }
+                        if fold["diverged"]:
+                            nominal = entry["runs"].get(f"{ms}/nominal")
+                            if nominal is None or nominal["folds"][k]["diverged"]:
+                                sys.exit(f"{tag} diverged and no nominal fit to fall back on")
+                            used.append(np.asarray(nominal["folds"][k]["held_out_errors_mm"]))
+                        else:
+                            used.append(np.asarray(fold["held_out_errors_mm"]))
+                        folds.append(fold)
+                    e = np.concatenate(used, axis=1)
+                    entry["runs"][f"{ms}/{model}"] = {
+                        "folds": folds,
+                        "mean_mm": float(np.mean(e)),
+                        "rms_mm": float(np.sqrt(np.mean(e**2))),
+                        "max_mm": float(np.max(e)),
+                        "diverged": sum(f["diverged"] for f in folds),
+                        "time_solve_s": sum(f.get("time_solve_s", 0.0) for f in folds),
+                    }
+                    print(f"{sp['id']:11s} {ms:5s} {model:19s} mean "
+                          f"{entry['runs'][f'{ms}/{model}']['mean_mm']:6.2f} mm", file=sys.stderr)
+            per_split.append(entry)
+    wall = time.perf_counter() - t_start
+
+    kinds = [k for k in ("kfold5", "leave10") if any(s["kind"] == k for s in splits)]
+    table = {}
+    for ms in marker_sets:
+        for model in models:
+            key = f"{ms}/{model}"
+            row = {}
+            for kind in kinds:
+                runs = [e["runs"][key] for e in per_split if e["kind"] == kind]
+                fits = [f for r in runs for f in r["folds"]]
+                npar = [f["n_parameters"] for f in fits if "n_parameters" in f]
+                row[kind] = {
+                    "split_mean_mm": summary([r["mean_mm"] for r in runs]),
+                    "split_rms_mm": summary([r["rms_mm"] for r in runs]),
+                    "split_max_mm": summary([r["max_mm"] for r in runs]),
+                    "fits": len(fits),
+                    "diverged": sum(f["diverged"] for f in fits),
+                    "n_parameters": [min(npar), max(npar)] if npar else None,
+                    "time_solve_s_total": sum(r["time_solve_s"] for r in runs),
+                }
+            table[key] = row
+
+    result = {
+        "what": "FIGAROH 1.0.2 TIAGo mocap calibration on the seeded splits of splits.py",
+        "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "command": " ".join([os.path.basename(sys.executable)] + sys.argv),
+        "inputs": {
+            "data": {"path": os.path.relpath(os.path.abspath(args.data), REPO), "sha256": sha256(args.data)},
+            "urdf": {"path": os.path.relpath(urdf, REPO), "sha256": sha256(urdf)},
+            "splits_py_sha256": sha256(os.path.join(HERE, "splits.py")),
+            "figaroh_examples": {
+                "commit": git_commit(examples),
+                "config_sha256": sha256(os.path.join(examples, EXAMPLE_CONFIG)),
+                "tiago_tools_sha256": sha256(os.path.join(examples, EXAMPLE_TOOLS)),
+            },
+        },
+        "environment": {
+            "figaroh": getattr(figaroh, "__version__", None),
+            "pinocchio": pinocchio.__version__,
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "python": platform.python_version(),
+            "cpu": cpu_name(),
+            "cpus": os.cpu_count(),
+        },
+        "figaroh_random_seed": args.random_seed,
+        "robust_weighting": (
+            "not available: FIGAROH 1.0.2 calls scipy.optimize.least_squares "
+            "without a loss argument (BaseCalibration._optimize_with_outlier_removal, "
+            "method 'lm' by default, which takes only the linear loss); no config key "
+            "sets one. Its only robust device is the hard outlier threshold "
+            "(parameters.outlier_threshold, 0.05 m in the example), kept."
+        ),
+        "splits_digest": splits_mod.digest(splits),
+        "splits": splits,
+        "units": "errors in mm (3D Euclidean distance per marker per held-out row); times in s",
+        "split_mean": "per split: the mean of its held-out errors, all its folds and markers pooled",
+        "wall_time_s": wall,
+        "summary": table,
+        "per_split": per_split,
+    }
+    with open(args.out, "w") as f:
+        json.dump(result, f, indent=1)
+        f.write("\n")
+
+    print(f"FIGAROH {result['environment']['figaroh']}, {n} rows, seeds {args.seeds}; "
+          "per-split mean held-out 3D error (mm): median (min-max) over the splits")
+    print("| points | model | parameters | " + " | ".join(
+        f"{k} x{len([s for s in splits if s['kind'] == k])}" for k in kinds)
+          + " | diverged | solve, all fits |")
+    print("|---" * (5 + len(kinds)) + "|")
+    for key, row in table.items():
+        ms, model = key.split("/")
+        cells = []
+        for kind in kinds:
+            sm = row[kind]["split_mean_mm"]
+            cells.append(f"{sm['median']:.2f} ({sm['min']:.2f}-{sm['max']:.2f})")
+        npar = sorted({p for kind in kinds for p in (row[kind]["n_parameters"] or [])})
+        npar = f"{npar[0]}" if len(npar) == 1 else f"{npar[0]}-{npar[-1]}"
+        div = sum(row[k]["diverged"] for k in kinds)
+        fits = sum(row[k]["fits"] for k in kinds)
+        t = sum(row[k]["time_solve_s_total"] for k in kinds)
+        print(f"| {ms} | {model} | {npar} | " + " | ".join(cells)
+              + f" | {div} of {fits} | {t:.1f} s |")
+    print(f"results: {os.path.relpath(os.path.abspath(args.out))}; FIGAROH's reports: "
+          f"{os.path.relpath(log_path)}; wall time {wall:.1f} s")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--examples", required=True,
@@ -198,14 +407,33 @@ def main():
     ap.add_argument("--data", default=os.path.join(DATA_DIR, "mocap.csv"))
     ap.add_argument("--split", default=os.path.join(DATA_DIR, "split.csv"))
     ap.add_argument("--urdf", default=os.path.join(DATA_DIR, "tiago.urdf"))
-    ap.add_argument("--out", default=os.path.join(HERE, "results", "tiago_cv.json"))
+    ap.add_argument("--out", default=None,
+                    help="results JSON (default: results/tiago_cv.json, with "
+                         "--splits seeded results/tiago_splits.json)")
     ap.add_argument("--log", default=None,
                     help="FIGAROH's printed reports (default: beside --out, .log)")
-    ap.add_argument("--models", default=",".join(MODELS))
+    ap.add_argument("--models", default=None,
+                    help=f"comma-separated, of {','.join(ALL_MODELS)} (default: "
+                         f"{','.join(MODELS)}; with --splits seeded {','.join(SEEDED_MODELS)})")
     ap.add_argument("--marker-sets", default=",".join(MARKER_SETS))
     ap.add_argument("--random-seed", type=int, default=None,
                     help="FIGAROH's parameters.random_seed (default: unset, i.e. 0)")
+    ap.add_argument("--splits", choices=("committed", "seeded"), default="committed",
+                    help="committed: the 5 folds of --split (default); seeded: the "
+                         "5-fold permutations and leave-10-out draws of splits.py "
+                         "for --seeds")
+    ap.add_argument("--seeds", default="1-10",
+                    help="with --splits seeded: the seeds, e.g. 1-10 or 1,2,5")
     args = ap.parse_args()
+    seeded = args.splits == "seeded"
+    if args.out is None:
+        name = "tiago_splits.json" if seeded else "tiago_cv.json"
+        args.out = os.path.join(HERE, "results", name)
+    if args.models is None:
+        args.models = ",".join(SEEDED_MODELS if seeded else MODELS)
+    unknown = set(args.models.split(",")) - set(ALL_MODELS)
+    if unknown:
+        ap.error(f"unknown models {sorted(unknown)}")
 
     examples = os.path.abspath(args.examples)
     sys.path.insert(0, examples)
@@ -222,6 +450,9 @@ def main():
     with open(os.path.join(examples, EXAMPLE_CONFIG)) as f:
         example_config = yaml.safe_load(f)
     header, rows = read_csv(args.data)
+    if seeded:
+        return run_seeded(args, fig, example_config, examples, header, rows,
+                          (figaroh, pinocchio, scipy))
     split = read_split(args.split)
     assert sorted(split) == list(range(len(rows))), "split does not cover every row"
     folds = sorted(set(split.values()))
@@ -268,12 +499,7 @@ def main():
                 }
     wall = time.perf_counter() - t_start
 
-    cpu = platform.processor()
-    try:
-        with open("/proc/cpuinfo") as f:
-            cpu = next(l.split(":", 1)[1].strip() for l in f if l.startswith("model name"))
-    except Exception:
-        pass
+    cpu = cpu_name()
     result = {
         "what": "FIGAROH 1.0.2 TIAGo mocap calibration, cross-validated on split.csv",
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
