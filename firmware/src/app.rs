@@ -260,7 +260,8 @@ impl<B: ServoBus, F: FlashStorage> Device<B, F> {
             compensator,
             joints,
             curves: core::array::from_fn(|i| match arm.joints.get(i) {
-                Some(j) => PreparedCurve::new(j.servo),
+                // `Calibration::check` refused a joint without a curve.
+                Some(j) => j.servo.map_or(self.uncalibrated, PreparedCurve::new),
                 None => self.uncalibrated,
             }),
             limits: servo::joint_limits(Some(arm), c.hard_limits_rad, c.default_limits_rad),

@@ -48,7 +48,10 @@ fn fixture_parses_into_the_model() {
     assert_eq!(d.arm.base_compliance, 0.02);
     assert_eq!(d.arm.tool.xyz, [0.0, 0.0, 0.04]);
     assert_eq!(d.arm.gravity, [0.0, 0.0, -9.80665]);
-    assert_eq!(d.arm.joints[5].servo.pulses_us(), [900.0, 1650.0, 2400.0]);
+    assert_eq!(
+        d.arm.joints[5].servo.unwrap().pulses_us(),
+        [900.0, 1650.0, 2400.0]
+    );
 }
 
 #[test]
@@ -228,7 +231,7 @@ fn servo_curve_must_be_monotonic() {
 #[test]
 fn the_three_points_read_as_before_and_as_the_knots_through_them() {
     let old = arm_toml::parse(FIXTURE).unwrap();
-    let curve = old.arm.joints[2].servo;
+    let curve = old.arm.joints[2].servo.unwrap();
     assert_eq!(
         curve,
         model::ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
@@ -255,7 +258,7 @@ fn a_servo_curve_of_many_knots_reads_and_round_trips() {
     let line = "servo = { angles_deg = [-100.0, -50.0, 0.0, 33.3, 100.0], \
                 pulses_us = [2400.0, 2010.0, 1650.0, 1400.0, 900.0] }";
     let d = arm_toml::parse(&with_line(J3_MASS_LINE + 2, line)).unwrap();
-    let curve = d.arm.joints[2].servo;
+    let curve = d.arm.joints[2].servo.unwrap();
     assert_eq!(curve.knot_count(), 5);
     assert_eq!(curve.angles_rad()[3], 33.3f64.to_radians());
     assert_eq!(curve.pulse_us(0.0), 1650.0);
@@ -378,19 +381,19 @@ fn an_arm_without_servo_tables_parses_and_is_written_without_them() {
         .map(|l| format!("{l}\n"))
         .collect();
     let d = arm_toml::parse(&text).unwrap();
-    assert_eq!(d.arm.joints[2].servo, arm_toml::no_servo());
-    assert_eq!(arm_toml::joint_without_servo(&d.arm), Some(1));
+    assert!(d.arm.joints.iter().all(|j| j.servo.is_none()));
     let written = arm_toml::to_toml(&d);
     assert!(!written.contains("servo"), "{written}");
     assert_eq!(arm_toml::parse(&written).unwrap(), d);
     // One joint without: that one is named.
     let one = with_line(J3_MASS_LINE + 2, "");
     let d = arm_toml::parse(&one).unwrap();
-    assert_eq!(arm_toml::joint_without_servo(&d.arm), Some(3));
-    assert_eq!(
-        arm_toml::joint_without_servo(&arm_toml::parse(FIXTURE).unwrap().arm),
-        None
-    );
+    let without: Vec<usize> = (0..d.arm.joints.len())
+        .filter(|&j| d.arm.joints[j].servo.is_none())
+        .collect();
+    assert_eq!(without, [2]);
+    let fixture = arm_toml::parse(FIXTURE).unwrap();
+    assert!(fixture.arm.joints.iter().all(|j| j.servo.is_some()));
 }
 
 /// The fixture with a collision description appended; its first line is `FIXTURE_LINES + 2`.

@@ -148,5 +148,8 @@ fn a_tuned_servo_curve_keeps_the_header() {
         .filter(|(a, b)| a != b)
         .count();
     assert_eq!(changed, 2);
-    assert_eq!(arm_toml::read(&file).unwrap().arm.joints[1].servo, curve);
+    assert_eq!(
+        arm_toml::read(&file).unwrap().arm.joints[1].servo,
+        Some(curve)
+    );
 }

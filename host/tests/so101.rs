@@ -84,9 +84,9 @@ fn the_bundled_so101_is_its_urdf_read_by_lrmcal() {
             assert_eq!(t.limits, u.limits, "joint {}'s limits", i + 1);
         }
         // Monotonic, inside the board's pulse range at the joint's limits.
-        t.servo.check().unwrap();
+        t.servo.unwrap().check().unwrap();
         for q in t.limits {
-            let us = t.servo.pulse_us(q);
+            let us = t.servo.unwrap().pulse_us(q);
             assert!((500.0..=2500.0).contains(&us), "joint {}: {us} µs", i + 1);
         }
     }

@@ -81,8 +81,10 @@ pub struct Joint<T> {
     pub mass: T,
     /// Centre of mass of link i in DH frame i, m.
     pub com: [T; 3],
-    /// The servo's angle -> pulse curve.
-    pub servo: ServoCurve<T>,
+    /// The servo's angle -> pulse curve; `None` for a joint no servo of
+    /// ours drives (an arm moved by its own controller, which reaches the
+    /// angle it is commanded: calibrated for the host, refused by the board).
+    pub servo: Option<ServoCurve<T>>,
     /// Full width of the play in the joint's drive, rad (never negative; see
     /// [`crate::backlash`]). 0 in files written before it existed.
     #[serde(default = "crate::zero")]
@@ -151,7 +153,7 @@ impl<T: Real> Arm<T> {
                 limits: j.limits.map(f),
                 mass: f(j.mass),
                 com: v3(j.com),
-                servo: j.servo.map(f),
+                servo: j.servo.map(|c| c.map(f)),
                 backlash: f(j.backlash),
                 softening: f(j.softening),
             }),

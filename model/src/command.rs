@@ -15,14 +15,13 @@ use crate::backlash::{Approach, settled};
 use crate::{Arm, PerJoint, Real, ServoCurve};
 
 /// The joint angles the servos of `arm` drive to when commanded `q` (rad)
-/// through the curves `sent`, rad.
-pub fn reached<T: Real>(arm: &Arm<T>, sent: &[ServoCurve<T>], q: &[T]) -> PerJoint<T> {
+/// through the curves `sent`, rad. A joint without a curve, on either
+/// side, is moved by its own controller: it reaches its command.
+pub fn reached<T: Real>(arm: &Arm<T>, sent: &[Option<ServoCurve<T>>], q: &[T]) -> PerJoint<T> {
     PerJoint::from_fn(arm.joints.len(), |j| {
-        let own = &arm.joints[j].servo;
-        if sent[j] == *own {
-            q[j]
-        } else {
-            own.angle(sent[j].pulse_us(q[j]))
+        match (&sent[j], &arm.joints[j].servo) {
+            (Some(sent), Some(own)) if sent != own => own.angle(sent.pulse_us(q[j])),
+            _ => q[j],
         }
     })
 }
@@ -33,7 +32,7 @@ pub fn reached<T: Real>(arm: &Arm<T>, sent: &[ServoCurve<T>], q: &[T]) -> PerJoi
 /// ([`crate::backlash::settled`]).
 pub fn standing<T: Real>(
     arm: &Arm<T>,
-    sent: &[ServoCurve<T>],
+    sent: &[Option<ServoCurve<T>>],
     q: &[T],
     approach: &[Approach],
 ) -> PerJoint<T> {
@@ -73,7 +72,7 @@ mod tests {
             c.angles_rad()[1],
             c.angles_rad()[2] + real::<f64>(2f64.to_radians()),
         ];
-        arm.joints[3].servo = ServoCurve::new(&shifted, c.pulses_us()).unwrap();
+        arm.joints[3].servo = ServoCurve::new(&shifted, c.pulses_us()).ok();
         let q = [0.0, 0.0, 0.0, 50f64.to_radians(), 0.0, 0.0];
         let r = reached(&arm, &sent, &q);
         assert!(
@@ -81,6 +80,9 @@ mod tests {
             "{}",
             r[3].to_degrees()
         );
+        // A joint without a curve on either side reaches its command.
+        arm.joints[3].servo = None;
+        assert_eq!(reached(&arm, &sent, &q)[3], q[3]);
         assert_eq!(r[0], 0.0);
     }
 }

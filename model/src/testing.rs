@@ -39,7 +39,7 @@ fn joint<T: Real>(
         limits: [real(-1.75), real(1.75)],
         mass: real(mass),
         com: com.map(real),
-        servo: ServoCurve::nominal(),
+        servo: Some(ServoCurve::nominal()),
         backlash: real(0.0),
         softening: real(0.0),
     }

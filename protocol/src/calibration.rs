@@ -74,6 +74,11 @@ pub enum CalibrationFault {
         /// Joint index.
         joint: u8,
     },
+    /// Joint `joint` (0-based) has no servo curve: the board does not drive it.
+    NoServo {
+        /// Joint index.
+        joint: u8,
+    },
     /// Joint `joint`'s servo curve does not map angle to pulse one-to-one.
     ServoCurve {
         /// Joint index.
@@ -121,6 +126,12 @@ impl core::fmt::Display for CalibrationFault {
             Self::Limits { joint } => {
                 write!(f, "joint {}: lower limit not below upper limit", joint + 1)
             }
+            Self::NoServo { joint } => write!(
+                f,
+                "joint {} has no servo curve: the board drives servo joints only, so this \
+                 calibration is for the host (predict, validate, export)",
+                joint + 1
+            ),
             Self::ServoCurve { joint, fault } => write!(
                 f,
                 "joint {}: the servo curve does not map angle to pulse one-to-one (monotonic): {fault}",
@@ -200,6 +211,7 @@ impl Calibration {
                 return Err(CalibrationFault::Limits { joint });
             }
             j.servo
+                .ok_or(CalibrationFault::NoServo { joint })?
                 .check()
                 .map_err(|fault| CalibrationFault::ServoCurve { joint, fault })?;
         }

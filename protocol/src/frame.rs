@@ -39,11 +39,12 @@
 //! | 4 | the model option `elasto-kinematic-servo` ([`crate::ModelOption::ElastoKinematicServo`], index 3, after the other three, whose indices stay) in the calibration payload and in `status`: the board stores the option a calibration was identified with, where lrmcal of protocol 3 sent ours as elasto-kinematic |
 //! | 5 | each arm of the calibration payload carries its rated payload (the springs' bounds, `model::bounds`, are worked out from the nominal arm on both ends), the payload carries each joint's largest correction (from the calibration, no longer the board's fixed 20°), and `status`'s compensation iterations count from the start of the current move |
 //! | 6 | arms of 1 to 6 joints: each arm of the calibration payload, its home pose and corrections, `motion/move`'s targets and `status`'s targets and nominal angles carry one value per joint of the arm, behind their count; `link/hello` says how many servo channels the board has, `status`'s calibration how many joints its arm has; two errors appended, [`crate::WireError::TargetCount`] (a move without one target per joint) and [`crate::WireError::UnusedChannel`] (attaching, or a raw pulse on, a channel past the arm's last joint) |
+//! | 7 | each joint of the calibration payload's arms carries its servo curve as an option (`None`: a joint no servo of ours drives, which the board refuses with [`crate::calibration::CalibrationFault::NoServo`]) |
 
 use serde::{Serialize, de::DeserializeOwned};
 
 /// The protocol version this crate speaks.
-pub const PROTOCOL_VERSION: u8 = 6;
+pub const PROTOCOL_VERSION: u8 = 7;
 /// Bytes before the body: version and sequence number.
 pub const HEADER_LEN: usize = 3;
 /// Bytes of the CRC trailer.

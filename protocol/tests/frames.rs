@@ -54,40 +54,40 @@ fn another_version_is_reported_not_misread() {
 /// side to update.
 #[test]
 fn a_frame_of_the_previous_version_is_refused_naming_both_versions() {
-    assert_eq!(protocol::PROTOCOL_VERSION, 6);
+    assert_eq!(protocol::PROTOCOL_VERSION, 7);
     let mut out = [0u8; MAX_FRAME];
-    let n = frame::encode_with_version(5, 12, &Request::Status, &mut out).unwrap();
+    let n = frame::encode_with_version(6, 12, &Request::Status, &mut out).unwrap();
     let err = frame::decode::<Request>(&out[..n]).unwrap_err();
-    assert_eq!(err, FrameError::Version { theirs: 5, seq: 12 });
+    assert_eq!(err, FrameError::Version { theirs: 6, seq: 12 });
     let msg = err.to_string();
     assert!(
-        msg.contains("protocol version 5") && msg.contains("speaks 6"),
+        msg.contains("protocol version 6") && msg.contains("speaks 7"),
         "{msg}"
     );
-    // The same for a reply: the host tells a board of protocol 5 apart.
-    let n = frame::encode_with_version(5, 13, &Response::Done, &mut out).unwrap();
+    // The same for a reply: the host tells a board of protocol 6 apart.
+    let n = frame::encode_with_version(6, 13, &Response::Done, &mut out).unwrap();
     assert_eq!(
         frame::decode::<Response>(&out[..n]),
-        Err(FrameError::Version { theirs: 5, seq: 13 })
+        Err(FrameError::Version { theirs: 6, seq: 13 })
     );
 }
 
-/// The reverse: a peer of protocol 5 reads only the frozen header of our
-/// frames before it refuses them, and that header says 6. (Its decoder is
+/// The reverse: a peer of protocol 6 reads only the frozen header of our
+/// frames before it refuses them, and that header says 7. (Its decoder is
 /// not in this crate; what it reads is.) A newer peer's frame is refused here
 /// the same way as an older one's.
 #[test]
-fn our_frames_say_version_6_where_a_version_5_peer_looks() {
+fn our_frames_say_version_7_where_a_version_6_peer_looks() {
     let mut out = [0u8; MAX_FRAME];
     let n = frame::encode(14, &Request::Status, &mut out).unwrap();
     let mut raw = [0u8; frame::MAX_RAW];
     let (version, seq, _) = frame::decode_raw(&out[..n], &mut raw).unwrap();
-    assert_eq!((version, seq), (6, 14));
-    assert_eq!(raw[0], 6, "the version is the first byte of every frame");
-    let n = frame::encode_with_version(7, 15, &Request::Status, &mut out).unwrap();
+    assert_eq!((version, seq), (7, 14));
+    assert_eq!(raw[0], 7, "the version is the first byte of every frame");
+    let n = frame::encode_with_version(8, 15, &Request::Status, &mut out).unwrap();
     let err = frame::decode::<Request>(&out[..n]).unwrap_err();
-    assert_eq!(err, FrameError::Version { theirs: 7, seq: 15 });
-    assert!(err.to_string().contains("version 7"), "{err}");
+    assert_eq!(err, FrameError::Version { theirs: 8, seq: 15 });
+    assert!(err.to_string().contains("version 8"), "{err}");
 }
 
 /// A move carries one target per joint behind their count: 1 to 6 targets
@@ -207,7 +207,7 @@ fn arm_of(joints: usize) -> model::Arm<f32> {
                 limits: [-1.0, 1.0],
                 mass: 0.1,
                 com: [0.0; 3],
-                servo: model::ServoCurve::nominal(),
+                servo: Some(model::ServoCurve::nominal()),
                 backlash: 0.0,
                 softening: 0.0,
             },
@@ -253,7 +253,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
         &[900.0, 1280.0, 1650.0, 1640.0, 2400.0],
     )
-    .unwrap();
+    .ok();
     let fault = curve.check().unwrap_err();
     assert_eq!(
         fault,
@@ -261,6 +261,13 @@ fn calibration_rejects_what_the_board_cannot_run() {
             joint: 5,
             fault: model::servo::CurveFault::PulsesNotMonotonic { knot: 3 }
         }
+    );
+    // A joint no servo drives: refused whole, naming the joint.
+    let mut none = good;
+    none.calibrated.joints[2].servo = None;
+    assert_eq!(
+        none.check(),
+        Err(protocol::CalibrationFault::NoServo { joint: 2 })
     );
     let msg = fault.to_string();
     assert!(
@@ -282,7 +289,7 @@ fn calibration_rejects_what_the_board_cannot_run() {
         .iter_mut()
         .chain(&mut nine.calibrated.joints)
     {
-        j.servo = j.servo.resampled(&angles).unwrap();
+        j.servo = j.servo.map(|c| c.resampled(&angles).unwrap());
     }
     let mut buf = [0u8; protocol::calibration::MAX_CALIBRATION_LEN];
     let bytes = nine.encode(&mut buf).unwrap().to_vec();

@@ -42,7 +42,7 @@ pub fn fixed_arm(joints: usize) -> Arm<f32> {
         limits: [-1.5, 1.5],
         mass: 0.1,
         com: [0.0, 0.0, 0.01],
-        servo: if i == 0 {
+        servo: Some(if i == 0 {
             let d = |x: f32| x.to_radians();
             ServoCurve::new(
                 &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
@@ -51,7 +51,7 @@ pub fn fixed_arm(joints: usize) -> Arm<f32> {
             .unwrap()
         } else {
             ServoCurve::from_three_points(900.0, 1650.0, 2400.0)
-        },
+        }),
         backlash: 0.001 * i as f32,
         softening: 0.05 * i as f32,
     };

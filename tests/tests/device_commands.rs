@@ -102,7 +102,7 @@ fn calibration_json(dir: &std::path::Path) -> std::path::PathBuf {
     let mut arm = nominal;
     arm.joints[1].theta += 0.01;
     arm.joints[2].compliance += 0.05;
-    arm.joints[0].servo.pulses_us_mut()[1] = 1630.0;
+    arm.joints[0].servo.as_mut().unwrap().pulses_us_mut()[1] = 1630.0;
     let file = CalibrationFile {
         schema: SCHEMA.into(),
         schema_version: SCHEMA_VERSION,
@@ -430,7 +430,7 @@ fn push_refuses_a_calibration_the_board_could_not_run_before_connecting() {
         &[d(-100.0), d(-50.0), d(0.0), d(50.0), d(100.0)],
         &[900.0, 1280.0, 1650.0, 1600.0, 2400.0],
     )
-    .unwrap();
+    .ok();
     std::fs::write(&path, file.to_json()).unwrap();
     // Nobody listens on this port: the check must come first.
     let device = DeviceArgs {

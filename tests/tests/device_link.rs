@@ -61,7 +61,7 @@ fn calibration_file() -> CalibrationFile {
             .iter()
             .map(|&a| ends.pulse_us(a) + 8.0 * (a * 1.5).sin())
             .collect();
-        j.servo = model::ServoCurve::new(&angles, &pulses).unwrap();
+        j.servo = model::ServoCurve::new(&angles, &pulses).ok();
     }
     CalibrationFile {
         schema: SCHEMA.into(),
@@ -203,7 +203,7 @@ fn push_store_reboot_status_move() {
     let arm64 = file.arm;
     let pulses = s.pulses_us;
     let commanded: [f64; 6] =
-        std::array::from_fn(|i| arm64.joints[i].servo.angle(pulses[i] as f64));
+        std::array::from_fn(|i| arm64.joints[i].servo.unwrap().angle(pulses[i] as f64));
     let opts = model::SolverOptions::default();
     let want = file
         .board_arms()
@@ -356,7 +356,11 @@ fn a_board_of_an_older_protocol_is_told_to_be_reflashed() {
 fn a_non_monotonic_curve_never_leaves_the_host() {
     let file = calibration_file();
     let mut bad = calibration::payload(&file, [0.0; 6].into()).unwrap();
-    let pulses = bad.calibrated.joints[4].servo.pulses_us_mut();
+    let pulses = bad.calibrated.joints[4]
+        .servo
+        .as_mut()
+        .unwrap()
+        .pulses_us_mut();
     pulses[3] = pulses[2] - 1.0;
     let mut c = client(board(SimFlash::new()));
     let err = c.push_calibration(&bad, |_, _| {}).unwrap_err();

@@ -56,7 +56,7 @@ fn boots_limp_enumerates_and_attached_servos_pulse_at_home_at_50_hz() {
     // Home without a calibration is all joints at 0 rad: the nominal curves' centre pulse.
     let (widths, periods) = board.servo_pulses(5);
     for (servo, (widths, periods)) in widths.iter().zip(&periods).enumerate() {
-        let home = arm.joints[servo].servo.pulse_us(0.0);
+        let home = arm.joints[servo].servo.unwrap().pulse_us(0.0);
         for width in widths {
             assert!(
                 (width - home).abs() <= TOLERANCE_US,

@@ -69,7 +69,7 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     let arm = dir.path().join("arm.toml");
     std::fs::copy(repo_root().join("host/core/arms/lrm.toml"), &arm).expect("copy the bundled arm");
     let original = lrmcal_core::io::arm_toml::read(&arm).expect("the bundled arm file");
-    let start_us = original.arm.joints[JOINT - 1].servo.pulse_us(0.0) as u16;
+    let start_us = original.arm.joints[JOINT - 1].servo.unwrap().pulse_us(0.0) as u16;
 
     let mut command = Command::new(env!("CARGO_BIN_EXE_lrmcal-e2e"));
     command
@@ -152,7 +152,7 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
 
     // The arm file has the new curve for this joint and nothing else changed.
     let mut expected = original.clone();
-    expected.arm.joints[JOINT - 1].servo = curve;
+    expected.arm.joints[JOINT - 1].servo = Some(curve);
     let rewritten = lrmcal_core::io::arm_toml::read(&arm).expect("the rewritten arm file");
     assert_eq!(rewritten.arm, expected.arm, "the arm file after servo-tune");
     // Written in place: the file's comments are all still there, in order.
@@ -183,7 +183,7 @@ fn servo_tune_jogs_the_measured_pulse_and_writes_the_curve_to_file_and_board() {
     let stored =
         protocol::Calibration::decode(&link.pull()).expect("the board's calibration decodes");
     let mut want = before;
-    want.calibrated.joints[JOINT - 1].servo = curve.map(|v| v as f32);
+    want.calibrated.joints[JOINT - 1].servo = Some(curve.map(|v| v as f32));
     want.id = stored.id;
     assert_eq!(stored, want, "the board's calibration after servo-tune");
     assert_ne!(stored.id, before.id, "a changed calibration gets a new id");

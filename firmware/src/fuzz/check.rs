@@ -243,7 +243,8 @@ impl Model {
         let [lo, hi] = servo::joint_limits(arm, c.hard_limits_rad, c.default_limits_rad)[channel];
         let curve = arm
             .and_then(|a| a.joints.get(channel))
-            .map_or(c.uncalibrated_curve, |j| j.servo);
+            .and_then(|j| j.servo)
+            .unwrap_or(c.uncalibrated_curve);
         let [a, b] = [curve.pulse_us(lo), curve.pulse_us(hi)];
         let [safe_lo, safe_hi] = c.pulse_range_us.map(f32::from);
         [

@@ -127,24 +127,26 @@ impl Fixtures {
         tight.calibrated.joints[0].limits = [-0.6, 0.5];
         tight.calibrated.joints[2].limits = [-1.2, 0.9];
         for j in &mut tight.calibrated.joints {
-            for p in j.servo.pulses_us_mut() {
+            for p in j.servo.iter_mut().flat_map(|c| c.pulses_us_mut()) {
                 *p += 25.0;
             }
         }
         let mut wild = test_calibration(23);
         wild.option = ModelOption::Kinematic;
         for j in &mut wild.calibrated.joints {
-            let pulses = j.servo.pulses_us_mut();
-            pulses[0] = 150.0;
-            if let Some(last) = pulses.last_mut() {
-                *last = 3300.0;
+            if let Some(curve) = &mut j.servo {
+                let pulses = curve.pulses_us_mut();
+                pulses[0] = 150.0;
+                if let Some(last) = pulses.last_mut() {
+                    *last = 3300.0;
+                }
             }
         }
         let mut invalid = test_calibration(24);
         if let Some(last) = invalid.calibrated.joints[4]
             .servo
-            .pulses_us_mut()
-            .last_mut()
+            .as_mut()
+            .and_then(|c| c.pulses_us_mut().last_mut())
         {
             *last = f32::NAN;
         }

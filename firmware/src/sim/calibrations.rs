@@ -27,7 +27,7 @@ pub fn test_calibration_of(id: u32, joints: usize) -> Calibration {
         j.d += 0.001 * s;
         j.a += 0.0015 * s;
         j.compliance *= 1.3;
-        j.servo = test_curve(i);
+        j.servo = Some(test_curve(i));
         j.limits = [-1.7, 1.7];
     }
     calibrated.base.rpy[1] += 0.005;

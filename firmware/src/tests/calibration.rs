@@ -50,7 +50,11 @@ fn calibration_upload_is_applied_only_when_complete_and_intact() {
 
     // A calibration that decodes but has a NaN is refused by the board's own check.
     let mut bad = cal;
-    bad.calibrated.joints[2].servo.pulses_us_mut()[1] = f32::NAN;
+    bad.calibrated.joints[2]
+        .servo
+        .as_mut()
+        .unwrap()
+        .pulses_us_mut()[1] = f32::NAN;
     let mut bad_buf = [0u8; MAX_CALIBRATION_LEN];
     let bad_bytes = bad.encode(&mut bad_buf).unwrap().to_vec();
     h.request(&Request::CalibrationBegin {
@@ -97,7 +101,7 @@ fn calibrated_curves_and_limits_drive_the_servos() {
     );
     h.frames(100);
     for (i, (joint, home)) in cal.calibrated.joints.iter().zip(cal.home_rad).enumerate() {
-        let expected = joint.servo.pulse_us(home).round() as u16;
+        let expected = joint.servo.unwrap().pulse_us(home).round() as u16;
         assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i}");
     }
 }
@@ -140,10 +144,10 @@ fn the_play_is_offset_by_half_its_width_the_way_each_joint_arrived() {
         let ways = tracker.visit(&q);
         for (i, joint) in cal.calibrated.joints.iter().enumerate() {
             let command = command_for(q[i], PLAY_RAD[i], ways[i]);
-            let expected = joint.servo.pulse_us(command).round() as u16;
+            let expected = joint.servo.unwrap().pulse_us(command).round() as u16;
             assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i} to {q:?}");
             // Half the play is a few µs: the offset shows in the pulse.
-            let plain = joint.servo.pulse_us(q[i]).round() as u16;
+            let plain = joint.servo.unwrap().pulse_us(q[i]).round() as u16;
             assert!(h.dev.bus().now[i] != Some(plain), "joint {i}: no offset");
             flipped[i] |= ways[i] != last[i];
         }
@@ -156,7 +160,7 @@ fn the_play_is_offset_by_half_its_width_the_way_each_joint_arrived() {
     let [_, hi] = cal.calibrated.joints[0].limits;
     assert_eq!(h.move_to([hi, -0.5, 0.3, -0.1, 1.2, 0.2]), Response::Done);
     h.frames(150);
-    let top = cal.calibrated.joints[0].servo.pulse_us(hi).round() as u16;
+    let top = cal.calibrated.joints[0].servo.unwrap().pulse_us(hi).round() as u16;
     assert_eq!(h.dev.bus().now[0], Some(top));
     assert!(h.status().faults.contains(Faults::LIMIT_CLAMPED));
 }
@@ -195,7 +199,7 @@ fn a_sweep_follows_every_knot_of_the_curves_in_use() {
             frames += 1;
             let q = h.status().nominal_rad;
             for (i, joint) in cal.calibrated.joints.iter().enumerate() {
-                let expected = joint.servo.pulse_us(q[i]).round() as u16;
+                let expected = joint.servo.unwrap().pulse_us(q[i]).round() as u16;
                 assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i} at {}", q[i]);
             }
         }
@@ -216,7 +220,11 @@ fn a_curve_that_turns_back_is_refused_whole_and_the_old_calibration_stays() {
     let held = h.dev.bus().now;
     // Joint 4's nine-knot curve: the pulse at its sixth knot drops below the fifth's.
     let mut turned = test_calibration(2);
-    let pulses = turned.calibrated.joints[3].servo.pulses_us_mut();
+    let pulses = turned.calibrated.joints[3]
+        .servo
+        .as_mut()
+        .unwrap()
+        .pulses_us_mut();
     assert_eq!(pulses.len(), 9);
     pulses[5] = pulses[4] - 5.0;
     assert_eq!(
@@ -323,7 +331,7 @@ fn a_reboot_keeps_the_calibration_and_a_cut_write_keeps_the_old_one() {
 fn a_power_cut_at_every_write_step_of_a_commit_boots_the_old_or_the_new_calibration() {
     let mut new = test_calibration(2);
     for j in &mut new.calibrated.joints {
-        j.servo.pulses_us_mut()[1] += 30.0;
+        j.servo.as_mut().unwrap().pulses_us_mut()[1] += 30.0;
     }
     let encoded = |c: &Calibration| {
         let mut buf = [0u8; MAX_CALIBRATION_LEN];
@@ -369,7 +377,7 @@ fn a_power_cut_at_every_write_step_of_a_commit_boots_the_old_or_the_new_calibrat
                 );
             }
             // The servos follow that calibration's curves, not a mixture of two.
-            let curves = running.map_or([model::ServoCurve::nominal(); 6].into(), |c| {
+            let curves = running.map_or([Some(model::ServoCurve::nominal()); 6].into(), |c| {
                 c.calibrated.joints.map(|j| j.servo)
             });
             let home = running.map_or([0.0; 6].into(), |c| c.home_rad);
@@ -378,7 +386,7 @@ fn a_power_cut_at_every_write_step_of_a_commit_boots_the_old_or_the_new_calibrat
             });
             h.frames(1);
             let pulses: [Option<u16>; 6] =
-                core::array::from_fn(|i| Some(curves[i].pulse_us(home[i]).round() as u16));
+                core::array::from_fn(|i| Some(curves[i].unwrap().pulse_us(home[i]).round() as u16));
             assert_eq!(h.dev.bus().now, pulses, "cut {cut}");
         }
     }

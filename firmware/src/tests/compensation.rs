@@ -145,7 +145,7 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
     // Calibration 2: every servo curve shifted by 40 µs (≈ 0.09 rad).
     let mut next = test_calibration(2);
     for j in &mut next.calibrated.joints {
-        for p in j.servo.pulses_us_mut() {
+        for p in j.servo.as_mut().unwrap().pulses_us_mut() {
             *p += 40.0;
         }
     }
@@ -171,7 +171,7 @@ fn a_new_calibration_or_an_erase_does_not_step_the_held_servos() {
     }
     // In the end the servos sit where calibration 2's curves put the home pose.
     for (i, (joint, home)) in next.calibrated.joints.iter().zip(next.home_rad).enumerate() {
-        let expected = joint.servo.pulse_us(home).round() as u16;
+        let expected = joint.servo.unwrap().pulse_us(home).round() as u16;
         assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i}");
     }
 }

@@ -47,7 +47,7 @@ fn moves_and_compensates_with_the_rest_limp(joints: usize) {
     // Compensation off: each joint's pulse is its calibrated curve at home.
     let now = h.dev.bus().now;
     for (i, (joint, home)) in cal.calibrated.joints.iter().zip(cal.home_rad).enumerate() {
-        let expected = joint.servo.pulse_us(home).round() as u16;
+        let expected = joint.servo.unwrap().pulse_us(home).round() as u16;
         assert_eq!(now[i], Some(expected), "joint {i}");
     }
     assert!(now[joints..].iter().all(Option::is_none), "{now:?}");
@@ -228,7 +228,7 @@ fn a_calibration_of_another_size_refits_the_arm_without_a_step() {
     assert_eq!((s.targets_rad.len(), s.nominal_rad.len()), (5, 5));
     // The five joints sit where the new curves put the home pose.
     for (i, (joint, home)) in five.calibrated.joints.iter().zip(five.home_rad).enumerate() {
-        let expected = joint.servo.pulse_us(home).round() as u16;
+        let expected = joint.servo.unwrap().pulse_us(home).round() as u16;
         assert_eq!(h.dev.bus().now[i], Some(expected), "joint {i}");
     }
 
@@ -243,7 +243,10 @@ fn a_calibration_of_another_size_refits_the_arm_without_a_step() {
         Response::Done
     );
     h.frames(1);
-    let j6 = six.calibrated.joints[5].servo.pulse_us(six.home_rad[5]);
+    let j6 = six.calibrated.joints[5]
+        .servo
+        .unwrap()
+        .pulse_us(six.home_rad[5]);
     assert_eq!(h.dev.bus().now[5], Some(j6.round() as u16));
 
     // From five joints, an erase: six joints on the data-sheet curve, the

@@ -128,7 +128,7 @@ fn largest_fading_step_us(cal: &Calibration) -> f32 {
         .calibrated
         .joints
         .iter()
-        .map(|j| steepest(&j.servo))
+        .filter_map(|j| j.servo.as_ref().map(steepest))
         .fold(0.0, f32::max);
     slope * Config::default().max_correction_rate_rad_s * 0.02 + 1.0
 }
@@ -364,14 +364,14 @@ proptest! {
         let id = h.status().calibration.map(|c| c.id);
         prop_assert_eq!(id, calibrated.then_some(2));
         let limits = if calibrated { cal.calibrated.joints.map(|j| j.limits) } else { [[-1.7453293, 1.7453293]; 6].into() };
-        let curves = if calibrated { cal.calibrated.joints.map(|j| j.servo) } else { [model::ServoCurve::nominal(); 6].into() };
+        let curves = if calibrated { cal.calibrated.joints.map(|j| j.servo) } else { [Some(model::ServoCurve::nominal()); 6].into() };
         for &(ch, pulse) in &h.dev.bus().log {
             if let Some(us) = pulse {
                 prop_assert!(ch < joints, "pulse {us} on channel {ch} of an arm of {joints} joints");
                 prop_assert!((500..=2500).contains(&us), "pulse {us}");
                 // Driven (not raw) pulses also respect the joint limits through the curve.
-                let lo = curves[ch].pulse_us(limits[ch][0]).min(curves[ch].pulse_us(limits[ch][1]));
-                let hi = curves[ch].pulse_us(limits[ch][0]).max(curves[ch].pulse_us(limits[ch][1]));
+                let lo = curves[ch].unwrap().pulse_us(limits[ch][0]).min(curves[ch].unwrap().pulse_us(limits[ch][1]));
+                let hi = curves[ch].unwrap().pulse_us(limits[ch][0]).max(curves[ch].unwrap().pulse_us(limits[ch][1]));
                 prop_assert!(used_raw || (f32::from(us) >= lo - 1.0 && f32::from(us) <= hi + 1.0), "pulse {us} on {ch}");
             }
         }

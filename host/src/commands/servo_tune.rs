@@ -14,7 +14,7 @@ use model::servo::{KnotCount, PULSE_RANGE_US};
 
 use crate::commands::device_args::DeviceArgs;
 use crate::error::Error;
-use lrmcal_core::io::arm_toml::{self, no_servo};
+use lrmcal_core::io::arm_toml;
 use lrmcal_engine::device::{Client, ClientError, Link, calibration};
 
 /// Tune one servo's pulse curve interactively.
@@ -190,7 +190,7 @@ fn write_to_board<L: Link>(
         }
         Err(e) => return Err(e.into()),
     };
-    c.calibrated.joints[joint].servo = curve.map(|x| x as f32);
+    c.calibrated.joints[joint].servo = Some(curve.map(|x| x as f32));
     let c = calibration::identified(c).map_err(|f| Error::DeviceInput {
         what: "put the new curve into the board's calibration".into(),
         reason: f.to_string(),
@@ -203,7 +203,7 @@ fn write_to_board<L: Link>(
 pub fn run(args: &Args) -> Result<(), Error> {
     let description = arm_toml::read(&args.arm)?;
     let j = (args.joint - 1) as usize;
-    if description.arm.joints[j].servo == no_servo() {
+    let Some(start) = description.arm.joints[j].servo else {
         return Err(Error::DeviceInput {
             what: format!("tune joint {} of `{}`", args.joint, args.arm.display()),
             reason: format!(
@@ -214,10 +214,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 args.joint, description.joint_names[j]
             ),
         });
-    }
+    };
     let mut client = args.device.connect()?;
-    let mut tuning = Tuning::new(description.arm.joints[j].servo, usize::from(args.points))
-        .map_err(|e| Error::DeviceInput {
+    let mut tuning =
+        Tuning::new(start, usize::from(args.points)).map_err(|e| Error::DeviceInput {
             what: format!("tune joint {} at {} points", args.joint, args.points),
             reason: e.to_string(),
         })?;

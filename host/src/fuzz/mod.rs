@@ -485,8 +485,8 @@ fn arm_values<'a>(which: &'a str, arm: &'a Arm<f64>) -> impl Iterator<Item = (St
             j.com[2],
         ]
         .into_iter()
-        .chain(j.servo.angles_rad().iter().copied())
-        .chain(j.servo.pulses_us().iter().copied())
+        .chain(j.servo.iter().flat_map(|c| c.angles_rad().iter().copied()))
+        .chain(j.servo.iter().flat_map(|c| c.pulses_us().iter().copied()))
         .map(move |v| (format!("{which} joint {}", i + 1), v))
         .collect::<Vec<_>>()
     });

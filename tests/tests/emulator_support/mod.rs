@@ -395,9 +395,9 @@ pub fn test_calibration(id: u32) -> protocol::Calibration {
             .collect();
         let pulses: Vec<f64> = angles
             .iter()
-            .map(|&a| joint.servo.pulse_us(a) + (6.0 + i as f64) * (2.0 * a).sin())
+            .map(|&a| joint.servo.unwrap().pulse_us(a) + (6.0 + i as f64) * (2.0 * a).sin())
             .collect();
-        joint.servo = model::ServoCurve::new(&angles, &pulses).expect("5 to 9 knots");
+        joint.servo = Some(model::ServoCurve::new(&angles, &pulses).expect("5 to 9 knots"));
         // Play of 1° to 3.5° full width: half of it is 4 to 13 µs of pulse.
         joint.backlash = (1.0 + 0.5 * i as f64).to_radians();
         // Springs that soften with torque, so the board works out the
@@ -568,7 +568,7 @@ pub fn curve_pulses(
 ) -> [f64; model::testing::TEST_ARM_JOINTS] {
     let calibrated = calibration.calibrated.map(f64::from);
     let command = calibrated.clamp_to_limits(command);
-    std::array::from_fn(|i| calibrated.joints[i].servo.pulse_us(command[i]))
+    std::array::from_fn(|i| calibrated.joints[i].servo.unwrap().pulse_us(command[i]))
 }
 
 /// The host's side of a board's moves: which way each joint arrives at each target, and

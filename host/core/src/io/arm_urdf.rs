@@ -16,7 +16,7 @@ use std::path::Path;
 
 use model::{Arm, Frame, Joint, JointKind, MAX_JOINTS, PerJoint};
 
-use super::arm_toml::{ArmDescription, no_servo};
+use super::arm_toml::ArmDescription;
 use super::read_text;
 use super::urdf_chain::{self, DhChain};
 use crate::collision::CollisionSpec;
@@ -79,7 +79,7 @@ pub fn from_chain(chain: &DhChain) -> Result<ArmDescription, InputError> {
                 .unwrap_or([-std::f64::consts::PI, std::f64::consts::PI]),
             mass: j.mass,
             com: j.com,
-            servo: no_servo(),
+            servo: None,
             backlash: 0.0,
             softening: 0.0,
         })
@@ -126,7 +126,7 @@ mod tests {
         assert_eq!(d.joint_names[0], "shoulder_pan");
         assert_eq!(d.arm.gravity, GRAVITY);
         // No servo curves: the board refuses it until the arm file gives them.
-        assert_eq!(super::super::arm_toml::joint_without_servo(&d.arm), Some(1));
+        assert!(d.arm.joints.iter().all(|j| j.servo.is_none()));
     }
 
     #[test]

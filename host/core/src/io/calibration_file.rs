@@ -21,7 +21,9 @@
 //! (`rated_payload_kg`, the load the physical bounds of `model::bounds` hold
 //! up to; files of earlier versions read with 0) and means the servo curves
 //! for every reader: a calibrated curve says where the nominal curve's pulse
-//! really goes (`model::command`).
+//! really goes (`model::command`). Version 5 writes `"servo": null` for a
+//! joint no servo of ours drives (an arm moved by its own controller), where
+//! earlier versions wrote a curve of all pulses 0: such a curve reads as none.
 
 use std::path::Path;
 
@@ -36,7 +38,7 @@ use crate::error::{Error, InputError, Location, Problem};
 /// Name of the schema, so a JSON file of another kind is recognised as such.
 pub const SCHEMA: &str = "lrmcal-calibration";
 /// Version of the schema this build writes (and the newest it reads).
-pub const SCHEMA_VERSION: u32 = 4;
+pub const SCHEMA_VERSION: u32 = 5;
 /// The oldest version this build reads.
 pub const OLDEST_SCHEMA_VERSION: u32 = 1;
 
@@ -47,6 +49,26 @@ struct ThreePoints {
     minus100: f64,
     zero: f64,
     plus100: f64,
+}
+
+/// Rewrites the curve of all pulses 0 that files before schema 5 wrote for a
+/// joint no servo drives as `null`, so it reads as none.
+fn undriven_as_none(value: &mut serde_json::Value) {
+    for arm in ["nominal", "arm"] {
+        let joints = value
+            .get_mut(arm)
+            .and_then(|a| a.get_mut("joints"))
+            .and_then(|j| j.as_array_mut());
+        for joint in joints.into_iter().flatten() {
+            let Some(servo) = joint.get_mut("servo") else {
+                continue;
+            };
+            let pulses = servo.get("pulses_us").and_then(|p| p.as_array());
+            if pulses.is_some_and(|p| p.iter().all(|x| x.as_f64() == Some(0.0))) {
+                *servo = serde_json::Value::Null;
+            }
+        }
+    }
 }
 
 /// Rewrites the servo curves of a schema-1 file's two arms as knots, so the
@@ -279,11 +301,16 @@ impl CalibrationFile {
             text,
             SCHEMA,
             OLDEST_SCHEMA_VERSION..=SCHEMA_VERSION,
-            |version, value| match version {
-                1 => upgrade_servo_curves(value),
+            |version, value| {
+                if version == 1 {
+                    upgrade_servo_curves(value)?;
+                }
                 // Version 2 lacks only the registration, which reads as none;
                 // versions before 4 the rated payload, which reads as 0.
-                _ => Ok(()),
+                if version < 5 {
+                    undriven_as_none(value);
+                }
+                Ok(())
             },
         )?;
         // Both arms of the same joints, at least one.

@@ -10,7 +10,6 @@ use protocol::{Calibration, CalibrationFault};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use lrmcal_core::io::arm_toml::joint_without_servo;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 
 /// Random poses [`max_corrections`] looks at besides the grid's (fixed seed:
@@ -55,8 +54,8 @@ pub fn drivable(arm: &Arm<f64>) -> Result<(), NotDriven> {
     if joints > protocol::CHANNELS {
         return Err(NotDriven::Joints { joints });
     }
-    match joint_without_servo(arm) {
-        Some(joint) => Err(NotDriven::NoServo { joint }),
+    match arm.joints.iter().position(|j| j.servo.is_none()) {
+        Some(joint) => Err(NotDriven::NoServo { joint: joint + 1 }),
         None => Ok(()),
     }
 }
@@ -181,7 +180,7 @@ pub fn explain(fault: CalibrationFault, arm: &Arm<f64>) -> String {
     let CalibrationFault::ServoCurve { joint, .. } = fault else {
         return fault.to_string();
     };
-    let Some(curve) = arm.joints.get(usize::from(joint)).map(|j| j.servo) else {
+    let Some(curve) = arm.joints.get(usize::from(joint)).and_then(|j| j.servo) else {
         return fault.to_string();
     };
     let knots: Vec<String> = curve

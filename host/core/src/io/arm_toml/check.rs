@@ -9,7 +9,7 @@ use model::{Arm, Frame, MAX_JOINTS, PerJoint, ServoCurve};
 use toml::{Spanned, Value};
 
 use super::raw::*;
-use super::{ArmDescription, LineIndex, no_servo};
+use super::{ArmDescription, LineIndex};
 use crate::collision::{
     BodySet, BodySpec, CollisionSpec, Floor, FrameRef, PointSpec, ShapeSpec, SpecError, SpecPlace,
 };
@@ -110,8 +110,8 @@ impl Checker<'_> {
             ));
         }
         let servo = match &raw.servo {
-            Some(servo) => self.servo(&k("servo"), servo)?,
-            None => no_servo(),
+            Some(servo) => Some(self.servo(&k("servo"), servo)?),
+            None => None,
         };
         Ok(Joint {
             theta: self.finite(&k("theta"), &raw.theta)?,

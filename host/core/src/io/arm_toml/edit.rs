@@ -59,7 +59,7 @@ pub fn with_servo(text: &str, joint: usize, curve: &ServoCurve<f64>) -> Result<S
     }
     let edited = document.to_string();
     // The edit must mean exactly the new curve and nothing else.
-    description.arm.joints[joint].servo = *curve;
+    description.arm.joints[joint].servo = Some(*curve);
     match parse(&edited) {
         Ok(read) if read == description => Ok(edited),
         _ => Err(invalid(
@@ -107,9 +107,9 @@ mod tests {
             after[changed[0]]
         );
         let read = parse(&edited).unwrap();
-        assert_eq!(read.arm.joints[2].servo, five_knots());
+        assert_eq!(read.arm.joints[2].servo, Some(five_knots()));
         let mut expected = parse(BUNDLED).unwrap();
-        expected.arm.joints[2].servo = five_knots();
+        expected.arm.joints[2].servo = Some(five_knots());
         assert_eq!(read, expected);
     }
 
@@ -124,7 +124,10 @@ mod tests {
         );
         let edited = with_servo(&three, 0, &five_knots()).unwrap();
         assert!(!edited.contains("minus100"));
-        assert_eq!(parse(&edited).unwrap().arm.joints[0].servo, five_knots());
+        assert_eq!(
+            parse(&edited).unwrap().arm.joints[0].servo,
+            Some(five_knots())
+        );
         let e = with_servo(BUNDLED, 6, &five_knots())
             .unwrap_err()
             .to_string();

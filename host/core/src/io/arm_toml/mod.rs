@@ -4,7 +4,7 @@
 //! Every key of the model is required; there are no defaults, because a
 //! forgotten line in a calibration input should be an error, not a silent
 //! zero. Three parts are optional: a joint's `servo` table (an arm our board
-//! does not drive has none, see [`no_servo`]), the collision description
+//! does not drive has none, its joints have `servo: None`), the collision description
 //! (`[collision]`, `[[body]]`) and the candidate grid's levels (`[plan]`),
 //! whose defaults are the planner's. Unknown keys
 //! are rejected (a misspelt key would otherwise be ignored). Numbers must be
@@ -21,7 +21,7 @@
 use std::ops::Range;
 use std::path::Path;
 
-use model::{Arm, ServoCurve};
+use model::Arm;
 
 use crate::collision::CollisionSpec;
 use crate::error::{Error, Field, InputError, Location, Problem};
@@ -41,7 +41,8 @@ pub struct ArmDescription {
     pub name: String,
     /// The joints' names, base to tip (`joint[i].name`).
     pub joint_names: Vec<String>,
-    /// The arm's parameters; a joint without a `servo` table has [`no_servo`].
+    /// The arm's parameters; a joint without a `servo` table has no curve
+    /// (`servo: None`: an arm moved by its own controller).
     pub arm: Arm<f64>,
     /// The bodies, floor and clearance the planner tests (`[collision]`, `[[body]]`).
     pub collision: CollisionSpec,
@@ -49,23 +50,6 @@ pub struct ArmDescription {
     /// (`[plan] levels_deg`); `None`: the planner's default, the paper's
     /// -100, 0, +100.
     pub levels_deg: Option<Vec<f64>>,
-}
-
-/// The servo curve of a joint whose arm file has no `servo` table (an arm
-/// moved by its own controller, calibrated from its tracker data alone): all
-/// pulses 0. The model never reads the curve; the board commands refuse it
-/// (see [`joint_without_servo`]), and so would the board, since it is not
-/// monotonic, which a curve from a file always is.
-pub fn no_servo() -> ServoCurve<f64> {
-    ServoCurve::from_three_points(0.0, 0.0, 0.0)
-}
-
-/// The first joint (1-based) of `arm` that has no servo curve ([`no_servo`]), if any.
-pub fn joint_without_servo(arm: &Arm<f64>) -> Option<usize> {
-    arm.joints
-        .iter()
-        .position(|j| j.servo == no_servo())
-        .map(|i| i + 1)
 }
 
 /// Reads and checks an arm description file.

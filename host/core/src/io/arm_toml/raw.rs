@@ -6,7 +6,7 @@ use model::{JointKind, ServoCurve};
 use serde::{Deserialize, Serialize};
 use toml::{Spanned, Value};
 
-use super::{ArmDescription, no_servo};
+use super::ArmDescription;
 use crate::collision::{BodySpec, CollisionSpec, Floor, PointSpec, ShapeSpec};
 
 /// The file's layout; spans remember where each value was for error messages.
@@ -202,8 +202,7 @@ impl RawArm {
                         limits: unspanned(j.limits),
                         mass: unspanned(j.mass),
                         com: unspanned(j.com),
-                        servo: (j.servo != no_servo())
-                            .then(|| unspanned(RawServo::knots(&j.servo))),
+                        servo: j.servo.as_ref().map(|c| unspanned(RawServo::knots(c))),
                     })
                     .collect(),
             ),

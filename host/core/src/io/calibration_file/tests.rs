@@ -20,6 +20,30 @@ fn round_trips_and_checks_its_nominal_arm() {
     assert!(err.contains("cal.json") && err.contains("j3.a"), "{err}");
 }
 
+/// A joint no servo drives is written `null` and read back as none; the
+/// all-zero curve earlier versions wrote for it reads as none too.
+#[test]
+fn a_joint_without_a_servo_has_no_curve_in_every_version() {
+    let mut file = sample_file();
+    file.nominal.joints[0].servo = None;
+    file.arm.joints[0].servo = None;
+    let json = file.to_json();
+    assert!(json.contains("\"servo\": null"), "{json}");
+    assert_eq!(CalibrationFile::parse(&json).unwrap(), file);
+    let zero = serde_json::to_string(&ServoCurve::from_three_points(0.0, 0.0, 0.0)).unwrap();
+    let old = json
+        .replace("\"servo\": null", &format!("\"servo\": {zero}"))
+        .replace(
+            &format!("\"schema_version\": {SCHEMA_VERSION}"),
+            "\"schema_version\": 4",
+        );
+    assert!(
+        old.contains("\"schema_version\": 4") && old.contains(&zero),
+        "{old}"
+    );
+    assert_eq!(CalibrationFile::parse(&old).unwrap(), file);
+}
+
 /// An arm description is the calibration's nominal arm when its joints'
 /// geometry, limits and masses are, rounded or not; the base, tool,
 /// compliances and servo curves may differ.
@@ -275,7 +299,7 @@ fn statistics_of_a_known_set() {
 #[test]
 fn schema_1_files_read_as_the_same_curves() {
     let mut file = sample_file();
-    file.arm.joints[1].servo = ServoCurve::from_three_points(880.5, 1640.25, 2410.125);
+    file.arm.joints[1].servo = Some(ServoCurve::from_three_points(880.5, 1640.25, 2410.125));
     let json = file.to_json();
     assert!(
         json.contains(&format!("\"schema_version\": {SCHEMA_VERSION}"))

@@ -227,7 +227,7 @@ mod tests {
     #[test]
     fn a_joint_without_a_servo_curve_has_no_knots() {
         let mut arm = test_arm();
-        arm.joints[5].servo = model::ServoCurve::from_three_points(0.0, 0.0, 0.0);
+        arm.joints[5].servo = None;
         let ours = candidates(ModelOption::ElastoKinematicServo, &arm, FINEST);
         assert_eq!(ours.len(), 44 + 5 * servo_knots::KNOTS);
         assert!(

@@ -56,9 +56,12 @@ impl Key for ParamKey {
                 .tool_point(usize::from(target))
                 .map_or(f64::NAN, |p| p[usize::from(axis)]),
             Self::ServoKnot { joint, knot } => {
-                let curve = &rig.arm.joints[usize::from(joint)].servo;
-                crate::calib::parameters::servo_knots::curve_index(curve, usize::from(knot))
-                    .and_then(|i| curve.angles_rad().get(i).copied())
+                let curve = rig.arm.joints[usize::from(joint)].servo.as_ref();
+                curve
+                    .and_then(|curve| {
+                        crate::calib::parameters::servo_knots::curve_index(curve, usize::from(knot))
+                            .and_then(|i| curve.angles_rad().get(i).copied())
+                    })
                     .unwrap_or(f64::NAN)
             }
             Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
@@ -81,7 +84,10 @@ impl Key for ParamKey {
                 &mut rig.tools[usize::from(target) - 1][usize::from(axis)]
             }
             Self::ServoKnot { joint, knot } => {
-                let curve = &mut rig.arm.joints[usize::from(joint)].servo;
+                let curve = rig.arm.joints[usize::from(joint)]
+                    .servo
+                    .as_mut()
+                    .expect("a joint's knots are keys only where it has a curve");
                 let i =
                     crate::calib::parameters::servo_knots::curve_index(curve, usize::from(knot))
                         .expect("the fit puts the curve on its knots' grid first");
@@ -296,18 +302,17 @@ mod tests {
         // curve's own, on a 5-knot one every second of them.
         let mut rig = Rig::from(rigid_nominal());
         let nine: Vec<f64> = (0..9).map(|k| (k as f64 - 4.0) * 0.25).collect();
-        rig.arm.joints[2].servo = rig.arm.joints[2].servo.resampled(&nine).unwrap();
+        rig.arm.joints[2].servo = rig.arm.joints[2].servo.map(|c| c.resampled(&nine).unwrap());
         assert_eq!(knot.value(&rig), 0.0);
         *knot.slot(&mut rig) += 0.01;
-        assert_eq!(rig.arm.joints[2].servo.angles_rad()[4], 0.01);
+        assert_eq!(rig.arm.joints[2].servo.unwrap().angles_rad()[4], 0.01);
         rig.arm.joints[2].servo = rig.arm.joints[2]
             .servo
-            .resampled(&[-1.0, -0.5, 0.0, 0.5, 1.0])
-            .unwrap();
+            .map(|c| c.resampled(&[-1.0, -0.5, 0.0, 0.5, 1.0]).unwrap());
         let last = ParamKey::ServoKnot { joint: 2, knot: 8 };
         assert_eq!(last.value(&rig), 1.0);
         *last.slot(&mut rig) += 0.01;
-        assert_eq!(rig.arm.joints[2].servo.angles_rad()[4], 1.01);
+        assert_eq!(rig.arm.joints[2].servo.unwrap().angles_rad()[4], 1.01);
         assert!(
             ParamKey::ServoKnot { joint: 2, knot: 3 }
                 .value(&rig)

@@ -155,7 +155,7 @@ pub fn curve_index(curve: &ServoCurve<f64>, knot: usize) -> Option<usize> {
 /// own controller, whose file has no `servo` table) has no curve to correct.
 pub fn keys(arm: &Arm<f64>, spacing: KnotSpacing) -> impl Iterator<Item = ParamKey> + '_ {
     (0..arm.joints.len())
-        .filter(|&joint| has_curve(&arm.joints[joint].servo))
+        .filter(|&joint| arm.joints[joint].servo.is_some())
         .flat_map(move |joint| {
             (0..KNOTS)
                 .filter(move |&knot| spacing.holds(knot))
@@ -247,12 +247,6 @@ pub fn spacing_of(keys: &[ParamKey]) -> Option<KnotSpacing> {
         .then(|| KnotSpacing::holding(knots))
 }
 
-/// Whether `curve` maps angle to pulse (a joint without a servo table has
-/// a flat one the model never reads).
-fn has_curve(curve: &ServoCurve<f64>) -> bool {
-    curve.is_monotonic()
-}
-
 /// `arm` with the servo curve of every joint that has one resampled on the
 /// knots of `spacing`: the same map where the curve's own knots are among
 /// the grid's, and the curve the knot parameters move. A curve that already
@@ -262,13 +256,13 @@ fn has_curve(curve: &ServoCurve<f64>) -> bool {
 pub fn on_grid(arm: &Arm<f64>, spacing: KnotSpacing) -> Arm<f64> {
     let mut out = *arm;
     let grid = spacing.angles_rad();
-    for joint in &mut out.joints {
-        if joint.servo.knot_count() == spacing.knots() || !has_curve(&joint.servo) {
+    for servo in out.joints.iter_mut().filter_map(|j| j.servo.as_mut()) {
+        if servo.knot_count() == spacing.knots() {
             continue;
         }
         // Every grid has at most MAX_KNOTS knots: resampling cannot fail.
-        if let Ok(curve) = joint.servo.resampled(&grid) {
-            joint.servo = curve;
+        if let Ok(curve) = servo.resampled(&grid) {
+            *servo = curve;
         }
     }
     out
@@ -291,8 +285,10 @@ pub fn fit_start(nominal: &Rig, keys: &[ParamKey]) -> Rig {
 /// affine in the knot angles (the segment is chosen by the pulse, which the
 /// knot angles do not move).
 pub(crate) fn knot_weight(rig: &Rig, joint: usize, knot: usize, q: f64) -> f64 {
-    let pulse = rig.command_curves[joint].pulse_us(q);
-    let own = rig.arm.joints[joint].servo;
+    let (Some(sent), Some(own)) = (rig.command_curves[joint], rig.arm.joints[joint].servo) else {
+        return 0.0;
+    };
+    let pulse = sent.pulse_us(q);
     let mut moved = own;
     match curve_index(&own, knot).and_then(|i| moved.angles_rad_mut().get_mut(i)) {
         Some(angle) => *angle += 1.0,
@@ -307,12 +303,11 @@ pub(crate) fn knot_weight(rig: &Rig, joint: usize, knot: usize, q: f64) -> f64 {
 /// file's (or none, for a joint without a servo table).
 pub fn check_curves(start: &Arm<f64>, fitted: &Arm<f64>) -> Result<(), CalibError> {
     for (j, (was, joint)) in start.joints.iter().zip(&fitted.joints).enumerate() {
-        if joint.servo == was.servo {
+        let Some(curve) = joint.servo.filter(|_| joint.servo != was.servo) else {
             continue;
-        }
-        if let Err(fault) = joint.servo.check() {
-            let knots: Vec<String> = joint
-                .servo
+        };
+        if let Err(fault) = curve.check() {
+            let knots: Vec<String> = curve
                 .angles_rad()
                 .iter()
                 .map(|a| format!("{:.2}°", a.to_degrees()))

@@ -46,7 +46,7 @@ pub struct Rig {
     /// The servo curves the measurements were commanded through (the
     /// nominal arm's); where the arm's own curves differ, a command stands
     /// elsewhere (`model::command::reached`).
-    pub command_curves: PerJoint<ServoCurve<f64>>,
+    pub command_curves: PerJoint<Option<ServoCurve<f64>>>,
     /// The physical bounds of its parameters: those of the nominal arm the
     /// rig was first made from, whatever the fit changes after.
     pub bounds: Bounds<f64>,

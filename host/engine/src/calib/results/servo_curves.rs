@@ -84,9 +84,10 @@ pub fn servo_curves(fit: &Identified) -> Vec<ServoCurveReport> {
     joints
         .into_iter()
         .filter(|&j| j < rig.arm.joints.len() && j < rig.command_curves.len())
-        .map(|j| {
-            let own = rig.arm.joints[j].servo;
-            let sent = rig.command_curves[j];
+        .filter_map(|j| {
+            let (Some(own), Some(sent)) = (rig.arm.joints[j].servo, rig.command_curves[j]) else {
+                return None;
+            };
             // Knots of the finest grid on this curve, with their place in the
             // covariance when fitted.
             let knots: Vec<(usize, usize, Option<usize>)> = (0..own.knot_count().max(9))
@@ -154,11 +155,11 @@ pub fn servo_curves(fit: &Identified) -> Vec<ServoCurveReport> {
                     }
                 })
                 .collect();
-            ServoCurveReport {
+            Some(ServoCurveReport {
                 joint: j + 1,
                 knots: knot_reports,
                 curve,
-            }
+            })
         })
         .collect()
 }
@@ -184,7 +185,7 @@ mod tests {
         ));
         let mut truth = nominal.arm;
         // Knot at +50° is the 4th of 5 (index 3).
-        truth.joints[1].servo.angles_rad_mut()[3] += 1.5f64.to_radians();
+        truth.joints[1].servo.as_mut().unwrap().angles_rad_mut()[3] += 1.5f64.to_radians();
         let samples: Vec<Sample> = small_samples(60);
         // Commanded through the nominal curves, as a real arm is.
         let mut true_rig = Rig::from(truth);

@@ -176,8 +176,11 @@ impl<'a> TrueServos<'a> {
     fn drive(&mut self, pulses: &[Option<u16>; CHANNELS]) {
         // The channels past the arm's last joint move nothing.
         for (i, pulse) in pulses.iter().enumerate().take(self.joints.len()) {
-            let Some(pulse) = pulse else { continue };
-            let commanded = self.truth.arm.joints[i].servo.angle(f64::from(*pulse));
+            // Only an arm whose every joint has a curve is driven (`drivable`).
+            let (Some(pulse), Some(curve)) = (pulse, self.truth.arm.joints[i].servo) else {
+                continue;
+            };
+            let commanded = curve.angle(f64::from(*pulse));
             let motor = commanded + self.truth.servo_errors[i].at(commanded);
             let half = self.truth.backlash_half_rad[i];
             self.joints[i] = Some(match self.joints[i] {
@@ -529,7 +532,10 @@ mod tests {
         // At rest on the last target, each pulse is the arm's curve's (to the 1 µs step).
         let last = frames.last().unwrap();
         for (j, pulse) in last.iter().take(5).enumerate() {
-            let expected = nominal.joints[j].servo.pulse_us(t[t.len() - 1].q[0][j]);
+            let expected = nominal.joints[j]
+                .servo
+                .unwrap()
+                .pulse_us(t[t.len() - 1].q[0][j]);
             let sent = f64::from(pulse.unwrap());
             assert!(
                 (sent - expected).abs() <= 1.0,
