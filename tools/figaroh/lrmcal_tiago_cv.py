@@ -78,6 +78,15 @@ ROW = re.compile(
 )
 
 
+
+def write_json(path, report):
+    """Writes `report` to `path` whole, its folder made if need be."""
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(report, f, indent=1)
+        f.write("\n")
+
+
 def sha256(path):
     with open(path, "rb") as f:
         return hashlib.sha256(f.read()).hexdigest()
@@ -478,10 +487,7 @@ def run_seeded(args):
         "default_over_kinematic": ratios,
         "per_split": per_split,
     }
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as f:
-        json.dump(report, f, indent=1)
-        f.write("\n")
+    write_json(args.out, report)
     print(f"wrote {os.path.relpath(args.out, ROOT)}; wall time {wall:.1f} s")
 
 
@@ -669,10 +675,7 @@ def main():
         "units": "errors in mm (3D Euclidean distance per target per row); times in s",
         "runs": results,
     }
-    os.makedirs(os.path.dirname(args.out), exist_ok=True)
-    with open(args.out, "w") as f:
-        json.dump(report, f, indent=1)
-        f.write("\n")
+    write_json(args.out, report)
     print(f"wrote {os.path.relpath(args.out, ROOT)}")
 
 

@@ -222,6 +222,28 @@ def cpu_name():
     return cpu
 
 
+def environment(figaroh, pinocchio, scipy):
+    """The versions and machine a run measured with, for its JSON."""
+    return {
+        "figaroh": getattr(figaroh, "__version__", None),
+        "pinocchio": pinocchio.__version__,
+        "numpy": np.__version__,
+        "scipy": scipy.__version__,
+        "python": platform.python_version(),
+        "cpu": cpu_name(),
+        "cpus": os.cpu_count(),
+    }
+
+
+def examples_record(examples):
+    """Which figaroh-examples checkout, configuration and tools a run used."""
+    return {
+        "commit": git_commit(examples),
+        "config_sha256": sha256(os.path.join(examples, EXAMPLE_CONFIG)),
+        "tiago_tools_sha256": sha256(os.path.join(examples, EXAMPLE_TOOLS)),
+    }
+
+
 def summary(values):
     """median, min, max of a list (None for an empty one)."""
     if not values:
@@ -341,21 +363,9 @@ def run_seeded(args, fig, example_config, examples, header, rows, modules):
             "data": {"path": os.path.relpath(os.path.abspath(args.data), REPO), "sha256": sha256(args.data)},
             "urdf": {"path": os.path.relpath(urdf, REPO), "sha256": sha256(urdf)},
             "splits_py_sha256": sha256(os.path.join(HERE, "splits.py")),
-            "figaroh_examples": {
-                "commit": git_commit(examples),
-                "config_sha256": sha256(os.path.join(examples, EXAMPLE_CONFIG)),
-                "tiago_tools_sha256": sha256(os.path.join(examples, EXAMPLE_TOOLS)),
-            },
+            "figaroh_examples": examples_record(examples),
         },
-        "environment": {
-            "figaroh": getattr(figaroh, "__version__", None),
-            "pinocchio": pinocchio.__version__,
-            "numpy": np.__version__,
-            "scipy": scipy.__version__,
-            "python": platform.python_version(),
-            "cpu": cpu_name(),
-            "cpus": os.cpu_count(),
-        },
+        "environment": environment(figaroh, pinocchio, scipy),
         "figaroh_random_seed": args.random_seed,
         "robust_weighting": (
             "not available: FIGAROH 1.0.2 calls scipy.optimize.least_squares "
@@ -499,7 +509,6 @@ def main():
                 }
     wall = time.perf_counter() - t_start
 
-    cpu = cpu_name()
     result = {
         "what": "FIGAROH 1.0.2 TIAGo mocap calibration, cross-validated on split.csv",
         "date_utc": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -508,21 +517,9 @@ def main():
             "data": {"path": os.path.relpath(os.path.abspath(args.data), REPO), "sha256": sha256(args.data)},
             "split": {"path": os.path.relpath(os.path.abspath(args.split), REPO), "sha256": sha256(args.split)},
             "urdf": {"path": os.path.relpath(urdf, REPO), "sha256": sha256(urdf)},
-            "figaroh_examples": {
-                "commit": git_commit(examples),
-                "config_sha256": sha256(os.path.join(examples, EXAMPLE_CONFIG)),
-                "tiago_tools_sha256": sha256(os.path.join(examples, EXAMPLE_TOOLS)),
-            },
+            "figaroh_examples": examples_record(examples),
         },
-        "environment": {
-            "figaroh": getattr(figaroh, "__version__", None),
-            "pinocchio": pinocchio.__version__,
-            "numpy": np.__version__,
-            "scipy": scipy.__version__,
-            "python": platform.python_version(),
-            "cpu": cpu,
-            "cpus": os.cpu_count(),
-        },
+        "environment": environment(figaroh, pinocchio, scipy),
         "figaroh_random_seed": args.random_seed,
         "units": "errors in mm (3D Euclidean distance per marker per row); times in s",
         "wall_time_s": wall,
