@@ -303,7 +303,7 @@ def run_seeded(args):
             for ms in marker_sets:
                 recs = [fits[(sp["id"], ms, k, cname(*c))] for c in configs]
                 befores = [r["before"] for r in recs if not r["refused"]]
-                fig_b = (fig_nominal or {}).get((sp["id"], ms, k))
+                fig_b = (fig_nominal if isinstance(fig_nominal, dict) else {}).get((sp["id"], ms, k))
                 if ms == "m1" and befores:
                     means = [b["mean"] for b in befores]
                     checks["m1_before_spread_mm"] = max(
