@@ -11,7 +11,7 @@
 //! | a joint's play | a fifth of the widest the board takes (1°) | a hobby servo's dead band and horn play add up to a degree or two |
 //! | a spring's compliance | half its ceiling (a sag of 0.25 rad under its largest torque) | the ceiling, two deviations out, is the sag beyond which a joint does not hold a pose |
 //! | a spring's softening | half its ceiling (its compliance half as large again at its largest torque) | likewise |
-//! | a link's twist (`alpha`, `beta`) | half the largest a calibration may make ([`TWIST_SD_OF_BOUND`] of `calib::guard::MAX_TWIST_RAD`: 5°) | a printed or bent link is a few degrees out of square; where the poses barely see a twist, it would otherwise bend to the noise |
+//! | a link's twist (`alpha`, `beta`) | half the largest a calibration may make ([`TWIST_SD_OF_BOUND`] of [`MAX_TWIST_RAD`]: 5°) | a printed or bent link is a few degrees out of square; where the poses barely see a twist, it would otherwise bend to the noise |
 //!
 //! The rest of the geometry, the base and the tool points have none: a build is
 //! whatever it is (a servo horn one spline tooth off is 14°), and the
@@ -43,6 +43,7 @@ use model::params::ParamPart;
 
 use crate::calib::Rig;
 use crate::calib::parameters::params::{Key as _, ParamKey};
+use crate::calib::parameters::real_arm::MAX_TWIST_RAD;
 use crate::calib::parameters::servo_knots::{FINEST_SPACING_DEG, KNOTS, spacing_of};
 
 /// One standard deviation of a servo curve's error at any angle, degrees.
@@ -60,7 +61,7 @@ pub const SERVO_CORRELATIONS_DEG: [f64; 3] = [25.0, SERVO_CORRELATION_DEG, 100.0
 pub const PLAY_SD_OF_BOUND: f64 = 0.2;
 
 /// One standard deviation of a link's twist, as a fraction of the largest
-/// a calibration may make (`calib::guard::MAX_TWIST_RAD`, 10°): 5°.
+/// a calibration may make ([`MAX_TWIST_RAD`], 10°): 5°.
 pub const TWIST_SD_OF_BOUND: f64 = 0.5;
 
 /// One standard deviation of a spring's compliance or softening, as a
@@ -88,9 +89,7 @@ pub fn sd(key: ParamKey, kinds: &[JointKind], bounds: &Bounds<f64>) -> Option<f6
             (Some(q @ Quantity::Compliance { .. }), _) => {
                 finite(SPRING_SD_OF_BOUND * bounds.range(q).max)
             }
-            (_, ParamPart::Dh { field: 3 | 4, .. }) => {
-                Some(TWIST_SD_OF_BOUND * crate::calib::fit::guard::MAX_TWIST_RAD)
-            }
+            (_, ParamPart::Dh { field: 3 | 4, .. }) => Some(TWIST_SD_OF_BOUND * MAX_TWIST_RAD),
             _ => None,
         },
         ParamKey::TargetTool { .. } => None,
