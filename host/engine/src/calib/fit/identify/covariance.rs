@@ -7,7 +7,8 @@ use nalgebra::{DMatrix, Vector3};
 
 use model::params::ParamKind;
 
-use super::{FitData, WEAK_REACH_FRACTION};
+use super::WEAK_REACH_FRACTION;
+use super::problem::FitData;
 use crate::calib::analysis::observability::ColumnScale;
 use crate::calib::{CalibError, ParamKey, Rig};
 

@@ -4,8 +4,11 @@ use super::*;
 use crate::calib::parameters::prior::{self, Prior};
 use crate::calib::parameters::servo_knots;
 use crate::calib::testing::{key, measure, rigid_nominal, small_samples, true_errors};
+use active_set::{outside_bounds, release_candidate};
 use covariance::leave_one_out;
+use levenberg_marquardt::LeastSquaresProblem;
 use model::ParamId;
+use nalgebra::DMatrix;
 
 fn elastic_keys() -> Vec<ParamKey> {
     ["k2", "k3", "k4", "k5", "k0"].map(key).to_vec()

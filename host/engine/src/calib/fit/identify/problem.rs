@@ -1,0 +1,227 @@
+//! The least-squares problem each Levenberg–Marquardt run solves: the
+//! measurements as the solver sees them, their weighted residuals and
+//! Jacobian with the prior's rows below them, and what the runs add up to.
+
+use levenberg_marquardt::LeastSquaresProblem;
+use lrmcal_core::dataset::Measurement;
+use nalgebra::allocator::Reallocator;
+use nalgebra::storage::Owned;
+use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, Vector3};
+
+use crate::calib::analysis::jacobian::jacobian;
+use crate::calib::parameters::params::{ParamKey, ParamVector};
+use crate::calib::parameters::prior::Prior;
+use crate::calib::{CalibError, ModelOption, Rig, Sample};
+
+/// The measurements of one fit, as the solver sees them.
+pub(super) struct FitData<'a> {
+    pub(super) nominal: &'a Rig,
+    pub(super) option: ModelOption,
+    pub(super) samples: Vec<Sample>,
+    pub(super) measured: Vec<Vector3<f64>>,
+    /// The prior on the corrections of the keys, if the fit has one.
+    pub(super) prior: Option<Prior>,
+}
+
+impl<'a> FitData<'a> {
+    pub(super) fn new(
+        nominal: &'a Rig,
+        option: ModelOption,
+        measurements: &[Measurement],
+    ) -> Result<Self, CalibError> {
+        let samples = nominal.samples(measurements)?;
+        Ok(Self {
+            nominal,
+            option,
+            samples,
+            measured: measurements.iter().map(|m| m.position).collect(),
+            prior: None,
+        })
+    }
+
+    /// The prior's rows at the corrections of `params` with the free ones
+    /// taken from `free`, each times `sigma` (the measurements' noise, the
+    /// scale of the weighted residuals); `None` without a prior.
+    pub(super) fn prior_residuals(
+        &self,
+        params: &ParamVector,
+        free: &[f64],
+        sigma: f64,
+    ) -> Option<DVector<f64>> {
+        let prior = self.prior.as_ref()?;
+        let mut trial = free.iter();
+        let errors: Vec<f64> = params
+            .iter()
+            .map(|p| match p.fixed {
+                true => p.error,
+                false => trial.next().copied().unwrap_or(p.error),
+            })
+            .collect();
+        Some(prior.residuals(&errors) * sigma)
+    }
+
+    /// The Jacobian of [`FitData::prior_residuals`] with respect to the
+    /// `fixed` or the free parameters of `params`; `None` without a prior.
+    pub(super) fn prior_jacobian(
+        &self,
+        params: &ParamVector,
+        fixed: bool,
+        sigma: f64,
+    ) -> Option<DMatrix<f64>> {
+        let prior = self.prior.as_ref()?;
+        let columns: Vec<usize> = params
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.fixed == fixed)
+            .map(|(c, _)| c)
+            .collect();
+        Some(prior.columns(&columns) * sigma)
+    }
+
+    /// The smallest and largest value the fit may give `key`'s quantity, if bounded.
+    pub(super) fn bounds(&self, key: ParamKey) -> (Option<f64>, Option<f64>) {
+        key.fit_range(&self.nominal.bounds)
+    }
+
+    /// Norms of the 3D residuals of `arm` against the measurements, m.
+    pub(super) fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
+        Ok(self.residuals(arm)?.iter().map(|r| r.norm()).collect())
+    }
+
+    /// The 3D residuals of `arm` against the measurements, m.
+    pub(super) fn residuals(&self, arm: &Rig) -> Result<Vec<Vector3<f64>>, CalibError> {
+        Ok(arm
+            .tool_points(&self.samples)?
+            .iter()
+            .zip(&self.measured)
+            .map(|(p, m)| p - m)
+            .collect())
+    }
+
+    /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
+    pub(super) fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
+        let points = arm.tool_points(&self.samples).ok()?;
+        let mut r = DVector::zeros(3 * points.len());
+        for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
+            r.fixed_rows_mut::<3>(3 * k)
+                .copy_from(&((p - m) * sqrt_w[k]));
+        }
+        Some(r)
+    }
+
+    /// The Jacobian of the weighted residuals with respect to `keys` at `arm`.
+    pub(super) fn weighted_jacobian(
+        &self,
+        arm: &Rig,
+        keys: &[ParamKey],
+        sqrt_w: &[f64],
+    ) -> Result<DMatrix<f64>, CalibError> {
+        let mut j = jacobian(arm, keys, &self.samples)?;
+        for (k, w) in sqrt_w.iter().enumerate() {
+            j.rows_mut(3 * k, 3).scale_mut(*w);
+        }
+        Ok(j)
+    }
+
+    pub(super) fn solver_error(&self, reason: String) -> CalibError {
+        CalibError::Solver {
+            option: self.option.name().into(),
+            reason,
+        }
+    }
+}
+
+/// The LM problem over the free parameters; the fixed ones stay where they are.
+pub(super) struct Problem<'a> {
+    pub(super) data: &'a FitData<'a>,
+    pub(super) params: &'a ParamVector,
+    pub(super) free: Vec<ParamKey>,
+    pub(super) sqrt_w: &'a [f64],
+    /// The noise the prior's rows are scaled by, m.
+    pub(super) sigma: f64,
+    pub(super) x: DVector<f64>,
+    /// The residual of a trial point whose deflection cannot be solved
+    /// (each entry), from the norm the run started from.
+    pub(super) failed_entry: f64,
+    /// Trial points that could not be evaluated.
+    pub(super) failed: std::cell::Cell<usize>,
+}
+
+impl Problem<'_> {
+    pub(super) fn arm(&self) -> Rig {
+        self.params
+            .apply_with_free(self.data.nominal, self.x.as_slice())
+    }
+}
+
+impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
+    type ResidualStorage = Owned<f64, Dyn>;
+    type JacobianStorage = Owned<f64, Dyn, Dyn>;
+    type ParameterStorage = Owned<f64, Dyn>;
+
+    fn set_params(&mut self, x: &DVector<f64>) {
+        self.x.copy_from(x);
+    }
+
+    fn params(&self) -> DVector<f64> {
+        self.x.clone()
+    }
+
+    fn residuals(&self) -> Option<DVector<f64>> {
+        let prior = self
+            .data
+            .prior_residuals(self.params, self.x.as_slice(), self.sigma);
+        match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
+            Some(r) => Some(stack(r, prior)),
+            None => {
+                // A failed step, not the end of the fit (module docs).
+                self.failed.set(self.failed.get() + 1);
+                let rows = 3 * self.data.samples.len() + prior.map_or(0, |p| p.len());
+                Some(DVector::from_element(rows, self.failed_entry))
+            }
+        }
+    }
+
+    fn jacobian(&self) -> Option<DMatrix<f64>> {
+        let j = self
+            .data
+            .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
+            .ok()?;
+        Some(stack(
+            j,
+            self.data.prior_jacobian(self.params, false, self.sigma),
+        ))
+    }
+}
+
+/// What the LM runs of a fit add up to.
+#[derive(Debug, Default)]
+pub(super) struct Tally {
+    pub(super) evaluations: usize,
+    pub(super) exhausted: bool,
+    pub(super) active_set_rounds: usize,
+    pub(super) irls_rounds: usize,
+    pub(super) failed_steps: usize,
+    pub(super) termination: String,
+    pub(super) converged: bool,
+}
+
+/// `top` (the measurements' residuals, or their Jacobian) with the prior's
+/// rows below it, if any.
+pub(super) fn stack<C: Dim>(
+    top: OMatrix<f64, Dyn, C>,
+    prior: Option<OMatrix<f64, Dyn, C>>,
+) -> OMatrix<f64, Dyn, C>
+where
+    DefaultAllocator: Reallocator<f64, Dyn, C, Dyn, C>,
+{
+    match prior {
+        Some(p) => {
+            let rows = top.nrows();
+            let mut out = top.resize_vertically(rows + p.nrows(), 0.0);
+            out.rows_mut(rows, p.nrows()).copy_from(&p);
+            out
+        }
+        None => top,
+    }
+}
