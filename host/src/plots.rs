@@ -18,7 +18,7 @@ use plotters::prelude::*;
 use plotters::style::FontStyle;
 
 use lrmcal_engine::calib::ModelOption;
-use lrmcal_engine::calib::results::experiments::{ErrorPoint, O1Point};
+use lrmcal_engine::calib::results::figures::{ErrorPoint, O1Point};
 use lrmcal_engine::calib::results::report::{OptionReport, ValidationReport};
 use lrmcal_engine::sim::positioning::Positioning;
 

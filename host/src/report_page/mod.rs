@@ -464,6 +464,18 @@ mod tests {
         assert!(html.contains("<li>Every measured pose was fitted"));
     }
 
+    #[test]
+    fn the_knots_say_how_they_were_chosen() {
+        let mut report = fixture::report();
+        let html = page(&report);
+        assert!(html.contains("the spacing whose fit best predicts each fitted pose left out"));
+        // Under the prior: the correlation length the measurements chose.
+        report.options[0].fit.servo_correlation_deg = Some(100.0);
+        let html = page(&report);
+        assert!(html.contains("their errors correlated over 100° (of 25°, 50°, 100°)"));
+        assert!(!html.contains("the spacing whose fit best predicts"));
+    }
+
     /// A report written before the measurements' positions, the fit's own
     /// errors and the servo curves were in it still makes a page: the
     /// held-out errors drawn, the rest said missing.

@@ -5,6 +5,7 @@
 //! produce says so instead of being left out, so every page has the same
 //! outline.
 
+use lrmcal_engine::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
 use lrmcal_engine::calib::results::report::{OptionReport, Report};
 
 use super::html::{escape, num, opt_num, para, table};
@@ -282,10 +283,21 @@ pub fn knots(report: &Report) -> String {
                     ]
                 })
                 .collect();
+            let why = match o.fit.servo_correlation_deg {
+                // Under the prior, the finest grid alone; the curves'
+                // smoothness is the correlation length the fit chose.
+                Some(deg) => format!(
+                    "the finest grid, the curves kept smooth by the prior: their errors correlated over {deg:.0}° (of {}), the length under which the measurements are most probable",
+                    SERVO_CORRELATIONS_DEG
+                        .map(|d| format!("{d:.0}°"))
+                        .join(", ")
+                ),
+                None => "the spacing whose fit best predicts each fitted pose left out".into(),
+            };
             table(
                 &format!("knots-{i}"),
                 &format!(
-                    "{}: knots every {:.0}°, the spacing whose fit best predicts each fitted pose left out",
+                    "{}: knots every {:.0}°, {why}",
                     title(o),
                     k.chosen.degrees()
                 ),

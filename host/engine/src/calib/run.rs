@@ -36,7 +36,6 @@ use super::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
 use super::fit::tool_only::retaught;
-use super::parameters::option::DEFAULT;
 use super::parameters::params::ParamKey;
 use super::parameters::servo_knots::KnotSpacing;
 use super::parameters::targets::Targets;
@@ -47,130 +46,8 @@ use super::{CalibError, ModelOption};
 use lrmcal_core::dataset::{Measurement, Pose, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 
-/// Which measured poses the fit uses.
-#[derive(Clone, Debug, PartialEq)]
-pub enum PoseChoice {
-    /// `n` poses chosen by DETMAX (D-optimal for each option).
-    Detmax {
-        /// How many poses.
-        n: usize,
-        /// Random starts.
-        starts: usize,
-    },
-    /// The poses of a list, named `file` in messages.
-    Listed {
-        /// Pose ids.
-        ids: Vec<u32>,
-        /// The list's file, for messages.
-        file: String,
-    },
-    /// Every measured pose.
-    All,
-}
-
-/// Where the arm stands in the measurement frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Placement {
-    /// Found from the measurements ([`register`]).
-    Register(Gravity),
-    /// The arm file's base: the measurements are in its world frame.
-    Keep(Gravity),
-}
-
-/// What to calibrate, from what.
-#[derive(Clone, Debug)]
-pub struct Request<'a> {
-    /// The nominal arm, as its file describes it.
-    pub nominal: &'a Arm<f64>,
-    /// Where the nominal arm came from, for the report.
-    pub arm_origin: String,
-    /// Every measurement read, every target and load.
-    pub measurements: &'a [Measurement],
-    /// The measurement file, for messages and the report.
-    pub measurements_file: String,
-    /// The load to fit, kg; `None`: the file's only load.
-    pub load_kg: Option<f64>,
-    /// Candidate poses every measured pose must be one of, if given.
-    pub candidates: Option<&'a [Pose]>,
-    /// How the poses to fit are chosen.
-    pub poses: PoseChoice,
-    /// The model options, in order.
-    pub options: Vec<ModelOption>,
-    /// Where the arm stands.
-    pub placement: Placement,
-    /// How the fit runs.
-    pub identify: IdentifyOptions,
-}
-
-impl<'a> Request<'a> {
-    /// Calibrating `nominal` from `measurements` taken in its file's world
-    /// frame (a simulation's): the default option fitted to every pose
-    /// measured under the file's only load, the arm kept where its file
-    /// stands it, gravity as the file says.
-    pub fn new(nominal: &'a Arm<f64>, measurements: &'a [Measurement]) -> Self {
-        Self {
-            nominal,
-            arm_origin: "the nominal arm".into(),
-            measurements,
-            measurements_file: "the measurements".into(),
-            load_kg: None,
-            candidates: None,
-            poses: PoseChoice::All,
-            options: vec![DEFAULT],
-            placement: Placement::Keep(Gravity::Measured(nominal.gravity_vector())),
-            identify: IdentifyOptions::default(),
-        }
-    }
-
-    /// Names the arm and the measurements in the report and in messages.
-    pub fn named(
-        self,
-        arm_origin: impl Into<String>,
-        measurements_file: impl Into<String>,
-    ) -> Self {
-        Self {
-            arm_origin: arm_origin.into(),
-            measurements_file: measurements_file.into(),
-            ..self
-        }
-    }
-
-    /// Fits under the load `load_kg`.
-    pub fn load(self, load_kg: f64) -> Self {
-        Self {
-            load_kg: Some(load_kg),
-            ..self
-        }
-    }
-
-    /// Every measured pose must be one of `candidates`.
-    pub fn candidates(self, candidates: &'a [Pose]) -> Self {
-        Self {
-            candidates: Some(candidates),
-            ..self
-        }
-    }
-
-    /// Fits `options`, in order.
-    pub fn options(self, options: Vec<ModelOption>) -> Self {
-        Self { options, ..self }
-    }
-
-    /// Chooses the poses to fit as `poses` says.
-    pub fn poses(self, poses: PoseChoice) -> Self {
-        Self { poses, ..self }
-    }
-
-    /// Places the arm as `placement` says.
-    pub fn placement(self, placement: Placement) -> Self {
-        Self { placement, ..self }
-    }
-
-    /// Runs the fits as `identify` says.
-    pub fn identify(self, identify: IdentifyOptions) -> Self {
-        Self { identify, ..self }
-    }
-}
+mod request;
+pub use request::{Placement, PoseChoice, Request};
 
 /// Everything a run gives back.
 #[derive(Debug)]

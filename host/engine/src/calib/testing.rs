@@ -158,6 +158,7 @@ pub fn fitted(
 ) -> Identified {
     Identified {
         option: ModelOption::Kinematic,
+        options: IdentifyOptions::default(),
         rig: Rig::from(test_arm()),
         estimates,
         diagnostics: Diagnostics {

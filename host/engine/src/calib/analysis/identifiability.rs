@@ -35,20 +35,32 @@
 //! at the estimate. The paper does not list what it removed, and
 //! the bundled arm is LRM-like rather than the measured LRM, so the counts
 //! need not agree; these redundancies hold for any arm of this structure.
-
-use std::sync::{Mutex, PoisonError};
+//!
+//! This file holds the analysis and its outcome; the typical errors
+//! ([`TypicalErrors`]), the judging of one column against the kept ones
+//! (`admission`), the full-rank check of a fit's parameters
+//! ([`check_full_rank`]) and the structural identifiability a pose set is
+//! held to ([`Structures`]) have files of their own.
 
 use model::Arm;
-use model::params::{ParamKind, ParamPart};
 use nalgebra::{DMatrix, DVector};
 
 use crate::calib::analysis::jacobian::jacobian;
-use crate::calib::analysis::observability::ColumnScale;
 use crate::calib::analysis::triangular::triangular_factor;
 use crate::calib::parameters::option::candidates;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{self, KnotSpacing};
 use crate::calib::{CalibError, ModelOption, Rig, Sample};
+
+mod admission;
+mod full_rank;
+mod structures;
+mod typical;
+
+use admission::{admit, effects_and_units, geometric_span, orthonormal_span};
+pub use full_rank::check_full_rank;
+pub use structures::Structures;
+pub use typical::TypicalErrors;
 
 /// Sine of the smallest angle between a kept column and the span of the others.
 pub const RANK_TOLERANCE: f64 = 1e-6;
@@ -66,54 +78,6 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 /// clears it by more than ten times (the least, `k6`, moves the point 1.5 µm
 /// past the others), every confounded one misses it by millions.
 pub const RESOLUTION_M: f64 = 1e-7;
-
-/// Typical sizes of the parameters' errors on one arm: 1 mm, 1 mrad, for
-/// compliances 0.01 rad/Nm and for softenings 0.1 1/Nm on the bundled arm,
-/// carried to another arm by the ratio of gravity torques ([`crate::scale`]):
-/// the same sag angle, so a UR10's shoulder, a hundred times the torque,
-/// gets 1e-4 rad/Nm; and the same change of compliance over the arm's
-/// torques (`s |tau|`), so 1e-3 1/Nm there.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TypicalErrors {
-    /// A joint compliance's, rad/Nm.
-    joint_compliance: f64,
-    /// The base compliance's, rad/Nm.
-    base_compliance: f64,
-    /// A joint spring's softening, 1/Nm.
-    joint_softening: f64,
-    /// The base spring's softening, 1/Nm.
-    base_softening: f64,
-}
-
-impl TypicalErrors {
-    /// The typical errors of `arm`'s parameters.
-    pub fn of_arm(arm: &Arm<f64>) -> Self {
-        let [joints, base] = crate::scale::torque_ratio_to_bundled(arm);
-        Self {
-            joint_compliance: 1e-2 * joints,
-            base_compliance: 1e-2 * base,
-            joint_softening: 0.1 * joints,
-            base_softening: 0.1 * base,
-        }
-    }
-
-    /// A typical size of an error of `key`.
-    pub fn of(&self, key: ParamKey) -> f64 {
-        match key {
-            ParamKey::Softening { spring: 0 } => self.base_softening,
-            ParamKey::Softening { .. } => self.joint_softening,
-            _ => match key.kind() {
-                ParamKind::Length | ParamKind::Angle => 1e-3,
-                ParamKind::Compliance => match key {
-                    ParamKey::Arm(id) if id.part() == ParamPart::BaseCompliance => {
-                        self.base_compliance
-                    }
-                    _ => self.joint_compliance,
-                },
-            },
-        }
-    }
-}
 
 /// The numerical rank of a matrix from its singular values: how many exceed
 /// [`RANK_TOLERANCE`] times the largest.
@@ -327,273 +291,6 @@ pub fn joining(
         .collect()
 }
 
-/// Per column of `j` (columns `ids`): what a typical error of the
-/// parameter moves the points by (RMS, m), and the column normalised — or
-/// zero when that effect is below [`RESOLUTION_M`] (a parameter that moves
-/// no point by a resolution has no effect a tracker could see: what is
-/// left is rounding and load coupling).
-fn effects_and_units(
-    ids: &[ParamKey],
-    j: &DMatrix<f64>,
-    typical: &TypicalErrors,
-) -> (Vec<f64>, Vec<DVector<f64>>) {
-    let samples = (j.nrows() / 3).max(1) as f64;
-    let effect: Vec<f64> = j
-        .column_iter()
-        .zip(ids)
-        .map(|(c, id)| c.norm() * typical.of(*id) / samples.sqrt())
-        .collect();
-    let unit = j
-        .column_iter()
-        .zip(&effect)
-        .map(|(c, &effect)| {
-            if effect > RESOLUTION_M {
-                c.normalize()
-            } else {
-                DVector::zeros(c.len())
-            }
-        })
-        .collect();
-    (effect, unit)
-}
-
-/// A compliance cannot go below zero, a geometric parameter can go either
-/// way.
-fn one_sided(id: ParamKey) -> bool {
-    id.kind() == ParamKind::Compliance
-}
-
-/// The span of the two-sided (geometric) columns among `unit` (columns `ids`).
-fn geometric_span(ids: &[ParamKey], unit: &[DVector<f64>], tolerance: f64) -> Vec<DVector<f64>> {
-    orthonormal_span(
-        ids.iter()
-            .zip(unit)
-            .filter(|(id, _)| !one_sided(**id))
-            .map(|(_, u)| u),
-        tolerance,
-    )
-}
-
-/// Judges the column `unit` of `id` (its typical error moving the points by
-/// `effect`) against the kept columns' orthonormal `basis`, and adds it
-/// when it is kept; the length of its part outside the basis when it is not.
-/// A compliance whose column the geometric columns reproduce (a slide's
-/// spring under a constant force is a constant offset) is left to them, or
-/// the half of that direction the spring cannot take is lost. A column is
-/// kept when its part outside the basis exceeds `tolerance` and a typical
-/// error moves the points by more than [`RESOLUTION_M`] along that part.
-fn admit(
-    basis: &mut Vec<DVector<f64>>,
-    geometric_span: &[DVector<f64>],
-    id: ParamKey,
-    unit: &DVector<f64>,
-    effect: f64,
-    tolerance: f64,
-) -> Result<(), f64> {
-    if one_sided(id) && outside(geometric_span, unit) * effect <= RESOLUTION_M {
-        return Err(outside(basis, unit));
-    }
-    let r = remainder(basis, unit);
-    let residual = r.norm();
-    if residual > tolerance && residual * effect > RESOLUTION_M {
-        basis.push(r / residual);
-        Ok(())
-    } else {
-        Err(residual)
-    }
-}
-
-/// What of `v` lies outside the span of the orthonormal `basis` (Gram–Schmidt
-/// with re-orthogonalisation).
-fn remainder(basis: &[DVector<f64>], v: &DVector<f64>) -> DVector<f64> {
-    let mut r = v.clone();
-    for _ in 0..2 {
-        for b in basis {
-            r -= b * b.dot(&r);
-        }
-    }
-    r
-}
-
-/// The length of [`remainder`].
-fn outside(basis: &[DVector<f64>], v: &DVector<f64>) -> f64 {
-    remainder(basis, v).norm()
-}
-
-/// An orthonormal basis of the span of `columns`: each column's remainder
-/// joins it when longer than `tolerance`.
-fn orthonormal_span<'a>(
-    columns: impl Iterator<Item = &'a DVector<f64>>,
-    tolerance: f64,
-) -> Vec<DVector<f64>> {
-    let mut basis = Vec::new();
-    for c in columns {
-        let r = remainder(&basis, c);
-        let norm = r.norm();
-        if norm > tolerance {
-            basis.push(r / norm);
-        }
-    }
-    basis
-}
-
-/// Checks that `keys` are identifiable from `samples` at `rig`: the
-/// column-scaled Jacobian has full rank. When it has not, the error names the
-/// parameters that dominate the weakest direction.
-pub fn check_full_rank(
-    rig: &Rig,
-    option: ModelOption,
-    keys: &[ParamKey],
-    samples: &[Sample],
-) -> Result<(), CalibError> {
-    let j = jacobian(rig, keys, samples)?;
-    let scaled = ColumnScale::from_jacobian(&j, samples.len()).apply(&j);
-    // The same singular values and right singular vectors, on a square matrix.
-    let svd = triangular_factor(&scaled).svd(false, true);
-    let rank = numerical_rank(&svd.singular_values);
-    if rank == keys.len() {
-        return Ok(());
-    }
-    let (weakest_direction, _) = svd.singular_values.argmin();
-    let weakest = svd
-        .v_t
-        .as_ref()
-        .map(|vt| {
-            let mut comps: Vec<(usize, f64)> = vt
-                .row(weakest_direction)
-                .iter()
-                .map(|v| v.abs())
-                .enumerate()
-                .collect();
-            comps.sort_by(|a, b| b.1.total_cmp(&a.1));
-            comps
-                .iter()
-                .take(3)
-                .map(|(c, _)| keys[*c].name())
-                .collect::<Vec<_>>()
-                .join(", ")
-        })
-        .unwrap_or_default();
-    Err(CalibError::RankDeficient {
-        option: option.name().into(),
-        rank,
-        params: keys.len(),
-        weakest,
-    })
-}
-
-/// What the arm's structure lets positions identify, worked out once per
-/// option and knot spacing and kept for every later check of the same arm
-/// and load: the parameters the -100/0/+100° grid of every joint identifies
-/// (each level within the joint's limits; servo knots on the spacing
-/// checked) is what positions can reveal at all.
-pub struct Structures {
-    nominal: Arm<f64>,
-    load_kg: f64,
-    known: Mutex<Vec<Structure>>,
-}
-
-/// The parameters the grid identifies for an option and knot spacing.
-type Structure = ((ModelOption, KnotSpacing), Vec<ParamKey>);
-
-impl Structures {
-    /// The structures of `nominal` under `load_kg`, none worked out yet.
-    pub fn new(nominal: &Arm<f64>, load_kg: f64) -> Self {
-        Self {
-            nominal: *nominal,
-            load_kg,
-            known: Mutex::new(Vec::new()),
-        }
-    }
-
-    /// The load the structures are worked out under, kg.
-    pub fn load_kg(&self) -> f64 {
-        self.load_kg
-    }
-
-    /// Refuses a measured pose set that identifies fewer of
-    /// `measured.option`'s parameters than the arm's structure allows.
-    pub fn check(&self, measured: &Identifiability) -> Result<(), CalibError> {
-        match self.missing(measured)? {
-            (_, Some(e)) => Err(e),
-            _ => Ok(()),
-        }
-    }
-
-    /// The parameters the arm's structure identifies for
-    /// `measured.option` that the measured poses leave undetermined, and
-    /// the refusal [`Structures::check`] makes of them (`None` when none is
-    /// missing).
-    pub fn missing(
-        &self,
-        measured: &Identifiability,
-    ) -> Result<(Vec<ParamKey>, Option<CalibError>), CalibError> {
-        let spacing = measured.knots.unwrap_or(KnotSpacing::FINEST);
-        let structural = self.kept(measured.option, spacing)?;
-        // Compared over the rig's own parameters: further targets' tool points
-        // are the measurements' own, the grid has none.
-        let own_kept = measured
-            .kept
-            .iter()
-            .filter(|p| !matches!(p, ParamKey::TargetTool { .. }))
-            .count();
-        if own_kept >= structural.len() {
-            return Ok((Vec::new(), None));
-        }
-        let missing: Vec<ParamKey> = structural
-            .iter()
-            .filter(|p| !measured.kept.contains(p))
-            .copied()
-            .collect();
-        let names: Vec<String> = missing.iter().map(|p| p.to_string()).collect();
-        let refusal = CalibError::Unidentifiable {
-            option: measured.option.name().into(),
-            identified: own_kept,
-            structural: structural.len(),
-            missing: names.join(", "),
-        };
-        Ok((missing, Some(refusal)))
-    }
-
-    /// The parameters the grid identifies for `option` on `spacing`: worked
-    /// out the first time they are asked for.
-    fn kept(&self, option: ModelOption, spacing: KnotSpacing) -> Result<Vec<ParamKey>, CalibError> {
-        if let Some((_, kept)) = self
-            .known
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .iter()
-            .find(|(k, _)| *k == (option, spacing))
-        {
-            return Ok(kept.clone());
-        }
-        // Each level within the joint's limits: the grid the arm can reach
-        // (a slide's levels are its ends and its zero).
-        let within = |mut q: model::PerJoint<f64>| {
-            for (v, joint) in q.iter_mut().zip(self.nominal.joints.iter()) {
-                *v = v.clamp(joint.limits[0], joint.limits[1]);
-            }
-            q
-        };
-        let grid: Vec<Sample> = crate::plan::Levels::paper()
-            .grid(self.nominal.joints.len())
-            .map(|p| Sample {
-                id: p.id,
-                q: within(p.q),
-                load_kg: self.load_kg,
-                target: 0,
-                approach: lrmcal_core::dataset::from_home(p.q.len()),
-            })
-            .collect();
-        let kept = analyse(&self.nominal, option, spacing, &grid)?.kept;
-        self.known
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .push(((option, spacing), kept.clone()));
-        Ok(kept)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -713,38 +410,5 @@ mod tests {
         )
         .unwrap();
         assert_eq!(a.kept.len(), 7, "{:?}", a.removed);
-    }
-
-    /// One pose cannot identify what the grid identifies: the check names
-    /// the parameters it leaves undetermined; the grid itself passes.
-    #[test]
-    fn a_pose_set_must_identify_what_the_grid_does() {
-        let nominal = test_arm();
-        let one = analyse(
-            &nominal,
-            ModelOption::Elastic,
-            KnotSpacing::FINEST,
-            &small_samples(1),
-        )
-        .unwrap();
-        let structures = Structures::new(&nominal, 0.0663);
-        let e = structures.check(&one).unwrap_err();
-        assert!(
-            matches!(e, CalibError::Unidentifiable { structural: 6, .. }),
-            "{e}"
-        );
-        assert!(e.to_string().contains("undetermined"), "{e}");
-        let grid: Vec<Sample> = crate::plan::Levels::paper()
-            .grid(6)
-            .map(|p| Sample {
-                id: p.id,
-                q: p.q,
-                load_kg: 0.0663,
-                target: 0,
-                approach: lrmcal_core::dataset::from_home(6),
-            })
-            .collect();
-        let all = analyse(&nominal, ModelOption::Elastic, KnotSpacing::FINEST, &grid).unwrap();
-        assert!(structures.check(&all).is_ok());
     }
 }

@@ -20,10 +20,11 @@
 //! the options of one effect are fitted by least squares, as the paper
 //! fitted them.
 
+use crate::calib::fit::choice::{ChosenFit, Rung};
 use crate::calib::fit::guard;
 use crate::calib::fit::identify::{Identified, IdentifyOptions, identify, identify_scored};
-use crate::calib::fit::knot_choice::{self, ChosenFit};
-use crate::calib::fit::model_choice::{self, Ladder, Rung};
+use crate::calib::fit::knot_choice;
+use crate::calib::fit::model_choice::{self, Ladder};
 use crate::calib::fit::refresh::refreshed;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
@@ -78,24 +79,22 @@ pub fn fit_refreshed(
     options: &IdentifyOptions,
 ) -> Result<Identified, CalibError> {
     let knots = keys.iter().any(|k| matches!(k, ParamKey::ServoKnot { .. }));
-    let (fit, options) = match options.prior && knots {
+    let fit = match options.prior && knots {
         true => smoothest_probable(nominal, option, keys, measurements, options)?,
-        false => (
-            identify(nominal, option, keys, measurements, options)?,
-            *options,
-        ),
+        false => identify(nominal, option, keys, measurements, options)?,
     };
     if !options.refresh {
         return Ok(fit);
     }
+    let options = fit.options;
     refreshed(nominal, option, keys, fit, measurements, &options)
 }
 
 /// How smooth the servo curves are: the fit of `keys` under the prior with
 /// each of [`SERVO_CORRELATIONS_DEG`] (the correlation lengths of a curve's
 /// error), the one whose measurements are the most probable (the largest
-/// evidence, `identify::identify_scored`), and the options it was fitted
-/// with. The middle one and the roughest are fitted side by side, the
+/// evidence, `identify::identify_scored`; its [`Identified::options`] say
+/// which). The middle one and the roughest are fitted side by side, the
 /// smoothest only when the middle one beat the roughest.
 pub fn smoothest_probable(
     nominal: &Rig,
@@ -103,15 +102,14 @@ pub fn smoothest_probable(
     keys: &[ParamKey],
     measurements: &[Measurement],
     options: &IdentifyOptions,
-) -> Result<(Identified, IdentifyOptions), CalibError> {
-    let with = |correlation_deg: f64| IdentifyOptions {
-        servo_correlation_deg: correlation_deg,
-        ..*options
-    };
+) -> Result<Identified, CalibError> {
     let fit = |correlation_deg: f64| {
-        let options = with(correlation_deg);
+        let options = IdentifyOptions {
+            servo_correlation_deg: correlation_deg,
+            ..*options
+        };
         identify_scored(nominal, nominal, option, keys, measurements, &options)
-            .map(|(fit, evidence)| (fit, evidence.unwrap_or(f64::NEG_INFINITY), options))
+            .map(|(fit, evidence)| (fit, evidence.unwrap_or(f64::NEG_INFINITY)))
     };
     let [rough, middle, smooth] = SERVO_CORRELATIONS_DEG;
     let (a, b) = rayon::join(|| fit(rough), || fit(middle));
@@ -131,6 +129,5 @@ pub fn smoothest_probable(
         .max_by(|a, b| a.1.total_cmp(&b.1))
         .map(|(i, _)| i);
     // Every one failed: the middle one's reason.
-    let (fit, _, options) = fits.swap_remove(best.unwrap_or(1))?;
-    Ok((fit, options))
+    fits.swap_remove(best.unwrap_or(1)).map(|(fit, _)| fit)
 }

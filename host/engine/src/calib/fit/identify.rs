@@ -332,6 +332,7 @@ pub fn identify_scored(
         .collect();
     let fit = Identified {
         option,
+        options: *options,
         rig,
         estimates,
         diagnostics: Diagnostics {

@@ -28,46 +28,11 @@
 //! calibration missed the poses off the grid by 3.8 mm, every 25°'s by
 //! 3.1 mm).
 
-use serde::{Deserialize, Serialize};
-
 use crate::calib::CalibError;
+use crate::calib::fit::choice::{ChosenFit, KnotChoice, KnotTrial};
 use crate::calib::fit::identify::Identified;
-use crate::calib::fit::model_choice::ModelChoice;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::{KnotSpacing, respaced, spacing_of};
-
-/// One knot spacing tried.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct KnotTrial {
-    /// The spacing.
-    pub spacing: KnotSpacing,
-    /// Mean leave-one-out error of its fit, mm; `None` when it failed.
-    pub loo_mean_mm: Option<f64>,
-    /// Why its fit failed, if it did.
-    pub failure: Option<String>,
-}
-
-/// The spacing chosen and the ones tried.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct KnotChoice {
-    /// The spacing of the calibration's curves.
-    pub chosen: KnotSpacing,
-    /// Every spacing fitted, finest first.
-    pub trials: Vec<KnotTrial>,
-}
-
-/// A fit of an option's parameters, with the knot spacing chosen when the
-/// option fits servo curves and the model when it fits several effects
-/// (`calib::model_choice`).
-#[derive(Clone, Debug)]
-pub struct ChosenFit {
-    /// The identification.
-    pub identified: Identified,
-    /// How the knot spacing was chosen; `None` without knots.
-    pub knots: Option<KnotChoice>,
-    /// How the model was chosen; `None` for an option fitted as it is.
-    pub model: Option<ModelChoice>,
-}
 
 /// The knot spacing stage: `fit_on` (the stages after it) of `kept`; when
 /// `kept` holds servo knots, of `kept` on each spacing tried, the one chosen

@@ -31,57 +31,10 @@
 //! and the options of one effect (`kinematic`, `elastic`) are otherwise
 //! fitted as they are.
 
-use serde::{Deserialize, Serialize};
-
-use crate::calib::fit::knot_choice::ChosenFit;
+use crate::calib::fit::choice::{ChosenFit, ModelChoice, ModelTrial, Rung};
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::{CalibError, ModelOption};
 use model::params::ParamPart;
-
-/// A rung of the ladder: a model of the arm, by what it fits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Rung {
-    /// The nominal arm placed: its base and tool points only.
-    Placement,
-    /// The effects of a model option.
-    #[serde(untagged)]
-    Model(#[serde(with = "lrmcal_core::io::model_option")] ModelOption),
-}
-
-impl std::fmt::Display for Rung {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Rung::Placement => f.write_str("placement"),
-            Rung::Model(option) => write!(f, "{option}"),
-        }
-    }
-}
-
-/// One rung of the ladder as fitted.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ModelTrial {
-    /// The rung.
-    pub model: Rung,
-    /// Parameters the rung's fit ended with; 0 when it failed.
-    pub parameters: usize,
-    /// Mean leave-one-out error of its fit, mm; `None` when it failed.
-    pub loo_mean_mm: Option<f64>,
-    /// Standard error of the mean difference of its leave-one-out errors
-    /// from the best rung's, the measurements paired, mm (0 for the best).
-    pub loo_se_mm: Option<f64>,
-    /// Why its fit failed, if it did.
-    pub failure: Option<String>,
-}
-
-/// The rung kept and every rung fitted.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ModelChoice {
-    /// The model the calibration holds.
-    pub chosen: Rung,
-    /// Every rung, simplest first.
-    pub trials: Vec<ModelTrial>,
-}
 
 /// The rungs `option` is fitted as, simplest first, `option` last.
 pub fn ladder(option: ModelOption) -> Vec<Rung> {

@@ -19,10 +19,10 @@ use crate::calib::analysis::identifiability::{
 };
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::analysis::observability::{ColumnScale, Observability};
+use crate::calib::fit::choice::{ChosenFit, KnotChoice, ModelChoice};
 use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
-use crate::calib::fit::knot_choice::{ChosenFit, KnotChoice};
-use crate::calib::fit::model_choice::{Ladder, ModelChoice};
+use crate::calib::fit::model_choice::Ladder;
 use crate::calib::fit::validate::{LoadValidation, Validation, validate};
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;

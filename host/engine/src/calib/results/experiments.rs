@@ -3,15 +3,13 @@
 //! of poses, what a few gross measurement errors among the fitted poses
 //! cost a fit, and how the calibration does on the grid and off it.
 
-use serde::{Deserialize, Serialize};
-
 use nalgebra::Vector3;
 
 use crate::calib::analysis::detmax::{DetmaxOptions, detmax, random_design};
 use crate::calib::fit::pipeline::{CandidateBlocks, Choice, Inputs, OptionResult, RunSettings};
-use crate::calib::fit::validate::{ErrorStats, validate};
-use crate::calib::parameters::servo_knots::KnotSpacing;
+use crate::calib::fit::validate::validate;
 use crate::calib::progress::{Progress, Silent, par_map};
+use crate::calib::results::figures::{ErrorPoint, GridErrors, O1Point, RandomBaseline};
 use crate::calib::run::{Calibration, Request};
 use crate::calib::{CalibError, ModelOption};
 use lrmcal_core::dataset::Measurement;
@@ -50,25 +48,6 @@ pub fn random_o1(blocks: &CandidateBlocks, n: usize, sets: usize) -> Vec<f64> {
                 .o1
         })
         .collect()
-}
-
-/// DETMAX against random selections of the same size.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RandomBaseline {
-    /// Option compared.
-    pub option: ModelOption,
-    /// Random sets drawn.
-    pub sets: usize,
-    /// Poses in each set (as many as DETMAX selected).
-    pub poses: usize,
-    /// O1 of the DETMAX selection.
-    pub detmax_o1: f64,
-    /// Median O1 of the random sets.
-    pub random_o1_median: f64,
-    /// Mean validation error of the DETMAX selection, m.
-    pub detmax_mean_m: f64,
-    /// Median over the random sets of the mean validation error, m.
-    pub random_mean_median_m: f64,
 }
 
 /// Calibrates `result`'s option on `calibration` from `sets` random
@@ -182,17 +161,6 @@ pub fn outlier_trial(
     })
 }
 
-/// O1 of a DETMAX selection of `poses` poses for `option`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct O1Point {
-    /// The option.
-    pub option: ModelOption,
-    /// Poses selected.
-    pub poses: usize,
-    /// O1 of the selection.
-    pub o1: f64,
-}
-
 /// O1 of DETMAX selections (two starts each) of each of `sizes` poses, per
 /// option of `results`, over the candidates they analysed; sizes that cannot
 /// determine the option's parameters, or exceed the candidates, are skipped.
@@ -232,24 +200,6 @@ pub fn o1_vs_poses(
     }
     progress.end();
     Ok(out)
-}
-
-/// How well a calibration of one option from a DETMAX selection of some
-/// number of poses does.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct ErrorPoint {
-    /// The option.
-    pub option: ModelOption,
-    /// Poses selected and fitted.
-    pub poses: usize,
-    /// The servo curves' knot spacing the fit chose, for an option with servo curves.
-    pub knots: Option<KnotSpacing>,
-    /// On the held-out candidates of the grid and on the off-grid poses;
-    /// `None` when the poses cannot determine the option's parameters or
-    /// the fit failed.
-    pub errors: Option<GridErrors>,
-    /// Why there are no errors, if there are none.
-    pub failure: Option<String>,
 }
 
 /// The error of each of `results`' options calibrated on `calibration`
@@ -322,17 +272,6 @@ pub fn error_vs_poses(
     points.ok_or_else(|| CalibError::Empty {
         what: "calibrate from fewer poses: a run failed".into(),
     })
-}
-
-/// A calibration's error on held-out grid poses and on poses off the grid.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct GridErrors {
-    /// The option.
-    pub option: ModelOption,
-    /// On the candidates of the grid (ids below the grid's size) not selected.
-    pub grid: ErrorStats,
-    /// On `off_grid`, poses none of the candidates'.
-    pub off_grid: ErrorStats,
 }
 
 /// `result`'s calibration validated on its held-out candidates whose ids are

@@ -193,7 +193,7 @@ mod tests {
     use model::ParamId;
 
     use crate::calib::ModelOption;
-    use crate::calib::fit::identify::Diagnostics;
+    use crate::calib::fit::identify::{Diagnostics, IdentifyOptions};
     use crate::calib::testing::rigid_nominal;
 
     #[test]
@@ -203,6 +203,7 @@ mod tests {
         let k6 = ParamId::from_name("k6").unwrap();
         let identified = Identified {
             option: ModelOption::Elastic,
+            options: IdentifyOptions::default(),
             rig: nominal.with_errors(&[k2], &[0.1]).into(),
             estimates: vec![
                 Estimate {

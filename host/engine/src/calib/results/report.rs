@@ -17,13 +17,12 @@ use serde::{Deserialize, Serialize};
 use crate::calib::ModelOption;
 use crate::calib::analysis::identifiability::Identifiability;
 use crate::calib::analysis::observability::Observability;
+use crate::calib::fit::choice::{KnotChoice, ModelChoice};
 use crate::calib::fit::identify::{Identified, Outlier};
-use crate::calib::fit::knot_choice::KnotChoice;
-use crate::calib::fit::model_choice::ModelChoice;
 use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
-use crate::calib::results::experiments::{ErrorPoint, O1Point, RandomBaseline};
+use crate::calib::results::figures::{ErrorPoint, O1Point, RandomBaseline};
 use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
@@ -189,6 +188,12 @@ pub struct FitReport {
     /// empty when read from an older report).
     #[serde(default)]
     pub per_pose: Vec<FitPoseReport>,
+    /// How far apart, degrees, two angles of a servo curve have errors
+    /// correlated by `e^-½` under the prior: the length the measurements
+    /// chose (`calib::fit::grow`), for a fit of servo curves under the
+    /// prior; `None` otherwise (and when read from an older report).
+    #[serde(default)]
+    pub servo_correlation_deg: Option<f64>,
 }
 
 /// One fitted measurement: where it was and the arm's error there, in report units.
@@ -235,6 +240,11 @@ impl From<&Identified> for FitReport {
             sigma_mm: d.sigma_m * 1e3,
             condition: d.condition,
             loo_mean_mm: d.loo_mean_m * 1e3,
+            servo_correlation_deg: (f.options.prior
+                && f.estimates
+                    .iter()
+                    .any(|e| matches!(e.id, ParamKey::ServoKnot { .. })))
+            .then_some(f.options.servo_correlation_deg),
             parameters: f.estimates.iter().map(FittedParam::from).collect(),
             outliers: f.outliers.iter().map(OutlierReport::from).collect(),
             per_pose: f

@@ -8,9 +8,9 @@ use crate::calib::fit::pipeline::{OptionResult, RunSettings};
 use crate::calib::parameters::option::DEFAULT;
 use crate::calib::progress::Progress;
 use crate::calib::results::experiments::{
-    ERROR_SIZES, GridErrors, O1_SIZES, error_vs_poses, grid_and_off_grid, o1_vs_poses,
-    random_baseline,
+    ERROR_SIZES, O1_SIZES, error_vs_poses, grid_and_off_grid, o1_vs_poses, random_baseline,
 };
+use crate::calib::results::figures::GridErrors;
 use crate::calib::results::report::Report;
 use crate::calib::run::Calibration;
 use crate::calib::{CalibError, ModelOption};

@@ -4,10 +4,11 @@
 
 use crate::calib::CalibError;
 use crate::calib::ParamKey;
-use crate::calib::fit::model_choice::Rung;
+use crate::calib::fit::choice::Rung;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
 use crate::calib::parameters::option::DEFAULT;
-use crate::calib::results::experiments::{ErrorPoint, GridErrors, RandomBaseline};
+use crate::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
+use crate::calib::results::figures::{ErrorPoint, GridErrors, RandomBaseline};
 use crate::calib::results::report::{
     OptionReport, OutlierReport, RemovedReport, ValidationOutlier,
 };
@@ -120,11 +121,23 @@ pub fn knots(o: &OptionReport) -> Option<String> {
             None => format!("{} failed", t.spacing),
         })
         .collect();
-    Some(format!(
-        "servo curves: knots {}, the spacing whose fit best predicts each fitted pose left out (leave-one-out mean error: {})",
-        k.chosen,
-        trials.join(", ")
-    ))
+    let spacing = match k.trials.len() {
+        1 => format!("servo curves: knots {}", k.chosen),
+        _ => format!(
+            "servo curves: knots {}, the spacing whose fit best predicts each fitted pose left out (leave-one-out mean error: {})",
+            k.chosen,
+            trials.join(", ")
+        ),
+    };
+    Some(match o.fit.servo_correlation_deg {
+        Some(deg) => format!(
+            "{spacing}; their errors correlated over {deg:.0}°, the length (of {}) under which the measurements are most probable",
+            SERVO_CORRELATIONS_DEG
+                .map(|d| format!("{d:.0}°"))
+                .join(", ")
+        ),
+        None => spacing,
+    })
 }
 
 /// Which model the option's ladder kept, and each rung's leave-one-out

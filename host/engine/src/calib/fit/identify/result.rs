@@ -125,6 +125,9 @@ pub struct Diagnostics {
 pub struct Identified {
     /// The option fitted.
     pub option: ModelOption,
+    /// How it was fitted (under a prior, the servo curves' correlation
+    /// length the measurements chose: `calib::fit::grow`).
+    pub options: IdentifyOptions,
     /// The nominal arm and targets with the identified errors applied.
     pub rig: Rig,
     /// Every fitted parameter.
