@@ -1,10 +1,12 @@
 //! `lrmcal plan`: the candidate poses a calibration may choose from, the grid
-//! of joint levels less the poses that leave the joint limits or collide.
+//! of joint levels less the poses that leave the joint limits or collide, and,
+//! with `--camera`, those whose board the camera does not see.
 
 use std::path::PathBuf;
 
 use crate::commands::helpers::{finite_height_mm, non_negative};
 use crate::error::Error;
+use lrmcal_core::camera::setup;
 use lrmcal_core::dataset::PoseRow;
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::pose_list;
@@ -24,14 +26,19 @@ frames), or else its skeleton: a capsule along each link's DH offsets and one to
 point, a twentieth of the arm's length thick. Bodies on neighbouring links, or joined by less \
 arm than their radii (an elbow, a spherical wrist), are not tested against each other. The \
 ground is the plane z = --ground-z-mm of the world frame. A pose is dropped for the first test \
-it fails (limits, ground, self-collision), so the counts on stderr add up to the grid. Pose \
+it fails (limits, ground, self-collision), so the counts on stderr add up to the grid. With --camera, a pose is also dropped when the camera of the setup file \
+does not see the board the arm carries: every tag corner must project inside the image, 10 px \
+from its edges, and the board must face the camera within 60 degrees (the setup file, the \
+intrinsics and the board files are described in docs/FORMATS.md; the poses there need only be \
+told roughly). Random poses are drawn until as many are seen. Pose \
 ids are grid indices (joint 1 the slowest digit, the last joint the fastest) and stay the same \
 whatever is dropped.\n\n\
 Examples:\n  \
 lrmcal plan --out candidates.csv\n  \
 lrmcal plan --levels 5 --out fine.csv              # -100,-50,0,50,100 on every joint\n  \
 lrmcal plan --levels -90,-30,30,90 --clearance-mm 20 --out c.csv\n  \
-lrmcal plan --arm my_arm.toml --ground-z-mm -120 --out c.csv   # base 12 cm above the floor\n\n\
+lrmcal plan --arm my_arm.toml --ground-z-mm -120 --out c.csv   # base 12 cm above the floor\n  \
+lrmcal plan --camera webcam.toml --out seen.csv    # only poses the webcam sees the board in\n\n\
 The output is a pose list (pose,q1_deg..q6_deg) for `lrmcal simulate --poses`, `lrmcal select` \
 or a measurement session.")]
 pub struct Args {
@@ -63,6 +70,10 @@ pub struct Args {
     /// [default: the arm file's `[collision] clearance`, else 10].
     #[arg(long, value_name = "MM", allow_negative_numbers = true, value_parser = non_negative)]
     pub clearance_mm: Option<f64>,
+    /// A camera setup file (TOML): keep only the poses in which its camera
+    /// sees the whole board the arm carries, facing it.
+    #[arg(long, value_name = "FILE")]
+    pub camera: Option<PathBuf>,
     /// Where to write the candidate pose list [default: standard output].
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -97,6 +108,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(c) = args.clearance_mm {
         config.clearance_m = c * 1e-3;
     }
+    config.camera = args.camera.as_deref().map(setup::read).transpose()?;
     let report = candidates(&arm.arm, &config)?;
     let rows: Vec<PoseRow> = report
         .kept

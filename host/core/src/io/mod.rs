@@ -32,7 +32,7 @@ use crate::error::{Error, InputError, Location, Problem};
 
 /// A serde key path as messages show it: `joint[3].servo.zero`, array
 /// positions counted from 1 (like the joints `j1..j6`).
-fn key_path(path: &serde_path_to_error::Path) -> String {
+pub(crate) fn key_path(path: &serde_path_to_error::Path) -> String {
     use serde_path_to_error::Segment;
     let mut out = String::new();
     for segment in path.iter() {

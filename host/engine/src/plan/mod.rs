@@ -1,5 +1,6 @@
 //! Candidate poses: the grid of joint levels, filtered by joint limits, the
-//! floor and self-collision between the arm's bodies.
+//! floor, self-collision between the arm's bodies and, when a camera
+//! measures, whether it sees the board the arm carries.
 //!
 //! ```text
 //! nominal Arm + CollisionSpec (arm file) --PlanConfig::for_arm--> PlanConfig
@@ -8,9 +9,10 @@
 //! ```
 //!
 //! Everything is evaluated on the nominal, rigid arm with the `model` crate
-//! (its frames place the bodies). A pose is dropped for the first test it
-//! fails, in the order joint limits, floor, self-collision, so every dropped
-//! pose has exactly one reason and the counts add up to the grid.
+//! (its frames place the bodies and the board). A pose is dropped for the
+//! first test it fails, in the order joint limits, floor, self-collision,
+//! camera, so every dropped pose has exactly one reason and the counts add up
+//! to the grid.
 //!
 //! | module | what it holds |
 //! |---|---|
@@ -31,6 +33,7 @@ use model::{Arm, ChainFrames};
 use serde::Serialize;
 
 pub use grid::{Levels, LevelsError, MAX_GRID_POSES};
+use lrmcal_core::camera::CameraSetup;
 use lrmcal_core::collision::{BodySet, CollisionSpec, Contact, Floor, SpecError};
 use lrmcal_core::dataset::Pose;
 use lrmcal_core::io::arm_source::LoadedArm;
@@ -59,6 +62,9 @@ pub struct PlanConfig {
     pub random: usize,
     /// Seed of the random poses.
     pub seed: u64,
+    /// The camera that measures and the board the arm carries: a pose whose
+    /// board the camera does not see is dropped. Default `None`: no camera.
+    pub camera: Option<CameraSetup>,
 }
 
 impl Default for PlanConfig {
@@ -70,6 +76,7 @@ impl Default for PlanConfig {
             bodies: None,
             random: 0,
             seed: DEFAULT_RANDOM_SEED,
+            camera: None,
         }
     }
 }
@@ -92,6 +99,8 @@ pub enum DropReason {
     },
     /// A body or a pair of bodies comes too close.
     Collision(Contact),
+    /// The camera does not see the whole board, facing it.
+    NotSeen,
 }
 
 impl fmt::Display for DropReason {
@@ -99,6 +108,7 @@ impl fmt::Display for DropReason {
         match self {
             Self::JointLimits { joint } => write!(f, "joint {joint} out of its limits"),
             Self::Collision(contact) => write!(f, "{contact}"),
+            Self::NotSeen => write!(f, "the camera does not see the board"),
         }
     }
 }
@@ -122,6 +132,8 @@ pub struct PlanReport {
     pub kept: Vec<Pose>,
     /// The dropped poses, in grid order.
     pub dropped: Vec<Dropped>,
+    /// Whether a camera was asked to see the board.
+    pub camera: bool,
 }
 
 /// Counts of dropped poses per kind of reason.
@@ -133,6 +145,8 @@ pub struct DropCounts {
     pub ground: usize,
     /// Dropped for two bodies near each other.
     pub self_collision: usize,
+    /// Dropped because the camera does not see the board.
+    pub camera: usize,
 }
 
 impl PlanReport {
@@ -144,6 +158,7 @@ impl PlanReport {
                 DropReason::JointLimits { .. } => counts.joint_limits += 1,
                 DropReason::Collision(Contact::Ground { .. }) => counts.ground += 1,
                 DropReason::Collision(Contact::SelfCollision { .. }) => counts.self_collision += 1,
+                DropReason::NotSeen => counts.camera += 1,
             }
         }
         counts
@@ -184,13 +199,17 @@ impl fmt::Display for PlanReport {
         writeln!(f, "  joint limits:   {:>7}", c.joint_limits)?;
         writeln!(f, "  ground:         {:>7}", c.ground)?;
         writeln!(f, "  self-collision: {:>7}", c.self_collision)?;
+        if self.camera {
+            writeln!(f, "  camera:         {:>7}", c.camera)?;
+        }
         for (reason, n) in self.detailed_counts() {
             writeln!(f, "    {n:>7}  {reason}")?;
         }
         if random > 0 {
+            let seen = if self.camera { ", the board seen" } else { "" };
             writeln!(
                 f,
-                "{random} random poses off the grid added, clear of the limits and collisions"
+                "{random} random poses off the grid added, clear of the limits and collisions{seen}"
             )?;
         }
         Ok(())
@@ -343,6 +362,7 @@ pub fn candidates(arm: &Arm<f64>, config: &PlanConfig) -> Result<PlanReport, Pla
         grid_size: config.levels.grid_size(arm.joints.len())?,
         kept: Vec::new(),
         dropped: Vec::new(),
+        camera: config.camera.is_some(),
     };
     for pose in config.levels.grid(arm.joints.len()) {
         match check_pose(arm, &chain, config, &pose.q) {
@@ -380,9 +400,15 @@ fn check_pose(
             joint: joint.map_or(0, |i| i + 1),
         });
     }
-    config
-        .contact(&chain.frames(q, 0.0))
-        .map(DropReason::Collision)
+    let frames = chain.frames(q, 0.0);
+    if let Some(contact) = config.contact(&frames) {
+        return Some(DropReason::Collision(contact));
+    }
+    let camera = config.camera.as_ref()?;
+    camera
+        .sees_board(&frames.frames.last_value())
+        .err()
+        .map(|_| DropReason::NotSeen)
 }
 
 #[cfg(test)]

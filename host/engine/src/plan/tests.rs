@@ -106,7 +106,8 @@ fn bundled_arm_keeps_about_half_of_the_paper_grid() {
         DropCounts {
             joint_limits: 0,
             ground: 324,
-            self_collision: 0
+            self_collision: 0,
+            camera: 0
         }
     );
     // The home pose (arm straight up) survives; ids are grid ids in grid order.

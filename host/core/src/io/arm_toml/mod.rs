@@ -84,7 +84,11 @@ pub fn parse(text: &str) -> Result<ArmDescription, InputError> {
 }
 
 /// A `toml` or serde error turned into an [`InputError`] with line and key path.
-fn toml_error(lines: &LineIndex, error: toml::de::Error, path: Option<String>) -> InputError {
+pub(crate) fn toml_error(
+    lines: &LineIndex,
+    error: toml::de::Error,
+    path: Option<String>,
+) -> InputError {
     let line = error.span().map(|s| lines.line_of(s.start));
     let location = Location {
         line,
@@ -99,12 +103,12 @@ fn toml_error(lines: &LineIndex, error: toml::de::Error, path: Option<String>) -
 }
 
 /// Byte offset -> 1-based line number.
-struct LineIndex {
+pub(crate) struct LineIndex {
     starts: Vec<usize>,
 }
 
 impl LineIndex {
-    fn new(text: &str) -> Self {
+    pub(crate) fn new(text: &str) -> Self {
         let starts = std::iter::once(0)
             .chain(text.match_indices('\n').map(|(i, _)| i + 1))
             .collect();

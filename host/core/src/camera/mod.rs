@@ -1,0 +1,33 @@
+//! The camera as the instrument: what it is, what it looks at, and whether it
+//! sees it.
+//!
+//! ```text
+//! camera_info / FileStorage YAML --intrinsics_file::read--> Intrinsics (pixels of camera-frame points)
+//! Kalibr aprilgrid YAML --board::read--> AprilGrid (tag corners in the board frame)
+//! camera setup TOML --setup::read--> CameraSetup (both, and where the camera and the board are)
+//! Intrinsics + AprilGrid + board pose in the camera frame --visibility::check--> seen, or why not
+//! ```
+//!
+//! | module | what it holds |
+//! |---|---|
+//! | [`intrinsics`] | the pinhole camera with OpenCV's radial-tangential distortion, and its projection |
+//! | [`intrinsics_file`] | the intrinsics files read (ROS `camera_info`, OpenCV FileStorage) |
+//! | [`board`] | the AprilTag grid the arm carries, its frame and corner order, and its file (Kalibr's `aprilgrid`) |
+//! | [`visibility`] | whether the camera sees the whole board, facing it |
+//! | [`setup`] | the camera setup file: the files above and the two poses that place them |
+//! | `yaml` | the YAML reading the files above share |
+//!
+//! Conventions (OpenCV's, which ROS shares): the camera frame has x right,
+//! y down, z forward along the optical axis, in metres; pixel centres sit at
+//! integer coordinates, the top-left pixel's centre at (0, 0).
+
+pub mod board;
+pub mod intrinsics;
+pub mod intrinsics_file;
+pub mod setup;
+pub mod visibility;
+mod yaml;
+
+pub use board::AprilGrid;
+pub use intrinsics::Intrinsics;
+pub use setup::{CameraSetup, Mount};

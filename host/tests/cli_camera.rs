@@ -1,0 +1,190 @@
+//! `lrmcal plan --camera`: a webcam in front of the bundled arm keeps only the
+//! poses whose board it sees, and a bad setup file is refused by name.
+
+mod common;
+
+use std::path::Path;
+
+use common::{lrmcal, p, text};
+use lrmcal_core::camera::{Intrinsics, board, intrinsics_file};
+use lrmcal_core::io::{arm_source::ArmSource, pose_list};
+use model::Frame;
+use nalgebra::Vector3;
+
+/// A 720p webcam with a little barrel distortion.
+fn webcam() -> Intrinsics {
+    Intrinsics {
+        width_px: 1280,
+        height_px: 720,
+        fx: 910.0,
+        fy: 908.0,
+        cx: 641.0,
+        cy: 358.0,
+        distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
+    }
+}
+
+/// [`webcam`] as ROS's camera calibrator writes it.
+const CAMERA_INFO: &str = "image_width: 1280
+image_height: 720
+camera_name: webcam
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [910.0, 0.0, 641.0, 0.0, 908.0, 358.0, 0.0, 0.0, 1.0]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [-0.1, 0.06, 0.001, -0.0005, 0.0]
+rectification_matrix:
+  rows: 3
+  cols: 3
+  data: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [910.0, 0.0, 641.0, 0.0, 0.0, 908.0, 358.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+";
+
+/// A 3x3 grid of 3 cm tags: 108 mm across, its centre at (54, 54) mm.
+const BOARD: &str = "target_type: 'aprilgrid'\ntagCols: 3\ntagRows: 3\ntagSize: 0.03\n\
+tagSpacing: 0.3\n";
+
+/// The camera 0.8 m in front of the arm (along x), 25 cm up, looking back
+/// at it: its z along the world's -x, its y (down) along -z. The board on
+/// the flange, centred on its axis, facing out.
+const SETUP: &str = r#"intrinsics = "camera_info.yaml"
+board_file = "board.yaml"
+mount = "eye-to-hand"
+
+[camera]
+xyz_mm = [800.0, 0.0, 250.0]
+rpy_deg = [-90.0, 0.0, 90.0]
+
+[board]
+xyz_mm = [-54.0, -54.0, 5.0]
+rpy_deg = [0.0, 0.0, 0.0]
+"#;
+
+/// A folder with the setup (as `setup`), the camera_info file and the board.
+fn files(dir: &Path, setup: &str) {
+    std::fs::write(dir.join("camera_info.yaml"), CAMERA_INFO).unwrap();
+    std::fs::write(dir.join("board.yaml"), BOARD).unwrap();
+    std::fs::write(dir.join("setup.toml"), setup).unwrap();
+}
+
+/// Poses `lrmcal plan` writes with `extra` options.
+fn plan(dir: &Path, name: &str, extra: &[&str]) -> Vec<lrmcal_core::dataset::PoseRow> {
+    let out = dir.join(name);
+    let mut args = vec!["plan", "--random", "40", "--out", p(&out)];
+    args.extend_from_slice(extra);
+    let run = lrmcal(&args);
+    assert!(run.status.success(), "{}", text(&run));
+    pose_list::read(&out).unwrap()
+}
+
+#[test]
+fn the_camera_keeps_the_poses_whose_board_it_sees() {
+    let dir = tempfile::tempdir().unwrap();
+    files(dir.path(), SETUP);
+    let all = plan(dir.path(), "all.csv", &[]);
+    let setup = dir.path().join("setup.toml");
+    let seen = plan(dir.path(), "seen.csv", &["--camera", p(&setup)]);
+    assert!(
+        !seen.is_empty() && seen.len() < all.len(),
+        "{} of {}",
+        seen.len(),
+        all.len()
+    );
+
+    // Every pose kept, worked out here from the files and the arm, corner by
+    // corner: in the image 10 px from its edges, the board facing the camera
+    // within 60°.
+    let arm = "lrm".parse::<ArmSource>().unwrap().load().unwrap().arm;
+    let camera = intrinsics_file::read(&dir.path().join("camera_info.yaml")).unwrap();
+    assert_eq!(camera, webcam());
+    let grid = board::read(&dir.path().join("board.yaml")).unwrap();
+    let deg = |v: [f64; 3]| v.map(f64::to_radians);
+    let world_camera = Frame {
+        xyz: [0.8, 0.0, 0.25],
+        rpy: deg([-90.0, 0.0, 90.0]),
+    }
+    .isometry();
+    let flange_board = Frame {
+        xyz: [-0.054, -0.054, 0.005],
+        rpy: [0.0; 3],
+    }
+    .isometry();
+    let chain = arm.chain();
+    for row in &seen {
+        let flange = chain.frames(&row.pose.q, 0.0).frames.last_value();
+        let camera_board = world_camera.inverse() * flange * flange_board;
+        for corner in grid.corners() {
+            let uv = camera.project(&(camera_board * corner)).unwrap();
+            assert!(
+                (10.0..=1269.0).contains(&uv.x) && (10.0..=709.0).contains(&uv.y),
+                "pose {}: a corner at {uv}",
+                row.pose.id
+            );
+        }
+        let centre = camera_board * grid.centre();
+        let normal = camera_board * Vector3::z();
+        let angle = normal.angle(&-centre.coords).to_degrees();
+        assert!(angle <= 60.0, "pose {}: seen at {angle}°", row.pose.id);
+    }
+}
+
+#[test]
+fn a_bad_setup_is_refused_naming_the_file_and_the_key() {
+    for (from, to, names) in [
+        ("mount = \"eye-to-hand\"\n", "", ["setup.toml", "mount"]),
+        (
+            "\"eye-to-hand\"",
+            "\"eye-in-hand\"",
+            ["setup.toml", "not supported yet"],
+        ),
+        (
+            "\"eye-to-hand\"",
+            "\"on-a-stick\"",
+            ["setup.toml", "on-a-stick"],
+        ),
+        (
+            "\"camera_info.yaml\"",
+            "\"missing.yaml\"",
+            ["missing.yaml", "read"],
+        ),
+        ("rpy_deg = [0.0, 0.0, 0.0]\n", "", ["setup.toml", "rpy_deg"]),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        files(dir.path(), &SETUP.replace(from, to));
+        let setup = dir.path().join("setup.toml");
+        let run = lrmcal(&[
+            "plan",
+            "--camera",
+            p(&setup),
+            "--out",
+            p(&dir.path().join("c.csv")),
+        ]);
+        let message = text(&run);
+        assert!(!run.status.success(), "{to}: {message}");
+        for name in names {
+            assert!(message.contains(name), "`{name}` not in: {message}");
+        }
+    }
+    // A bad board file is named with its key.
+    let dir = tempfile::tempdir().unwrap();
+    files(dir.path(), SETUP);
+    std::fs::write(
+        dir.path().join("board.yaml"),
+        BOARD.replace("0.03", "-0.03"),
+    )
+    .unwrap();
+    let run = lrmcal(&["plan", "--camera", p(&dir.path().join("setup.toml"))]);
+    let message = text(&run);
+    assert_eq!(run.status.code(), Some(3), "{message}");
+    assert!(
+        message.contains("board.yaml") && message.contains("tagSize"),
+        "{message}"
+    );
+}
