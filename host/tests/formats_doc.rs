@@ -12,6 +12,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use common::{lrmcal, p, text};
+use lrmcal_core::camera::{board, intrinsics_file, setup};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::{arm_toml, measurements, pose_list, predictions};
 use lrmcal_engine::plan::{PlanConfig, candidates};
@@ -127,9 +128,9 @@ fn every_code_block_is_checked_or_marked_abridged_or_messages() {
             "messages",
             "messages",
             "checked motive take",
-            "abridged camera setup",
-            "abridged camera intrinsics",
-            "abridged board",
+            "checked camera setup",
+            "checked camera intrinsics",
+            "checked board",
             "abridged calibration",
             "checked calibration",
             "abridged report",
@@ -167,6 +168,9 @@ fn every_checked_example_parses_as_its_kind() {
             }
             "predictions" => predictions::parse(text).map(|_| ()),
             "calibration" => CalibrationFile::parse(text).map(|_| ()),
+            "camera setup" => setup::parse(text).map(|_| ()),
+            "camera intrinsics" => intrinsics_file::parse(text).map(|_| ()),
+            "board" => board::parse(text).map(|_| ()),
             "dtrack datagram" => {
                 let frame = dtrack::parse(text).unwrap_or_else(|e| {
                     panic!("the DTrack example of docs/FORMATS.md is refused: {e}\n{text}")
@@ -291,7 +295,8 @@ impl Workspace {
 /// The file name extension of an example of `kind`.
 fn extension(kind: &str) -> &'static str {
     match kind {
-        "arm" | "arm bodies" => "toml",
+        "arm" | "arm bodies" | "camera setup" => "toml",
+        "camera intrinsics" | "board" => "yaml",
         "calibration" => "json",
         "dtrack datagram" => "txt",
         _ => "csv",
@@ -410,6 +415,27 @@ fn commands(
             "--out",
             &s(&out("measured.csv")),
         ])],
+        // The setup names its intrinsics and board files: the page's examples,
+        // beside it under those names.
+        "camera setup" => {
+            let setup = setup::parse(&std::fs::read_to_string(file).unwrap()).unwrap();
+            let folder = file.parent().unwrap();
+            for (kind, name) in [
+                ("camera intrinsics", &setup.intrinsics),
+                ("board", &setup.board),
+            ] {
+                std::fs::copy(w.example(kind), folder.join(name)).unwrap();
+            }
+            vec![list(&[
+                "plan",
+                "--camera",
+                &f,
+                "--out",
+                &s(&out("plan.csv")),
+            ])]
+        }
+        // Read through the camera setup that names them.
+        "camera intrinsics" | "board" => vec![],
         // Read by people and scripts, and by `measure` from a live stream.
         "predictions" | "dtrack datagram" => vec![],
         other => panic!("no commands known for `{other}` examples"),
@@ -493,6 +519,7 @@ fn every_checked_example_goes_through_every_command_that_reads_its_kind() {
             "calibration predict",
             "calibration push",
             "calibration validate",
+            "camera setup plan",
             "joint stream measure",
             "measurements identify",
             "measurements predict",
