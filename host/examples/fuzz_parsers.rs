@@ -1,5 +1,6 @@
 //! The parsers' fuzz campaign: mutated arm descriptions, measurement and
-//! pose-list CSVs and calibration files, each read as `lrmcal` reads it and
+//! pose-list CSVs, calibration files, camera intrinsics and board files,
+//! each read as `lrmcal` reads it and
 //! held to the invariants of `host::fuzz` (no panic; a refusal names the
 //! file and a line or key; what is accepted is finite).
 //!
@@ -83,16 +84,20 @@ type Found = (Format, u64, Violation);
 
 /// Runs `inputs` inputs of every format on one worker per directory of
 /// `dirs`; the tallies per format, or the first violation.
-fn campaign(corpus: &Corpus, args: &Args, dirs: &[TempDir]) -> Result<[Counts; 4], Found> {
+fn campaign(
+    corpus: &Corpus,
+    args: &Args,
+    dirs: &[TempDir],
+) -> Result<[Counts; Format::ALL.len()], Found> {
     let chunks = args.inputs.div_ceil(CHUNK);
     let next = AtomicU64::new(0);
     let stop = AtomicBool::new(false);
     let found: Mutex<Option<Found>> = Mutex::new(None);
-    let totals = Mutex::new([Counts::default(); 4]);
+    let totals = Mutex::new([Counts::default(); Format::ALL.len()]);
     std::thread::scope(|scope| {
         for dir in dirs {
             scope.spawn(|| {
-                let mut counts = [Counts::default(); 4];
+                let mut counts = [Counts::default(); Format::ALL.len()];
                 while !stop.load(Ordering::Relaxed) {
                     let task = next.fetch_add(1, Ordering::Relaxed);
                     let Some(&format) = Format::ALL.get((task / chunks) as usize) else {

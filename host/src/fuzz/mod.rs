@@ -1,5 +1,6 @@
 //! Fuzzing the file parsers: arm descriptions, measurement and
-//! pose-list CSVs and calibration files, mutated from valid files and read
+//! pose-list CSVs, calibration files, camera intrinsics and board files,
+//! mutated from valid files and read
 //! through the same `read` functions the commands use.
 //!
 //! Every input is written to a file and read back, and the result is held to
@@ -10,8 +11,9 @@
 //! is. The valid files the
 //! mutations start from ([`Corpus`]) are the bundled arm (as shipped, as
 //! `lrmcal` writes it, and with collision bodies), what the simulator
-//! writes, pose lists with and without loads, and a calibration file the
-//! demo wrote. Input `K` of a format under a seed is made from the seed, the
+//! writes, pose lists with and without loads, a calibration file the
+//! demo wrote, a ROS `camera_info` file and OpenCV's own calibration file,
+//! and a Kalibr board file. Input `K` of a format under a seed is made from the seed, the
 //! format and `K` alone, so any one can be made again
 //! (`examples/fuzz_parsers.rs` runs the campaign; `tests/fuzz_parsers.rs` a
 //! short one).
@@ -28,6 +30,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
 use lrmcal_core::Error;
+use lrmcal_core::camera::{board, intrinsics_file};
 use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{BUNDLED, DEFAULT_ARM, bundled};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -45,15 +48,21 @@ pub enum Format {
     Poses,
     /// A calibration file (JSON), read by `CalibrationFile::read`.
     Calibration,
+    /// Camera intrinsics (YAML), read by `camera::intrinsics_file::read`.
+    Intrinsics,
+    /// A board of AprilTags (YAML), read by `camera::board::read`.
+    Board,
 }
 
 impl Format {
     /// Every format, in campaign order.
-    pub const ALL: [Format; 4] = [
+    pub const ALL: [Format; 6] = [
         Format::Arm,
         Format::Measurements,
         Format::Poses,
         Format::Calibration,
+        Format::Intrinsics,
+        Format::Board,
     ];
 
     /// The name used on the command line (`--case arm:17`).
@@ -63,6 +72,8 @@ impl Format {
             Self::Measurements => "measurements",
             Self::Poses => "poses",
             Self::Calibration => "calibration",
+            Self::Intrinsics => "intrinsics",
+            Self::Board => "board",
         }
     }
 
@@ -78,6 +89,8 @@ impl Format {
             Self::Measurements => "measured.csv",
             Self::Poses => "poses.csv",
             Self::Calibration => "calibration.json",
+            Self::Intrinsics => "camera_info.yaml",
+            Self::Board => "board.yaml",
         }
     }
 
@@ -92,6 +105,44 @@ const CALIBRATION: &str = include_str!("calibration.json");
 /// A calibration file of schema 1, as an older lrmcal wrote it (read through
 /// the upgrade path).
 const CALIBRATION_SCHEMA_1: &str = include_str!("calibration-schema-1.json");
+
+/// A webcam's intrinsics as ROS's camera calibrator saves them.
+const CAMERA_INFO: &str = "image_width: 1280
+image_height: 720
+camera_name: webcam
+camera_matrix:
+  rows: 3
+  cols: 3
+  data: [910.0, 0.0, 641.0, 0.0, 908.0, 358.0, 0.0, 0.0, 1.0]
+distortion_model: plumb_bob
+distortion_coefficients:
+  rows: 1
+  cols: 5
+  data: [-0.1, 0.06, 0.001, -0.0005, 0.0]
+rectification_matrix:
+  rows: 3
+  cols: 3
+  data: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+projection_matrix:
+  rows: 3
+  cols: 4
+  data: [910.0, 0.0, 641.0, 0.0, 0.0, 908.0, 358.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+";
+
+/// Intrinsics as OpenCV's FileStorage writes them (cv2.FileStorage of
+/// OpenCV 5, the file the projection is checked against).
+const OPENCV_CALIBRATION: &str =
+    include_str!("../../core/tests/data/camera/opencv_calibration.yaml");
+
+/// A Kalibr board file with lrmcal's two optional keys.
+const BOARD: &str = "target_type: 'aprilgrid'
+tagCols: 4
+tagRows: 3
+tagSize: 0.025
+tagSpacing: 0.3
+firstId: 10
+tagFamily: tag36h11
+";
 
 /// Collision settings and bodies of every kind, appended to the bundled arm.
 const BODIES: &str = r#"
@@ -117,7 +168,7 @@ floor = false
 /// The valid files the mutations start from, per format.
 #[derive(Clone, Debug)]
 pub struct Corpus {
-    examples: [Vec<Vec<u8>>; 4],
+    examples: [Vec<Vec<u8>>; 6],
 }
 
 impl Corpus {
@@ -163,6 +214,11 @@ impl Corpus {
                     CALIBRATION.as_bytes().to_vec(),
                     CALIBRATION_SCHEMA_1.as_bytes().to_vec(),
                 ],
+                vec![
+                    CAMERA_INFO.as_bytes().to_vec(),
+                    OPENCV_CALIBRATION.as_bytes().to_vec(),
+                ],
+                vec![BOARD.as_bytes().to_vec()],
             ],
         };
         let dir = scratch_dir().map_err(|e| format!("a temporary directory: {e}"))?;
@@ -190,7 +246,7 @@ impl Corpus {
     /// after one to four mutations, from its own random stream.
     pub fn input(&self, format: Format, seed: u64, index: u64) -> Vec<u8> {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        rng.set_stream(index << 2 | format.index());
+        rng.set_stream(index << 3 | format.index());
         let examples = self.examples(format);
         let start = &examples[(index % examples.len() as u64) as usize];
         mutate::mutate(&mut rng, start, examples)
@@ -406,6 +462,23 @@ fn read(format: Format, path: &Path) -> Result<Option<Violation>, Error> {
                     .chain(arm_values("arm", &file.arm))
                     .chain(params)
                     .chain(file.loads_kg.iter().map(|&k| ("loads_kg".into(), k))),
+            )
+        }
+        Format::Intrinsics => {
+            let c = intrinsics_file::read(path)?;
+            not_finite(
+                [("fx", c.fx), ("fy", c.fy), ("cx", c.cx), ("cy", c.cy)]
+                    .into_iter()
+                    .chain(c.distortion.map(|k| ("distortion", k)))
+                    .map(|(what, v)| (what.to_string(), v)),
+            )
+        }
+        Format::Board => {
+            let b = board::read(path)?;
+            not_finite(
+                [("tagSize", b.tag_size_m), ("tagSpacing", b.spacing)]
+                    .into_iter()
+                    .map(|(what, v)| (what.to_string(), v)),
             )
         }
     }))
