@@ -85,7 +85,11 @@ impl Intrinsics {
     }
 
     /// The pixel `point` (camera frame, m) projects to; `None` for a point
-    /// at or behind the camera's plane (z ≤ 0) or not finite.
+    /// at or behind the camera's plane (z ≤ 0), not finite, or beyond the
+    /// radius where the radial distortion stops growing outwards: there the
+    /// polynomial folds back, and a point far outside the field of view
+    /// would land inside the image (with k1 = −0.3 alone, a point 54° off
+    /// the axis lands where one 34° off belongs).
     pub fn project(&self, point: &Point3<f64>) -> Option<Point2<f64>> {
         if !(point.z > 0.0 && point.coords.iter().all(|c| c.is_finite())) {
             return None;
@@ -93,6 +97,16 @@ impl Intrinsics {
         let [k1, k2, p1, p2, k3] = self.distortion;
         let (x, y) = (point.x / point.z, point.y / point.z);
         let r2 = x * x + y * y;
+        // d(r · radial)/dr = 1 + 3 k1 r² + 5 k2 r⁴ + 7 k3 r⁶ > 0 from the
+        // axis out to the point, checked on a fine grid of r².
+        const STEPS: u32 = 32;
+        let outwards = (1..=STEPS).all(|i| {
+            let s = r2 * f64::from(i) / f64::from(STEPS);
+            1.0 + s * (3.0 * k1 + s * (5.0 * k2 + s * 7.0 * k3)) > 0.0
+        });
+        if !outwards {
+            return None;
+        }
         let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
         let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
         let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
@@ -160,6 +174,24 @@ mod tests {
         assert_eq!(camera.project(&Point3::new(0.1, 0.0, 0.0)), None);
         assert_eq!(camera.project(&Point3::new(0.0, 0.0, -1.0)), None);
         assert_eq!(camera.project(&Point3::new(f64::NAN, 0.0, 1.0)), None);
+    }
+
+    #[test]
+    fn a_point_past_the_fold_of_the_distortion_does_not_project() {
+        let barrel = Intrinsics {
+            distortion: [-0.3, 0.0, 0.0, 0.0, 0.0],
+            ..ideal()
+        };
+        // 54° off the axis, it would land where a point 34° off does.
+        let far = barrel.project(&Point3::new(1.4, 0.0, 1.0));
+        assert_eq!(far, None);
+        let near = barrel.project(&Point3::new(0.66504, 0.0, 1.0)).unwrap();
+        let unguarded = 0.5768 * barrel.fx + barrel.cx;
+        assert!((near.x - unguarded).abs() < 0.05, "{near}");
+        // Inside the fold (at 1.054 of the axis): projected.
+        assert!(barrel.project(&Point3::new(1.0, 0.0, 1.0)).is_some());
+        // Without distortion every point in front projects.
+        assert!(ideal().project(&Point3::new(50.0, 0.0, 1.0)).is_some());
     }
 
     #[test]
