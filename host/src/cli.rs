@@ -135,6 +135,8 @@ pub enum Command {
     Emulator(commands::emulator::Args),
     /// Export an arm for other tools: a URDF of its rigid geometry for ROS.
     Export(commands::export::Args),
+    /// Find the board's AprilTag corners in image files and write them as a CSV.
+    Detect(commands::detect::Args),
     /// Turn a recorded tracker take (OptiTrack Motive CSV) into a measurement CSV.
     ImportTracker(commands::import_tracker::Args),
 }
@@ -183,6 +185,7 @@ impl Command {
             Self::Emulator(args) => commands::emulator::run(args),
             Self::Export(args) => commands::export::run(args),
             Self::ImportTracker(args) => commands::import_tracker::run(args),
+            Self::Detect(args) => commands::detect::run(args),
         }
     }
 }

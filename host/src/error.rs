@@ -138,6 +138,35 @@ pub enum Error {
     /// A tracker could not be heard, or a recorded take could not be used.
     #[error(transparent)]
     Tracker(#[from] tracker::TrackerError),
+    /// An image file could not be read or searched for tags (`lrmcal detect`).
+    #[error("read the image `{}`: {reason}", path.display())]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What the image reader or the detector said.
+        reason: String,
+    },
+    /// An image is not of the size the intrinsics are for (`lrmcal detect`).
+    #[error(
+        "use the image `{}`: it is {}x{} px, the intrinsics `{}` are for {}x{} px",
+        path.display(), size.0, size.1, intrinsics.display(), expected.0, expected.1
+    )]
+    ImageSize {
+        /// The image file.
+        path: PathBuf,
+        /// Its width and height, px.
+        size: (u32, u32),
+        /// The intrinsics file.
+        intrinsics: PathBuf,
+        /// Their width and height, px.
+        expected: (u32, u32),
+    },
+    /// The AprilTag detector could not be made.
+    #[error("start the AprilTag detector: {reason}")]
+    Detect {
+        /// What the library said.
+        reason: String,
+    },
     /// The model could not be evaluated for one pose.
     #[error("evaluate the model for pose {pose} with {load_kg} kg: {reason}")]
     Model {
@@ -200,6 +229,9 @@ impl Error {
             Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
             Self::FlashImage { .. } | Self::NoReport { .. } => exit_codes::INVALID_INPUT,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
+            Self::Image { .. } | Self::ImageSize { .. } | Self::Detect { .. } => {
+                exit_codes::INVALID_INPUT
+            }
             Self::Tracker(e) => match e {
                 tracker::TrackerError::Take { .. } | tracker::TrackerError::Periods { .. } => {
                     exit_codes::INVALID_INPUT

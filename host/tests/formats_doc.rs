@@ -131,6 +131,7 @@ fn every_code_block_is_checked_or_marked_abridged_or_messages() {
             "checked camera setup",
             "checked camera intrinsics",
             "checked board",
+            "abridged detected corners",
             "abridged calibration",
             "checked calibration",
             "abridged report",

@@ -4,6 +4,7 @@
 //! | module | what it does |
 //! |---|---|
 //! | [`calib`] | identifiability, pose selection, the fit, registration, validation, the results as files hold them |
+//! | [`camera`] | the board's tag corners found in a camera image |
 //! | [`plan`] | candidate poses: the grid and random poses the arm can take without colliding |
 //! | [`ik`] | joint targets that put the tool on a point, for `move --xyz` and the positioning test |
 //! | [`sim`] | a simulated arm to measure, and the demo's positioning through an in-memory board |
@@ -15,6 +16,7 @@
 //! reads the inputs, calls in, and writes what comes back.
 
 pub mod calib;
+pub mod camera;
 pub mod device;
 pub mod ik;
 pub mod plan;

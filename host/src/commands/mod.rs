@@ -6,6 +6,7 @@
 pub mod compensation;
 pub mod demo;
 pub mod detach;
+pub mod detect;
 pub mod device_args;
 pub mod emulator;
 pub mod export;

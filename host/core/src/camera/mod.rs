@@ -6,6 +6,7 @@
 //! Kalibr aprilgrid YAML --board::read--> AprilGrid (tag corners in the board frame)
 //! camera setup TOML --setup::read--> CameraSetup (both, and where the camera and the board are)
 //! Intrinsics + AprilGrid + board pose in the camera frame --visibility::check--> seen, or why not
+//! tags found in images --corners::write--> detected corners CSV
 //! ```
 //!
 //! | module | what it holds |
@@ -14,6 +15,7 @@
 //! | [`intrinsics_file`] | the intrinsics files read (ROS `camera_info`, OpenCV FileStorage) |
 //! | [`board`] | the AprilTag grid the arm carries, its frame and corner order, and its file (Kalibr's `aprilgrid`) |
 //! | [`visibility`] | whether the camera sees the whole board, facing it |
+//! | [`corners`] | the board's tag corners found in images, and their CSV file |
 //! | [`setup`] | the camera setup file: the files above and the two poses that place them |
 //! | `yaml` | the YAML reading the files above share |
 //!
@@ -22,6 +24,7 @@
 //! integer coordinates, the top-left pixel's centre at (0, 0).
 
 pub mod board;
+pub mod corners;
 pub mod intrinsics;
 pub mod intrinsics_file;
 pub mod setup;

@@ -1,0 +1,193 @@
+//! `lrmcal detect`: a folder of rendered board images and one without tags
+//! gives the CSV of every corner and names the empty image; a wrong image
+//! size against the intrinsics, and a file that is not an image, are refused
+//! by name, leaving no CSV behind.
+
+mod common;
+#[path = "common/tags.rs"]
+mod tags;
+
+use std::path::Path;
+
+use common::{lrmcal, p, text};
+use tags::{HEIGHT, Truth, View, WIDTH, board, render};
+
+/// [`tags::board`] as a Kalibr aprilgrid file.
+const BOARD: &str = "target_type: 'aprilgrid'\ntagCols: 3\ntagRows: 2\ntagSize: 0.04\n\
+tagSpacing: 0.3\nfirstId: 5\n";
+
+/// ROS camera_info of a camera of `width` x `height` px without distortion.
+fn camera_info(width: u32, height: u32) -> String {
+    let (cx, cy) = (width / 2, height / 2);
+    format!(
+        "image_width: {width}\nimage_height: {height}\ncamera_name: webcam\n\
+camera_matrix: {{rows: 3, cols: 3, data: [900.0, 0.0, {cx}, 0.0, 900.0, {cy}, 0.0, 0.0, 1.0]}}\n\
+distortion_model: plumb_bob\n\
+distortion_coefficients: {{rows: 1, cols: 5, data: [0.0, 0.0, 0.0, 0.0, 0.0]}}\n"
+    )
+}
+
+/// Writes `pixels` (WIDTH x HEIGHT grey) as a PNG.
+fn save(path: &Path, pixels: Vec<u8>) {
+    image::GrayImage::from_raw(WIDTH, HEIGHT, pixels)
+        .unwrap()
+        .save(path)
+        .unwrap();
+}
+
+/// A folder with two rendered boards (upright, turned by 90°) and a grey
+/// gradient without tags; returns each board image's name and true corners.
+fn folder(dir: &Path) -> Vec<(&'static str, Truth)> {
+    let mut truths = Vec::new();
+    for (name, roll_deg) in [("a_upright.png", 0.0), ("b_turned.png", 90.0)] {
+        let view = View {
+            roll_deg,
+            tilt_deg: 0.0,
+            distance_m: 0.8,
+        };
+        let image = render(&board(), view);
+        save(&dir.join(name), image.pixels);
+        truths.push((name, image.truth));
+    }
+    let gradient = (0..WIDTH * HEIGHT).map(|k| (k % WIDTH / 5) as u8).collect();
+    save(&dir.join("c_blank.png"), gradient);
+    std::fs::write(dir.join("notes.txt"), "not an image, not read").unwrap();
+    truths
+}
+
+#[test]
+fn every_corner_of_every_image_is_written_and_an_empty_image_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let images = dir.path().join("shots");
+    std::fs::create_dir(&images).unwrap();
+    let truths = folder(&images);
+    let board_file = dir.path().join("board.yaml");
+    std::fs::write(&board_file, BOARD).unwrap();
+    let camera = dir.path().join("camera_info.yaml");
+    std::fs::write(&camera, camera_info(WIDTH, HEIGHT)).unwrap();
+    let out = dir.path().join("corners.csv");
+    let run = lrmcal(&[
+        "detect",
+        "--images",
+        p(&images),
+        "--board",
+        p(&board_file),
+        "--intrinsics",
+        p(&camera),
+        "--out",
+        p(&out),
+    ]);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    assert!(
+        said.contains("c_blank.png: no tag of the board found"),
+        "{said}"
+    );
+    assert!(
+        said.contains("12 tags of the board seen in 2 of 3 images"),
+        "{said}"
+    );
+
+    let mut csv = csv::Reader::from_path(&out).unwrap();
+    let header: Vec<String> = csv.headers().unwrap().iter().map(str::to_owned).collect();
+    assert_eq!(header, ["image", "tag", "corner", "u_px", "v_px"]);
+    let rows: Vec<csv::StringRecord> = csv.records().map(Result::unwrap).collect();
+    let expected: Vec<_> = truths
+        .iter()
+        .flat_map(|(name, tags)| {
+            tags.iter().flat_map(move |(id, corners)| {
+                corners
+                    .iter()
+                    .enumerate()
+                    .map(move |(k, c)| (*name, *id, k, *c))
+            })
+        })
+        .collect();
+    assert_eq!(rows.len(), expected.len());
+    for (row, (name, id, k, [u, v])) in rows.iter().zip(expected) {
+        assert_eq!(&row[0], name);
+        assert_eq!(row[1].parse::<u32>().unwrap(), id);
+        assert_eq!(row[2].parse::<usize>().unwrap(), k);
+        let (du, dv) = (
+            row[3].parse::<f64>().unwrap() - u,
+            row[4].parse::<f64>().unwrap() - v,
+        );
+        assert!(du.hypot(dv) < 0.5, "{row:?}: truth ({u}, {v})");
+    }
+}
+
+#[test]
+fn tags_off_the_board_are_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    folder(dir.path());
+    let board_file = dir.path().join("board.yaml");
+    // Ids 7 and 8 only: the other four of each board image are foreign.
+    std::fs::write(
+        &board_file,
+        BOARD
+            .replace("tagCols: 3", "tagCols: 2")
+            .replace("tagRows: 2", "tagRows: 1")
+            .replace("firstId: 5", "firstId: 7"),
+    )
+    .unwrap();
+    let out = dir.path().join("corners.csv");
+    let run = lrmcal(&[
+        "detect",
+        "--images",
+        p(dir.path()),
+        "--board",
+        p(&board_file),
+        "--out",
+        p(&out),
+    ]);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    assert!(
+        said.contains("ignored 8 tags whose id is not on the board ("),
+        "{said}"
+    );
+    let rows = csv::Reader::from_path(&out).unwrap().records().count();
+    assert_eq!(rows, 2 * 2 * 4);
+}
+
+#[test]
+fn a_wrong_size_or_a_file_that_is_no_image_is_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    folder(dir.path());
+    let board_file = dir.path().join("board.yaml");
+    std::fs::write(&board_file, BOARD).unwrap();
+    let camera = dir.path().join("camera_info.yaml");
+    std::fs::write(&camera, camera_info(640, 480)).unwrap();
+    let out = dir.path().join("corners.csv");
+    let detect = |extra: &[&str]| {
+        let mut args = vec![
+            "detect",
+            "--images",
+            p(dir.path()),
+            "--board",
+            p(&board_file),
+            "--out",
+            p(&out),
+        ];
+        args.extend(extra);
+        lrmcal(&args)
+    };
+    let run = detect(&["--intrinsics", p(&camera)]);
+    let said = text(&run);
+    assert_eq!(run.status.code(), Some(3), "{said}");
+    assert!(
+        said.contains("a_upright.png") && said.contains("1280x720") && said.contains("640x480"),
+        "{said}"
+    );
+    assert!(!out.exists());
+
+    std::fs::write(dir.path().join("b_broken.jpg"), "not a JPEG").unwrap();
+    let run = detect(&[]);
+    let said = text(&run);
+    assert_eq!(run.status.code(), Some(3), "{said}");
+    assert!(
+        said.contains("read the image") && said.contains("b_broken.jpg"),
+        "{said}"
+    );
+    assert!(!out.exists());
+}
