@@ -25,27 +25,7 @@ fn webcam() -> Intrinsics {
 }
 
 /// [`webcam`] as ROS's camera calibrator writes it.
-const CAMERA_INFO: &str = "image_width: 1280
-image_height: 720
-camera_name: webcam
-camera_matrix:
-  rows: 3
-  cols: 3
-  data: [910.0, 0.0, 641.0, 0.0, 908.0, 358.0, 0.0, 0.0, 1.0]
-distortion_model: plumb_bob
-distortion_coefficients:
-  rows: 1
-  cols: 5
-  data: [-0.1, 0.06, 0.001, -0.0005, 0.0]
-rectification_matrix:
-  rows: 3
-  cols: 3
-  data: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-projection_matrix:
-  rows: 3
-  cols: 4
-  data: [910.0, 0.0, 641.0, 0.0, 0.0, 908.0, 358.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-";
+const CAMERA_INFO: &str = include_str!("../core/tests/data/camera/camera_info.yaml");
 
 /// A 3x3 grid of 3 cm tags: 108 mm across, its centre at (54, 54) mm.
 const BOARD: &str = "target_type: 'aprilgrid'\ntagCols: 3\ntagRows: 3\ntagSize: 0.03\n\

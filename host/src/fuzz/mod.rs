@@ -107,27 +107,7 @@ const CALIBRATION: &str = include_str!("calibration.json");
 const CALIBRATION_SCHEMA_1: &str = include_str!("calibration-schema-1.json");
 
 /// A webcam's intrinsics as ROS's camera calibrator saves them.
-const CAMERA_INFO: &str = "image_width: 1280
-image_height: 720
-camera_name: webcam
-camera_matrix:
-  rows: 3
-  cols: 3
-  data: [910.0, 0.0, 641.0, 0.0, 908.0, 358.0, 0.0, 0.0, 1.0]
-distortion_model: plumb_bob
-distortion_coefficients:
-  rows: 1
-  cols: 5
-  data: [-0.1, 0.06, 0.001, -0.0005, 0.0]
-rectification_matrix:
-  rows: 3
-  cols: 3
-  data: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
-projection_matrix:
-  rows: 3
-  cols: 4
-  data: [910.0, 0.0, 641.0, 0.0, 0.0, 908.0, 358.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-";
+const CAMERA_INFO: &str = include_str!("../../core/tests/data/camera/camera_info.yaml");
 
 /// Intrinsics as OpenCV's FileStorage writes them (cv2.FileStorage of
 /// OpenCV 5, the file the projection is checked against).
