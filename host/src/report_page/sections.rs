@@ -5,8 +5,8 @@
 //! produce says so instead of being left out, so every page has the same
 //! outline.
 
-use lrmcal_engine::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
 use lrmcal_engine::calib::results::report::{OptionReport, Report};
+use lrmcal_engine::calib::results::summary::servo_smoothness;
 
 use super::html::{escape, num, opt_num, para, table};
 
@@ -287,10 +287,8 @@ pub fn knots(report: &Report) -> String {
                 // Under the prior, the finest grid alone; the curves'
                 // smoothness is the correlation length the fit chose.
                 Some(deg) => format!(
-                    "the finest grid, the curves kept smooth by the prior: their errors correlated over {deg:.0}° (of {}), the length under which the measurements are most probable",
-                    SERVO_CORRELATIONS_DEG
-                        .map(|d| format!("{d:.0}°"))
-                        .join(", ")
+                    "the finest grid, the curves kept smooth by the prior: {}",
+                    servo_smoothness(deg)
                 ),
                 None => "the spacing whose fit best predicts each fitted pose left out".into(),
             };

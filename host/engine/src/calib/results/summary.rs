@@ -130,14 +130,20 @@ pub fn knots(o: &OptionReport) -> Option<String> {
         ),
     };
     Some(match o.fit.servo_correlation_deg {
-        Some(deg) => format!(
-            "{spacing}; their errors correlated over {deg:.0}°, the length (of {}) under which the measurements are most probable",
-            SERVO_CORRELATIONS_DEG
-                .map(|d| format!("{d:.0}°"))
-                .join(", ")
-        ),
+        Some(deg) => format!("{spacing}; {}", servo_smoothness(deg)),
         None => spacing,
     })
+}
+
+/// How smooth the prior kept the servo curves: the correlation length
+/// `deg` the fit chose, among those it chooses from.
+pub fn servo_smoothness(deg: f64) -> String {
+    format!(
+        "their errors correlated over {deg:.0}° (of {}), the length under which the measurements are most probable",
+        SERVO_CORRELATIONS_DEG
+            .map(|d| format!("{d:.0}°"))
+            .join(", ")
+    )
 }
 
 /// Which model the option's ladder kept, and each rung's leave-one-out
