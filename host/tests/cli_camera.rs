@@ -6,7 +6,7 @@ mod common;
 use std::path::Path;
 
 use common::{lrmcal, p, text};
-use lrmcal_core::camera::{Intrinsics, board, intrinsics_file};
+use lrmcal_core::camera::{Intrinsics, board, intrinsics_file, setup, views};
 use lrmcal_core::io::{arm_source::ArmSource, pose_list};
 use model::Frame;
 use nalgebra::Vector3;
@@ -167,4 +167,93 @@ fn a_bad_setup_is_refused_naming_the_file_and_the_key() {
         message.contains("board.yaml") && message.contains("tagSize"),
         "{message}"
     );
+}
+
+/// `simulate --camera`: the camera measurement file it writes is read back
+/// whole, every view has the board's twelve tags, and the truth file says
+/// where the webcam really stood, off its setup; the noise-free corners sit
+/// within a few sigmas of the noisy ones.
+#[test]
+fn a_simulated_webcam_writes_camera_measurements() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/tests/data/camera");
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name);
+    let setup = data.join("setup.toml");
+    let poses = plan(dir.path(), "poses.csv", &["--camera", p(&setup)]);
+    assert!(!poses.is_empty());
+    let run = lrmcal(&[
+        "simulate",
+        "--camera",
+        p(&setup),
+        "--poses",
+        p(&out("poses.csv")),
+        "--loads",
+        "0,0.0663",
+        "--out",
+        p(&out("views.csv")),
+        "--noise-free",
+        p(&out("exact.csv")),
+        "--truth",
+        p(&out("truth.json")),
+    ]);
+    let message = text(&run);
+    assert!(run.status.success(), "{message}");
+    assert!(
+        message.contains("mean distance nominal model and setup"),
+        "{message}"
+    );
+    let seen = views::read(&out("views.csv")).unwrap();
+    let exact = views::read(&out("exact.csv")).unwrap();
+    assert_eq!(seen.len(), exact.len());
+    assert!(seen.len() > poses.len(), "{} views", seen.len());
+    let mut worst: f64 = 0.0;
+    for (a, b) in seen.iter().zip(&exact) {
+        assert_eq!(
+            (a.pose, a.load_kg, a.approach),
+            (b.pose, b.load_kg, b.approach)
+        );
+        assert_eq!(a.tags.len(), 12);
+        for (s, e) in a.tags.iter().zip(&b.tags) {
+            for (u, v) in s.corners_px.iter().zip(&e.corners_px) {
+                worst = worst.max((u[0] - v[0]).abs()).max((u[1] - v[1]).abs());
+            }
+        }
+    }
+    assert!(worst > 0.0 && worst < 6.0 * 0.3, "{worst}");
+
+    let truth: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out("truth.json")).unwrap()).unwrap();
+    let told = setup::read(&setup).unwrap();
+    let xyz: Vec<f64> = truth["webcam"]["camera"]["xyz"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_f64().unwrap())
+        .collect();
+    let off = (Vector3::from_column_slice(&xyz) - Vector3::from(told.camera.xyz)).norm();
+    assert!(off > 0.0 && off < 0.15, "{off}");
+    assert_eq!(truth["webcam"]["pixel_noise_px"], 0.3);
+}
+
+/// A camera that sees the board at none of the poses is said so, and no
+/// file is written.
+#[test]
+fn a_webcam_that_sees_nothing_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    files(
+        dir.path(),
+        &SETUP.replace("[800.0, 0.0, 250.0]", "[-800.0, 0.0, 250.0]"),
+    );
+    let out = dir.path().join("views.csv");
+    let run = lrmcal(&[
+        "simulate",
+        "--camera",
+        p(&dir.path().join("setup.toml")),
+        "--out",
+        p(&out),
+    ]);
+    let message = text(&run);
+    assert_eq!(run.status.code(), Some(2), "{message}");
+    assert!(message.contains("sees the board at none"), "{message}");
+    assert!(!out.exists());
 }

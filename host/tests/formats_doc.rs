@@ -12,7 +12,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use common::{lrmcal, p, text};
-use lrmcal_core::camera::{board, intrinsics_file, setup};
+use lrmcal_core::camera::{board, intrinsics_file, setup, views};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::{arm_toml, measurements, pose_list, predictions};
 use lrmcal_engine::plan::{PlanConfig, candidates};
@@ -132,6 +132,7 @@ fn every_code_block_is_checked_or_marked_abridged_or_messages() {
             "checked camera intrinsics",
             "checked board",
             "abridged detected corners",
+            "checked camera measurements",
             "abridged calibration",
             "checked calibration",
             "abridged report",
@@ -172,6 +173,7 @@ fn every_checked_example_parses_as_its_kind() {
             "camera setup" => setup::parse(text).map(|_| ()),
             "camera intrinsics" => intrinsics_file::parse(text).map(|_| ()),
             "board" => board::parse(text).map(|_| ()),
+            "camera measurements" => views::parse(text).map(|_| ()),
             "dtrack datagram" => {
                 let frame = dtrack::parse(text).unwrap_or_else(|e| {
                     panic!("the DTrack example of docs/FORMATS.md is refused: {e}\n{text}")
@@ -438,7 +440,7 @@ fn commands(
         // Read through the camera setup that names them.
         "camera intrinsics" | "board" => vec![],
         // Read by people and scripts, and by `measure` from a live stream.
-        "predictions" | "dtrack datagram" => vec![],
+        "predictions" | "dtrack datagram" | "camera measurements" => vec![],
         other => panic!("no commands known for `{other}` examples"),
     }
 }

@@ -141,7 +141,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let kinds = truth.nominal.kinds();
     measurements::write(&args.out.join("measurements.csv"), &all, &kinds)?;
     measurements::write(&args.out.join("off-grid.csv"), &off_grid, &kinds)?;
-    write_text(&args.out.join("truth.json"), &truth.truth_json())?;
+    write_text(&args.out.join("truth.json"), &truth.truth_json(None))?;
     println!(
         "{} candidate poses ({} of the {} grid poses clear of the joint limits and collisions, {} random ones off the grid); true arm seed {}{}",
         poses.len(),

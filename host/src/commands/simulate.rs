@@ -1,17 +1,21 @@
 //! `lrmcal simulate`: measurements of a simulated real arm (the digital twin),
 //! to try a calibration without hardware and to check it against the truth.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use crate::commands::helpers::write_text;
 use crate::error::Error;
+use lrmcal_core::camera::setup;
+use lrmcal_core::camera::views;
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
 use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::Sample;
 use lrmcal_engine::calib::results::export::rig_of;
 use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
-use lrmcal_engine::sim::{DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm};
+use lrmcal_engine::sim::{
+    DEFAULT_PIXEL_NOISE_PX, DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm, Webcam,
+};
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
 const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
@@ -38,12 +42,19 @@ lrmcal simulate --out measurements.csv --truth truth.json\n  \
 lrmcal simulate --poses selection.csv --loads 0.0663 --seed 7 --out m.csv\n  \
 lrmcal simulate --model-only --out exact.csv      # the paper's model exactly, no noise\n  \
 lrmcal simulate --noise-mm 0.5 --backlash-deg 0 --out m.csv\n  \
-lrmcal simulate --stiffening-per-nm 0.4 --servo-error-shape harmonics --out m.csv\n\n\
+lrmcal simulate --stiffening-per-nm 0.4 --servo-error-shape harmonics --out m.csv\n  \
+lrmcal simulate --camera setup.toml --poses seen.csv --out corners.csv --truth truth.json\n\n\
 Without --poses the candidates of `lrmcal plan` (its defaults) are measured. The truth file \
 (JSON, SI units) holds the true arm and its errors by name (`j3.d`, `base.pitch`, `k2`, ...: 43 \
 for six joints, and `j2.beta` and the like when --parallel-twist-deg draws the twists); \
 --noise-free writes the same rows as --out without tracker noise. On stderr: the mean distance \
-between the nominal (rigid) model's prediction and the measurement, per load."
+between the nominal (rigid) model's prediction and the measurement, per load.\n\n\
+With --camera SETUP.toml a webcam measures instead of a tracker: the camera and the board stand \
+where the setup tells them, off by drawn errors (20 mm and 2° per axis for the camera, 2 mm and \
+1° for the board; the truth file's `webcam` says where), and --out gets the board's tag corners \
+the camera sees at each pose, with --pixel-noise-px of noise (camera measurement CSV, \
+docs/FORMATS.md). Poses where it does not see the whole board, facing it, are left out \
+(`lrmcal plan --camera` plans the ones it sees)."
 )]
 pub struct Args {
     /// The nominal arm: a bundled arm's name, an arm description `.toml` file, or a
@@ -66,9 +77,17 @@ pub struct Args {
     /// Where to write the truth file: true arm and its 43 errors by name (JSON).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
-    /// Where to write the positions without tracker noise (measurement CSV).
+    /// Where to write the positions without tracker noise (measurement CSV;
+    /// with --camera, the corners without pixel noise).
     #[arg(long, value_name = "FILE")]
     pub noise_free: Option<PathBuf>,
+    /// A webcam measures instead of a tracker: the camera setup (TOML) it
+    /// stands as, roughly; --out gets the corners it sees (camera measurement CSV).
+    #[arg(long, value_name = "SETUP")]
+    pub camera: Option<PathBuf>,
+    /// Sigma of the corners' noise on each pixel axis, px (with --camera).
+    #[arg(long, value_name = "PX", requires = "camera", default_value_t = DEFAULT_PIXEL_NOISE_PX, allow_negative_numbers = true, value_parser = non_negative)]
+    pub pixel_noise_px: f64,
     /// How the true arm differs and which effects are on.
     #[command(flatten)]
     pub sim: SimArgs,
@@ -248,10 +267,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
         })
         .collect();
     let truth = TrueArm::draw(&arm.arm, args.seed, &args.sim.config(&arm.arm))?;
+    if let Some(path) = &args.camera {
+        return watch(args, &arm, &truth, &passes, path);
+    }
     let simulation = truth.simulate_passes(&passes)?;
 
     if let Some(path) = &args.truth {
-        write_text(path, &truth.truth_json())?;
+        write_text(path, &truth.truth_json(None))?;
     }
     if let Some(path) = &args.noise_free {
         measurements::write(path, &simulation.noise_free, &arm.arm.kinds())?;
@@ -288,6 +310,82 @@ pub fn run(args: &Args) -> Result<(), Error> {
             rows.len()
         );
     }
+    Ok(())
+}
+
+/// `simulate --camera`: the webcam of `setup` watches the true arm's board.
+fn watch(
+    args: &Args,
+    arm: &LoadedArm,
+    truth: &TrueArm,
+    passes: &[Pass<'_>],
+    setup_file: &Path,
+) -> Result<(), Error> {
+    let setup = &setup::read(setup_file)?;
+    let webcam = Webcam::draw(setup, args.seed, args.pixel_noise_px);
+    let watched = truth.watch(&webcam, passes)?;
+    if watched.views.is_empty() {
+        return Err(Error::Usage(format!(
+            "the camera of `{}` sees the board at none of the {} poses: plan them with \
+             `lrmcal plan --camera {}`, or check where the setup puts the camera and the board",
+            setup_file.display(),
+            watched.unseen,
+            setup_file.display(),
+        )));
+    }
+    if let Some(path) = &args.truth {
+        write_text(path, &truth.truth_json(Some(&webcam)))?;
+    }
+    let kinds = arm.arm.kinds();
+    if let Some(path) = &args.noise_free {
+        views::write(path, &watched.noise_free, &kinds)?;
+    }
+    match &args.out {
+        Some(path) => views::write(path, &watched.views, &kinds)?,
+        None => views::write_to(&mut std::io::stdout().lock(), &watched.views, &kinds).map_err(
+            |source| lrmcal_core::Error::Write {
+                path: "<stdout>".into(),
+                source,
+            },
+        )?,
+    }
+    let corners: usize = watched.views.iter().map(|v| 4 * v.tags.len()).sum();
+    eprintln!(
+        "simulated a webcam seeing the board on a true arm drawn around {} ({}) with seed {}: \
+         {corners} corners at {} poses, the board not seen at {}",
+        arm.origin,
+        arm.name,
+        args.seed,
+        watched.views.len(),
+        watched.unseen
+    );
+    let told = Webcam::as_told(setup);
+    let rig = rig_of(arm);
+    let mut sum = 0.0;
+    let mut count = 0usize;
+    for view in &watched.views {
+        let sample = Sample {
+            id: view.pose.id,
+            q: view.pose.q,
+            load_kg: view.load_kg,
+            target: 0,
+            approach: view.approach,
+        };
+        let flange = rig.evaluate(&sample)?.deflection.frames.frames.last_value();
+        let Some(predicted) = told.project_board(&flange) else {
+            continue;
+        };
+        for (seen, tag) in view.tags.iter().zip(&predicted) {
+            for (a, b) in seen.corners_px.iter().zip(&tag.corners_px) {
+                sum += (a[0] - b[0]).hypot(a[1] - b[1]);
+                count += 1;
+            }
+        }
+    }
+    eprintln!(
+        "  mean distance nominal model and setup -> corner {:.1} px over {count} corners",
+        sum / count.max(1) as f64
+    );
     Ok(())
 }
 

@@ -7,6 +7,7 @@
 //! camera setup TOML --setup::read--> CameraSetup (both, and where the camera and the board are)
 //! Intrinsics + AprilGrid + board pose in the camera frame --visibility::check--> seen, or why not
 //! tags found in images --corners::write--> detected corners CSV
+//! tags seen at each commanded pose and load <--views::read/write--> camera measurement CSV
 //! ```
 //!
 //! | module | what it holds |
@@ -16,6 +17,7 @@
 //! | [`board`] | the AprilTag grid the arm carries, its frame and corner order, and its file (Kalibr's `aprilgrid`) |
 //! | [`visibility`] | whether the camera sees the whole board, facing it |
 //! | [`corners`] | the board's tag corners found in images, and their CSV file |
+//! | [`views`] | the tags seen at each commanded pose and load (a camera's measurements), and their CSV file |
 //! | [`setup`] | the camera setup file: the files above and the two poses that place them |
 //! | `yaml` | the YAML reading the files above share |
 //!
@@ -28,6 +30,7 @@ pub mod corners;
 pub mod intrinsics;
 pub mod intrinsics_file;
 pub mod setup;
+pub mod views;
 pub mod visibility;
 mod yaml;
 

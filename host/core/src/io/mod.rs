@@ -17,7 +17,7 @@ pub mod arm_urdf;
 pub mod atomic;
 pub mod bounds;
 pub mod calibration_file;
-mod csv_table;
+pub(crate) mod csv_table;
 pub mod json;
 pub mod measurements;
 pub mod model_option;

@@ -12,7 +12,7 @@
 
 use std::collections::HashSet;
 
-use model::{PerJoint, SolverOptions};
+use model::{Deflection, PerJoint, SolverOptions};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -53,15 +53,22 @@ impl TrueArm {
         driven: &[f64],
         load_kg: f64,
     ) -> Result<Vector3<f64>, model::DeflectionError> {
+        self.deflection(driven, load_kg).map(|d| d.tool_point())
+    }
+
+    /// The true arm's deflected state when the servos drive to `driven`
+    /// (rad) under `load_kg`, its springs as the configuration says.
+    pub fn deflection(
+        &self,
+        driven: &[f64],
+        load_kg: f64,
+    ) -> Result<Deflection<f64>, model::DeflectionError> {
         match self.config.spring() {
-            Spring::Linear => {
-                self.arm
-                    .chain()
-                    .tool_point(driven, load_kg, &SolverOptions::default())
-            }
-            spring => {
-                spring_deflection(&self.arm, driven, load_kg, spring).map(|(d, _)| d.tool_point())
-            }
+            Spring::Linear => self
+                .arm
+                .chain()
+                .deflect(driven, load_kg, &SolverOptions::default()),
+            spring => spring_deflection(&self.arm, driven, load_kg, spring).map(|(d, _)| d),
         }
     }
 

@@ -26,6 +26,7 @@
 //! | `measure` | [`TrueArm::simulate`] / [`TrueArm::measure`] |
 //! | [`positioning`] | the error at the tool when the board (the firmware library) drives the true arm |
 //! | `truth` | the truth file (JSON): true arm and the 43 errors by name |
+//! | `webcam` | [`Webcam`]: a camera watching the true arm's board, [`TrueArm::watch`] |
 
 mod config;
 mod draw;
@@ -33,6 +34,7 @@ mod effects;
 mod measure;
 pub mod positioning;
 mod truth;
+mod webcam;
 
 pub use config::SimConfig;
 pub use draw::TrueArm;
@@ -41,6 +43,7 @@ pub use effects::{
 };
 pub use measure::{Pass, Simulation};
 pub use truth::TRUTH_SCHEMA;
+pub use webcam::{DEFAULT_PIXEL_NOISE_PX, Watched, Webcam};
 
 /// The seed `lrmcal simulate` and the demo use when none is given.
 pub const DEFAULT_SEED: u64 = 1;

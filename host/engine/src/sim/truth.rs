@@ -4,7 +4,7 @@
 use serde::Serialize;
 use serde::ser::SerializeMap;
 
-use super::{ServoError, SimConfig, TrueArm};
+use super::{ServoError, SimConfig, TrueArm, Webcam};
 use model::{Arm, ParamId};
 
 /// Version of the truth file's layout; bumped on any change a reader would notice.
@@ -24,6 +24,9 @@ struct TruthFile<'a> {
     nominal_arm: &'a Arm<f64>,
     servo_errors: &'a [ServoError],
     backlash_half_rad: &'a [f64],
+    /// Where the webcam and its board really are, when a webcam watched.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    webcam: Option<&'a Webcam>,
 }
 
 /// The errors as a JSON object whose keys keep the parameters' order.
@@ -40,8 +43,9 @@ impl Serialize for NamedErrors<'_> {
 }
 
 impl TrueArm {
-    /// The truth file as pretty-printed JSON (schema [`TRUTH_SCHEMA`]).
-    pub fn truth_json(&self) -> String {
+    /// The truth file as pretty-printed JSON (schema [`TRUTH_SCHEMA`]),
+    /// with the webcam's placement when one watched the arm.
+    pub fn truth_json(&self, webcam: Option<&Webcam>) -> String {
         let file = TruthFile {
             schema: TRUTH_SCHEMA,
             units: "SI: lengths m, angles rad, masses kg, compliances rad/Nm, softening 1/Nm",
@@ -52,6 +56,7 @@ impl TrueArm {
             nominal_arm: &self.nominal,
             servo_errors: &self.servo_errors,
             backlash_half_rad: &self.backlash_half_rad,
+            webcam,
         };
         // Plain numbers and strings: serialising cannot fail.
         serde_json::to_string_pretty(&file).expect("the truth file always serialises")
@@ -66,7 +71,7 @@ mod tests {
     #[test]
     fn truth_names_all_43_errors_in_order_with_their_values() {
         let t = TrueArm::draw(&bundled_arm(), 11, &SimConfig::default()).unwrap();
-        let json: serde_json::Value = serde_json::from_str(&t.truth_json()).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&t.truth_json(None)).unwrap();
         assert_eq!(json["schema"], TRUTH_SCHEMA);
         assert_eq!(json["seed"], 11);
         let errors = json["errors"].as_object().unwrap();
@@ -81,11 +86,11 @@ mod tests {
             .unwrap();
         assert!(same(k2, t.arm.joints[1].compliance));
         assert!(
-            t.truth_json()
+            t.truth_json(None)
                 .contains(&format!("\"j5.alpha\": {:?}", t.errors[19]))
         );
         // The text lists the errors in the parameters' order, not alphabetically.
-        let text = t.truth_json();
+        let text = t.truth_json(None);
         assert!(text.find("\"j1.theta\"").unwrap() < text.find("\"base.x\"").unwrap());
     }
 }
