@@ -1,7 +1,10 @@
 //! `lrmcal detect`: a folder of rendered board images and one without tags
 //! gives the CSV of every corner and names the empty image; a wrong image
 //! size against the intrinsics, and a file that is not an image, are refused
-//! by name, leaving no CSV behind.
+//! by name, leaving no CSV behind. With `--poses`, the images a pose list
+//! names become a camera measurement file in the list's order, the folder's
+//! other images unread; a list without loads, or naming an image twice or
+//! one not in the folder, is refused by its line.
 
 mod common;
 #[path = "common/tags.rs"]
@@ -10,6 +13,7 @@ mod tags;
 use std::path::Path;
 
 use common::{lrmcal, p, text};
+use lrmcal_core::camera::views;
 use tags::{HEIGHT, Truth, View, WIDTH, board, render};
 
 /// [`tags::board`] as a Kalibr aprilgrid file.
@@ -190,4 +194,152 @@ fn a_wrong_size_or_a_file_that_is_no_image_is_refused_by_name() {
         "{said}"
     );
     assert!(!out.exists());
+}
+
+/// The header of the tests' pose lists: a prismatic third joint, whose
+/// `q3_mm` the camera measurements keep, and a column pose lists ignore.
+const LIST_HEADER: &str = "pose,load_kg,q1_deg,q2_deg,q3_mm,q4_deg,q5_deg,q6_deg,image,note_t\n";
+
+/// Runs `detect --poses list` over `images`, writing `out`.
+fn detect_poses(images: &Path, board_file: &Path, list: &Path, out: &Path) -> std::process::Output {
+    lrmcal(&[
+        "detect",
+        "--images",
+        p(images),
+        "--board",
+        p(board_file),
+        "--poses",
+        p(list),
+        "--out",
+        p(out),
+    ])
+}
+
+#[test]
+fn listed_images_become_camera_measurements_in_the_lists_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let images = dir.path().join("shots");
+    std::fs::create_dir(&images).unwrap();
+    let truths = folder(&images);
+    // Not an image at all: were it read, detect would fail on it.
+    std::fs::write(images.join("z_unlisted.png"), "not a PNG").unwrap();
+    let board_file = dir.path().join("board.yaml");
+    std::fs::write(&board_file, BOARD).unwrap();
+    // Visited in another order than the names': pose 4 turned, then empty,
+    // then pose 4 again under a load, upright.
+    let list = dir.path().join("shots.csv");
+    std::fs::write(
+        &list,
+        format!(
+            "# session 1\n{LIST_HEADER}\
+             4,0,10,-20,35.5,0,0,0,b_turned.png,1\n\
+             9,0,0,0,0,0,0,0,c_blank.png,2\n\
+             4,0.25,10,-20,35.5,0,0,0,a_upright.png,3\n"
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("views.csv");
+    let run = detect_poses(&images, &board_file, &list, &out);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    assert!(
+        said.contains("c_blank.png: no tag of the board found"),
+        "{said}"
+    );
+    assert!(
+        said.contains("12 tags of the board seen in 2 of 3 images"),
+        "{said}"
+    );
+    assert!(
+        said.contains("1 images of `") && said.contains("were not read"),
+        "{said}"
+    );
+
+    let header = std::fs::read_to_string(&out).unwrap();
+    assert!(
+        header.starts_with(
+            "pose,load_kg,q1_deg,q2_deg,q3_mm,q4_deg,q5_deg,q6_deg,tag,corner,u_px,v_px,image\n"
+        ),
+        "{header}"
+    );
+    let seen = views::read(&out).unwrap();
+    let truth = |name: &str| &truths.iter().find(|(n, _)| *n == name).unwrap().1;
+    let expected = [(4, 0.0, "b_turned.png"), (4, 0.25, "a_upright.png")];
+    assert_eq!(seen.len(), expected.len());
+    for (view, (pose, load_kg, image)) in seen.iter().zip(expected) {
+        assert_eq!(
+            (view.pose.id, view.load_kg, view.image.as_deref()),
+            (pose, load_kg, Some(image))
+        );
+        let q = [
+            10f64.to_radians(),
+            -20f64.to_radians(),
+            0.0355,
+            0.0,
+            0.0,
+            0.0,
+        ];
+        assert!(
+            view.pose
+                .q
+                .iter()
+                .zip(q)
+                .all(|(a, b)| (a - b).abs() < 1e-12),
+            "{:?}",
+            view.pose.q
+        );
+        let truth = truth(image);
+        assert_eq!(view.tags.len(), truth.len(), "{image}");
+        for tag in &view.tags {
+            let (_, corners) = truth.iter().find(|(id, _)| *id == tag.id).unwrap();
+            for ([u, v], [tu, tv]) in tag.corners_px.iter().zip(corners) {
+                assert!(
+                    (u - tu).hypot(v - tv) < 0.5,
+                    "{image}, tag {}: ({u}, {v}), truth ({tu}, {tv})",
+                    tag.id
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_list_without_loads_or_naming_an_image_twice_or_not_there_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    // Never read: every refusal comes before any image is opened.
+    for name in ["a.png", "b.jpg"] {
+        std::fs::write(dir.path().join(name), "not an image").unwrap();
+    }
+    let board_file = dir.path().join("board.yaml");
+    std::fs::write(&board_file, BOARD).unwrap();
+    let list = dir.path().join("shots.csv");
+    let out = dir.path().join("views.csv");
+    let refused = |list_text: &str| {
+        std::fs::write(&list, list_text).unwrap();
+        let run = detect_poses(dir.path(), &board_file, &list, &out);
+        let said = text(&run);
+        assert_eq!(run.status.code(), Some(3), "{said}");
+        assert!(said.contains("shots.csv"), "{said}");
+        assert!(!out.exists());
+        said
+    };
+    let said = refused("pose,q1_deg,image\n1,0,a.png\n");
+    assert!(
+        said.contains("column `load_kg`") && said.contains("each image's load is needed"),
+        "{said}"
+    );
+    let said = refused(&format!(
+        "{LIST_HEADER}1,0,0,0,0,0,0,0,a.png,\n2,0,5,0,0,0,0,0,c.png,\n"
+    ));
+    assert!(
+        said.contains("line 3, column `image`") && said.contains("`c.png` is not an image"),
+        "{said}"
+    );
+    let said = refused(&format!(
+        "{LIST_HEADER}1,0,0,0,0,0,0,0,a.png,\n2,0,5,0,0,0,0,0,b.jpg,\n3,0,9,0,0,0,0,0,a.png,\n"
+    ));
+    assert!(
+        said.contains("line 4, column `image`") && said.contains("`a.png` is named on line 2"),
+        "{said}"
+    );
 }

@@ -1,11 +1,14 @@
 //! `lrmcal detect`: the board's tag corners found in a folder of images by
-//! the AprilTag C library, written as a detected-corners CSV.
+//! the AprilTag C library, written as a detected-corners CSV, or, with the
+//! pose list the images were taken at, as a camera measurement file.
 
 use std::path::{Path, PathBuf};
 
-use crate::error::Error;
+use crate::error::{Error, InputError, Location, Problem};
 use crate::progress::Meter;
 use lrmcal_core::camera::corners::{self, ImageCorners};
+use lrmcal_core::camera::shots::{self, Shot};
+use lrmcal_core::camera::views::{self, View};
 use lrmcal_core::camera::{board, intrinsics_file};
 use lrmcal_engine::camera::detect::{Grey, TagDetector};
 
@@ -25,9 +28,16 @@ tag's id, the corner 0 to 3 in the board's order (top-left, top-right, bottom-ri
 bottom-left of the tag seen upright, as OpenCV's ArUco gives them), and its pixel position \
 in OpenCV's convention (the top-left pixel's centre at (0, 0), v down). The board file and \
 this CSV are described in docs/FORMATS.md.\n\n\
+With --poses, a pose list in the order the poses were visited, with a load_kg column and an \
+image column naming the file of --images taken at each pose, only the images it names are \
+read, in its order (the folder's others are counted on stderr), and the output is a camera \
+measurement file: pose,load_kg,q1_deg..qn_deg,tag,corner,u_px,v_px,image, one row per corner, \
+the joint columns the list's. A list without load_kg is refused, and so is an image named \
+twice or not in the folder, by its line; a pose whose image shows no tag of the board has no rows.\n\n\
 Examples:\n  \
 lrmcal detect --images shots/ --board board.yaml --out corners.csv\n  \
-lrmcal detect --images shots/ --board board.yaml --intrinsics camera_info.yaml --out corners.csv"
+lrmcal detect --images shots/ --board board.yaml --intrinsics camera_info.yaml --out corners.csv\n  \
+lrmcal detect --images shots/ --board board.yaml --poses shots.csv --out views.csv"
 )]
 pub struct Args {
     /// The folder of images (.png, .jpg, .jpeg).
@@ -40,7 +50,13 @@ pub struct Args {
     /// must have their size.
     #[arg(long, value_name = "FILE")]
     pub intrinsics: Option<PathBuf>,
-    /// Where to write the detected corners (CSV).
+    /// The poses the images were taken at: a pose list with `load_kg` and
+    /// an `image` column naming each pose's file in --images; the output is
+    /// then a camera measurement file.
+    #[arg(long, value_name = "FILE")]
+    pub poses: Option<PathBuf>,
+    /// Where to write the detected corners, or with --poses the camera
+    /// measurements (CSV).
     #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
 }
@@ -53,12 +69,32 @@ pub fn run(args: &Args) -> Result<(), Error> {
         .as_deref()
         .map(|path| intrinsics_file::read(path).map(|i| (path, i)))
         .transpose()?;
-    let files = image_files(&args.images)?;
+    let folder = image_files(&args.images)?;
+    let shots = args
+        .poses
+        .as_deref()
+        .map(|list| shots::read(list).map(|s| (list, s)))
+        .transpose()?;
+    let files = match &shots {
+        Some((list, shots)) => {
+            let files = listed_files(&args.images, list, shots, &folder)?;
+            let unlisted = folder.len() - files.len();
+            if unlisted > 0 {
+                eprintln!(
+                    "{unlisted} images of `{}` not named by `{}` were not read",
+                    args.images.display(),
+                    list.display()
+                );
+            }
+            files
+        }
+        None => folder,
+    };
     let mut detector = TagDetector::new().map_err(|e| Error::Detect {
         reason: e.to_string(),
     })?;
     let bar = Meter::new("detecting tags", files.len() as u64, "images");
-    let mut images = Vec::new();
+    let mut seen = Vec::new();
     let mut foreign = 0;
     for (path, name) in &files {
         let grey = image::open(path)
@@ -94,27 +130,71 @@ pub fn run(args: &Args) -> Result<(), Error> {
         if found.tags.is_empty() {
             bar.println(&format!("{name}: no tag of the board found"));
         }
-        images.push(ImageCorners {
-            image: name.clone(),
-            tags: found.tags,
-        });
+        seen.push(found.tags);
         bar.inc(1);
     }
     bar.finish();
-    corners::write(&args.out, &images)?;
+    let images = seen.len();
+    let seen_in = seen.iter().filter(|tags| !tags.is_empty()).count();
+    let tags: usize = seen.iter().map(Vec::len).sum();
+    match shots {
+        Some((_, shots)) => {
+            // Every row of a list has the header's joint columns.
+            let kinds = shots.first().map(|s| s.units.to_vec()).unwrap_or_default();
+            let views: Vec<View> = shots
+                .into_iter()
+                .zip(seen)
+                .map(|(shot, tags)| View::new(shot.pose, shot.load_kg, Some(shot.image), tags))
+                .collect();
+            views::write(&args.out, &views, &kinds)?;
+        }
+        None => {
+            let images: Vec<ImageCorners> = files
+                .into_iter()
+                .zip(seen)
+                .map(|((_, image), tags)| ImageCorners { image, tags })
+                .collect();
+            corners::write(&args.out, &images)?;
+        }
+    }
     if foreign > 0 {
         eprintln!(
             "ignored {foreign} tags whose id is not on the board (or was seen twice in an image)"
         );
     }
-    let seen = images.iter().filter(|i| !i.tags.is_empty()).count();
-    let tags: usize = images.iter().map(|i| i.tags.len()).sum();
     eprintln!(
-        "wrote {tags} tags of the board seen in {seen} of {} images to `{}`",
-        images.len(),
+        "wrote {tags} tags of the board seen in {seen_in} of {images} images to `{}`",
         args.out.display()
     );
     Ok(())
+}
+
+/// The folder's image file each shot names, in the list's order; a name
+/// that is none of them is refused at its line of `list`.
+fn listed_files(
+    dir: &Path,
+    list: &Path,
+    shots: &[Shot],
+    folder: &[(PathBuf, String)],
+) -> Result<Vec<(PathBuf, String)>, Error> {
+    shots
+        .iter()
+        .map(|shot| {
+            let file = folder.iter().find(|(_, name)| *name == shot.image);
+            file.cloned().ok_or_else(|| {
+                let message = format!(
+                    "`{}` is not an image ({}) of the folder `{}`",
+                    shot.image,
+                    IMAGE_EXTENSIONS.map(|e| format!(".{e}")).join(", "),
+                    dir.display()
+                );
+                let at = Location::column(shot.line, views::IMAGE_COLUMN);
+                InputError::new(at, Problem::Invalid { message })
+                    .in_file(list)
+                    .into()
+            })
+        })
+        .collect()
 }
 
 /// The image files of `dir` by name, each with its name.

@@ -8,6 +8,7 @@
 //! Intrinsics + AprilGrid + board pose in the camera frame --visibility::check--> seen, or why not
 //! tags found in images --corners::write--> detected corners CSV
 //! tags seen at each commanded pose and load <--views::read/write--> camera measurement CSV
+//! pose list naming each pose's image --shots::read--> the images to turn into views
 //! ```
 //!
 //! | module | what it holds |
@@ -18,6 +19,7 @@
 //! | [`visibility`] | whether the camera sees the whole board, facing it |
 //! | [`corners`] | the board's tag corners found in images, and their CSV file |
 //! | [`views`] | the tags seen at each commanded pose and load (a camera's measurements), and their CSV file |
+//! | [`shots`] | the images taken at a pose list's poses, each under its load |
 //! | [`setup`] | the camera setup file: the files above and the two poses that place them |
 //! | `yaml` | the YAML reading the files above share |
 //!
@@ -30,6 +32,7 @@ pub mod corners;
 pub mod intrinsics;
 pub mod intrinsics_file;
 pub mod setup;
+pub mod shots;
 pub mod views;
 pub mod visibility;
 mod yaml;
