@@ -67,6 +67,7 @@ fn exact_measurements(arm: &Arm<f64>, poses: &[Pose], loads: &[f64]) -> Vec<Meas
             pose: Pose { id: s.id, q: s.q },
             load_kg: s.load_kg,
             position,
+            pixel: None,
             target: None,
             approach: s.approach,
         })

@@ -313,6 +313,7 @@ fn sample_measurements() -> Vec<Measurement> {
                 },
                 load_kg: if i % 2 == 0 { 0.0 } else { 0.0663 },
                 position: Vector3::new(0.2 + 0.001 * f, -0.035021, 0.1887654321),
+                pixel: None,
                 target: None,
                 approach: from_home(6),
             }

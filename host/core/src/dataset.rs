@@ -10,7 +10,7 @@
 
 use model::PerJoint;
 use model::backlash::{Approach, ApproachTracker};
-use nalgebra::Vector3;
+use nalgebra::{Point2, Vector3};
 
 /// One commanded joint configuration with its id.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -38,8 +38,14 @@ pub struct Measurement {
     pub pose: Pose,
     /// Payload mass at the tool, kg.
     pub load_kg: f64,
-    /// Measured point in the world frame, m.
+    /// Measured point in the world frame, m. A camera's measurement: the
+    /// point the camera puts its target at, the corner of the board where
+    /// the view's corners place the board (`pixel` is what it measured).
     pub position: Vector3<f64>,
+    /// A camera's measurement: the pixel its target (a corner of the board)
+    /// was seen at, OpenCV's convention, px; `None` for a tracker's. The fit
+    /// works on the pixel where there is one.
+    pub pixel: Option<Point2<f64>>,
     /// Which target was measured; `None` in a file without a `target`
     /// column, whose rows are all of the one target (the arm's tool point).
     pub target: Option<TargetName>,
@@ -119,6 +125,7 @@ mod tests {
             pose: Pose { id: 0, q: q.into() },
             load_kg,
             position: Vector3::zeros(),
+            pixel: None,
             target: None,
             approach: from_home(6),
         }

@@ -18,6 +18,7 @@ use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::progress::Steps;
 use crate::report_page;
+use lrmcal_core::camera::{setup, views};
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -28,8 +29,9 @@ use lrmcal_engine::calib::fit::identify::IdentifyOptions;
 use lrmcal_engine::calib::fit::registration::Gravity;
 use lrmcal_engine::calib::results::summary;
 use lrmcal_engine::calib::run::{
-    Placement, PoseChoice, Request, calibrate, reteach as reteach_tools,
+    CameraInput, Placement, PoseChoice, Request, calibrate, reteach as reteach_tools,
 };
+use lrmcal_engine::camera::corner_measurements::corner_measurements;
 use lrmcal_engine::tracker::axes::Up;
 
 /// Identify the arm's error parameters from measured tool positions.
@@ -123,6 +125,11 @@ pub struct Args {
     /// DETMAX random starts.
     #[arg(long, default_value_t = DetmaxOptions::default().starts)]
     pub starts: usize,
+    /// A webcam measured: the camera setup (TOML) it stood as, roughly;
+    /// --measurements is then its camera measurement file (the board's
+    /// corners seen at each pose).
+    #[arg(long, value_name = "SETUP", conflicts_with_all = ["no_register", "tool_only"])]
+    pub camera: Option<PathBuf>,
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-calibration")]
     pub out: PathBuf,
@@ -131,10 +138,20 @@ pub struct Args {
 /// Runs `lrmcal identify`.
 pub fn run(args: &Args) -> Result<(), Error> {
     let loaded = args.arm.load()?;
-    let nominal = loaded.arm;
+    let camera = match &args.camera {
+        Some(path) => Some(camera_input(args, path, &loaded.arm)?),
+        None => None,
+    };
+    let nominal = match &camera {
+        Some((input, _)) => input.nominal_arm(&loaded.arm),
+        None => loaded.arm,
+    };
     // The file is read once: the limits are checked on the rows read, every
     // target's included, each named by its line.
-    let listed = measurements::read_listed(&args.measurements)?;
+    let listed = match &camera {
+        Some((_, measured)) => measured.clone(),
+        None => measurements::read_listed(&args.measurements)?,
+    };
     if let Some(warning) = pose_list::check_within_limits(
         &nominal,
         &args.measurements,
@@ -166,7 +183,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         (None, None) => PoseChoice::All,
     };
-    let gravity = Gravity::chosen(&nominal, args.up.map(Up::rotation), args.level_base);
+    // A camera's frame says nothing of up: the base stands level unless --up says.
+    let level_base = args.level_base || (camera.is_some() && args.up.is_none());
+    let gravity = Gravity::chosen(&nominal, args.up.map(Up::rotation), level_base);
     let request = Request {
         nominal: &nominal,
         arm_origin: loaded.origin.clone(),
@@ -182,6 +201,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             Placement::Register(gravity)
         },
         identify: identify_options(args),
+        camera: camera.map(|(input, _)| input),
     };
     create_out(args)?;
     let run = calibrate(&request, &Steps::new())?;
@@ -230,6 +250,37 @@ pub fn run(args: &Args) -> Result<(), Error> {
         page.display()
     );
     Ok(())
+}
+
+/// `--camera`: the camera of the setup at `path`, and the corners of its
+/// measurement file (`--measurements`) as measurements, each listed at its
+/// view's place in the file.
+fn camera_input(
+    args: &Args,
+    path: &Path,
+    arm: &model::Arm<f64>,
+) -> Result<(CameraInput, Vec<measurements::ListedMeasurement>), Error> {
+    let setup = setup::read(path)?;
+    let views = views::read(&args.measurements)?;
+    let (corners_seen, corners) = corner_measurements(&setup.intrinsics, &setup.board, &views)
+        .map_err(|e| Error::Usage(format!("{}: {e}", args.measurements.display())))?;
+    let units = arm.kinds();
+    let listed = corners_seen
+        .into_iter()
+        .map(|measurement| measurements::ListedMeasurement {
+            line: 0,
+            measurement,
+            units: model::PerJoint::from_slice(&units).unwrap_or_default(),
+        })
+        .collect();
+    Ok((
+        CameraInput {
+            intrinsics: setup.intrinsics,
+            corners,
+            board_on_flange: setup.board_on_flange,
+        },
+        listed,
+    ))
 }
 
 /// `--tool-only`: re-teaches the tool points of `--calibration` from the

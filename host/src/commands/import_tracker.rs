@@ -114,6 +114,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             pose: row.pose,
             load_kg: args.load_kg.or(row.load_kg).unwrap_or(0.0),
             position: turn * period.position,
+            pixel: None,
             target: None,
             // The take's still periods are in the order the poses were
             // visited; the file's readers work the approach out from it.

@@ -9,10 +9,16 @@
 //! u = fx x'' + cx, v = fy y'' + cy, in pixels with the top-left pixel's
 //! centre at (0, 0).
 
-use nalgebra::{Point2, Point3};
+use nalgebra::{Matrix2, Matrix2x3, Point2, Point3};
 
 use super::yaml::{at, finite};
 use crate::error::{InputError, Problem};
+
+/// Most fixed-point iterations [`Intrinsics::undistort`] takes.
+const UNDISTORT_ITERATIONS: usize = 100;
+/// The step in normalised coordinates at which it has settled (1e-12 of
+/// the focal length: far below a pixel's thousandth).
+const UNDISTORT_TOLERANCE: f64 = 1e-12;
 
 /// A calibrated camera at one resolution.
 #[derive(Clone, Debug, PartialEq)]
@@ -113,6 +119,54 @@ impl Intrinsics {
         Some(Point2::new(self.fx * xd + self.cx, self.fy * yd + self.cy))
     }
 
+    /// [`Intrinsics::project`] and its derivative with respect to the
+    /// point's coordinates, px/m (rows u, v; columns X, Y, Z): how a
+    /// reprojection error moves when the point does.
+    pub fn project_with_slope(&self, point: &Point3<f64>) -> Option<(Point2<f64>, Matrix2x3<f64>)> {
+        let pixel = self.project(point)?;
+        let [k1, k2, p1, p2, k3] = self.distortion;
+        let (x, y) = (point.x / point.z, point.y / point.z);
+        let r2 = x * x + y * y;
+        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        let d_radial = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+        // The distorted normalised point's derivative in (x, y).
+        let lens = Matrix2::new(
+            radial + 2.0 * x * x * d_radial + 2.0 * p1 * y + 6.0 * p2 * x,
+            2.0 * x * y * d_radial + 2.0 * p1 * x + 2.0 * p2 * y,
+            2.0 * x * y * d_radial + 2.0 * p1 * x + 2.0 * p2 * y,
+            radial + 2.0 * y * y * d_radial + 6.0 * p1 * y + 2.0 * p2 * x,
+        );
+        let iz = 1.0 / point.z;
+        let pinhole = Matrix2x3::new(iz, 0.0, -x * iz, 0.0, iz, -y * iz);
+        let focal = Matrix2::new(self.fx, 0.0, 0.0, self.fy);
+        Some((pixel, focal * lens * pinhole))
+    }
+
+    /// The normalised image point (x/z, y/z of the camera frame) whose
+    /// projection is `pixel`: the lens's distortion undone by fixed-point
+    /// iteration, as OpenCV's `undistortPoints` does; `None` when it does
+    /// not settle (a pixel past the lens's fold).
+    pub fn undistort(&self, pixel: &Point2<f64>) -> Option<Point2<f64>> {
+        let [k1, k2, p1, p2, k3] = self.distortion;
+        let xd = (pixel.x - self.cx) / self.fx;
+        let yd = (pixel.y - self.cy) / self.fy;
+        let (mut x, mut y) = (xd, yd);
+        for _ in 0..UNDISTORT_ITERATIONS {
+            let r2 = x * x + y * y;
+            let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+            let dx = 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+            let dy = p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+            let (nx, ny) = ((xd - dx) / radial, (yd - dy) / radial);
+            let step = (nx - x).hypot(ny - y);
+            (x, y) = (nx, ny);
+            if step < UNDISTORT_TOLERANCE {
+                let back = self.project(&Point3::new(x, y, 1.0))?;
+                return ((back - pixel).norm() < 1e-6).then_some(Point2::new(x, y));
+            }
+        }
+        None
+    }
+
     /// Whether `pixel` lies in the image at least `margin_px` from its edges
     /// (the edge pixels' centres are at 0 and width − 1).
     pub fn contains(&self, pixel: &Point2<f64>, margin_px: f64) -> bool {
@@ -166,6 +220,61 @@ mod tests {
         // x right, y down.
         let uv = ideal().project(&Point3::new(0.1, 0.2, 1.0)).unwrap();
         assert_eq!((uv.x, uv.y), (729.5, 539.5));
+    }
+
+    /// A webcam with every distortion term: the one the slope and the
+    /// undistortion are checked on.
+    fn distorted() -> Intrinsics {
+        Intrinsics {
+            fx: 910.0,
+            fy: 908.0,
+            distortion: [-0.1, 0.06, 0.001, -0.0005, 0.01],
+            ..ideal()
+        }
+    }
+
+    /// The projection's slope is its central differences, across the image.
+    #[test]
+    fn the_projections_slope_is_its_differences() {
+        let camera = distorted();
+        for point in [
+            Point3::new(0.0, 0.0, 1.0),
+            Point3::new(0.31, -0.17, 0.9),
+            Point3::new(-0.4, 0.22, 0.7),
+        ] {
+            let (pixel, slope) = camera.project_with_slope(&point).unwrap();
+            assert_eq!(Some(pixel), camera.project(&point));
+            let h = 1e-6;
+            for axis in 0..3 {
+                let mut ahead = point;
+                let mut behind = point;
+                ahead[axis] += h;
+                behind[axis] -= h;
+                let diff = (camera.project(&ahead).unwrap() - camera.project(&behind).unwrap())
+                    / (2.0 * h);
+                for row in 0..2 {
+                    let exact = slope[(row, axis)];
+                    assert!(
+                        (exact - diff[row]).abs() < 1e-5 * exact.abs().max(1.0),
+                        "{point} {axis}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// Undistorting a projected point gives back its normalised coordinates.
+    #[test]
+    fn undistortion_undoes_the_projection() {
+        let camera = distorted();
+        for (x, y) in [(0.0, 0.0), (0.35, -0.2), (-0.6, 0.33), (0.69, 0.38)] {
+            let pixel = camera.project(&Point3::new(x, y, 1.0)).unwrap();
+            let back = camera.undistort(&pixel).unwrap();
+            assert!(
+                (back.x - x).abs() < 1e-10 && (back.y - y).abs() < 1e-10,
+                "{x} {y}: {back}"
+            );
+        }
     }
 
     #[test]

@@ -123,6 +123,7 @@ pub fn parse_listed(text: &str) -> Result<Vec<ListedMeasurement>, InputError> {
             pose: Pose { id, q },
             load_kg,
             position: Vector3::from(mm) / 1000.0,
+            pixel: None,
             target,
             approach: from_home(q.len()),
         });

@@ -22,6 +22,7 @@
 use std::sync::{Arc, Mutex, PoisonError};
 
 use model::Arm;
+use nalgebra::{Point3, Vector3};
 
 use super::analysis::detmax::DetmaxOptions;
 use super::analysis::identifiability::Structures;
@@ -36,18 +37,19 @@ use super::fit::registration::{
     Gravity, Registration, check_plausible_registered, check_registered_count, register,
 };
 use super::fit::tool_only::retaught;
+use super::parameters::camera::RigCamera;
 use super::parameters::params::ParamKey;
 use super::parameters::servo_knots::KnotSpacing;
 use super::parameters::targets::Targets;
 use super::progress::Progress;
 use super::results::export::registered_calibration_file;
 use super::results::report::{RegistrationReport, Report};
-use super::{CalibError, ModelOption};
+use super::{CalibError, ModelOption, Rig};
 use lrmcal_core::dataset::{Measurement, Pose, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 
 mod request;
-pub use request::{Placement, PoseChoice, Request};
+pub use request::{CameraInput, Placement, PoseChoice, Request};
 
 /// Everything a run gives back.
 #[derive(Debug)]
@@ -171,22 +173,68 @@ impl<'a> Calibration<'a> {
             .filter(|m| targets.index(m.target) == Some(0))
             .copied()
             .collect();
-        let registration = place(request, &first)?;
+        // A board's first corner stands for the first target: the arm
+        // registered with its tool point there.
+        let first_corner =
+            match &request.camera {
+                Some(camera) => Some(camera.corner(targets.name_at(0)).ok_or_else(|| {
+                    CalibError::Registration {
+                        problem: format!("{file}: its first target is not a corner of the board"),
+                    }
+                })?),
+                None => None,
+            };
+        let mut at_first = *request.nominal;
+        if let Some(corner) = first_corner {
+            at_first.tool.xyz = (request.nominal.tool.isometry() * Point3::from(corner))
+                .coords
+                .into();
+        }
+        let registration = place(request, &at_first, &first)?;
         // The fit runs in the arm file's world frame, where the base's angles
         // are small corrections; the files get the result in the measurement frame.
-        let nominal = registration.arm_for_fit(request.nominal);
+        let at_first = registration.arm_for_fit(&at_first);
+        let mut nominal = registration.arm_for_fit(request.nominal);
+        if let Some(corner) = first_corner {
+            // The board's frame, turned as the setup tells it, moved so that
+            // its first corner is where registration found it.
+            let turn = request.nominal.tool.isometry().rotation;
+            nominal.tool.xyz = (Vector3::from(at_first.tool.xyz) - turn * corner).into();
+        }
         let all = registration.to_arm_frame(all);
-        check_plausible_registered(&nominal, &registration.to_arm_frame(&first), file)?;
+        check_plausible_registered(&at_first, &registration.to_arm_frame(&first), file)?;
         if let Some(candidates) = request.candidates {
             check_in_candidates(&all, candidates, file)?;
         }
         let measured = poses_under(&all, load);
+        let mut inputs = Inputs::new(&nominal, &measured, &all);
+        if let Placement::Register(Gravity::LevelBase(g)) = request.placement {
+            inputs.nominal.level_base = Some(g);
+        }
+        if let Some(camera) = &request.camera {
+            let rig = &inputs.nominal;
+            let corners = (0..rig.targets.len())
+                .map(|t| camera.corner(rig.targets.name_at(t)).unwrap_or_default())
+                .collect();
+            inputs.nominal = Rig {
+                level_base: rig.level_base,
+                ..Rig::on_board(
+                    rig.arm,
+                    rig.targets.clone(),
+                    corners,
+                    RigCamera {
+                        intrinsics: camera.intrinsics.clone(),
+                        from_world: registration.frame,
+                    },
+                )
+            };
+        }
         Ok(Self {
             request: request.clone(),
             registration,
             loads,
             load_kg: load,
-            inputs: Inputs::new(&nominal, &measured, &all),
+            inputs,
             structures: Mutex::new(Vec::new()),
             analyses: Mutex::new(Vec::new()),
         })
@@ -473,8 +521,13 @@ impl<'a> Calibration<'a> {
 
 /// Registers the arm on `first` (the first target's rows), or keeps the
 /// file's base.
-fn place(request: &Request, first: &[Measurement]) -> Result<Registration, CalibError> {
-    let nominal = request.nominal;
+/// Places `nominal` (the request's, its tool point at the first target)
+/// as `request` says, on the first target's measurements `first`.
+fn place(
+    request: &Request,
+    nominal: &Arm<f64>,
+    first: &[Measurement],
+) -> Result<Registration, CalibError> {
     match request.placement {
         Placement::Keep(gravity) => {
             let g = match gravity {

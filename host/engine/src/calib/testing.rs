@@ -82,6 +82,7 @@ pub fn measure_rig(rig: &Rig, samples: &[Sample]) -> Vec<Measurement> {
             pose: Pose { id: s.id, q: s.q },
             load_kg: s.load_kg,
             position,
+            pixel: None,
             target: rig.targets.name_at(s.target),
             approach: s.approach,
         })

@@ -1,7 +1,12 @@
-//! The camera as the instrument: what it finds in an image.
+//! The camera as the instrument: what it finds in an image, and where that
+//! puts the board.
 //!
 //! | module | what it holds |
 //! |---|---|
+//! | [`board_pose`] | the board's pose in the camera frame from one view's corners (a planar perspective-n-point solve) |
+//! | [`corner_measurements`] | a camera's views as the fit's measurements: each corner a target, seen at its pixel |
 //! | [`detect`] | the board's AprilTag corners found in a grey image, in the board's corner order and OpenCV's pixel convention |
 
+pub mod board_pose;
+pub mod corner_measurements;
 pub mod detect;

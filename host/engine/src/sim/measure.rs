@@ -114,6 +114,7 @@ impl TrueArm {
                     pose: *pose,
                     load_kg,
                     position: point,
+                    pixel: None,
                     target: None,
                     approach,
                 };

@@ -319,6 +319,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             pose,
             load_kg,
             position,
+            pixel: None,
             target: None,
             approach: from_home(pose.q.len()),
         });
@@ -444,6 +445,7 @@ mod tests {
             pose: pose(1),
             load_kg: 0.0,
             position: Vector3::zeros(),
+            pixel: None,
             target: None,
             approach: from_home(JOINTS),
         }];

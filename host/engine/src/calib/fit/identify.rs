@@ -99,7 +99,7 @@ use lrmcal_core::io::calibration_file::ErrorStats;
 
 mod active_set;
 mod covariance;
-mod problem;
+pub(crate) mod problem;
 mod result;
 mod robust;
 
@@ -289,7 +289,9 @@ pub fn identify_scored(
         }
     }
 
-    let rig = params.apply(nominal);
+    let mut rig = params.apply(nominal);
+    // The arm the files get holds the gravity its fit was evaluated with.
+    rig.arm = rig.placed_arm();
     servo_knots::check_curves(&nominal.arm, &rig.arm)?;
     // Every point LM accepted could be evaluated, and the ceiling keeps the
     // deflection converging: failing here is not a question of more poses.

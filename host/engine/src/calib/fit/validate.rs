@@ -4,6 +4,7 @@
 //! (named by the fit's outlier rule, [`crate::calib::fit::identify::outlier_indices`]).
 
 use crate::calib::fit::identify::outlier_indices;
+use crate::calib::fit::identify::problem::measured_block;
 use crate::calib::{CalibError, Rig};
 use lrmcal_core::dataset::Measurement;
 
@@ -75,15 +76,16 @@ pub fn validate_per_load(
         .collect()
 }
 
-/// 3D error norms of `rig`'s predictions against `measurements` (each of
-/// one of its targets), m.
+/// Error norms of `rig`'s predictions against `measurements` (each of one
+/// of its targets), m: a tracker's 3D distance, a camera's reprojection
+/// error carried to the target's distance (`calib::parameters::camera`).
 pub fn error_norms(rig: &Rig, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
     let samples = rig.samples(measurements)?;
+    let measured: Vec<_> = measurements.iter().map(measured_block).collect();
     Ok(rig
-        .tool_points(&samples)?
+        .residuals(&samples, &measured)?
         .iter()
-        .zip(measurements)
-        .map(|(p, m)| (p - m.position).norm())
+        .map(|r| r.norm())
         .collect())
 }
 

@@ -24,8 +24,9 @@
 
 use model::bounds::Bounds;
 use model::{Arm, Deflection, PerJoint, ServoCurve, SolverOptions};
-use nalgebra::Vector3;
+use nalgebra::{Point3, Vector3};
 
+use super::camera::{Observation, RigCamera, tracked};
 use crate::calib::{CalibError, Sample};
 use lrmcal_core::dataset::{Measurement, TargetName};
 use lrmcal_core::param_key::ParamKey;
@@ -50,6 +51,20 @@ pub struct Rig {
     /// The physical bounds of its parameters: those of the nominal arm the
     /// rig was first made from, whatever the fit changes after.
     pub bounds: Bounds<f64>,
+    /// When its targets are the corners of a board: each target's corner
+    /// in the tool frame, which is the board's frame (m); `tools` is then
+    /// empty, and the tool frame's six parameters place the board.
+    pub board: Option<Vec<Vector3<f64>>>,
+    /// The camera that measures the targets, when one does ([`RigCamera`]):
+    /// the measurements are then pixels.
+    pub camera: Option<RigCamera>,
+    /// When the base stands level: gravity's magnitude, m/s², along frame
+    /// 0's `-z` wherever the fit turns the base ([`Rig::placed_arm`]). The
+    /// base's tilt then turns gravity with it instead of leaning the arm
+    /// against it: with a camera, whose frame says nothing of up, the
+    /// base's six parameters place the arm before the camera and gravity
+    /// stays under the base.
+    pub level_base: Option<f64>,
 }
 
 /// A commanded pose evaluated: where the rig stands and where its target goes.
@@ -83,12 +98,85 @@ impl Rig {
             targets,
             command_curves: arm.joints.map(|j| j.servo),
             bounds: Bounds::of(&arm),
+            board: None,
+            camera: None,
+            level_base: None,
         }
     }
 
-    /// The arm's chain, its springs softening as the arm says.
+    /// `arm` carrying a board whose `corners` (the tool frame's, m, one per
+    /// target of `targets`) `camera` measures: the tool frame is the board's.
+    pub fn on_board(
+        arm: Arm<f64>,
+        targets: Targets,
+        corners: Vec<Vector3<f64>>,
+        camera: RigCamera,
+    ) -> Self {
+        Self {
+            tools: Vec::new(),
+            board: Some(corners),
+            camera: Some(camera),
+            ..Self::new(arm, targets)
+        }
+    }
+
+    /// What the rig's instrument measures of `point` (the arm's world
+    /// frame) for `sample`: the point, or its pixel when a camera measures.
+    pub fn observe(
+        &self,
+        sample: &Sample,
+        point: &Vector3<f64>,
+    ) -> Result<Observation, CalibError> {
+        match &self.camera {
+            None => Ok(tracked(point)),
+            Some(camera) => camera.observe(point).ok_or_else(|| {
+                deflection_error(
+                    sample,
+                    "the board's corner falls behind the camera or outside its lens's field".into(),
+                )
+            }),
+        }
+    }
+
+    /// What the rig's instrument measures for every sample ([`Rig::observe`]).
+    pub fn observations(&self, samples: &[Sample]) -> Result<Vec<Observation>, CalibError> {
+        self.tool_points(samples)?
+            .iter()
+            .zip(samples)
+            .map(|(p, s)| self.observe(s, p))
+            .collect()
+    }
+
+    /// The residual blocks of every sample against its measurement's
+    /// `measured` block (`calib::parameters::camera`), m: the fit's
+    /// residuals and every comparison with measurements.
+    pub fn residuals(
+        &self,
+        samples: &[Sample],
+        measured: &[Vector3<f64>],
+    ) -> Result<Vec<Vector3<f64>>, CalibError> {
+        Ok(self
+            .observations(samples)?
+            .iter()
+            .zip(measured)
+            .map(|(o, m)| o.residual(m))
+            .collect())
+    }
+
+    /// The arm's chain, its springs softening as the arm says, gravity as
+    /// [`Rig::placed_arm`] has it.
     pub fn chain(&self) -> model::Chain<f64> {
-        self.arm.chain()
+        self.placed_arm().chain()
+    }
+
+    /// The arm, its gravity along its base's `-z` when the base stands level
+    /// ([`Rig::level_base`]), else as it is.
+    pub fn placed_arm(&self) -> Arm<f64> {
+        let mut arm = self.arm;
+        if let Some(g) = self.level_base {
+            arm.gravity = (arm.base.isometry().rotation * Vector3::new(0.0, 0.0, -g)).into();
+        }
+        arm
     }
 
     /// The joint angles the arm stands at when `sample` was commanded: where
@@ -140,6 +228,10 @@ impl Rig {
 
     /// Tool point of target `t` in frame 6, m, if the rig has it.
     pub fn tool_point(&self, t: usize) -> Option<Vector3<f64>> {
+        if let Some(corners) = &self.board {
+            let corner = corners.get(t)?;
+            return Some(self.arm.tool.isometry() * Point3::from(*corner)).map(|p| p.coords);
+        }
         match t {
             0 => Some(Vector3::from(self.arm.tool.xyz)),
             _ => self.tools.get(t - 1).copied(),
@@ -155,7 +247,11 @@ impl Rig {
 
     /// The keys of every target's tool point beyond target 0's, in target order.
     pub fn tool_keys(&self) -> Vec<ParamKey> {
-        tool_keys(1..self.targets.len())
+        match self.board {
+            // A board's corners sit where the board's frame puts them.
+            Some(_) => Vec::new(),
+            None => tool_keys(1..self.targets.len()),
+        }
     }
 
     /// The samples of `measurements`, each with its target's index; a

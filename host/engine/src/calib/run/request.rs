@@ -2,13 +2,15 @@
 //! options, how poses are chosen and how the arm is placed, built from
 //! [`Request::new`] by its setters.
 
-use model::Arm;
+use model::{Arm, Frame};
+use nalgebra::{Point3, Vector3};
 
 use crate::calib::ModelOption;
 use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::registration::Gravity;
 use crate::calib::parameters::option::DEFAULT;
-use lrmcal_core::dataset::{Measurement, Pose};
+use lrmcal_core::camera::Intrinsics;
+use lrmcal_core::dataset::{Measurement, Pose, TargetName};
 
 /// Which measured poses the fit uses.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,6 +42,40 @@ pub enum Placement {
     Keep(Gravity),
 }
 
+/// A camera as the instrument: the measurements are the corners of a
+/// board on the flange, seen at their pixels (`calib::parameters::camera`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraInput {
+    /// The camera's lens.
+    pub intrinsics: Intrinsics,
+    /// Each corner target's place in the board frame, m.
+    pub corners: Vec<(TargetName, Vector3<f64>)>,
+    /// The board frame in the arm's last frame, as the camera setup tells it.
+    pub board_on_flange: Frame<f64>,
+}
+
+impl CameraInput {
+    /// `arm` as the camera's fit starts from it: its tool frame moved to
+    /// the board's, its payload's centre of mass kept where it is.
+    pub fn nominal_arm(&self, arm: &Arm<f64>) -> Arm<f64> {
+        let board = self.board_on_flange;
+        let com = arm.tool.isometry() * Point3::from(arm.payload_com);
+        Arm {
+            tool: board,
+            payload_com: (board.isometry().inverse() * com).coords.into(),
+            ..*arm
+        }
+    }
+
+    /// The place of the corner target `name` in the board frame, if it is one.
+    pub fn corner(&self, name: Option<TargetName>) -> Option<Vector3<f64>> {
+        self.corners
+            .iter()
+            .find(|(n, _)| Some(*n) == name)
+            .map(|(_, c)| *c)
+    }
+}
+
 /// What to calibrate, from what.
 #[derive(Clone, Debug)]
 pub struct Request<'a> {
@@ -63,6 +99,9 @@ pub struct Request<'a> {
     pub placement: Placement,
     /// How the fit runs.
     pub identify: IdentifyOptions,
+    /// The camera, when one measured (the nominal arm's tool frame is then
+    /// the board's: [`CameraInput::board_on_flange`]).
+    pub camera: Option<CameraInput>,
 }
 
 impl<'a> Request<'a> {
@@ -82,6 +121,7 @@ impl<'a> Request<'a> {
             options: vec![DEFAULT],
             placement: Placement::Keep(Gravity::Measured(nominal.gravity_vector())),
             identify: IdentifyOptions::default(),
+            camera: None,
         }
     }
 
@@ -127,6 +167,14 @@ impl<'a> Request<'a> {
     /// Places the arm as `placement` says.
     pub fn placement(self, placement: Placement) -> Self {
         Self { placement, ..self }
+    }
+
+    /// The measurements are `camera`'s.
+    pub fn camera(self, camera: CameraInput) -> Self {
+        Self {
+            camera: Some(camera),
+            ..self
+        }
     }
 
     /// Runs the fits as `identify` says.

@@ -172,7 +172,11 @@ fn pose_slopes(
                     ParamKind::Length | ParamKind::Angle => {
                         let (twist, direct) = arm_twist(rig, &state, part, sample.target);
                         let direct = direct.unwrap_or_else(|| twist.velocity(&point));
-                        if state.rigid() {
+                        // A level base turns gravity with it: the arm moves
+                        // rigidly, its torques unchanged.
+                        let with_gravity = rig.level_base.is_some()
+                            && matches!(part, ParamPart::Base { axis } if axis >= 3);
+                        if state.rigid() || with_gravity {
                             direct
                         } else {
                             let dt = state.torque_slopes(&twist);
@@ -206,7 +210,9 @@ fn pose_slopes(
         };
         out.set_column(col, &slope);
     }
-    Ok((out, w.columns(0, n).into_owned()))
+    // What the instrument measures of the point (a camera: its pixel).
+    let seen = rig.observe(sample, &point)?.slope;
+    Ok((seen * out, seen * w.columns(0, n)))
 }
 
 /// The rigid motion of the arm's geometric parameter `part` at `state`,
@@ -248,16 +254,23 @@ fn arm_twist(
         }
         ParamPart::Tool { axis } if axis < 3 => {
             let axis = column(n, axis);
-            let direct = if target == 0 { axis } else { Vector3::zeros() };
+            // Target 0's point is the tool frame's origin; a board's corners
+            // move with its frame.
+            let moves = target == 0 || rig.board.is_some();
+            let direct = if moves { axis } else { Vector3::zeros() };
             (Twist::along(axis, state.payload()), Some(direct))
         }
         ParamPart::Tool { axis } => {
             let last = &f[n];
             let local = rpy_axes(rig.arm.tool.rpy)[axis - 3];
             let origin = last.rotation * Vector3::from(rig.arm.tool.xyz) + last.translation.vector;
+            // A turn of the tool frame moves the payload; it moves the
+            // measured point too when that is a board's corner (not the
+            // frame's origin).
+            let direct = rig.board.is_none().then(Vector3::zeros);
             (
                 Twist::about(last.rotation * local, &origin, state.payload()),
-                Some(Vector3::zeros()),
+                direct,
             )
         }
         // A spring moves nothing rigidly: its column comes from the state.
@@ -283,16 +296,24 @@ mod tests {
     /// O(eps/h) rounding; a compliance nearer zero than its step is
     /// differenced one-sidedly upwards (second order), never below zero.
     fn central_differences(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> DMatrix<f64> {
+        // A camera's pixels at the scale of the point differenced about.
+        let scales: Vec<f64> = rig
+            .observations(samples)
+            .unwrap()
+            .iter()
+            .map(|o| o.scale)
+            .collect();
         let at = |id: ParamKey, delta: f64| {
             let mut r = rig.clone();
             *id.slot(&mut r) += delta;
             DMatrix::from_iterator(
                 3 * samples.len(),
                 1,
-                r.tool_points(samples)
+                r.observations(samples)
                     .unwrap()
                     .iter()
-                    .flat_map(|p| p.iter().copied()),
+                    .zip(&scales)
+                    .flat_map(|(o, scale)| (o.value * *scale).iter().copied().collect::<Vec<_>>()),
             )
         };
         let mut j = DMatrix::zeros(3 * samples.len(), ids.len());
@@ -373,6 +394,64 @@ mod tests {
             worst = worst.max(diff / size);
         }
         eprintln!("worst relative difference {worst:e}");
+    }
+
+    /// A camera measuring a board's corners: every column, the tool
+    /// frame's turns moving the corners too, agrees with central
+    /// differences of the pixels as closely, with the base standing level
+    /// (gravity turning with it) too.
+    #[test]
+    fn camera_columns_match_central_differences_of_the_pixels() {
+        use crate::calib::parameters::camera::RigCamera;
+        use nalgebra::{IsometryMatrix3, Rotation3, Translation3};
+        let lively = lively_rig();
+        let names: Vec<TargetName> = ["c0", "c1", "c2"]
+            .iter()
+            .map(|n| TargetName::from(n).unwrap())
+            .collect();
+        // The camera 2 m out along x, looking back at the arm.
+        let camera_in_world = IsometryMatrix3::from_parts(
+            Translation3::new(2.0, 0.1, 0.3),
+            Rotation3::from_euler_angles(
+                -std::f64::consts::FRAC_PI_2,
+                0.0,
+                std::f64::consts::FRAC_PI_2,
+            ),
+        );
+        let rig = Rig::on_board(
+            lively.arm,
+            Targets::named_as(&names),
+            vec![
+                Vector3::new(0.0, 0.0, 0.0),
+                Vector3::new(0.1, 0.0, 0.0),
+                Vector3::new(0.02, 0.08, 0.0),
+            ],
+            RigCamera {
+                intrinsics: lrmcal_core::camera::Intrinsics {
+                    width_px: 1280,
+                    height_px: 720,
+                    fx: 910.0,
+                    fy: 908.0,
+                    cx: 641.0,
+                    cy: 358.0,
+                    distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
+                },
+                from_world: camera_in_world.inverse(),
+            },
+        );
+        let mut samples = lively_samples();
+        for (k, s) in samples.iter_mut().enumerate() {
+            s.target = k % 3;
+        }
+        let ids = all_keys(&rig);
+        assert!(rig.tool_keys().is_empty());
+        assert_columns_match_differences(&rig, &ids, &samples);
+        // The base standing level: its turns turn gravity with it.
+        let level = Rig {
+            level_base: Some(9.81),
+            ..rig
+        };
+        assert_columns_match_differences(&level, &ids, &samples);
     }
 
     /// On an arm with a compliant lift (a prismatic joint) before the six

@@ -115,7 +115,7 @@ impl State {
             prismatic: chain.links.iter().map(|l| l.prismatic).collect(),
             joints: n,
             frames,
-            gravity: rig.arm.gravity_vector(),
+            gravity: rig.placed_arm().gravity_vector(),
             axes,
             mass,
             moment,

@@ -34,7 +34,7 @@ impl<'a> FitData<'a> {
             nominal,
             option,
             samples,
-            measured: measurements.iter().map(|m| m.position).collect(),
+            measured: measurements.iter().map(measured_block).collect(),
             prior: None,
         })
     }
@@ -83,28 +83,23 @@ impl<'a> FitData<'a> {
         key.fit_range(&self.nominal.bounds)
     }
 
-    /// Norms of the 3D residuals of `arm` against the measurements, m.
+    /// Norms of the residuals of `arm` against the measurements, m.
     pub(super) fn residual_norms(&self, arm: &Rig) -> Result<Vec<f64>, CalibError> {
         Ok(self.residuals(arm)?.iter().map(|r| r.norm()).collect())
     }
 
-    /// The 3D residuals of `arm` against the measurements, m.
+    /// The residual blocks of `arm` against the measurements, m (a
+    /// camera's carried to the target's distance: `calib::parameters::camera`).
     pub(super) fn residuals(&self, arm: &Rig) -> Result<Vec<Vector3<f64>>, CalibError> {
-        Ok(arm
-            .tool_points(&self.samples)?
-            .iter()
-            .zip(&self.measured)
-            .map(|(p, m)| p - m)
-            .collect())
+        arm.residuals(&self.samples, &self.measured)
     }
 
-    /// The stacked residuals of `arm`, each 3D residual times its `sqrt_w`.
+    /// The stacked residuals of `arm`, each block times its `sqrt_w`.
     pub(super) fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
-        let points = arm.tool_points(&self.samples).ok()?;
-        let mut r = DVector::zeros(3 * points.len());
-        for (k, (p, m)) in points.iter().zip(&self.measured).enumerate() {
-            r.fixed_rows_mut::<3>(3 * k)
-                .copy_from(&((p - m) * sqrt_w[k]));
+        let residuals = arm.residuals(&self.samples, &self.measured).ok()?;
+        let mut r = DVector::zeros(3 * residuals.len());
+        for (k, block) in residuals.iter().enumerate() {
+            r.fixed_rows_mut::<3>(3 * k).copy_from(&(block * sqrt_w[k]));
         }
         Some(r)
     }
@@ -128,6 +123,15 @@ impl<'a> FitData<'a> {
             option: self.option.name().into(),
             reason,
         }
+    }
+}
+
+/// A measurement's block as the fit compares it (`calib::parameters::camera`):
+/// its point, m, or its pixel `(u, v, 0)`, px.
+pub(crate) fn measured_block(m: &Measurement) -> Vector3<f64> {
+    match m.pixel {
+        Some(pixel) => Vector3::new(pixel.x, pixel.y, 0.0),
+        None => m.position,
     }
 }
 
