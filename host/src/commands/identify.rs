@@ -227,8 +227,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let path = args.out.join(format!("calibration-{}.json", cal.option));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
-        if !cal.targets.is_empty() {
-            print!("{}", summary::targets_table(&cal.targets));
+        match &request.camera {
+            // A board's corners are where the board file puts them: the
+            // camera is what the user wants to know.
+            Some(_) => print!("{}", camera_lines(&cal.arm.base)),
+            None if !cal.targets.is_empty() => {
+                print!("{}", summary::targets_table(&cal.targets))
+            }
+            None => {}
         }
         if args.no_robust
             && let Some(warning) = summary::unweighted_outliers(details, &request.measurements_file)
@@ -240,8 +246,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
     write_text(&args.out.join("report.json"), &run.report.to_json())?;
     let page = report_page::write(&args.out, &run.report)?;
     println!(
-        "\nValidation on the measured poses not used for the fit, {} kg (mean 3D error):",
-        run.load_kg
+        "\nValidation on the measured poses not used for the fit, {} kg ({}):",
+        run.load_kg,
+        match request.camera {
+            Some(_) =>
+                "mean error at the board's corners: the reprojection error carried to their distance",
+            None => "mean 3D error",
+        }
     );
     print!("{}", summary::table(&run.report.options));
     println!(
@@ -281,6 +292,35 @@ fn camera_input(
         },
         listed,
     ))
+}
+
+/// Where the fit puts the camera: the arm's base in the camera frame
+/// (`base`, the calibration's, whose measurement frame is the camera's)
+/// turned round, and the static transform a ROS user publishes for it
+/// (the camera's optical frame in the base's, quaternion x y z w).
+fn camera_lines(base: &model::Frame<f64>) -> String {
+    let camera = base.isometry().inverse();
+    let t = camera.translation.vector;
+    let (roll, pitch, yaw) = camera.rotation.euler_angles();
+    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&camera.rotation);
+    format!(
+        "  camera in the arm's base frame: ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg\n  \
+         publish it: ros2 run tf2_ros static_transform_publisher --x {:.5} --y {:.5} --z {:.5} \
+         --qx {:.6} --qy {:.6} --qz {:.6} --qw {:.6} --frame-id base_link --child-frame-id camera_optical_frame\n",
+        t.x * 1e3,
+        t.y * 1e3,
+        t.z * 1e3,
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        yaw.to_degrees(),
+        t.x,
+        t.y,
+        t.z,
+        q.i,
+        q.j,
+        q.k,
+        q.w
+    )
 }
 
 /// `--tool-only`: re-teaches the tool points of `--calibration` from the

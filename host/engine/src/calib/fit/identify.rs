@@ -232,10 +232,11 @@ pub fn identify_scored(
         .filter(|(c, _)| !data.prior.as_ref().is_some_and(|p| p.holds(*c)))
         .map(|(_, k)| *k)
         .collect();
-    if 3 * n < unheld.len() || n == 0 {
+    let coordinates = data.nominal.measured_axes() * n;
+    if coordinates < unheld.len() || n == 0 {
         return Err(CalibError::TooFewPoses {
             poses: n,
-            rows: 3 * n,
+            rows: coordinates,
             params: unheld.len(),
         });
     }
@@ -251,7 +252,7 @@ pub fn identify_scored(
     // The prior weighs against the noise, which the residual tells: from
     // the residual the fit starts with (the prior at its strongest), each
     // round fits with the last estimate (module docs).
-    let mut sigma = rms_before_m / 3f64.sqrt();
+    let mut sigma = rms_before_m / (data.nominal.measured_axes() as f64).sqrt();
     let rounds = if options.robust || data.prior.is_some() {
         options.max_irls_rounds.max(1)
     } else {
@@ -275,7 +276,7 @@ pub fn identify_scored(
             sigma = new;
         }
         if options.robust {
-            let new = huber_weights(&data.residual_norms(&arm)?);
+            let new = huber_weights(&data.residual_norms(&arm)?, data.nominal.measured_axes());
             let change = new
                 .iter()
                 .zip(&weights)
@@ -365,7 +366,12 @@ pub fn identify_scored(
                 ErrorStats::of(&of_t)
             })
             .collect(),
-        outliers: name_outliers(&data.samples, &norms, &weights),
+        outliers: name_outliers(
+            &data.samples,
+            &norms,
+            &weights,
+            data.nominal.measured_axes(),
+        ),
         per_measurement: data
             .samples
             .iter()
@@ -419,14 +425,15 @@ fn log_evidence(
             .map(|s| s.ln())
             .sum::<f64>()
         - 2.0 * scale.factors.iter().map(|f| f.ln()).sum::<f64>();
-    let rows = 3.0 * data.samples.len() as f64;
+    let axes = data.nominal.measured_axes() as f64;
+    let rows = axes * data.samples.len() as f64;
     let rss: f64 = residuals
         .iter()
         .zip(weights)
         .map(|(e, w)| w * e.norm_squared())
         .sum();
     let errors: Vec<f64> = params.iter().map(|p| p.error).collect();
-    let log_weights: f64 = weights.iter().map(|w| 3.0 * w.ln()).sum();
+    let log_weights: f64 = weights.iter().map(|w| axes * w.ln()).sum();
     let likelihood = -0.5 * rss / (sigma * sigma) - rows * sigma.ln() + 0.5 * log_weights;
     let log_prior = -prior.cost(&errors) + prior.log_det();
     // The posterior precision is (JᵀJ + σ² AᵀA) / σ².

@@ -115,7 +115,7 @@ pub fn validate(
             measured_m: m.position,
         })
         .collect();
-    let mut outliers: Vec<PoseError> = outlier_indices(&after)
+    let mut outliers: Vec<PoseError> = outlier_indices(&after, calibrated.measured_axes())
         .into_iter()
         .map(|k| per_measurement[k])
         .collect();

@@ -138,6 +138,15 @@ impl Rig {
         }
     }
 
+    /// How many axes a measurement's block has: 3 for a tracker's point, 2
+    /// for a camera's pixel (its third row is always zero).
+    pub fn measured_axes(&self) -> usize {
+        match self.camera {
+            Some(_) => 2,
+            None => 3,
+        }
+    }
+
     /// What the rig's instrument measures for every sample ([`Rig::observe`]).
     pub fn observations(&self, samples: &[Sample]) -> Result<Vec<Observation>, CalibError> {
         self.tool_points(samples)?

@@ -84,12 +84,14 @@ pub(super) fn covariance(
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
     let rows = 3 * data.samples.len();
+    // The coordinates measured: a camera's blocks have two (their third row is zero).
+    let measured = data.nominal.measured_axes() * data.samples.len();
     let dof = match (prior, svd.u.as_ref()) {
         (Some(_), Some(u)) => {
             let determined: f64 = u.rows(0, rows).iter().map(|v| v * v).sum();
-            (rows as f64 - determined).max(1.0)
+            (measured as f64 - determined).max(1.0)
         }
-        _ => rows.saturating_sub(free.len()).max(1) as f64,
+        _ => measured.saturating_sub(free.len()).max(1) as f64,
     };
     let sigma_m = (rss / dof).sqrt();
     let (loo_errors_m, loo_mean_m) = svd

@@ -8,20 +8,28 @@ use crate::calib::Sample;
 pub const HUBER_K: f64 = 3.0;
 /// Residual norm (in units of the robust per-axis scale) above which a measurement is named an outlier.
 pub const OUTLIER_K: f64 = 4.5;
-/// Median of the norm of a 3D standard Gaussian vector.
+/// Median of the norm of a 3D standard Gaussian vector (a tracker's point).
 const CHI3_MEDIAN: f64 = 1.5382;
+/// Median of the norm of a 2D standard Gaussian vector (a camera's pixel).
+const CHI2_MEDIAN: f64 = 1.1774;
 
-/// The robust per-axis scale of a set of residual norms.
-pub(super) fn robust_scale(norms: &[f64]) -> f64 {
+/// The robust per-axis scale of a set of residual norms, each over `axes`
+/// axes (3 for a tracker's points, 2 for a camera's pixels).
+pub(super) fn robust_scale(norms: &[f64], axes: usize) -> f64 {
     let mut v = norms.to_vec();
     v.sort_by(f64::total_cmp);
     let median = if v.is_empty() { 0.0 } else { v[v.len() / 2] };
-    median / CHI3_MEDIAN
+    median
+        / match axes {
+            2 => CHI2_MEDIAN,
+            _ => CHI3_MEDIAN,
+        }
 }
 
-/// Step *reweight*: Huber weights of the measurements from their residual norms.
-pub(super) fn huber_weights(norms: &[f64]) -> Vec<f64> {
-    let c = HUBER_K * robust_scale(norms);
+/// Step *reweight*: Huber weights of the measurements from their residual
+/// norms, each over `axes` axes.
+pub(super) fn huber_weights(norms: &[f64], axes: usize) -> Vec<f64> {
+    let c = HUBER_K * robust_scale(norms, axes);
     if c == 0.0 {
         // Most residuals vanish (exact data): nothing to measure a gross one against.
         return vec![1.0; norms.len()];
@@ -32,10 +40,11 @@ pub(super) fn huber_weights(norms: &[f64]) -> Vec<f64> {
         .collect()
 }
 
-/// The indices of the error norms beyond [`OUTLIER_K`] robust scales of
-/// them: the one rule for naming outliers, in a fit and in a validation.
-pub fn outlier_indices(norms: &[f64]) -> Vec<usize> {
-    let s = robust_scale(norms);
+/// The indices of the error norms (each over `axes` axes) beyond
+/// [`OUTLIER_K`] robust scales of them: the one rule for naming outliers,
+/// in a fit and in a validation.
+pub fn outlier_indices(norms: &[f64], axes: usize) -> Vec<usize> {
+    let s = robust_scale(norms, axes);
     (0..norms.len())
         .filter(|&k| s > 0.0 && norms[k] > OUTLIER_K * s)
         .collect()
@@ -43,8 +52,13 @@ pub fn outlier_indices(norms: &[f64]) -> Vec<usize> {
 
 /// Step *outliers*: the measurements whose residual norm exceeds
 /// [`OUTLIER_K`] robust scales, largest first.
-pub(super) fn name_outliers(samples: &[Sample], norms: &[f64], weights: &[f64]) -> Vec<Outlier> {
-    let mut outliers: Vec<Outlier> = outlier_indices(norms)
+pub(super) fn name_outliers(
+    samples: &[Sample],
+    norms: &[f64],
+    weights: &[f64],
+    axes: usize,
+) -> Vec<Outlier> {
+    let mut outliers: Vec<Outlier> = outlier_indices(norms, axes)
         .into_iter()
         .map(|k| (k, norms[k]))
         .map(|(k, e)| Outlier {

@@ -298,7 +298,7 @@ fn an_unsolvable_trial_point_is_a_failed_step() {
 fn huber_weights_down_weight_only_beyond_the_threshold() {
     // Median 1.5382 makes the robust scale 1, so the threshold is HUBER_K.
     let norms = [0.0, 1.0, 1.2, 1.5382, 2.9, 6.0, 30.0];
-    let w = huber_weights(&norms);
+    let w = huber_weights(&norms, 3);
     assert_eq!(w[..5], [1.0; 5]);
     assert!((w[5] - HUBER_K / 6.0).abs() < 1e-12);
     assert!((w[6] - HUBER_K / 30.0).abs() < 1e-12);
@@ -309,11 +309,11 @@ fn outliers_are_named_largest_first() {
     let samples = small_samples(7);
     let norms = [1.0, 1.5382, 9.0, 2.0, 0.5, 4.4, 7.0];
     let weights = [1.0, 1.0, 0.3, 1.0, 1.0, 1.0, 0.4];
-    let o = name_outliers(&samples, &norms, &weights);
+    let o = name_outliers(&samples, &norms, &weights, 3);
     let named: Vec<(u32, f64)> = o.iter().map(|o| (o.pose, o.weight)).collect();
     assert_eq!(named, [(2, 0.3), (6, 0.4)]);
     assert_eq!(o[0].load_kg, samples[2].load_kg);
-    assert!(name_outliers(&samples, &[0.0; 7], &weights).is_empty());
+    assert!(name_outliers(&samples, &[0.0; 7], &weights, 3).is_empty());
 }
 
 /// One corrupted measurement is named, and the robust fit is not pulled by it.
