@@ -161,6 +161,14 @@ pub enum Error {
         /// Their width and height, px.
         expected: (u32, u32),
     },
+    /// A camera measurement file's views cannot be measurements (`lrmcal identify --camera`).
+    #[error("use the camera measurements `{}`: {source}", path.display())]
+    Views {
+        /// The camera measurement file.
+        path: PathBuf,
+        /// Which view, and why.
+        source: lrmcal_engine::camera::corner_measurements::ViewError,
+    },
     /// The AprilTag detector could not be made.
     #[error("start the AprilTag detector: {reason}")]
     Detect {
@@ -229,9 +237,10 @@ impl Error {
             Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
             Self::FlashImage { .. } | Self::NoReport { .. } => exit_codes::INVALID_INPUT,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
-            Self::Image { .. } | Self::ImageSize { .. } | Self::Detect { .. } => {
-                exit_codes::INVALID_INPUT
-            }
+            Self::Image { .. }
+            | Self::ImageSize { .. }
+            | Self::Detect { .. }
+            | Self::Views { .. } => exit_codes::INVALID_INPUT,
             Self::Tracker(e) => match e {
                 tracker::TrackerError::Take { .. } | tracker::TrackerError::Periods { .. } => {
                     exit_codes::INVALID_INPUT

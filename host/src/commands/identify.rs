@@ -274,7 +274,10 @@ fn camera_input(
     let setup = setup::read(path)?;
     let views = views::read(&args.measurements)?;
     let (corners_seen, corners) = corner_measurements(&setup.intrinsics, &setup.board, &views)
-        .map_err(|e| Error::Usage(format!("{}: {e}", args.measurements.display())))?;
+        .map_err(|source| Error::Views {
+            path: args.measurements.clone(),
+            source,
+        })?;
     let units = arm.kinds();
     let listed = corners_seen
         .into_iter()
