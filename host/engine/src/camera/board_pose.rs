@@ -212,31 +212,12 @@ impl LeastSquaresProblem<f64, Dyn, nalgebra::U6> for PoseProblem<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::testing::{board, webcam};
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
     use rand_distr::StandardNormal;
 
-    fn webcam() -> Intrinsics {
-        Intrinsics {
-            width_px: 1280,
-            height_px: 720,
-            fx: 910.0,
-            fy: 908.0,
-            cx: 641.0,
-            cy: 358.0,
-            distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
-        }
-    }
 
-    fn board() -> AprilGrid {
-        AprilGrid {
-            rows: 3,
-            cols: 4,
-            tag_size_m: 0.025,
-            spacing: 0.3,
-            first_id: 0,
-        }
-    }
 
     /// The tags of `board` at `pose`, projected, each pixel off by
     /// Gaussian noise of `sigma` px.

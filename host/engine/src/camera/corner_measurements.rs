@@ -108,31 +108,12 @@ pub fn corner_measurements(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::camera::testing::{board, webcam};
     use lrmcal_core::camera::corners::TagCorners;
     use lrmcal_core::dataset::Pose;
     use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3};
 
-    fn webcam() -> Intrinsics {
-        Intrinsics {
-            width_px: 1280,
-            height_px: 720,
-            fx: 910.0,
-            fy: 908.0,
-            cx: 641.0,
-            cy: 358.0,
-            distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
-        }
-    }
 
-    fn board() -> AprilGrid {
-        AprilGrid {
-            rows: 3,
-            cols: 4,
-            tag_size_m: 0.025,
-            spacing: 0.3,
-            first_id: 0,
-        }
-    }
 
     fn view_at(pose: &IsometryMatrix3<f64>, ids: &[u32]) -> View {
         let tags = board()

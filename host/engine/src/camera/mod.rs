@@ -10,3 +10,5 @@
 pub mod board_pose;
 pub mod corner_measurements;
 pub mod detect;
+#[cfg(test)]
+pub(crate) mod testing;
