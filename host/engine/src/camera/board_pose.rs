@@ -217,8 +217,6 @@ mod tests {
     use rand_chacha::ChaCha8Rng;
     use rand_distr::StandardNormal;
 
-
-
     /// The tags of `board` at `pose`, projected, each pixel off by
     /// Gaussian noise of `sigma` px.
     fn seen(pose: &IsometryMatrix3<f64>, sigma: f64, rng: &mut ChaCha8Rng) -> Vec<TagCorners> {

@@ -113,8 +113,6 @@ mod tests {
     use lrmcal_core::dataset::Pose;
     use nalgebra::{IsometryMatrix3, Point3, Rotation3, Translation3};
 
-
-
     fn view_at(pose: &IsometryMatrix3<f64>, ids: &[u32]) -> View {
         let tags = board()
             .tags()

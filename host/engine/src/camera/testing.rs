@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use lrmcal_core::camera::{AprilGrid, Intrinsics, board, intrinsics_file};
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../core/tests/data/camera").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../core/tests/data/camera")
+        .join(name)
 }
 
 /// The test webcam.
