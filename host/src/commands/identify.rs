@@ -278,13 +278,19 @@ fn camera_input(
             path: args.measurements.clone(),
             source,
         })?;
-    let units = arm.kinds();
+    // Each corner listed at its view's first line: the joint-limit check
+    // names the line of the pose it refuses.
+    let lines = views
+        .iter()
+        .flat_map(|v| std::iter::repeat_n(v.line, 4 * v.tags.len()));
+    let units = model::PerJoint::from_slice(&arm.kinds()).unwrap_or_default();
     let listed = corners_seen
         .into_iter()
-        .map(|measurement| measurements::ListedMeasurement {
-            line: 0,
+        .zip(lines)
+        .map(|(measurement, line)| measurements::ListedMeasurement {
+            line,
             measurement,
-            units: model::PerJoint::from_slice(&units).unwrap_or_default(),
+            units,
         })
         .collect();
     Ok((

@@ -73,6 +73,9 @@ pub struct View {
     /// The way each joint arrived at the pose, from the views' order; not a
     /// column of the file.
     pub approach: PerJoint<Approach>,
+    /// The line of the view's first row in the file it was read from (for
+    /// messages about its pose); 0 for a view not read from a file.
+    pub line: u64,
 }
 
 impl View {
@@ -85,6 +88,7 @@ impl View {
             load_kg,
             image,
             tags,
+            line: 0,
         }
     }
 }
@@ -190,8 +194,10 @@ impl ViewReader {
             }
             self.book.record(row, id, &q, Some(load_kg), None)?;
             self.began.insert(key, row.line);
-            self.views
-                .push(View::new(Pose { id, q }, load_kg, image, Vec::new()));
+            self.views.push(View {
+                line: row.line,
+                ..View::new(Pose { id, q }, load_kg, image, Vec::new())
+            });
         }
         self.corner(row, tag, corner, pixel)
     }
@@ -407,7 +413,18 @@ mod tests {
         write_to(&mut out, &views, &kinds).unwrap();
         let text = String::from_utf8(out).unwrap();
         assert!(text.starts_with("pose,load_kg,q1_deg,q2_mm,tag,corner,u_px,v_px\n"));
-        assert_eq!(parse(&text).unwrap(), views);
+        // Each view read knows the line its rows begin on.
+        let lines = |read: Vec<View>| -> (Vec<u64>, Vec<View>) {
+            let lines = read.iter().map(|v| v.line).collect();
+            (
+                lines,
+                read.into_iter().map(|v| View { line: 0, ..v }).collect(),
+            )
+        };
+        assert_eq!(
+            lines(parse(&text).unwrap()),
+            (vec![2, 10, 14], views.clone())
+        );
 
         views[0].image = Some("shot 1.png".into());
         views[1].image = Some("shot 2.png".into());
@@ -415,7 +432,7 @@ mod tests {
         write_to(&mut out, &views, &kinds).unwrap();
         let text = String::from_utf8(out).unwrap();
         assert!(text.lines().next().unwrap().ends_with(",image"));
-        assert_eq!(parse(&text).unwrap(), views);
+        assert_eq!(lines(parse(&text).unwrap()).1, views);
     }
 
     #[test]

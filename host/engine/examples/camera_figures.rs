@@ -1,0 +1,43 @@
+//! The camera path's figures over seeds: for each seed, a webcam and a true
+//! arm drawn, 60 poses the camera sees fitted from their pixels, the board's
+//! origin checked at 40 others and the camera's place against the truth
+//! (`tests/common/camera_trial.rs`); then the median and the range.
+//!
+//! `cargo run --release -p lrmcal-engine --example camera_figures -- 1 10`
+//! (first and last seed; 1 to 10 by default).
+
+#[path = "../tests/common/camera_trial.rs"]
+mod camera_trial;
+
+fn main() {
+    let args: Vec<u64> = std::env::args()
+        .skip(1)
+        .map(|a| a.parse().expect("seeds are integers"))
+        .collect();
+    let (first, last) = match args[..] {
+        [a, b] => (a, b),
+        _ => (1, 10),
+    };
+    let mut rows = Vec::new();
+    println!("seed  board origin mm  nominal mm  camera mm  camera deg");
+    for seed in first..=last {
+        let t = camera_trial::trial(seed);
+        println!(
+            "{seed:>4}  {:>15.3}  {:>10.1}  {:>9.3}  {:>10.3}",
+            t.board_mm, t.nominal_mm, t.camera_mm, t.camera_deg
+        );
+        rows.push(t);
+    }
+    let summary = |name: &str, mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        println!(
+            "{name}: median {:.3}, range {:.3} to {:.3}",
+            v[v.len() / 2],
+            v[0],
+            v[v.len() - 1]
+        );
+    };
+    summary("board origin mm", rows.iter().map(|t| t.board_mm).collect());
+    summary("camera mm", rows.iter().map(|t| t.camera_mm).collect());
+    summary("camera deg", rows.iter().map(|t| t.camera_deg).collect());
+}
