@@ -1,6 +1,7 @@
 //! The camera path's figures over seeds: for each seed, a webcam and a true
 //! arm drawn, 60 poses the camera sees fitted from their pixels, the board's
-//! origin checked at 40 others and the camera's place against the truth
+//! origin checked at 40 others (beside a tracker's calibration from the
+//! same poses) and the camera's place against the truth
 //! (`tests/common/camera_trial.rs`); then the median and the range.
 //!
 //! `cargo run --release -p lrmcal-engine --example camera_figures -- 1 10`
@@ -19,12 +20,12 @@ fn main() {
         _ => (1, 10),
     };
     let mut rows = Vec::new();
-    println!("seed  board origin mm  nominal mm  camera mm  camera deg");
+    println!("seed  board origin mm  tracker mm  nominal mm  camera mm  camera deg");
     for seed in first..=last {
         let t = camera_trial::trial(seed);
         println!(
-            "{seed:>4}  {:>15.3}  {:>10.1}  {:>9.3}  {:>10.3}",
-            t.board_mm, t.nominal_mm, t.camera_mm, t.camera_deg
+            "{seed:>4}  {:>15.3}  {:>10.3}  {:>10.1}  {:>9.3}  {:>10.3}",
+            t.board_mm, t.tracker_mm, t.nominal_mm, t.camera_mm, t.camera_deg
         );
         rows.push(t);
     }
@@ -38,6 +39,11 @@ fn main() {
         );
     };
     summary("board origin mm", rows.iter().map(|t| t.board_mm).collect());
+    summary("tracker mm", rows.iter().map(|t| t.tracker_mm).collect());
+    summary(
+        "camera / tracker",
+        rows.iter().map(|t| t.board_mm / t.tracker_mm).collect(),
+    );
     summary("camera mm", rows.iter().map(|t| t.camera_mm).collect());
     summary("camera deg", rows.iter().map(|t| t.camera_deg).collect());
 }
