@@ -15,27 +15,13 @@ use model::{JointKind, PerJoint};
 use super::views::IMAGE_COLUMN;
 use crate::dataset::Pose;
 use crate::error::{Error, InputError, Problem};
-use crate::io::csv_table::{Extra, Q_COLUMNS, Schema, for_each_row};
+use crate::io::csv_table::{Extra, Schema, for_each_row, pose_columns};
 use crate::io::{pose_list, read_text};
 
 /// The columns the images' pass needs: the pose list's, with `load_kg`
 /// and `image` required; other columns are the pose list's to judge.
 const SCHEMA: Schema = Schema {
-    columns: &[
-        "pose",
-        "load_kg",
-        Q_COLUMNS[0],
-        Q_COLUMNS[1],
-        Q_COLUMNS[2],
-        Q_COLUMNS[3],
-        Q_COLUMNS[4],
-        Q_COLUMNS[5],
-        Q_COLUMNS[6],
-        Q_COLUMNS[7],
-        Q_COLUMNS[8],
-        Q_COLUMNS[9],
-        IMAGE_COLUMN,
-    ],
+    columns: &pose_columns!(IMAGE_COLUMN),
     optional: &[],
     extra: Extra::Ignore,
 };

@@ -20,7 +20,7 @@ use super::corners::TagCorners;
 use crate::dataset::{Pose, approaches, from_home};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{
-    Extra, PoseBook, Q_COLUMNS, Row, Schema, for_each_row, format_fixed, format_joint, q_column,
+    Extra, PoseBook, Row, Schema, for_each_row, format_fixed, format_joint, pose_columns, q_column,
 };
 use crate::io::{atomic, read_text};
 
@@ -29,25 +29,7 @@ pub const IMAGE_COLUMN: &str = "image";
 
 /// The columns of a camera measurement file, in the order they are written
 /// ([`IMAGE_COLUMN`] last, when the views name their images).
-pub const COLUMNS: [&str; 17] = [
-    "pose",
-    "load_kg",
-    Q_COLUMNS[0],
-    Q_COLUMNS[1],
-    Q_COLUMNS[2],
-    Q_COLUMNS[3],
-    Q_COLUMNS[4],
-    Q_COLUMNS[5],
-    Q_COLUMNS[6],
-    Q_COLUMNS[7],
-    Q_COLUMNS[8],
-    Q_COLUMNS[9],
-    "tag",
-    "corner",
-    "u_px",
-    "v_px",
-    IMAGE_COLUMN,
-];
+pub const COLUMNS: [&str; 17] = pose_columns!("tag", "corner", "u_px", "v_px", IMAGE_COLUMN);
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,

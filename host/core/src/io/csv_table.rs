@@ -44,6 +44,30 @@ pub const Q_COLUMNS: [&str; model::MAX_JOINTS] = [
     "q10_deg",
 ];
 
+/// The columns of a file of poses, in the order writers write them: `pose`,
+/// `load_kg`, the joint columns `q1_deg` … `q10_deg` ([`Q_COLUMNS`]), then
+/// the kind of file's own (`$after`).
+macro_rules! pose_columns {
+    ($($after:expr),* $(,)?) => {
+        [
+            "pose",
+            "load_kg",
+            $crate::io::csv_table::Q_COLUMNS[0],
+            $crate::io::csv_table::Q_COLUMNS[1],
+            $crate::io::csv_table::Q_COLUMNS[2],
+            $crate::io::csv_table::Q_COLUMNS[3],
+            $crate::io::csv_table::Q_COLUMNS[4],
+            $crate::io::csv_table::Q_COLUMNS[5],
+            $crate::io::csv_table::Q_COLUMNS[6],
+            $crate::io::csv_table::Q_COLUMNS[7],
+            $crate::io::csv_table::Q_COLUMNS[8],
+            $crate::io::csv_table::Q_COLUMNS[9],
+            $($after),*
+        ]
+    };
+}
+pub(crate) use pose_columns;
+
 /// The joint columns of a prismatic joint, its value in mm, in joint order:
 /// joint `i`'s column is `qi_deg` or `qi_mm`, as the joint turns or slides.
 pub const Q_MM_COLUMNS: [&str; model::MAX_JOINTS] = [

@@ -14,7 +14,7 @@ use crate::dataset::{
 };
 use crate::error::{Error, InputError, Problem};
 use crate::io::csv_table::{
-    Extra, PoseBook, Q_COLUMNS, Schema, XYZ_COLUMNS, for_each_row, format_joint, format_mm,
+    Extra, PoseBook, Schema, XYZ_COLUMNS, for_each_row, format_joint, format_mm, pose_columns,
     q_column,
 };
 use crate::io::{atomic, read_text};
@@ -24,24 +24,12 @@ pub const TARGET_COLUMN: &str = "target";
 
 /// The columns of a measurement file, in the order they are written
 /// ([`TARGET_COLUMN`] last, when the rows name targets).
-pub const COLUMNS: [&str; 16] = [
-    "pose",
-    "load_kg",
-    Q_COLUMNS[0],
-    Q_COLUMNS[1],
-    Q_COLUMNS[2],
-    Q_COLUMNS[3],
-    Q_COLUMNS[4],
-    Q_COLUMNS[5],
-    Q_COLUMNS[6],
-    Q_COLUMNS[7],
-    Q_COLUMNS[8],
-    Q_COLUMNS[9],
+pub const COLUMNS: [&str; 16] = pose_columns!(
     XYZ_COLUMNS[0],
     XYZ_COLUMNS[1],
     XYZ_COLUMNS[2],
-    TARGET_COLUMN,
-];
+    TARGET_COLUMN
+);
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,

@@ -20,26 +20,13 @@ use crate::dataset::{Pose, PoseRow, TargetName};
 use crate::error::{Error, InputError, Location, Problem};
 use crate::io::csv_table::{
     Extra, LineRows, PoseBook, Q_COLUMNS, ReadError, Row, Schema, for_each_row, format_joint,
-    q_column,
+    pose_columns, q_column,
 };
 use crate::io::measurements::{ListedMeasurement, TARGET_COLUMN};
 use crate::io::{atomic, read_text};
 
 /// The columns of a pose list, in the order they are written (`load_kg` only if any row has one).
-pub const COLUMNS: [&str; 12] = [
-    "pose",
-    "load_kg",
-    Q_COLUMNS[0],
-    Q_COLUMNS[1],
-    Q_COLUMNS[2],
-    Q_COLUMNS[3],
-    Q_COLUMNS[4],
-    Q_COLUMNS[5],
-    Q_COLUMNS[6],
-    Q_COLUMNS[7],
-    Q_COLUMNS[8],
-    Q_COLUMNS[9],
-];
+pub const COLUMNS: [&str; 12] = pose_columns!();
 
 const SCHEMA: Schema = Schema {
     columns: &COLUMNS,

@@ -94,15 +94,7 @@ mod tests {
     #[test]
     fn the_pixels_slope_is_its_differences() {
         let camera = RigCamera {
-            intrinsics: Intrinsics {
-                width_px: 1280,
-                height_px: 720,
-                fx: 910.0,
-                fy: 908.0,
-                cx: 641.0,
-                cy: 358.0,
-                distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
-            },
+            intrinsics: crate::camera::testing::webcam(),
             from_world: IsometryMatrix3::from_parts(
                 Translation3::new(0.05, 0.2, 0.8),
                 Rotation3::from_euler_angles(-1.5, 0.1, 1.6),

@@ -427,15 +427,7 @@ mod tests {
                 Vector3::new(0.02, 0.08, 0.0),
             ],
             RigCamera {
-                intrinsics: lrmcal_core::camera::Intrinsics {
-                    width_px: 1280,
-                    height_px: 720,
-                    fx: 910.0,
-                    fy: 908.0,
-                    cx: 641.0,
-                    cy: 358.0,
-                    distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
-                },
+                intrinsics: crate::camera::testing::webcam(),
                 from_world: camera_in_world.inverse(),
             },
         );
