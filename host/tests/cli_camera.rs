@@ -330,6 +330,22 @@ fn a_webcams_corners_calibrate_the_arm() {
         validation["after"]["mean_m"].as_f64().unwrap(),
     );
     assert!(before > 0.01 && after < 0.002, "{before} -> {after} m");
+    // The file means the same to every reader: predict and the board take it.
+    let cal = out("cal/calibration-elasto-kinematic-servo.json");
+    let run = lrmcal(&[
+        "predict",
+        "--arm",
+        p(&cal),
+        "--poses",
+        p(&out("list.csv")),
+        "--load-kg",
+        "0.0663",
+        "--out",
+        p(&out("predicted.csv")),
+    ]);
+    assert!(run.status.success(), "{}", text(&run));
+    let run = lrmcal(&["push", p(&cal), "--dry-run"]);
+    assert!(run.status.success(), "{}", text(&run));
 
     // A tag of another board.
     let foreign = std::fs::read_to_string(out("views.csv"))

@@ -64,7 +64,9 @@ pub fn calibration_file(
         converged: identified.diagnostics.converged,
         validation,
         registration: None,
-        targets: if identified.rig.targets.named() {
+        // A board's corners are where its board file puts them, not part of
+        // the calibration: its tool point is the board's origin, the arm's.
+        targets: if identified.rig.targets.named() && identified.rig.board.is_none() {
             target_tools(identified, &[])
         } else {
             Vec::new()
