@@ -16,6 +16,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use serde::Serialize;
 
+use super::render::{Look, render};
 use super::{Pass, SimError, TrueArm};
 use lrmcal_core::camera::corners::TagCorners;
 use lrmcal_core::camera::views::View;
@@ -29,6 +30,8 @@ use model::Frame;
 const PLACEMENT_STREAM: u64 = 2;
 /// RNG stream of the pixel noise.
 const PIXEL_NOISE_STREAM: u64 = 3;
+/// RNG stream of the images' light and sensor noise.
+const IMAGE_STREAM: u64 = 4;
 
 /// Sigma of the camera's position error against its setup, per axis, m.
 pub const CAMERA_XYZ_SIGMA_M: f64 = 0.02;
@@ -72,6 +75,8 @@ pub struct Watched {
     pub views: Vec<View>,
     /// The same views without pixel noise.
     pub noise_free: Vec<View>,
+    /// The true arm's last frame in the world at each view.
+    pub flanges: Vec<IsometryMatrix3<f64>>,
     /// How many commanded poses (under their loads) it did not see the board at.
     pub unseen: usize,
 }
@@ -152,6 +157,27 @@ impl Webcam {
             .collect()
     }
 
+    /// The images the webcam takes of the board at `flanges` (the arm's
+    /// last frame in the world at each), grey, looking as `look` says,
+    /// their light and noise drawn from the webcam's seed.
+    pub fn images<'a>(
+        &'a self,
+        flanges: &'a [IsometryMatrix3<f64>],
+        look: &'a Look,
+    ) -> impl Iterator<Item = Vec<u8>> + 'a {
+        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
+        rng.set_stream(IMAGE_STREAM);
+        flanges.iter().map(move |flange| {
+            render(
+                &self.intrinsics,
+                &self.board,
+                &self.camera_from_board(flange),
+                look,
+                &mut rng,
+            )
+        })
+    }
+
     /// The board's pose in the camera frame with the arm's last frame at `flange`.
     fn camera_from_board(&self, flange: &IsometryMatrix3<f64>) -> IsometryMatrix3<f64> {
         self.camera.isometry().inverse() * flange * self.board_on_flange.isometry()
@@ -187,11 +213,13 @@ impl TrueArm {
         let ways = approaches(seen.iter().map(|(_, pose)| &pose.q));
         let mut rng = ChaCha8Rng::seed_from_u64(webcam.seed);
         rng.set_stream(PIXEL_NOISE_STREAM);
-        let (mut views, mut noise_free) = (Vec::new(), Vec::new());
+        let (mut views, mut noise_free, mut flanges) = (Vec::new(), Vec::new(), Vec::new());
         for ((load_kg, pose), approach) in seen.iter().zip(ways) {
-            let Some(tags) = webcam.corners(&self.flange(pose, *load_kg, &approach)?) else {
+            let flange = self.flange(pose, *load_kg, &approach)?;
+            let Some(tags) = webcam.corners(&flange) else {
                 continue;
             };
+            flanges.push(flange);
             let noisy = tags
                 .iter()
                 .map(|t| TagCorners {
@@ -213,6 +241,7 @@ impl TrueArm {
             unseen: all.len() - views.len(),
             views,
             noise_free,
+            flanges,
         })
     }
 
