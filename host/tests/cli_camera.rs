@@ -25,7 +25,7 @@ fn webcam() -> Intrinsics {
 }
 
 /// [`webcam`] as ROS's camera calibrator writes it.
-const CAMERA_INFO: &str = include_str!("../core/tests/data/camera/camera_info.yaml");
+const CAMERA_INFO: &str = include_str!("../core/arms/lrm-webcam/camera_info.yaml");
 
 /// A 3x3 grid of 3 cm tags: 108 mm across, its centre at (54, 54) mm.
 const BOARD: &str = "target_type: 'aprilgrid'\ntagCols: 3\ntagRows: 3\ntagSize: 0.03\n\
@@ -175,7 +175,7 @@ fn a_bad_setup_is_refused_naming_the_file_and_the_key() {
 /// within a few sigmas of the noisy ones.
 #[test]
 fn a_simulated_webcam_writes_camera_measurements() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/tests/data/camera");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/arms/lrm-webcam");
     let dir = tempfile::tempdir().unwrap();
     let out = |name: &str| dir.path().join(name);
     let setup = data.join("setup.toml");
@@ -265,7 +265,7 @@ fn a_webcam_that_sees_nothing_is_refused() {
 /// have is refused naming the file and the pose, and nothing is written.
 #[test]
 fn a_webcams_corners_calibrate_the_arm() {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/tests/data/camera");
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/arms/lrm-webcam");
     let dir = tempfile::tempdir().unwrap();
     let out = |name: &str| dir.path().join(name);
     let setup = data.join("setup.toml");

@@ -5,7 +5,9 @@ use std::path::{Path, PathBuf};
 
 use crate::commands::helpers::write_text;
 use crate::error::Error;
+use crate::progress::Meter;
 use lrmcal_core::camera::setup;
+use lrmcal_core::camera::shots::{self, Shot};
 use lrmcal_core::camera::views;
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM, LoadedArm};
@@ -13,9 +15,13 @@ use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::Sample;
 use lrmcal_engine::calib::results::export::rig_of;
 use lrmcal_engine::plan::{DEFAULT_RANDOM_POSES, PlanConfig, candidates};
+use lrmcal_engine::sim::render::Look;
 use lrmcal_engine::sim::{
-    DEFAULT_PIXEL_NOISE_PX, DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm, Webcam,
+    DEFAULT_PIXEL_NOISE_PX, DEFAULT_SEED, Pass, ServoErrorShape, SimConfig, TrueArm, Watched,
+    Webcam,
 };
+use model::{JointKind, PerJoint};
+use rayon::prelude::*;
 
 /// The paper's two data sets: no load, and a 66.3 g weight on the target.
 const DEFAULT_LOADS_KG: [f64; 2] = [0.0, 0.0663];
@@ -85,6 +91,11 @@ pub struct Args {
     /// stands as, roughly; --out gets the corners it sees (camera measurement CSV).
     #[arg(long, value_name = "SETUP")]
     pub camera: Option<PathBuf>,
+    /// With --camera, the webcam takes images instead of telling corners:
+    /// DIR gets one PNG of the board at each pose it sees and `poses.csv`,
+    /// the pose list naming them (what `lrmcal detect --poses` reads).
+    #[arg(long, value_name = "DIR", requires = "camera", conflicts_with_all = ["out", "pixel_noise_px"])]
+    pub images: Option<PathBuf>,
     /// Sigma of the corners' noise on each pixel axis, px (with --camera).
     #[arg(long, value_name = "PX", requires = "camera", default_value_t = DEFAULT_PIXEL_NOISE_PX, allow_negative_numbers = true, value_parser = non_negative)]
     pub pixel_noise_px: f64,
@@ -340,6 +351,20 @@ fn watch(
     if let Some(path) = &args.noise_free {
         views::write(path, &watched.noise_free, &kinds)?;
     }
+    if let Some(folder) = &args.images {
+        take_images(folder, &webcam, &watched, &kinds)?;
+        eprintln!(
+            "simulated a webcam taking {} images of the board on a true arm drawn around {} ({}) \
+             with seed {} (the board not seen at {} poses): {}",
+            watched.views.len(),
+            arm.origin,
+            arm.name,
+            args.seed,
+            watched.unseen,
+            folder.join(IMAGE_LIST).display()
+        );
+        return Ok(());
+    }
     match &args.out {
         Some(path) => views::write(path, &watched.views, &kinds)?,
         None => views::write_to(&mut std::io::stdout().lock(), &watched.views, &kinds).map_err(
@@ -386,6 +411,60 @@ fn watch(
         "  mean distance nominal model and setup -> corner {:.1} px over {count} corners",
         sum / count.max(1) as f64
     );
+    Ok(())
+}
+
+/// The pose list `simulate --images` writes beside the images.
+pub const IMAGE_LIST: &str = "poses.csv";
+
+/// Writes the webcam's image of each view of `watched` into `folder` as a
+/// PNG, and then the pose list naming them ([`IMAGE_LIST`]).
+fn take_images(
+    folder: &Path,
+    webcam: &Webcam,
+    watched: &Watched,
+    kinds: &PerJoint<JointKind>,
+) -> Result<(), Error> {
+    let failed = |path: &Path, source: std::io::Error| lrmcal_core::Error::Write {
+        path: path.to_owned(),
+        source,
+    };
+    std::fs::create_dir_all(folder).map_err(|source| failed(folder, source))?;
+    let meter = Meter::new("rendering images", watched.views.len() as u64, "images");
+    let (width, height) = (webcam.intrinsics.width_px, webcam.intrinsics.height_px);
+    // Two cores or more take images at once, a batch a core; each image's
+    // light and noise are its own, so the files are the same however many.
+    let views: Vec<_> = watched.views.iter().zip(&watched.flanges).collect();
+    let mut shots = Vec::new();
+    for (batch, chunk) in views.chunks(rayon::current_num_threads()).enumerate() {
+        let first = batch * rayon::current_num_threads();
+        let taken = chunk
+            .par_iter()
+            .enumerate()
+            .map(|(k, (view, flange))| {
+                let name = format!("pose{}-{}kg.png", view.pose.id, view.load_kg);
+                let path = folder.join(&name);
+                let pixels = webcam.image((first + k) as u32, flange, &Look::WEBCAM);
+                image::GrayImage::from_raw(width, height, pixels)
+                    .ok_or_else(|| {
+                        failed(&path, std::io::Error::other("the image is not its size"))
+                    })?
+                    .save(&path)
+                    .map_err(|e| failed(&path, std::io::Error::other(e)))?;
+                Ok(Shot {
+                    line: 0,
+                    pose: view.pose,
+                    load_kg: view.load_kg,
+                    image: name,
+                    units: *kinds,
+                })
+            })
+            .collect::<Result<Vec<_>, lrmcal_core::Error>>()?;
+        meter.inc(taken.len() as u64);
+        shots.extend(taken);
+    }
+    meter.finish();
+    shots::write(&folder.join(IMAGE_LIST), &shots, kinds)?;
     Ok(())
 }
 

@@ -107,7 +107,7 @@ const CALIBRATION: &str = include_str!("calibration.json");
 const CALIBRATION_SCHEMA_1: &str = include_str!("calibration-schema-1.json");
 
 /// A webcam's intrinsics as ROS's camera calibrator saves them.
-const CAMERA_INFO: &str = include_str!("../../core/tests/data/camera/camera_info.yaml");
+const CAMERA_INFO: &str = include_str!("../../core/arms/lrm-webcam/camera_info.yaml");
 
 /// Intrinsics as OpenCV's FileStorage writes them (cv2.FileStorage of
 /// OpenCV 5, the file the projection is checked against).

@@ -21,6 +21,7 @@
 //! | [`views`] | the tags seen at each commanded pose and load (a camera's measurements), and their CSV file |
 //! | [`shots`] | the images taken at a pose list's poses, each under its load |
 //! | [`setup`] | the camera setup file: the files above and the two poses that place them |
+//! | [`bundled`] | the bundled arm's webcam setup, for the demo |
 //! | `yaml` | the YAML reading the files above share |
 //!
 //! Conventions (OpenCV's, which ROS shares): the camera frame has x right,
@@ -28,6 +29,7 @@
 //! integer coordinates, the top-left pixel's centre at (0, 0).
 
 pub mod board;
+pub mod bundled;
 pub mod corners;
 pub mod intrinsics;
 pub mod intrinsics_file;

@@ -8,6 +8,7 @@
 //! by a second pass over the same text, paired with the poses by line.
 
 use std::collections::HashMap;
+use std::io::Write;
 use std::path::Path;
 
 use model::{JointKind, PerJoint};
@@ -15,8 +16,8 @@ use model::{JointKind, PerJoint};
 use super::views::IMAGE_COLUMN;
 use crate::dataset::Pose;
 use crate::error::{Error, InputError, Problem};
-use crate::io::csv_table::{Extra, Schema, for_each_row, pose_columns};
-use crate::io::{pose_list, read_text};
+use crate::io::csv_table::{Extra, Schema, for_each_row, format_joint, pose_columns, q_column};
+use crate::io::{atomic, pose_list, read_text};
 
 /// The columns the images' pass needs: the pose list's, with `load_kg`
 /// and `image` required; other columns are the pose list's to judge.
@@ -90,6 +91,35 @@ pub fn parse(text: &str) -> Result<Vec<Shot>, InputError> {
     Ok(shots)
 }
 
+/// Writes a pose list of images atomically, in the order given:
+/// `pose,load_kg,q1_deg..,image`; `kinds` are the arm's joints' (a
+/// revolute joint's column is `qi_deg`, a prismatic one's `qi_mm`). The
+/// shots' lines and units are the file's to give when it is read.
+pub fn write(path: &Path, shots: &[Shot], kinds: &[JointKind]) -> Result<(), Error> {
+    atomic::write(path, |w| write_to(w, shots, kinds))
+}
+
+/// Writes a pose list of images to any writer (see [`write`]).
+pub fn write_to(w: &mut dyn Write, shots: &[Shot], kinds: &[JointKind]) -> std::io::Result<()> {
+    let mut columns = vec!["pose", "load_kg"];
+    columns.extend(kinds.iter().enumerate().map(|(i, &k)| q_column(i, k)));
+    columns.push(IMAGE_COLUMN);
+    let mut csv = csv::Writer::from_writer(w);
+    csv.write_record(&columns)?;
+    for shot in shots {
+        let mut record = vec![shot.pose.id.to_string(), shot.load_kg.to_string()];
+        record.extend(
+            kinds
+                .iter()
+                .zip(&shot.pose.q)
+                .map(|(&k, &q)| format_joint(k, q)),
+        );
+        record.push(shot.image.clone());
+        csv.write_record(&record)?;
+    }
+    csv.flush()
+}
+
 /// A missing `load_kg` or `image` column's error, saying why it is needed.
 fn why_needed(error: InputError) -> InputError {
     let why = match error.problem {
@@ -147,6 +177,27 @@ mod tests {
             shots[0].units[..],
             [JointKind::Revolute, JointKind::Prismatic]
         );
+    }
+
+    /// What is written reads back: the same poses, loads, images and
+    /// order, the joints in the arm's units.
+    #[test]
+    fn a_written_list_reads_back() {
+        let text = format!(
+            "{HEADER}7,0,10.5,250,b.png,1\n7,0.5,10.5,250,\"a, 2.png\",2\n3,0,-5,0,c.jpg,3\n"
+        );
+        let shots = parse(&text).unwrap();
+        let kinds = [JointKind::Revolute, JointKind::Prismatic];
+        let mut written = Vec::new();
+        write_to(&mut written, &shots, &kinds).unwrap();
+        let again = parse(std::str::from_utf8(&written).unwrap()).unwrap();
+        let strip = |s: &[Shot]| -> Vec<(Pose, f64, String)> {
+            s.iter()
+                .map(|s| (s.pose, s.load_kg, s.image.clone()))
+                .collect()
+        };
+        assert_eq!(strip(&again), strip(&shots));
+        assert_eq!(again[0].units, shots[0].units);
     }
 
     #[test]

@@ -64,16 +64,19 @@ pub enum DetectError {
 pub struct TagDetector(Detector);
 
 impl TagDetector {
-    /// A detector of tag36h11 tags correcting up to 2 bits, with the C
-    /// library's recommended settings: quads looked for at half resolution,
-    /// their edges then refined on the full image (on the rendered tags this
-    /// put the corners closer to the truth than no decimation did).
+    /// A detector of tag36h11 tags correcting up to 2 bits: quads looked
+    /// for at 1/1.5 of the resolution, their edges then refined on the full
+    /// image. On 200 webcam images `lrmcal simulate --images` rendered (the
+    /// board 0.6-1 m away, up to 60° oblique) this found 97 % of the tags,
+    /// against 87 % at half resolution (the library's default) and 99.9 % at
+    /// full, in a third of full resolution's time; the corners' median error
+    /// was 0.075 px at each.
     pub fn new() -> Result<Self, DetectError> {
         let mut detector = DetectorBuilder::new()
             .add_family_bits(Family::tag_36h11(), 2)
             .build()
             .map_err(|e| DetectError::Library(e.to_string()))?;
-        detector.set_decimation(2.0);
+        detector.set_decimation(1.5);
         detector.set_refine_edges(true);
         Ok(Self(detector))
     }

@@ -8,7 +8,7 @@ use lrmcal_core::camera::{AprilGrid, Intrinsics, board, intrinsics_file};
 
 fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../core/tests/data/camera")
+        .join("../core/arms/lrm-webcam")
         .join(name)
 }
 

@@ -145,7 +145,11 @@ pub fn render(
 ) -> Vec<u8> {
     let (width, height) = (intrinsics.width_px as usize, intrinsics.height_px as usize);
     let draw = |rng: &mut dyn rand::RngCore, [lo, hi]: [f64; 2]| {
-        if hi > lo { rng.random_range(lo..hi) } else { lo }
+        if hi > lo {
+            rng.random_range(lo..hi)
+        } else {
+            lo
+        }
     };
     let white = draw(rng, look.white);
     let black = draw(rng, look.black);
@@ -168,9 +172,22 @@ pub fn render(
         let origin = camera_from_board.translation.vector;
         let normal = camera_from_board.rotation * Vector3::z();
         let board_from_camera = camera_from_board.inverse();
-        let along_ray = |pixel: Point2<f64>| -> Option<f64> {
-            let ray = intrinsics.undistort(&pixel)?;
-            let ray = Vector3::new(ray.x, ray.y, 1.0);
+        // The rays through the pixels' corners (the lattice of half-integer
+        // coordinates), undistorted once each; a sample's ray is blended from
+        // its pixel's four, the lens being smooth over a pixel.
+        let lattice_width = u1 - u0 + 1;
+        let rays: Vec<Option<Vector3<f64>>> = (0..lattice_width * (v1 - v0 + 1))
+            .map(|k| {
+                let corner = Point2::new(
+                    (u0 + k % lattice_width) as f64 - 0.5,
+                    (v0 + k / lattice_width) as f64 - 0.5,
+                );
+                intrinsics
+                    .undistort(&corner)
+                    .map(|ray| Vector3::new(ray.x, ray.y, 1.0))
+            })
+            .collect();
+        let on_page = |ray: Vector3<f64>| -> Option<f64> {
             let facing = normal.dot(&ray);
             if facing.abs() < 1e-12 {
                 return None;
@@ -184,12 +201,27 @@ pub fn render(
         };
         for v in v0..v1 {
             for u in u0..u1 {
+                let at = (v - v0) * lattice_width + (u - u0);
+                let corners = [
+                    rays[at],
+                    rays[at + 1],
+                    rays[at + lattice_width],
+                    rays[at + lattice_width + 1],
+                ];
                 let mut sum = 0.0;
                 for a in 0..SUB {
                     for b in 0..SUB {
-                        let offset = |k: usize| -0.5 + (k as f64 + 0.5) / SUB as f64;
-                        let pixel = Point2::new(u as f64 + offset(a), v as f64 + offset(b));
-                        sum += along_ray(pixel).unwrap_or(look.background);
+                        let (x, y) = ((a as f64 + 0.5) / SUB as f64, (b as f64 + 0.5) / SUB as f64);
+                        let ray = match corners {
+                            [Some(r00), Some(r10), Some(r01), Some(r11)] => Some(
+                                r00 * ((1.0 - x) * (1.0 - y))
+                                    + r10 * (x * (1.0 - y))
+                                    + r01 * ((1.0 - x) * y)
+                                    + r11 * (x * y),
+                            ),
+                            _ => None,
+                        };
+                        sum += ray.and_then(on_page).unwrap_or(look.background);
                     }
                 }
                 let reflectance = sum / (SUB * SUB) as f64;

@@ -30,8 +30,9 @@ use model::Frame;
 const PLACEMENT_STREAM: u64 = 2;
 /// RNG stream of the pixel noise.
 const PIXEL_NOISE_STREAM: u64 = 3;
-/// RNG stream of the images' light and sensor noise.
-const IMAGE_STREAM: u64 = 4;
+/// RNG stream of the first image's light and sensor noise; the next
+/// image's is the next stream.
+const IMAGE_STREAMS: u64 = 1 << 32;
 
 /// Sigma of the camera's position error against its setup, per axis, m.
 pub const CAMERA_XYZ_SIGMA_M: f64 = 0.02;
@@ -157,25 +158,20 @@ impl Webcam {
             .collect()
     }
 
-    /// The images the webcam takes of the board at `flanges` (the arm's
-    /// last frame in the world at each), grey, looking as `look` says,
-    /// their light and noise drawn from the webcam's seed.
-    pub fn images<'a>(
-        &'a self,
-        flanges: &'a [IsometryMatrix3<f64>],
-        look: &'a Look,
-    ) -> impl Iterator<Item = Vec<u8>> + 'a {
+    /// The image the webcam takes of the board, grey, with the arm's last
+    /// frame at `flange` in the world, looking as `look` says; its light
+    /// and noise drawn from the webcam's seed and `index` (the view's place
+    /// in the session), so images can be taken in any order, or at once.
+    pub fn image(&self, index: u32, flange: &IsometryMatrix3<f64>, look: &Look) -> Vec<u8> {
         let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
-        rng.set_stream(IMAGE_STREAM);
-        flanges.iter().map(move |flange| {
-            render(
-                &self.intrinsics,
-                &self.board,
-                &self.camera_from_board(flange),
-                look,
-                &mut rng,
-            )
-        })
+        rng.set_stream(IMAGE_STREAMS + u64::from(index));
+        render(
+            &self.intrinsics,
+            &self.board,
+            &self.camera_from_board(flange),
+            look,
+            &mut rng,
+        )
     }
 
     /// The board's pose in the camera frame with the arm's last frame at `flange`.
@@ -275,7 +271,7 @@ mod tests {
 
     fn setup() -> CameraSetup {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../core/tests/data/camera/setup.toml");
+            .join("../core/arms/lrm-webcam/setup.toml");
         setup::read(&path).unwrap()
     }
 

@@ -39,7 +39,7 @@ pub struct Trial {
 }
 
 fn camera_setup() -> CameraSetup {
-    setup::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../core/tests/data/camera/setup.toml"))
+    setup::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../core/arms/lrm-webcam/setup.toml"))
         .unwrap()
 }
 

@@ -122,7 +122,8 @@ pub fn detmax(
             params: m,
         });
     }
-    let pool = Pool::new(blocks);
+    let compressed = pool::compressed(blocks);
+    let pool = Pool::new(compressed.as_deref().unwrap_or(blocks));
     // The starts run on every core; each reports as it ends.
     let starts: Vec<usize> = (0..options.starts.max(1)).collect();
     let runs = par_map(&starts, |&s| run_start(&pool, options, s), progress).ok_or_else(|| {

@@ -24,7 +24,7 @@
 
 use model::bounds::Bounds;
 use model::{Arm, Deflection, PerJoint, ServoCurve, SolverOptions};
-use nalgebra::{Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Point3, Vector3};
 
 use super::camera::{Observation, RigCamera, tracked};
 use crate::calib::{CalibError, Sample};
@@ -216,12 +216,31 @@ impl Rig {
     /// The tool points of [`Rig::evaluate`] for every sample (each its own
     /// target's), world frame, m: the fit's residuals and every comparison
     /// with measurements come from here.
+    ///
+    /// Samples of one pose (several targets measured at once: a camera's
+    /// corners) share its deflection, solved once ([`same_pose`]).
     pub fn tool_points(&self, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
         let chains = target_chains(self);
-        samples
-            .iter()
-            .map(|s| Ok(evaluate_on(self, chain_of(&chains, s)?, s)?.tool_m))
-            .collect()
+        let mut points = Vec::with_capacity(samples.len());
+        let mut standing: Option<(&Sample, IsometryMatrix3<f64>)> = None;
+        for sample in samples {
+            let chain = chain_of(&chains, sample)?;
+            let last = match standing {
+                Some((before, last)) if same_pose(before, sample) => last,
+                _ => {
+                    let last = evaluate_on(self, chain, sample)?
+                        .deflection
+                        .frames
+                        .frames
+                        .last_value();
+                    standing = Some((sample, last));
+                    last
+                }
+            };
+            // As `model::Chain::frames` places the tool point on the last frame.
+            points.push(last.rotation * chain.tool_point + last.translation.vector);
+        }
+        Ok(points)
     }
 
     /// The same rig with no play: a joint whose approach is unknown is
@@ -300,6 +319,12 @@ fn evaluate_on(
         tool_m: deflection.tool_point(),
         deflection,
     })
+}
+
+/// Whether two samples stand the arm the same way: the same pose, load and
+/// approach, so the same deflection whichever target each measures.
+pub(crate) fn same_pose(a: &Sample, b: &Sample) -> bool {
+    a.id == b.id && a.q == b.q && a.load_kg == b.load_kg && a.approach == b.approach
 }
 
 /// One chain per target ([`Rig::target_chain`]), in target order.

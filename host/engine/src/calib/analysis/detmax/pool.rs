@@ -42,6 +42,46 @@ impl<'a> Pool<'a> {
     }
 }
 
+/// Singular values of a block below this fraction of its largest carry
+/// nothing the exchange can tell from rounding.
+const RANK_TOLERANCE: f64 = 1e-10;
+
+/// The blocks with as few rows as carry their information: `B` with
+/// `BᵀB = AᵀA` (so every determinant of the exchange is the same), `Σ Vᵀ`
+/// of `A`'s singular value decomposition, its negligible rows dropped and
+/// every block padded with zero rows to the largest rank. A camera's view
+/// of 48 corners is 144 rows that move with the board's six coordinates
+/// alone: six rows do, and the exchange's work grows with the square of
+/// the rows. `None` when no block would lose a row.
+pub(super) fn compressed(blocks: &[DMatrix<f64>]) -> Option<Vec<DMatrix<f64>>> {
+    use rayon::prelude::*;
+    let (r, m) = blocks.first().map(|b| b.shape())?;
+    if r <= 6 {
+        return None;
+    }
+    let reduced: Vec<DMatrix<f64>> = blocks
+        .par_iter()
+        .map(|block| {
+            let svd = block.clone().svd(false, true);
+            let v_t = svd.v_t.expect("asked for");
+            let largest = svd.singular_values.max();
+            let kept: Vec<usize> = (0..svd.singular_values.len())
+                .filter(|&i| svd.singular_values[i] > RANK_TOLERANCE * largest)
+                .collect();
+            DMatrix::from_fn(kept.len(), m, |row, col| {
+                svd.singular_values[kept[row]] * v_t[(kept[row], col)]
+            })
+        })
+        .collect();
+    let rank = reduced.iter().map(|b| b.nrows()).max().unwrap_or(0).max(1);
+    (rank < r).then(|| {
+        reduced
+            .into_iter()
+            .map(|b| b.resize_vertically(rank, 0.0))
+            .collect()
+    })
+}
+
 /// Splits a stacked `3·L·P × m` matrix into `P` blocks of `3·L` rows.
 pub fn split_blocks(j: &DMatrix<f64>, rows_per_block: usize) -> Vec<DMatrix<f64>> {
     (0..j.nrows() / rows_per_block)

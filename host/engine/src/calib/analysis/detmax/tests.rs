@@ -75,3 +75,27 @@ fn refuses_too_few_poses() {
         Err(CalibError::TooFewPoses { params: 10, .. })
     ));
 }
+
+/// Tall blocks that move with few coordinates (a camera's 48 corners with
+/// the board's six) select as their information does: blocks `Q A` with
+/// `QᵀQ = I` give the design and the determinant of the blocks `A`.
+#[test]
+fn tall_blocks_select_as_their_information_does() {
+    let small = random_blocks_of(80, 6, 10, 4);
+    let turns = random_blocks_of(80, 40, 6, 5);
+    let tall: Vec<DMatrix<f64>> = small
+        .iter()
+        .zip(&turns)
+        .map(|(a, t)| t.clone().qr().q() * a)
+        .collect();
+    assert_eq!(tall[0].shape(), (40, 10));
+    let opts = DetmaxOptions {
+        n: 12,
+        starts: 3,
+        ..Default::default()
+    };
+    let of_small = detmax(&small, &opts, &Silent).unwrap();
+    let of_tall = detmax(&tall, &opts, &Silent).unwrap();
+    assert_eq!(of_tall.chosen, of_small.chosen);
+    assert!((of_tall.log_det - of_small.log_det).abs() < 1e-9);
+}

@@ -47,12 +47,17 @@ use rayon::prelude::*;
 use crate::calib::parameters::joint_columns;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::fit_start;
-use crate::calib::parameters::targets::{chain_of, deflection_error, target_chains};
+use crate::calib::parameters::targets::{chain_of, deflection_error, same_pose, target_chains};
 use crate::calib::{CalibError, Rig, Sample};
 use state::{State, Twist};
 
-/// Samples per share of the work on another core (a few ms of it).
+/// Samples per share of the work on another core (a few ms of it), in
+/// whole poses.
 const PARALLEL_CHUNK: usize = 1024;
+
+/// One sample's rows: its measured point's derivatives with respect to the
+/// parameters and to the commanded joint angles.
+type SampleSlopes = (Matrix3xX<f64>, Matrix3xX<f64>);
 
 /// The exact slopes of the measured points of a set of samples.
 #[derive(Clone, Debug, PartialEq)]
@@ -84,14 +89,25 @@ pub fn slopes(rig: &Rig, ids: &[ParamKey], samples: &[Sample]) -> Result<Slopes,
     // Servo-knot keys move the curves on their grid (the same map).
     let rig = &fit_start(rig, ids);
     let chains = target_chains(rig);
-    let per_sample: Vec<(Matrix3xX<f64>, Matrix3xX<f64>)> = samples
+    // Samples of one pose (a camera's corners) share its deflection and
+    // its solve: one group each.
+    let mut groups: Vec<&[Sample]> = Vec::new();
+    let mut rest = samples;
+    while let Some(first) = rest.first() {
+        let len = rest.iter().take_while(|s| same_pose(first, s)).count();
+        let (group, after) = rest.split_at(len);
+        groups.push(group);
+        rest = after;
+    }
+    let chunk = (PARALLEL_CHUNK * groups.len() / samples.len().max(1)).max(1);
+    let per_group: Vec<Vec<SampleSlopes>> = groups
         .par_iter()
-        .with_min_len(PARALLEL_CHUNK)
-        .map(|s| pose_slopes(rig, chain_of(&chains, s)?, ids, s))
+        .with_min_len(chunk)
+        .map(|group| pose_slopes(rig, &chains, ids, group))
         .collect::<Result<_, _>>()?;
     let mut params = DMatrix::zeros(3 * samples.len(), ids.len());
     let mut joints = Vec::with_capacity(samples.len());
-    for (k, (p, j)) in per_sample.into_iter().enumerate() {
+    for (k, (p, j)) in per_group.into_iter().flatten().enumerate() {
         params.rows_mut(3 * k, 3).copy_from(&p);
         joints.push(j);
     }
@@ -111,108 +127,145 @@ fn rpy_axes([_, pitch, yaw]: [f64; 3]) -> [Vector3<f64>; 3] {
     ]
 }
 
-/// Rows of one sample: its measured point's derivatives with respect to
-/// `ids` and to the commanded joint angles.
+/// Rows of each sample of `group` (samples of one pose, [`same_pose`]):
+/// its measured point's derivatives with respect to `ids` and to the
+/// commanded joint angles. The deflection, its solve and each parameter's
+/// change of the state are the pose's, worked once; the measured point is
+/// each sample's own.
 fn pose_slopes(
     rig: &Rig,
-    chain: &model::Chain<f64>,
+    chains: &[model::Chain<f64>],
     ids: &[ParamKey],
-    sample: &Sample,
-) -> Result<(Matrix3xX<f64>, Matrix3xX<f64>), CalibError> {
-    let d = chain
+    group: &[Sample],
+) -> Result<Vec<SampleSlopes>, CalibError> {
+    let Some(first) = group.first() else {
+        return Ok(Vec::new());
+    };
+    // The deflection does not depend on which target is measured.
+    let d = chain_of(chains, first)?
         .deflect(
-            &rig.standing_angles(sample),
-            sample.load_kg,
+            &rig.standing_angles(first),
+            first.load_kg,
             &SolverOptions::default(),
         )
-        .map_err(|e| deflection_error(sample, e.to_string()))?;
-    let point = d.tool_point();
-    let state = State::new(chain, rig, d.frames.frames, sample.load_kg);
+        .map_err(|e| deflection_error(first, e.to_string()))?;
+    let state = State::new(
+        chain_of(chains, first)?,
+        rig,
+        d.frames.frames,
+        first.load_kg,
+    );
     let n = state.joints;
     let twists: Vec<Twist> = (0..=n).map(|e| state.state_twist(e)).collect();
-    // P: how the point moves per unit of each state coordinate.
-    let p = Matrix3xX::from_fn(n + 1, |r, e| twists[e].velocity(&point)[r]);
-    // W = P (I − D ∂T/∂s)⁻¹ carries a change of the state's right-hand side
-    // to the point.
-    let w = if state.rigid() {
-        p
-    } else {
+    // (I − D ∂T/∂s)ᵀ, factored: W = P (I − D ∂T/∂s)⁻¹ carries a change of
+    // the state's right-hand side to a point whose motion per unit of each
+    // state coordinate is P.
+    let solve = (!state.rigid()).then(|| {
         let mut h = DMatrix::<f64>::identity(n + 1, n + 1);
         for (e, t) in twists.iter().enumerate() {
             for (row, slope) in state.torque_slopes(t).iter().enumerate() {
                 h[(row, e)] -= state.rate[row] * slope;
             }
         }
-        let ht = h.transpose().lu();
-        let wt = ht.solve(&p.transpose()).ok_or_else(|| {
-            deflection_error(
-                sample,
-                "the deflection is singular here: its fixed point does not move smoothly with the parameters".into(),
-            )
-        })?;
-        wt.transpose()
-    };
+        h.transpose().lu()
+    });
     let torques = state.torques();
-    let last = &state.frames[n];
+    let last = state.frames[n];
     let in_last = |axis: usize| last.rotation.matrix().column(axis).into_owned();
-    let mut out = Matrix3xX::zeros(ids.len());
-    for (col, id) in ids.iter().enumerate() {
-        let slope = match *id {
-            ParamKey::Arm(pid) => {
+    // Each geometric parameter's change of the state's right-hand side
+    // (none where the arm moves rigidly), the same for every target.
+    let geometric_rhs: Vec<Option<DVector<f64>>> = ids
+        .iter()
+        .map(|id| match *id {
+            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
                 let part = pid.part();
-                match pid.kind() {
-                    ParamKind::Compliance => {
-                        // k1..kn then k0, as the state.
-                        let e = match part {
-                            ParamPart::Compliance { joint } => joint,
-                            _ => n,
-                        };
-                        w.column(e) * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
-                    }
-                    ParamKind::Length | ParamKind::Angle => {
-                        let (twist, direct) = arm_twist(rig, &state, part, sample.target);
-                        let direct = direct.unwrap_or_else(|| twist.velocity(&point));
-                        // A level base turns gravity with it: the arm moves
-                        // rigidly, its torques unchanged.
-                        let with_gravity = rig.level_base.is_some()
-                            && matches!(part, ParamPart::Base { axis } if axis >= 3);
-                        if state.rigid() || with_gravity {
-                            direct
-                        } else {
-                            let dt = state.torque_slopes(&twist);
-                            let rhs = DVector::from_fn(n + 1, |e, _| state.rate[e] * dt[e]);
-                            direct + &w * rhs
+                // A level base turns gravity with it: the arm moves
+                // rigidly, its torques unchanged.
+                let with_gravity = rig.level_base.is_some()
+                    && matches!(part, ParamPart::Base { axis } if axis >= 3);
+                (!state.rigid() && !with_gravity).then(|| {
+                    let (twist, _) = arm_twist(rig, &state, part, first.target);
+                    let dt = state.torque_slopes(&twist);
+                    DVector::from_fn(n + 1, |e, _| state.rate[e] * dt[e])
+                })
+            }
+            _ => None,
+        })
+        .collect();
+    group
+        .iter()
+        .map(|sample| {
+            let tool_point = chain_of(chains, sample)?.tool_point;
+            // As `model::Chain::frames` places the tool point on the last frame.
+            let point = last.rotation * tool_point + last.translation.vector;
+            // P: how the point moves per unit of each state coordinate.
+            let p = Matrix3xX::from_fn(n + 1, |r, e| twists[e].velocity(&point)[r]);
+            let w = match &solve {
+                None => p,
+                Some(ht) => ht
+                    .solve(&p.transpose())
+                    .ok_or_else(|| {
+                        deflection_error(
+                            sample,
+                            "the deflection is singular here: its fixed point does not move smoothly with the parameters".into(),
+                        )
+                    })?
+                    .transpose(),
+            };
+            let mut out = Matrix3xX::zeros(ids.len());
+            for (col, (id, rhs)) in ids.iter().zip(&geometric_rhs).enumerate() {
+                let slope = match *id {
+                    ParamKey::Arm(pid) => {
+                        let part = pid.part();
+                        match pid.kind() {
+                            ParamKind::Compliance => {
+                                // k1..kn then k0, as the state.
+                                let e = match part {
+                                    ParamPart::Compliance { joint } => joint,
+                                    _ => n,
+                                };
+                                w.column(e)
+                                    * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
+                            }
+                            ParamKind::Length | ParamKind::Angle => {
+                                let (twist, direct) = arm_twist(rig, &state, part, sample.target);
+                                let direct = direct.unwrap_or_else(|| twist.velocity(&point));
+                                match rhs {
+                                    Some(rhs) => direct + &w * rhs,
+                                    None => direct,
+                                }
+                            }
                         }
                     }
-                }
-            }
-            ParamKey::TargetTool { target, axis } => {
-                if usize::from(target) == sample.target {
-                    in_last(usize::from(axis))
-                } else {
-                    Vector3::zeros()
-                }
-            }
-            ParamKey::Softening { spring } => {
-                // s0 is the base's (state n), s1..sn the joints'.
-                let e = match usize::from(spring) {
-                    0 => n,
-                    j => j - 1,
+                    ParamKey::TargetTool { target, axis } => {
+                        if usize::from(target) == sample.target {
+                            in_last(usize::from(axis))
+                        } else {
+                            Vector3::zeros()
+                        }
+                    }
+                    ParamKey::Softening { spring } => {
+                        // s0 is the base's (state n), s1..sn the joints'.
+                        let e = match usize::from(spring) {
+                            0 => n,
+                            j => j - 1,
+                        };
+                        w.column(e) * (state.compliance[e] * torques[e].abs() * torques[e])
+                    }
+                    ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
+                        match joint_columns::joint_of(*id) {
+                            Some(j) => w.column(j) * joint_columns::weight(rig, *id, sample),
+                            None => Vector3::zeros(),
+                        }
+                    }
                 };
-                w.column(e) * (state.compliance[e] * torques[e].abs() * torques[e])
+                out.set_column(col, &slope);
             }
-            ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
-                match joint_columns::joint_of(*id) {
-                    Some(j) => w.column(j) * joint_columns::weight(rig, *id, sample),
-                    None => Vector3::zeros(),
-                }
-            }
-        };
-        out.set_column(col, &slope);
-    }
-    // What the instrument measures of the point (a camera: its pixel).
-    let seen = rig.observe(sample, &point)?.slope;
-    Ok((seen * out, seen * w.columns(0, n)))
+            // What the instrument measures of the point (a camera: its pixel).
+            let seen = rig.observe(sample, &point)?.slope;
+            Ok((seen * out, seen * w.columns(0, n)))
+        })
+        .collect()
 }
 
 /// The rigid motion of the arm's geometric parameter `part` at `state`,
@@ -438,6 +491,13 @@ mod tests {
         let ids = all_keys(&rig);
         assert!(rig.tool_keys().is_empty());
         assert_columns_match_differences(&rig, &ids, &samples);
+        // Every corner seen at each pose, as a camera sees them: the
+        // corners of one pose share its deflection.
+        let seen: Vec<Sample> = lively_samples()
+            .iter()
+            .flat_map(|s| (0..3).map(move |target| Sample { target, ..*s }))
+            .collect();
+        assert_columns_match_differences(&rig, &ids, &seen);
         // The base standing level: its turns turn gravity with it.
         let level = Rig {
             level_base: Some(9.81),

@@ -19,6 +19,10 @@ pub(super) struct FitData<'a> {
     pub(super) option: ModelOption,
     pub(super) samples: Vec<Sample>,
     pub(super) measured: Vec<Vector3<f64>>,
+    /// The rows of the stacked blocks that hold a measurement, when some do
+    /// not (a pixel's block is `(u, v, 0)`: its third row is zero whatever
+    /// the parameters); `None` when every row does.
+    pub(super) measured_rows: Option<Vec<usize>>,
     /// The prior on the corrections of the keys, if the fit has one.
     pub(super) prior: Option<Prior>,
 }
@@ -30,11 +34,22 @@ impl<'a> FitData<'a> {
         measurements: &[Measurement],
     ) -> Result<Self, CalibError> {
         let samples = nominal.samples(measurements)?;
+        let measured_rows = measurements.iter().any(|m| m.pixel.is_some()).then(|| {
+            measurements
+                .iter()
+                .enumerate()
+                .flat_map(|(k, m)| {
+                    let rows = if m.pixel.is_some() { 2 } else { 3 };
+                    (0..rows).map(move |row| 3 * k + row)
+                })
+                .collect()
+        });
         Ok(Self {
             nominal,
             option,
             samples,
             measured: measurements.iter().map(measured_block).collect(),
+            measured_rows,
             prior: None,
         })
     }
@@ -156,6 +171,27 @@ impl Problem<'_> {
         self.params
             .apply_with_free(self.data.nominal, self.x.as_slice())
     }
+
+    /// The rows of `stacked` (the blocks' residuals or Jacobian) that hold
+    /// a measurement: the solver's work grows with its rows, and a pixel's
+    /// third row is always zero.
+    fn measured<C: Dim>(&self, stacked: OMatrix<f64, Dyn, C>) -> OMatrix<f64, Dyn, C>
+    where
+        DefaultAllocator: nalgebra::allocator::Allocator<Dyn, C>,
+    {
+        match &self.data.measured_rows {
+            Some(rows) => stacked.select_rows(rows),
+            None => stacked,
+        }
+    }
+
+    /// How many rows the measurements give the solver.
+    fn measured_count(&self) -> usize {
+        self.data
+            .measured_rows
+            .as_ref()
+            .map_or(3 * self.data.samples.len(), Vec::len)
+    }
 }
 
 impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
@@ -176,11 +212,11 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             .data
             .prior_residuals(self.params, self.x.as_slice(), self.sigma);
         match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
-            Some(r) => Some(stack(r, prior)),
+            Some(r) => Some(stack(self.measured(r), prior)),
             None => {
                 // A failed step, not the end of the fit (module docs).
                 self.failed.set(self.failed.get() + 1);
-                let rows = 3 * self.data.samples.len() + prior.map_or(0, |p| p.len());
+                let rows = self.measured_count() + prior.map_or(0, |p| p.len());
                 Some(DVector::from_element(rows, self.failed_entry))
             }
         }
@@ -192,7 +228,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
             .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
             .ok()?;
         Some(stack(
-            j,
+            self.measured(j),
             self.data.prior_jacobian(self.params, false, self.sigma),
         ))
     }
