@@ -190,6 +190,15 @@ impl Command {
     }
 }
 
+/// Runs the command line `argv` (its first word the program's name) as
+/// `lrmcal` would: the demo's camera path runs the commands a user types.
+pub(crate) fn run_line(argv: &[String]) -> Result<(), Error> {
+    Cli::try_parse_from(argv)
+        .map_err(|e| Error::Usage(e.to_string()))?
+        .with_chain_links()?
+        .run()
+}
+
 /// Parses the process arguments, runs the command and turns its outcome into an
 /// exit code, printing any error with its causes to stderr.
 pub fn main_impl() -> ExitCode {

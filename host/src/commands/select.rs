@@ -10,6 +10,7 @@ use std::path::PathBuf;
 use crate::commands::helpers::OptionChoice;
 use crate::error::Error;
 use crate::progress::Steps;
+use lrmcal_core::camera::setup;
 use lrmcal_core::dataset::{Pose, PoseRow};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::pose_list::{self, PoseRole};
@@ -25,7 +26,8 @@ use lrmcal_engine::plan::validation::{DEFAULT_VALIDATION_POSES, validation_poses
 #[command(after_help = "Examples:\n  \
 lrmcal plan --out candidates.csv && lrmcal select --candidates candidates.csv --out selection.csv\n  \
 lrmcal select --candidates candidates.csv --n 60 --option all --out selection.csv\n  \
-lrmcal select --candidates candidates.csv --evaluate my_poses.csv   # O1..O5 of your own set\n\n\
+lrmcal select --candidates candidates.csv --evaluate my_poses.csv   # O1..O5 of your own set\n  \
+lrmcal plan --camera setup.toml --out seen.csv && lrmcal select --camera setup.toml --candidates seen.csv --out selection.csv\n\n\
 The Jacobian is taken on the nominal arm under each --load-kg (default: the paper's \
 0.0663 kg). With --option all, one list per option is written, named \
 <out stem>-<option>.csv.\n\n\
@@ -65,6 +67,11 @@ pub struct Args {
     /// Random N-pose sets to compare O1 with; 0 skips the comparison.
     #[arg(long, default_value_t = 20)]
     pub compare_random: usize,
+    /// A webcam will measure: the camera setup (TOML) whose camera sees the
+    /// board's corners; the poses are chosen for what its pixels tell
+    /// (plan the candidates it sees with `lrmcal plan --camera`).
+    #[arg(long, value_name = "SETUP")]
+    pub camera: Option<PathBuf>,
     /// Instead of selecting, print the observability indices of this pose
     /// list (a subset of the candidates) and compare it with random sets.
     #[arg(long, value_name = "FILE", conflicts_with = "out")]
@@ -84,7 +91,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let options = args.option.options();
     let bar = Steps::new();
     // One plan for every option: the analyses are those `identify` will make.
-    let planned = Calibration::plan(&nominal, &candidates, &args.load_kg)?;
+    let planned = match &args.camera {
+        Some(path) => {
+            Calibration::plan_seen(&nominal, &candidates, &args.load_kg, &setup::read(path)?)?
+        }
+        None => Calibration::plan(&nominal, &candidates, &args.load_kg)?,
+    };
     for option in &options {
         let choice = match &args.evaluate {
             // A selection's validation poses are not fitted: its fit poses are evaluated.

@@ -45,7 +45,8 @@ use super::progress::Progress;
 use super::results::export::registered_calibration_file;
 use super::results::report::{RegistrationReport, Report};
 use super::{CalibError, ModelOption, Rig};
-use lrmcal_core::dataset::{Measurement, Pose, loads_of, poses_under};
+use lrmcal_core::camera::CameraSetup;
+use lrmcal_core::dataset::{Measurement, Pose, TargetName, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 
 mod request;
@@ -262,6 +263,39 @@ impl<'a> Calibration<'a> {
             structures: Mutex::new(Vec::new()),
             analyses: Mutex::new(Vec::new()),
         })
+    }
+
+    /// [`Calibration::plan`] for the camera of `setup`, standing where the
+    /// setup tells it: every corner of the board a target seen at its
+    /// pixel, the board the arm's tool frame, gravity turning with the
+    /// base as a level base's does (what `identify --camera` fits).
+    pub fn plan_seen(
+        nominal: &'a Arm<f64>,
+        candidates: &'a [Pose],
+        loads_kg: &[f64],
+        setup: &CameraSetup,
+    ) -> Result<Self, CalibError> {
+        let mut plan = Self::plan(nominal, candidates, loads_kg)?;
+        let camera = CameraInput::of_setup(setup);
+        let names: Vec<TargetName> = camera.corners.iter().map(|(name, _)| *name).collect();
+        let arm = Arm {
+            rated_payload_kg: plan.inputs.nominal.arm.rated_payload_kg,
+            ..camera.nominal_arm(nominal)
+        };
+        plan.inputs.nominal = Rig {
+            level_base: Some(nominal.gravity_vector().norm()),
+            ..Rig::on_board(
+                arm,
+                Targets::named_as(&names),
+                camera.corners.iter().map(|(_, corner)| *corner).collect(),
+                RigCamera {
+                    intrinsics: camera.intrinsics.clone(),
+                    from_world: setup.camera.isometry().inverse(),
+                },
+            )
+        };
+        plan.request.camera = Some(camera);
+        Ok(plan)
     }
 
     /// Chooses poses for `option` among the candidates, analysed under

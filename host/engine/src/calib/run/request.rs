@@ -9,7 +9,8 @@ use crate::calib::ModelOption;
 use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::registration::Gravity;
 use crate::calib::parameters::option::DEFAULT;
-use lrmcal_core::camera::Intrinsics;
+use crate::camera::corner_measurements::corner_target;
+use lrmcal_core::camera::{CameraSetup, Intrinsics};
 use lrmcal_core::dataset::{Measurement, Pose, TargetName};
 
 /// Which measured poses the fit uses.
@@ -55,6 +56,25 @@ pub struct CameraInput {
 }
 
 impl CameraInput {
+    /// The camera of `setup` with every corner of its board a target
+    /// (`tag7.c2`), in the board's order: what planning for it sees.
+    pub fn of_setup(setup: &CameraSetup) -> Self {
+        Self {
+            intrinsics: setup.intrinsics.clone(),
+            corners: setup
+                .board
+                .tags()
+                .flat_map(|(id, corners)| {
+                    corners
+                        .into_iter()
+                        .enumerate()
+                        .map(move |(k, corner)| (corner_target(id, k), corner.coords))
+                })
+                .collect(),
+            board_on_flange: setup.board_on_flange,
+        }
+    }
+
     /// `arm` as the camera's fit starts from it: its tool frame moved to
     /// the board's, its payload's centre of mass kept where it is.
     pub fn nominal_arm(&self, arm: &Arm<f64>) -> Arm<f64> {

@@ -7,6 +7,8 @@
 //! compensation, and write the calibrations, the report and the plots to
 //! one folder.
 
+mod camera;
+
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -46,7 +48,8 @@ pub const OFF_GRID_FIRST_ID: u32 = 1_000_000;
 #[command(after_help = "Examples:\n  \
 lrmcal demo\n  \
 lrmcal demo --out my-demo --seed 7\n  \
-lrmcal demo --model-only      # no unmodelled effects, no noise: a consistency check\n\n\
+lrmcal demo --model-only      # no unmodelled effects, no noise: a consistency check\n  \
+lrmcal demo --camera          # the webcam path: images, tags, arm and camera together\n\n\
 Writes to the output folder: measurements.csv (every candidate under both loads), \
 off-grid.csv (the off-grid validation poses), truth.json (the simulated true arm), calibration-<option>.json (one per option, the file \
 the firmware receives), report.json, report.html (the run on one page), and the plots errors.svg/png (validation error \
@@ -90,6 +93,15 @@ pub struct Args {
     /// far off the others.
     #[arg(long)]
     pub no_robust: bool,
+    /// The webcam path instead: plan the poses a camera sees, select them
+    /// on its pixels, render the images, detect the tags, identify the arm
+    /// and the camera together, and judge both against the truth.
+    #[arg(long)]
+    pub camera: bool,
+    /// With --camera, your camera setup (TOML) instead of the bundled one
+    /// (a webcam 0.8 m in front of the bundled arm).
+    #[arg(long, value_name = "SETUP", requires = "camera")]
+    pub camera_setup: Option<PathBuf>,
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-demo")]
     pub out: PathBuf,
@@ -97,6 +109,9 @@ pub struct Args {
 
 /// Runs `lrmcal demo`.
 pub fn run(args: &Args) -> Result<(), Error> {
+    if args.camera {
+        return camera::run(args);
+    }
     let started = Instant::now();
     let loaded = args.arm.load()?;
     let nominal = loaded.arm;

@@ -1,0 +1,322 @@
+//! `lrmcal demo --camera`: the webcam path on a simulated arm, as a user
+//! runs it. The bundled webcam setup is written into the folder (or the
+//! one given is taken), and each step is the command a user types, run
+//! through the command line's own parser: plan the poses the camera sees,
+//! select N of them with DETMAX on the pixels they will give, take the
+//! images (`simulate --images`: the simulated webcam renders the board on
+//! the true arm), detect the tags, and identify the arm, the board and the
+//! camera together. The calibration file is then judged against the
+//! simulation's truth: where it puts the board at seen poses it was not
+//! fitted to, and where it puts the camera.
+
+use std::path::Path;
+use std::time::Instant;
+
+use nalgebra::{IsometryMatrix3, Point3};
+
+use super::{Args, PAPER_LOAD_KG};
+use crate::cli::{Cli, Command, run_line};
+use crate::error::Error;
+use clap::Parser;
+use lrmcal_core::camera::{CameraSetup, bundled, setup};
+use lrmcal_core::dataset::{Pose, from_home};
+use lrmcal_core::io::arm_source::ArmSource;
+use lrmcal_core::io::{pose_list, read_text};
+use lrmcal_engine::calib::results::export::rig_of;
+use lrmcal_engine::calib::{Rig, Sample};
+use lrmcal_engine::sim::{Pass, TrueArm, Webcam};
+
+/// The calibration the camera path writes (the default option's).
+const CALIBRATION: &str = "calibration/calibration-elasto-kinematic-servo.json";
+
+/// Seen poses not fitted that the calibration is judged at, at most.
+const CHECK_POSES: usize = 100;
+
+/// Runs `lrmcal demo --camera`.
+pub fn run(args: &Args) -> Result<(), Error> {
+    let started = Instant::now();
+    let out = &args.out;
+    std::fs::create_dir_all(out).map_err(|source| lrmcal_core::Error::Write {
+        path: out.clone(),
+        source,
+    })?;
+    let setup_path = match &args.camera_setup {
+        Some(path) => path.clone(),
+        None => bundled::write(out)?,
+    };
+    let setup = setup::read(&setup_path)?;
+    let named = setup::parse(&read_text(&setup_path)?).map_err(|e| e.in_file(&setup_path))?;
+    let folder = setup_path.parent().unwrap_or(Path::new(""));
+    let at = |name: &str| out.join(name).display().to_string();
+    let setup_arg = setup_path.display().to_string();
+    let arm = arm_arguments(&args.arm);
+    let seed = args.seed.to_string();
+
+    lrmcal(
+        &["plan", "--camera", &setup_arg, "--out", &at("seen.csv")],
+        &[&arm, &["--random".into(), args.random.to_string()]],
+    )?;
+    lrmcal(
+        &[
+            "select",
+            "--camera",
+            &setup_arg,
+            "--candidates",
+            &at("seen.csv"),
+            "--validate",
+            "0",
+            "--compare-random",
+            "0",
+            "--out",
+            &at("selection.csv"),
+        ],
+        &[
+            &arm,
+            &[
+                "--n".into(),
+                args.poses.to_string(),
+                "--starts".into(),
+                args.starts.to_string(),
+            ],
+        ],
+    )?;
+    let loads = format!("0,{PAPER_LOAD_KG}");
+    let simulate = words(
+        &[
+            "simulate",
+            "--camera",
+            &setup_arg,
+            "--poses",
+            &at("selection.csv"),
+            "--loads",
+            &loads,
+            "--seed",
+            &seed,
+            "--images",
+            &at("images"),
+            "--truth",
+            &at("truth.json"),
+        ],
+        &[&arm, &flag(args.model_only, "--model-only")],
+    );
+    run_words(&simulate)?;
+    lrmcal(
+        &[
+            "detect",
+            "--images",
+            &at("images"),
+            "--board",
+            &folder.join(&named.board).display().to_string(),
+            "--intrinsics",
+            &folder.join(&named.intrinsics).display().to_string(),
+            "--poses",
+            &out.join("images").join("poses.csv").display().to_string(),
+            "--out",
+            &at("views.csv"),
+        ],
+        &[],
+    )?;
+    let load = PAPER_LOAD_KG.to_string();
+    lrmcal(
+        &[
+            "identify",
+            "--camera",
+            &setup_arg,
+            "--measurements",
+            &at("views.csv"),
+            "--load-kg",
+            &load,
+            "--out",
+            &at("calibration"),
+        ],
+        &[&arm, &flag(args.no_robust, "--no-robust")],
+    )?;
+
+    let check = judge(args, &setup, &simulate)?;
+    println!(
+        "\nAgainst the simulation's truth (true arm seed {}):\n  \
+         the board's origin at {} poses the camera sees that were not fitted: mean {:.2} mm \
+         (the nominal arm where the setup puts it: {:.1} mm)\n  \
+         the camera: {:.2} mm and {:.3}° off (the setup as told: {:.1} mm and {:.2}°), judged by \
+         where each puts the arm's first joint frame at the zero command",
+        args.seed,
+        check.poses,
+        check.board_mm,
+        check.nominal_board_mm,
+        check.camera_mm,
+        check.camera_deg,
+        check.told_camera_mm,
+        check.told_camera_deg,
+    );
+    println!(
+        "\nwrote {} (setup and board files, seen.csv, selection.csv, images/, views.csv, truth.json, \
+         calibration/ with the calibration, report.json and report.html) in {:.1} s",
+        out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// The calibration's errors against the truth.
+struct Check {
+    poses: usize,
+    board_mm: f64,
+    nominal_board_mm: f64,
+    camera_mm: f64,
+    camera_deg: f64,
+    told_camera_mm: f64,
+    told_camera_deg: f64,
+}
+
+/// Judges the calibration the camera path wrote against the true arm and
+/// webcam `simulate` (its command line) drew: the board's origin at the
+/// planned poses not selected that the true camera sees, under the paper's
+/// load, and the camera's place, both in the camera frame (the
+/// calibration's measurement frame).
+fn judge(args: &Args, setup: &CameraSetup, simulate: &[String]) -> Result<Check, Error> {
+    let nominal = args.arm.load()?.arm;
+    let config = match Cli::try_parse_from(simulate).map(|c| c.command) {
+        Ok(Command::Simulate(a)) => a.sim.config(&nominal),
+        _ => {
+            return Err(Error::Usage(
+                "the demo's simulate line does not parse".into(),
+            ));
+        }
+    };
+    let truth = TrueArm::draw(&nominal, args.seed, &config)?;
+    let webcam = Webcam::draw(setup, args.seed, 0.0);
+    let told = Webcam::as_told(setup);
+
+    let selected: Vec<u32> = pose_list::read(&args.out.join("selection.csv"))?
+        .iter()
+        .map(|r| r.pose.id)
+        .collect();
+    let others: Vec<Pose> = pose_list::read(&args.out.join("seen.csv"))?
+        .into_iter()
+        .map(|r| r.pose)
+        .filter(|p| !selected.contains(&p.id))
+        .collect();
+    let watched = truth.watch(
+        &webcam,
+        &[Pass {
+            load_kg: PAPER_LOAD_KG,
+            poses: &others,
+        }],
+    )?;
+    let calibration = ArmSource::Calibration(args.out.join(CALIBRATION)).load()?;
+    let rig = rig_of(&calibration);
+    let nominal_rig = Rig::from(nominal);
+    let true_camera = webcam.camera.isometry().inverse();
+    let told_camera = told.camera.isometry().inverse();
+    let (mut sum, mut nominal_sum, mut count) = (0.0, 0.0, 0usize);
+    for (view, flange) in watched.views.iter().zip(&watched.flanges).take(CHECK_POSES) {
+        let sample = Sample {
+            id: view.pose.id,
+            q: view.pose.q,
+            load_kg: view.load_kg,
+            target: 0,
+            approach: view.approach,
+        };
+        let actual = true_camera * (flange * webcam.board_on_flange.isometry() * Point3::origin());
+        let predicted = Point3::from(rig.evaluate(&sample)?.tool_m);
+        let nominal_flange = nominal_rig
+            .evaluate(&sample)?
+            .deflection
+            .frames
+            .frames
+            .last_value();
+        let guessed =
+            told_camera * (nominal_flange * told.board_on_flange.isometry() * Point3::origin());
+        sum += (predicted - actual).norm();
+        nominal_sum += (guessed - actual).norm();
+        count += 1;
+    }
+
+    // The arm's first joint frame at the zero command: the base's yaw and
+    // height are one with joint 1's offsets, so the camera is judged by
+    // where it sees that frame.
+    let joints = nominal.joints.len();
+    let zero = Sample {
+        id: 0,
+        q: model::PerJoint::splat(joints, 0.0),
+        load_kg: 0.0,
+        target: 0,
+        approach: from_home(joints),
+    };
+    let frame1 = |rig: &Rig| rig.chain().frames(&rig.standing_angles(&zero), 0.0).frames[1];
+    let true_frame1 = true_camera
+        * truth
+            .arm
+            .chain()
+            .frames(&truth.driven_angles(&zero.q, &zero.approach), 0.0)
+            .frames[1];
+    let off = |seen: IsometryMatrix3<f64>| {
+        let off = seen.inverse() * true_frame1;
+        (
+            1e3 * off.translation.vector.norm(),
+            off.rotation.angle().to_degrees(),
+        )
+    };
+    let (camera_mm, camera_deg) = off(frame1(&rig));
+    let (told_camera_mm, told_camera_deg) = off(told_camera * frame1(&nominal_rig));
+    let mean = |s: f64| 1e3 * s / count.max(1) as f64;
+    Ok(Check {
+        poses: count,
+        board_mm: mean(sum),
+        nominal_board_mm: mean(nominal_sum),
+        camera_mm,
+        camera_deg,
+        told_camera_mm,
+        told_camera_deg,
+    })
+}
+
+/// The `--arm` words of `arm` as a user types them.
+fn arm_arguments(arm: &ArmSource) -> Vec<String> {
+    match arm {
+        ArmSource::Bundled(name) => vec!["--arm".into(), (*name).into()],
+        ArmSource::Description(path) | ArmSource::Calibration(path) => {
+            vec!["--arm".into(), path.display().to_string()]
+        }
+        ArmSource::Urdf {
+            path,
+            base_link,
+            tip_link,
+        } => {
+            let mut words = vec!["--arm".into(), path.display().to_string()];
+            if let Some(link) = base_link {
+                words.extend(["--base-link".into(), link.clone()]);
+            }
+            if let Some(link) = tip_link {
+                words.extend(["--tip-link".into(), link.clone()]);
+            }
+            words
+        }
+    }
+}
+
+/// `name` when `on`.
+fn flag(on: bool, name: &str) -> Vec<String> {
+    on.then(|| name.to_owned()).into_iter().collect()
+}
+
+/// The command line `lrmcal <first> <rest...>`.
+fn words(first: &[&str], rest: &[&[String]]) -> Vec<String> {
+    let mut line = vec!["lrmcal".to_owned()];
+    line.extend(first.iter().map(|w| (*w).to_owned()));
+    for part in rest {
+        line.extend(part.iter().cloned());
+    }
+    line
+}
+
+/// Prints the command line and runs it.
+fn run_words(line: &[String]) -> Result<(), Error> {
+    println!("\n$ {}", line.join(" "));
+    run_line(line)
+}
+
+/// Runs `lrmcal <first> <rest...>`, printed first.
+fn lrmcal(first: &[&str], rest: &[&[String]]) -> Result<(), Error> {
+    run_words(&words(first, rest))
+}
