@@ -16,6 +16,7 @@ use nalgebra::{IsometryMatrix3, Point3};
 
 use super::{Args, PAPER_LOAD_KG};
 use crate::cli::{Cli, Command, run_line};
+use crate::commands::helpers::write_text;
 use crate::error::Error;
 use clap::Parser;
 use lrmcal_core::camera::{CameraSetup, bundled, setup};
@@ -133,6 +134,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )?;
 
     let check = judge(args, &setup, &simulate)?;
+    write_text(
+        &out.join("check.json"),
+        &serde_json::to_string_pretty(&check).unwrap_or_default(),
+    )?;
     println!(
         "\nAgainst the simulation's truth (true arm seed {}):\n  \
          the board's origin at {} poses the camera sees that were not fitted: mean {:.2} mm \
@@ -150,15 +155,18 @@ pub fn run(args: &Args) -> Result<(), Error> {
     );
     println!(
         "\nwrote {} (setup and board files, seen.csv, selection.csv, images/, views.csv, truth.json, \
-         calibration/ with the calibration, report.json and report.html) in {:.1} s",
+         calibration/ with the calibration, report.json and report.html, check.json: the figures against the truth) in {:.1} s",
         out.display(),
         started.elapsed().as_secs_f64()
     );
     Ok(())
 }
 
-/// The calibration's errors against the truth.
+/// The calibration's errors against the truth, and what another tool's
+/// camera is judged by (`check.json`).
+#[derive(serde::Serialize)]
 struct Check {
+    seed: u64,
     poses: usize,
     board_mm: f64,
     nominal_board_mm: f64,
@@ -166,6 +174,19 @@ struct Check {
     camera_deg: f64,
     told_camera_mm: f64,
     told_camera_deg: f64,
+    /// The true arm's first joint frame at the zero command in the true
+    /// camera's frame, row by row (4 × 4, m).
+    true_frame1_in_camera: [[f64; 4]; 4],
+    /// The nominal arm's first joint frame at the zero command in the arm
+    /// file's world frame, row by row (4 × 4, m): a camera found in that
+    /// frame by another tool is judged by where it then sees this frame.
+    nominal_frame1_in_world: [[f64; 4]; 4],
+}
+
+/// `pose` as a 4 × 4 matrix, row by row.
+fn rows(pose: &IsometryMatrix3<f64>) -> [[f64; 4]; 4] {
+    let m = pose.to_homogeneous();
+    std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)]))
 }
 
 /// Judges the calibration the camera path wrote against the true arm and
@@ -261,6 +282,9 @@ fn judge(args: &Args, setup: &CameraSetup, simulate: &[String]) -> Result<Check,
     let (told_camera_mm, told_camera_deg) = off(told_camera * frame1(&nominal_rig));
     let mean = |s: f64| 1e3 * s / count.max(1) as f64;
     Ok(Check {
+        seed: args.seed,
+        true_frame1_in_camera: rows(&true_frame1),
+        nominal_frame1_in_world: rows(&frame1(&nominal_rig)),
         poses: count,
         board_mm: mean(sum),
         nominal_board_mm: mean(nominal_sum),
