@@ -40,7 +40,9 @@ pub struct CameraSetup {
     /// The board frame in the arm's last frame (frame n of its DH chain, the
     /// flange, the frame its `[tool]` is given in), m and rad.
     pub board_on_flange: Frame<f64>,
-    /// How far from the image's edges and how obliquely the board may be seen.
+    /// How far from the image's edges and how obliquely the board may be
+    /// seen at a planned pose ([`ViewLimits::PLANNING`] as read: room for the
+    /// camera and the board standing off where the setup says).
     pub limits: ViewLimits,
 }
 
@@ -161,7 +163,7 @@ pub fn read(path: &Path) -> Result<CameraSetup, Error> {
         mount: file.mount,
         camera: file.camera,
         board_on_flange: file.board_on_flange,
-        limits: ViewLimits::default(),
+        limits: ViewLimits::PLANNING,
     })
 }
 

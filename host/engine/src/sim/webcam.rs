@@ -55,7 +55,8 @@ pub struct Webcam {
     /// The board the arm carries.
     #[serde(skip)]
     pub board: AprilGrid,
-    /// How far from the image's edges and how obliquely the board is seen.
+    /// How far from the image's edges and how obliquely the board must be
+    /// for the camera to see it: what detection needs, not the planner's margin.
     #[serde(skip)]
     pub limits: ViewLimits,
     /// The camera frame in the arm's world frame, where it really stands, m and rad.
@@ -104,7 +105,7 @@ impl Webcam {
         Self {
             intrinsics: setup.intrinsics.clone(),
             board: setup.board.clone(),
-            limits: setup.limits,
+            limits: ViewLimits::default(),
             camera,
             board_on_flange,
             pixel_noise_px,
@@ -118,7 +119,7 @@ impl Webcam {
         Self {
             intrinsics: setup.intrinsics.clone(),
             board: setup.board.clone(),
-            limits: setup.limits,
+            limits: ViewLimits::default(),
             camera: setup.camera,
             board_on_flange: setup.board_on_flange,
             pixel_noise_px: 0.0,
