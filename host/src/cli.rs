@@ -137,6 +137,8 @@ pub enum Command {
     Export(commands::export::Args),
     /// Find the board's AprilTag corners in image files and write them as a CSV.
     Detect(commands::detect::Args),
+    /// Write the AprilTag board as a page to print (SVG, true size).
+    PrintBoard(commands::print_board::Args),
     /// Turn a recorded tracker take (OptiTrack Motive CSV) into a measurement CSV.
     ImportTracker(commands::import_tracker::Args),
 }
@@ -186,6 +188,7 @@ impl Command {
             Self::Export(args) => commands::export::run(args),
             Self::ImportTracker(args) => commands::import_tracker::run(args),
             Self::Detect(args) => commands::detect::run(args),
+            Self::PrintBoard(args) => commands::print_board::run(args),
         }
     }
 }

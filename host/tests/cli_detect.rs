@@ -343,3 +343,26 @@ fn a_list_without_loads_or_naming_an_image_twice_or_not_there_is_refused() {
         "{said}"
     );
 }
+
+/// `print-board` writes the board file's grid as a page of its true size;
+/// a board file that is not one is refused by name, nothing written.
+#[test]
+fn the_board_prints_at_its_true_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let board_file = dir.path().join("board.yaml");
+    std::fs::write(&board_file, BOARD).unwrap();
+    let page = dir.path().join("board.svg");
+    let run = lrmcal(&["print-board", "--board", p(&board_file), "--out", p(&page)]);
+    assert!(run.status.success(), "{}", text(&run));
+    let svg = std::fs::read_to_string(&page).unwrap();
+    // 3 × 2 tags of 40 mm every 52 mm: 144 × 92 mm, 20 mm of white around.
+    assert!(svg.contains(r#"width="184.000mm""#), "{}", &svg[..120]);
+    assert_eq!(svg.matches("<!-- tag ").count(), 6);
+
+    std::fs::write(&board_file, "target_type: 'checkerboard'\n").unwrap();
+    let other = dir.path().join("other.svg");
+    let run = lrmcal(&["print-board", "--board", p(&board_file), "--out", p(&other)]);
+    assert_eq!(run.status.code(), Some(3), "{}", text(&run));
+    assert!(text(&run).contains("board.yaml"), "{}", text(&run));
+    assert!(!other.exists());
+}

@@ -21,6 +21,7 @@ pub mod payload;
 pub mod plan;
 pub mod ports;
 pub mod predict;
+pub mod print_board;
 pub mod pull;
 pub mod push;
 pub mod report;

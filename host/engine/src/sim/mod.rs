@@ -28,7 +28,6 @@
 //! | `truth` | the truth file (JSON): true arm and the 43 errors by name |
 //! | `webcam` | [`Webcam`]: a camera watching the true arm's board, [`TrueArm::watch`] |
 //! | [`render`] | the webcam's images of the board: lens, light, blur, noise |
-//! | `tag_bits` | a tag36h11 tag's bit image, from the AprilTag C library |
 
 mod config;
 mod draw;
@@ -36,7 +35,6 @@ mod effects;
 mod measure;
 pub mod positioning;
 pub mod render;
-mod tag_bits;
 mod truth;
 mod webcam;
 

@@ -14,7 +14,7 @@ use nalgebra::{IsometryMatrix3, Point2, Point3, Vector3};
 use rand::Rng;
 use rand_distr::StandardNormal;
 
-use super::tag_bits::{self, CELLS};
+use crate::camera::tag_bits::{self, CELLS};
 use lrmcal_core::camera::{AprilGrid, Intrinsics};
 
 /// Samples across a pixel, each way.
