@@ -16,6 +16,7 @@
 //! interruption (Ctrl-C, unplugged board, tracker glitch) loses at most the
 //! pose in progress; running the same command again skips the recorded ones.
 
+mod capture;
 mod joints;
 mod mover;
 mod tracker;
@@ -29,9 +30,11 @@ use crate::commands::helpers::{non_negative, positive};
 use crate::error::Error;
 use crate::progress::Meter;
 use joints::Reached;
+use lrmcal_core::camera::board;
 use lrmcal_core::dataset::{Measurement, Pose, from_home};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::{measurements, pose_list};
+use lrmcal_engine::camera::detect::TagDetector;
 use lrmcal_engine::tracker::listen::{self, Listener};
 use lrmcal_engine::tracker::{SettleOptions, Target};
 use mover::Mover;
@@ -109,6 +112,20 @@ pub struct Args {
     /// Pause after the arm arrives, before the position is taken, ms.
     #[arg(long, value_name = "MS", default_value_t = 500)]
     pub settle_ms: u64,
+    /// A webcam instead of a tracker: the shell command that takes one image
+    /// into `{image}` (also `{pose}`, `{load_kg}`), e.g. `ffmpeg -loglevel
+    /// error -f v4l2 -video_size 1280x720 -i /dev/video0 -frames:v 1 {image}`;
+    /// --out is then the pose list naming the images (`detect --poses`).
+    #[arg(long, value_name = "COMMAND", requires = "images", conflicts_with_all = ["tracker", "joints", "hold_s"])]
+    pub capture: Option<String>,
+    /// With --capture, the folder the images are written to.
+    #[arg(long, value_name = "DIR", requires = "capture")]
+    pub images: Option<PathBuf>,
+    /// With --capture, the board (Kalibr aprilgrid YAML) each image is
+    /// checked for at once: taken again, up to 3 times, while fewer than
+    /// half its tags are found (a blurred or badly lit frame).
+    #[arg(long, value_name = "FILE", requires = "capture")]
+    pub board: Option<PathBuf>,
     /// The board that moves the arm; none: the arm is moved by hand or by its
     /// own controller.
     #[command(flatten)]
@@ -240,6 +257,30 @@ pub fn run(args: &Args) -> Result<(), Error> {
             });
         }
     };
+    if let (Some(command), Some(folder)) = (&args.capture, &args.images) {
+        let Some(poses) = &list else {
+            return Err(Error::Usage(
+                "--capture takes the images of a pose list: pass --poses".into(),
+            ));
+        };
+        let board = match &args.board {
+            Some(path) => Some((
+                board::read(path)?,
+                TagDetector::new().map_err(|e| Error::Detect {
+                    reason: e.to_string(),
+                })?,
+            )),
+            None => None,
+        };
+        let mut capture = capture::Capture {
+            command: command.clone(),
+            folder: folder.clone(),
+            board,
+        };
+        let units = model::PerJoint::from_slice(&kinds).unwrap_or_default();
+        let mut mover = Mover::of(args.device.as_ref())?;
+        return capture::run(&mut capture, poses, units, out, &mut mover, args.settle_ms);
+    }
     let live = args.joints.as_deref() == Some(Path::new(joints::STDIN));
     check_joints(args, live)?;
     let mut done = if out.exists() {
