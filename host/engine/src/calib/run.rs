@@ -451,7 +451,11 @@ impl<'a> Calibration<'a> {
         }
         if self.registered() {
             let params = blocks.identifiability.kept.len();
-            check_registered_count(poses, params, option)?;
+            // Each pose's targets (a block's rows are three a target), each
+            // measured on the instrument's axes.
+            let targets = blocks.blocks.first().map_or(1, |b| b.nrows() / 3);
+            let coordinates = poses * targets * self.inputs.nominal.measured_axes();
+            check_registered_count(poses, coordinates, params, option)?;
         }
         let result = calibrate_blocks(&self.inputs, (*blocks).clone(), settings, progress)?;
         // No calibration worse than where the arm started reaches a file.

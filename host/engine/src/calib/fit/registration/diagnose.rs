@@ -118,21 +118,22 @@ pub fn diagnose(nominal: &Arm<f64>, measurements: &[Measurement]) -> Option<Stri
 pub const REGISTRATION_DOF: usize = 6;
 
 /// Refuses a fit of `params` parameters from `poses` registered poses when
-/// their coordinates (one point a pose) do not also cover the base's place
-/// that registration took from them: three poses register exactly and would
-/// leave the fit nothing to check itself against.
+/// their `coordinates` (three a point of a tracker, two a pixel of a
+/// camera, every target's) do not also cover the base's place that
+/// registration took from them: three poses of one point register exactly
+/// and would leave the fit nothing to check itself against.
 pub fn check_registered_count(
     poses: usize,
+    coordinates: usize,
     params: usize,
     option: ModelOption,
 ) -> Result<(), CalibError> {
     // Fewer coordinates than parameters: the selection and the fit refuse
     // those themselves, with their own counts.
-    if 3 * poses >= params && 3 * poses < params + REGISTRATION_DOF {
+    if coordinates >= params && coordinates < params + REGISTRATION_DOF {
         return Err(CalibError::Registration {
             problem: format!(
-                "the {poses} poses give {} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
-                3 * poses
+                "the {poses} poses give {coordinates} coordinates, fewer than the {REGISTRATION_DOF} the base's place takes plus the {params} parameters of the {option} model; measure more poses, or pass --no-register if the positions are in the arm file's frame",
             ),
         });
     }

@@ -40,14 +40,16 @@ fn moved(meas: &[Measurement], frame: &IsometryMatrix3<f64>) -> Vec<Measurement>
 #[test]
 fn a_registered_fit_needs_six_coordinates_more_than_its_parameters() {
     let option = ModelOption::ElastoKinematic;
-    let e = check_registered_count(12, 32, option).unwrap_err();
+    let e = check_registered_count(12, 36, 32, option).unwrap_err();
     assert!(
         e.to_string().contains("36 coordinates, fewer than the 6")
             && e.to_string().contains("--no-register"),
         "{e}"
     );
-    assert!(check_registered_count(13, 32, option).is_ok());
-    assert!(check_registered_count(10, 32, option).is_ok());
+    assert!(check_registered_count(13, 39, 32, option).is_ok());
+    assert!(check_registered_count(10, 30, 32, option).is_ok());
+    // A camera's 29 views of 48 corners: 2784 coordinates.
+    assert!(check_registered_count(29, 29 * 48 * 2, 84, option).is_ok());
 }
 
 /// A compliant arm measured from random frames: registration finds each
