@@ -346,6 +346,31 @@ fn a_webcams_corners_calibrate_the_arm() {
     assert!(run.status.success(), "{}", text(&run));
     let run = lrmcal(&["push", p(&cal), "--dry-run"]);
     assert!(run.status.success(), "{}", text(&run));
+    // validate reads the camera's measurements of poses the fit never saw.
+    views::write(
+        &out("other.csv"),
+        &seen[50..],
+        &[model::JointKind::Revolute; 6],
+    )
+    .unwrap();
+    let run = lrmcal(&[
+        "validate",
+        "--camera",
+        p(&setup),
+        "--calibration",
+        p(&cal),
+        "--measurements",
+        p(&out("other.csv")),
+    ]);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    let reduction: f64 = said
+        .lines()
+        .find(|l| l.trim_start().starts_with("0.0663"))
+        .and_then(|l| l.split_whitespace().rev().nth(1))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(said.contains("corners") && reduction > 80.0, "{said}");
 
     // A tag of another board.
     let foreign = std::fs::read_to_string(out("views.csv"))

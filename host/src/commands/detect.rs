@@ -10,7 +10,7 @@ use lrmcal_core::camera::corners::{self, ImageCorners};
 use lrmcal_core::camera::shots::{self, Shot};
 use lrmcal_core::camera::views::{self, View};
 use lrmcal_core::camera::{board, intrinsics_file};
-use lrmcal_engine::camera::detect::{Grey, TagDetector};
+use lrmcal_engine::camera::detect::TagDetector;
 
 /// The file name endings of the images read (case aside).
 const IMAGE_EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
@@ -114,14 +114,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             });
         }
         let found = detector
-            .detect(
-                Grey {
-                    width: grey.width(),
-                    height: grey.height(),
-                    pixels: grey.as_raw(),
-                },
-                &board,
-            )
+            .detect_image(&grey, &board)
             .map_err(|e| Error::Image {
                 path: path.clone(),
                 reason: e.to_string(),

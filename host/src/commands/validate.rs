@@ -4,20 +4,24 @@
 use std::path::PathBuf;
 
 use crate::error::Error;
+use lrmcal_core::camera::{setup, views};
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::measurements;
 use lrmcal_engine::calib::fit::checks::check_plausible_calibrated;
 use lrmcal_engine::calib::fit::validate::{ErrorStats, validate_per_load};
-use lrmcal_engine::calib::results::export::rigs_of;
+use lrmcal_engine::calib::results::export::{camera_rigs_of, rigs_of};
 use lrmcal_engine::calib::results::report::ValidationOutlier;
 use lrmcal_engine::calib::results::summary;
+use lrmcal_engine::calib::run::CameraInput;
+use lrmcal_engine::camera::corner_measurements::corner_measurements;
 
 /// Check a calibration against measurements it was not identified from.
 #[derive(Debug, clap::Args)]
 #[command(after_help = "Examples:\n  \
 lrmcal validate --calibration cal/calibration-elasto-kinematic-servo.json --measurements other.csv\n  \
-lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n\n\
+lrmcal validate --calibration cal.json --measurements m.csv --arm my_arm.toml\n  \
+lrmcal validate --camera setup.toml --calibration cal/calibration-elasto-kinematic-servo.json --measurements views.csv\n\n\
 Prints mean, median, RMS, 95th percentile and max of the 3D error norm per load, \
 before (nominal arm) and after (calibrated), and names the measurements whose error \
 after calibration is far beyond the others' (a measurement far from where the calibrated \
@@ -33,6 +37,11 @@ pub struct Args {
     /// Measurement CSV to validate on.
     #[arg(long, value_name = "FILE")]
     pub measurements: PathBuf,
+    /// A camera measured: its setup (TOML); --measurements is then a camera
+    /// measurement file, and the calibration one `identify --camera` made
+    /// with that camera.
+    #[arg(long, value_name = "SETUP")]
+    pub camera: Option<PathBuf>,
     /// The nominal arm the calibration must belong to [default: the one recorded in it].
     #[arg(long, value_name = "NAME|FILE")]
     pub arm: Option<ArmSource>,
@@ -44,9 +53,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(source) = &args.arm {
         cal.check_nominal(&source.load()?.arm, &args.calibration)?;
     }
-    let rows = measurements::read(&args.measurements)?;
     let file = args.measurements.display().to_string();
-    let (nominal, calibrated) = rigs_of(&cal);
+    let (rows, (nominal, calibrated)) =
+        match &args.camera {
+            Some(path) => {
+                let setup = setup::read(path)?;
+                let views = views::read(&args.measurements)?;
+                let (rows, _) = corner_measurements(&setup.intrinsics, &setup.board, &views)
+                    .map_err(|source| Error::Views {
+                        path: args.measurements.clone(),
+                        source,
+                    })?;
+                (rows, camera_rigs_of(&cal, &CameraInput::of_setup(&setup)))
+            }
+            None => (measurements::read(&args.measurements)?, rigs_of(&cal)),
+        };
     // Far from the calibrated arm is a validation outlier; most of them far,
     // a wrong unit, arm or frame.
     check_plausible_calibrated(&calibrated, &rows, &file)?;
@@ -58,7 +79,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
     println!(
         "{:>8} {:>6} | {:>31} | {:>31} | {:>9}",
         "load kg",
-        "poses",
+        if args.camera.is_some() {
+            "corners"
+        } else {
+            "poses"
+        },
         "before: mean median rms p95 max",
         "after: mean median rms p95 max",
         "reduction"
@@ -85,7 +110,13 @@ pub fn run(args: &Args) -> Result<(), Error> {
             v.reduction_pct
         );
     }
-    println!("(errors in mm; 3D distance between measured and predicted tool point)");
+    println!(
+        "(errors in mm; {})",
+        match args.camera {
+            Some(_) => "at the board's corners: the reprojection error carried to their distance",
+            None => "3D distance between measured and predicted tool point",
+        }
+    );
     for o in per_load.iter().flat_map(|lv| &lv.validation.outliers) {
         println!(
             "{}",

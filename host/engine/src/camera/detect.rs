@@ -81,6 +81,22 @@ impl TagDetector {
         Ok(Self(detector))
     }
 
+    /// [`TagDetector::detect`] on an image read from a file, turned grey.
+    pub fn detect_image(
+        &mut self,
+        image: &image::GrayImage,
+        board: &AprilGrid,
+    ) -> Result<Found, DetectError> {
+        self.detect(
+            Grey {
+                width: image.width(),
+                height: image.height(),
+                pixels: image.as_raw(),
+            },
+            board,
+        )
+    }
+
     /// The tags of `board` in `image`, by id, and how many others were seen.
     pub fn detect(&mut self, image: Grey<'_>, board: &AprilGrid) -> Result<Found, DetectError> {
         let (width, height) = (image.width as usize, image.height as usize);

@@ -17,7 +17,7 @@ use crate::progress::Meter;
 use lrmcal_core::camera::AprilGrid;
 use lrmcal_core::camera::shots::{self, Shot};
 use lrmcal_core::dataset::Pose;
-use lrmcal_engine::camera::detect::{Grey, TagDetector};
+use lrmcal_engine::camera::detect::TagDetector;
 use model::{JointKind, PerJoint};
 
 /// Images taken at a pose before the last is kept as it is.
@@ -137,14 +137,7 @@ impl Capture {
             .map_err(|e| unreadable(e.to_string()))?
             .into_luma8();
         let found = detector
-            .detect(
-                Grey {
-                    width: grey.width(),
-                    height: grey.height(),
-                    pixels: grey.as_raw(),
-                },
-                board,
-            )
+            .detect_image(&grey, board)
             .map_err(|e| unreadable(e.to_string()))?;
         Ok(Some(found.tags.len()))
     }

@@ -9,7 +9,9 @@ use crate::calib::ParamKey;
 use crate::calib::fit::identify::{Estimate, Identified};
 use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::Registration;
+use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::targets::{Rig, Targets};
+use crate::calib::run::CameraInput;
 use lrmcal_core::dataset::TargetName;
 use lrmcal_core::io::calibration_file::{
     CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
@@ -103,6 +105,30 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
         rig
     };
     (rig(file.nominal), rig(file.arm))
+}
+
+/// [`rigs_of`] for a camera's calibration, measured by the camera of
+/// `camera`: both arms seeing every corner of its board, at its pixels.
+/// The file's world is the camera's frame (`identify --camera` registers
+/// the arm there), its tool frame the board's.
+pub fn camera_rigs_of(file: &CalibrationFile, camera: &CameraInput) -> (Rig, Rig) {
+    let names: Vec<TargetName> = camera.corners.iter().map(|(name, _)| *name).collect();
+    let corners: Vec<Vector3<f64>> = camera.corners.iter().map(|(_, c)| *c).collect();
+    let seen = |rig: Rig| Rig {
+        command_curves: rig.command_curves,
+        bounds: rig.bounds,
+        ..Rig::on_board(
+            rig.arm,
+            Targets::named_as(&names),
+            corners.clone(),
+            RigCamera {
+                intrinsics: camera.intrinsics.clone(),
+                from_world: nalgebra::IsometryMatrix3::identity(),
+            },
+        )
+    };
+    let (nominal, calibrated) = rigs_of(file);
+    (seen(nominal), seen(calibrated))
 }
 
 /// What an arm source's arm means: a calibration file's corrected rig
