@@ -265,6 +265,63 @@ fn three_poses(dir: &std::path::Path) -> std::path::PathBuf {
     poses
 }
 
+/// `measure --capture`: the board drives the arm to each pose of the list,
+/// and only then the capture command takes its image (here a command that
+/// notes the pose it was run at); the list naming the images is written,
+/// and the board stands at the last pose.
+#[test]
+fn measure_captures_an_image_at_each_pose_the_board_reaches() {
+    use host::commands::measure;
+    let board = SocketBoard::start();
+    let dir = tempfile::tempdir().unwrap();
+    let poses = three_poses(dir.path());
+    let out = dir.path().join("shots.csv");
+    let order = dir.path().join("order.txt");
+    let args = measure::Args {
+        poses: Some(poses.clone()),
+        joints: None,
+        arm: None,
+        allow_outside_limits: false,
+        out: Some(out.clone()),
+        load_kg: Some(0.0663),
+        tracker: None,
+        hold_s: None,
+        settle_ms: 0,
+        capture: Some(format!(
+            "echo {{pose}} > {{image}} && echo {{pose}} >> {}",
+            order.display()
+        )),
+        images: Some(dir.path().join("shots")),
+        board: None,
+        dtrack: dtrack_args(None),
+        device: Some(board.args()),
+    };
+    measure::run(&args).unwrap();
+    assert_eq!(std::fs::read_to_string(&order).unwrap(), "1\n2\n3\n");
+    let shots = lrmcal_core::camera::shots::read(&out).unwrap();
+    let named: Vec<(u32, f64, &str)> = shots
+        .iter()
+        .map(|s| (s.pose.id, s.load_kg, s.image.as_str()))
+        .collect();
+    assert_eq!(
+        named,
+        [
+            (1, 0.0663, "pose1-0.0663kg.png"),
+            (2, 0.0663, "pose2-0.0663kg.png"),
+            (3, 0.0663, "pose3-0.0663kg.png")
+        ]
+    );
+    assert!(dir.path().join("shots/pose3-0.0663kg.png").is_file());
+    let s = board.args().connect().unwrap().status().unwrap();
+    let want = [-5.0f32, 5.0, -15.0, 0.0, 25.0, 0.0].map(f32::to_radians);
+    assert!(
+        s.nominal_rad
+            .iter()
+            .zip(&want)
+            .all(|(a, b)| (a - b).abs() < 1e-6)
+    );
+}
+
 #[test]
 fn measure_records_each_pose_and_resumes_after_an_interruption() {
     use host::commands::measure;
@@ -283,6 +340,9 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
         tracker: Some(measure::TrackerSource::File(tracker.to_owned())),
         hold_s: None,
         settle_ms: 0,
+        capture: None,
+        images: None,
+        board: None,
         dtrack: dtrack_args(None),
         device: Some(board.args()),
     };
@@ -386,6 +446,9 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
         tracker: Some(measure::TrackerSource::parse(&format!("dtrack://{addr}")).unwrap()),
         hold_s: None,
         settle_ms: 0,
+        capture: None,
+        images: None,
+        board: None,
         dtrack: dtrack_args(Some(0)),
         device: Some(board.args()),
     };
