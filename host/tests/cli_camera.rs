@@ -321,6 +321,10 @@ fn a_webcams_corners_calibrate_the_arm() {
         "{message}"
     );
     assert!(message.contains("static_transform_publisher"), "{message}");
+    assert!(
+        message.contains("reprojection error at the") && message.contains("px, rms"),
+        "{message}"
+    );
     assert!(out("cal/calibration-elasto-kinematic-servo.json").exists());
     let report: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out("cal/report.json")).unwrap()).unwrap();
@@ -371,6 +375,7 @@ fn a_webcams_corners_calibrate_the_arm() {
         .and_then(|r| r.parse().ok())
         .unwrap_or_else(|| panic!("{said}"));
     assert!(said.contains("corners") && reduction > 80.0, "{said}");
+    assert!(said.contains("reprojection error over the"), "{said}");
 
     // A tag of another board.
     let foreign = std::fs::read_to_string(out("views.csv"))

@@ -27,6 +27,8 @@ use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
 use lrmcal_engine::calib::fit::registration::Gravity;
+use lrmcal_engine::calib::fit::validate::{ErrorStats, reprojection_errors_px};
+use lrmcal_engine::calib::results::export::camera_rigs_of;
 use lrmcal_engine::calib::results::summary;
 use lrmcal_engine::calib::run::{
     CameraInput, Placement, PoseChoice, Request, calibrate, reteach as reteach_tools,
@@ -230,7 +232,21 @@ pub fn run(args: &Args) -> Result<(), Error> {
         match &request.camera {
             // A board's corners are where the board file puts them: the
             // camera is what the user wants to know.
-            Some(_) => print!("{}", camera_lines(&cal.arm.base)),
+            Some(camera) => {
+                print!("{}", camera_lines(&cal.arm.base));
+                let (_, calibrated) = camera_rigs_of(&cal, camera);
+                let measured: Vec<_> = request
+                    .measurements
+                    .iter()
+                    .filter(|m| m.load_kg == run.load_kg)
+                    .copied()
+                    .collect();
+                let px = ErrorStats::of(&reprojection_errors_px(&calibrated, &measured)?);
+                println!(
+                    "  reprojection error at the {} corners measured under {} kg: median {:.2} px, rms {:.2} px",
+                    px.count, run.load_kg, px.median_m, px.rms_m
+                );
+            }
             None if !cal.targets.is_empty() => {
                 print!("{}", summary::targets_table(&cal.targets))
             }

@@ -9,7 +9,7 @@ use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::measurements;
 use lrmcal_engine::calib::fit::checks::check_plausible_calibrated;
-use lrmcal_engine::calib::fit::validate::{ErrorStats, validate_per_load};
+use lrmcal_engine::calib::fit::validate::{ErrorStats, reprojection_errors_px, validate_per_load};
 use lrmcal_engine::calib::results::export::{camera_rigs_of, rigs_of};
 use lrmcal_engine::calib::results::report::ValidationOutlier;
 use lrmcal_engine::calib::results::summary;
@@ -54,20 +54,29 @@ pub fn run(args: &Args) -> Result<(), Error> {
         cal.check_nominal(&source.load()?.arm, &args.calibration)?;
     }
     let file = args.measurements.display().to_string();
-    let (rows, (nominal, calibrated)) =
-        match &args.camera {
-            Some(path) => {
-                let setup = setup::read(path)?;
-                let views = views::read(&args.measurements)?;
-                let (rows, _) = corner_measurements(&setup.intrinsics, &setup.board, &views)
-                    .map_err(|source| Error::Views {
+    let (rows, (nominal, calibrated), pixels) = match &args.camera {
+        Some(path) => {
+            let setup = setup::read(path)?;
+            let views = views::read(&args.measurements)?;
+            let (rows, _) =
+                corner_measurements(&setup.intrinsics, &setup.board, &views).map_err(|source| {
+                    Error::Views {
                         path: args.measurements.clone(),
                         source,
-                    })?;
-                (rows, camera_rigs_of(&cal, &CameraInput::of_setup(&setup)))
-            }
-            None => (measurements::read(&args.measurements)?, rigs_of(&cal)),
-        };
+                    }
+                })?;
+            let rigs = camera_rigs_of(&cal, &CameraInput::of_setup(&setup));
+            // The same errors in the camera's own unit.
+            let px = |rig| reprojection_errors_px(rig, &rows).map(|e| ErrorStats::of(&e));
+            let (before, after) = (px(&rigs.0)?, px(&rigs.1)?);
+            let line = format!(
+                "reprojection error over the {} corners, px: median {:.2} -> {:.2}, rms {:.2} -> {:.2}",
+                after.count, before.median_m, after.median_m, before.rms_m, after.rms_m
+            );
+            (rows, rigs, Some(line))
+        }
+        None => (measurements::read(&args.measurements)?, rigs_of(&cal), None),
+    };
     // Far from the calibrated arm is a validation outlier; most of them far,
     // a wrong unit, arm or frame.
     check_plausible_calibrated(&calibrated, &rows, &file)?;
@@ -117,6 +126,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
             None => "3D distance between measured and predicted tool point",
         }
     );
+    if let Some(line) = pixels {
+        println!("{line}");
+    }
     for o in per_load.iter().flat_map(|lv| &lv.validation.outliers) {
         println!(
             "{}",

@@ -76,6 +76,20 @@ pub fn validate_per_load(
         .collect()
 }
 
+/// Each pixel's reprojection error at `rig` (a camera's), px, in the
+/// measurements' order; measurements without a pixel (a tracker's) have none.
+pub fn reprojection_errors_px(
+    rig: &Rig,
+    measurements: &[Measurement],
+) -> Result<Vec<f64>, CalibError> {
+    let seen = rig.observations(&rig.samples(measurements)?)?;
+    Ok(seen
+        .iter()
+        .zip(measurements)
+        .filter_map(|(o, m)| m.pixel.map(|px| (o.value.x - px.x).hypot(o.value.y - px.y)))
+        .collect())
+}
+
 /// Error norms of `rig`'s predictions against `measurements` (each of one
 /// of its targets), m: a tracker's 3D distance, a camera's reprojection
 /// error carried to the target's distance (`calib::parameters::camera`).
