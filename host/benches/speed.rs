@@ -11,10 +11,15 @@
 //!   poses as the pipeline makes it (backlash widths, refresh, and for ours
 //!   the knot spacing's choice), and their sum, for the paper's model and
 //!   for ours;
-//! - the whole `lrmcal demo` (the release binary, default arguments).
+//! - the whole `lrmcal demo` (the release binary, default arguments);
+//! - the camera: detecting the tags of one rendered 1280 × 720 webcam image
+//!   (one core), and, on the views `lrmcal demo --camera` planned and
+//!   rendered (60 poses × 2 loads), `lrmcal detect` and `lrmcal identify
+//!   --camera` through the release binary.
 //!
 //! Run: `cargo bench -p host --bench speed` (the README's performance
-//! section quotes it); `-- jacobian`, `-- pool` or `-- demo` runs one part.
+//! section quotes it); `-- jacobian`, `-- pool`, `-- demo` or `-- camera`
+//! runs one part.
 
 #![allow(missing_docs, reason = "a benchmark binary")]
 
@@ -96,6 +101,9 @@ fn main() {
     }
     if run("demo") {
         demo();
+    }
+    if run("camera") {
+        camera();
     }
 }
 
@@ -224,5 +232,97 @@ fn demo() {
     println!(
         "whole lrmcal demo (release binary): {:.2} s",
         demo.as_secs_f64()
+    );
+}
+
+fn camera() {
+    use lrmcal_core::camera::{bundled, setup};
+    use lrmcal_engine::camera::detect::{Grey, TagDetector};
+    use lrmcal_engine::sim::Webcam;
+    use lrmcal_engine::sim::render::Look;
+
+    let out = tempfile::tempdir().expect("temporary folder");
+    let dir = out.path();
+    let lrmcal = |args: &[&str]| {
+        let run = Command::new(env!("CARGO_BIN_EXE_lrmcal"))
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .expect("lrmcal runs");
+        assert!(run.status.success(), "lrmcal {args:?} failed");
+    };
+    lrmcal(&["demo", "--camera", "--out", "."]);
+
+    // One image of the board at the setup's first seen pose, as the webcam takes it.
+    let setup = setup::read(&dir.join(bundled::SETUP_FILE)).expect("the demo's setup");
+    let webcam = Webcam::draw(&setup, DEFAULT_SEED, 0.0);
+    let rig = Rig::from(
+        lrmcal_core::io::arm_source::bundled("lrm")
+            .expect("bundled arm")
+            .arm,
+    );
+    let seen = lrmcal_core::io::pose_list::read(&dir.join("selection.csv")).expect("selection");
+    let sample = Sample {
+        id: seen[0].pose.id,
+        q: seen[0].pose.q,
+        load_kg: 0.0,
+        target: 0,
+        approach: lrmcal_core::dataset::from_home(6),
+    };
+    let flange = rig
+        .evaluate(&sample)
+        .expect("the pose")
+        .deflection
+        .frames
+        .frames
+        .last_value();
+    let pixels = webcam.image(0, &flange, &Look::WEBCAM);
+    let mut detector = TagDetector::new().expect("detector");
+    let grey = Grey {
+        width: setup.intrinsics.width_px,
+        height: setup.intrinsics.height_px,
+        pixels: &pixels,
+    };
+    let found = detector.detect(grey, &setup.board).expect("detection");
+    let detect_one = median_time(20, || detector.detect(grey, &setup.board));
+    println!(
+        "camera: tag detection in one 1280 x 720 image ({} tags): {}",
+        found.tags.len(),
+        ms(detect_one)
+    );
+    let detect = median_time(3, || {
+        lrmcal(&[
+            "detect",
+            "--images",
+            "images",
+            "--board",
+            "board.yaml",
+            "--intrinsics",
+            "camera_info.yaml",
+            "--poses",
+            "images/poses.csv",
+            "--out",
+            "views.csv",
+        ])
+    });
+    let identify = median_time(3, || {
+        lrmcal(&[
+            "identify",
+            "--camera",
+            "setup.toml",
+            "--measurements",
+            "views.csv",
+            "--load-kg",
+            "0.0663",
+            "--out",
+            "cal",
+        ])
+    });
+    println!(
+        "camera: lrmcal detect of demo --camera's images (60 poses x 2 loads, the ones the camera saw): {:.2} s; \
+         identify --camera of them: {:.2} s; both: {:.2} s",
+        detect.as_secs_f64(),
+        identify.as_secs_f64(),
+        (detect + identify).as_secs_f64()
     );
 }
