@@ -167,7 +167,7 @@ impl Command {
             Self::Predict(args) => commands::predict::run(args),
             Self::Simulate(args) => commands::simulate::run(args),
             Self::Plan(args) => commands::plan::run(args),
-            Self::Demo(args) => commands::demo::run(args),
+            Self::Demo(args) => commands::demo::run(args, &run_line),
             Self::Identify(args) => commands::identify::run(args),
             Self::Select(args) => commands::select::run(args),
             Self::Validate(args) => commands::validate::run(args),

@@ -234,7 +234,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             // camera is what the user wants to know.
             Some(camera) => {
                 print!("{}", camera_lines(&cal.arm.base));
-                let (_, calibrated) = camera_rigs_of(&cal, camera);
+                let (_, calibrated) = camera_rigs_of(&cal, &camera.intrinsics, &camera.corners);
                 let measured: Vec<_> = request
                     .measurements
                     .iter()

@@ -65,7 +65,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
                         source,
                     }
                 })?;
-            let rigs = camera_rigs_of(&cal, &CameraInput::of_setup(&setup));
+            let camera = CameraInput::of_setup(&setup);
+            let rigs = camera_rigs_of(&cal, &camera.intrinsics, &camera.corners);
             // The same errors in the camera's own unit.
             let px = |rig| reprojection_errors_px(rig, &rows).map(|e| ErrorStats::of(&e));
             let (before, after) = (px(&rigs.0)?, px(&rigs.1)?);

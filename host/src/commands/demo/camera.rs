@@ -15,17 +15,15 @@ use std::time::Instant;
 use nalgebra::{IsometryMatrix3, Point3};
 
 use super::{Args, PAPER_LOAD_KG};
-use crate::cli::{Cli, Command, run_line};
 use crate::commands::helpers::write_text;
 use crate::error::Error;
-use clap::Parser;
 use lrmcal_core::camera::{CameraSetup, bundled, setup};
 use lrmcal_core::dataset::{Pose, from_home};
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::{pose_list, read_text};
 use lrmcal_engine::calib::results::export::rig_of;
 use lrmcal_engine::calib::{Rig, Sample};
-use lrmcal_engine::sim::{Pass, TrueArm, Webcam};
+use lrmcal_engine::sim::{Pass, SimConfig, TrueArm, Webcam};
 
 /// The calibration the camera path writes (the default option's).
 const CALIBRATION: &str = "calibration/calibration-elasto-kinematic-servo.json";
@@ -33,8 +31,11 @@ const CALIBRATION: &str = "calibration/calibration-elasto-kinematic-servo.json";
 /// Seen poses not fitted that the calibration is judged at, at most.
 const CHECK_POSES: usize = 100;
 
-/// Runs `lrmcal demo --camera`.
-pub fn run(args: &Args) -> Result<(), Error> {
+/// A runner of `lrmcal` command lines (the CLI's own).
+type Lrmcal<'a> = &'a dyn Fn(&[String]) -> Result<(), Error>;
+
+/// Runs `lrmcal demo --camera`, each step's command line through `runner`.
+pub fn run(args: &Args, runner: Lrmcal<'_>) -> Result<(), Error> {
     let started = Instant::now();
     let out = &args.out;
     std::fs::create_dir_all(out).map_err(|source| lrmcal_core::Error::Write {
@@ -54,10 +55,12 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let seed = args.seed.to_string();
 
     lrmcal(
+        runner,
         &["plan", "--camera", &setup_arg, "--out", &at("seen.csv")],
         &[&arm, &["--random".into(), args.random.to_string()]],
     )?;
     lrmcal(
+        runner,
         &[
             "select",
             "--camera",
@@ -100,8 +103,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
         ],
         &[&arm, &flag(args.model_only, "--model-only")],
     );
-    run_words(&simulate)?;
+    run_words(runner, &simulate)?;
     lrmcal(
+        runner,
         &[
             "detect",
             "--images",
@@ -119,6 +123,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
     )?;
     let load = PAPER_LOAD_KG.to_string();
     lrmcal(
+        runner,
         &[
             "identify",
             "--camera",
@@ -133,7 +138,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         &[&arm, &flag(args.no_robust, "--no-robust")],
     )?;
 
-    let check = judge(args, &setup, &simulate)?;
+    let check = judge(args, &setup)?;
     write_text(
         &out.join("check.json"),
         &serde_json::to_string_pretty(&check).unwrap_or_default(),
@@ -190,20 +195,18 @@ fn rows(pose: &IsometryMatrix3<f64>) -> [[f64; 4]; 4] {
 }
 
 /// Judges the calibration the camera path wrote against the true arm and
-/// webcam `simulate` (its command line) drew: the board's origin at the
-/// planned poses not selected that the true camera sees, under the paper's
-/// load, and the camera's place, both in the camera frame (the
-/// calibration's measurement frame).
-fn judge(args: &Args, setup: &CameraSetup, simulate: &[String]) -> Result<Check, Error> {
+/// webcam `simulate` drew (its defaults, or `--model-only`): the board's
+/// origin at the planned poses not selected that the true camera sees,
+/// under the paper's load, and the camera's place, both in the camera
+/// frame (the calibration's measurement frame).
+fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     let nominal = args.arm.load()?.arm;
-    let config = match Cli::try_parse_from(simulate).map(|c| c.command) {
-        Ok(Command::Simulate(a)) => a.sim.config(&nominal),
-        _ => {
-            return Err(Error::Usage(
-                "the demo's simulate line does not parse".into(),
-            ));
-        }
-    };
+    let config = if args.model_only {
+        SimConfig::model_only()
+    } else {
+        SimConfig::default()
+    }
+    .scaled_to(&nominal);
     let truth = TrueArm::draw(&nominal, args.seed, &config)?;
     let webcam = Webcam::draw(setup, args.seed, 0.0);
     let told = Webcam::as_told(setup);
@@ -335,12 +338,12 @@ fn words(first: &[&str], rest: &[&[String]]) -> Vec<String> {
 }
 
 /// Prints the command line and runs it.
-fn run_words(line: &[String]) -> Result<(), Error> {
+fn run_words(runner: Lrmcal<'_>, line: &[String]) -> Result<(), Error> {
     println!("\n$ {}", line.join(" "));
-    run_line(line)
+    runner(line)
 }
 
 /// Runs `lrmcal <first> <rest...>`, printed first.
-fn lrmcal(first: &[&str], rest: &[&[String]]) -> Result<(), Error> {
-    run_words(&words(first, rest))
+fn lrmcal(runner: Lrmcal<'_>, first: &[&str], rest: &[&[String]]) -> Result<(), Error> {
+    run_words(runner, &words(first, rest))
 }

@@ -108,9 +108,12 @@ pub struct Args {
 }
 
 /// Runs `lrmcal demo`.
-pub fn run(args: &Args) -> Result<(), Error> {
+///
+/// `lrmcal` is what runs a command line (the CLI's own parser and
+/// dispatch): the camera path runs the commands a user types.
+pub fn run(args: &Args, lrmcal: &dyn Fn(&[String]) -> Result<(), Error>) -> Result<(), Error> {
     if args.camera {
-        return camera::run(args);
+        return camera::run(args, lrmcal);
     }
     let started = Instant::now();
     let loaded = args.arm.load()?;

@@ -11,7 +11,7 @@ use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::Registration;
 use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::targets::{Rig, Targets};
-use crate::calib::run::CameraInput;
+use lrmcal_core::camera::Intrinsics;
 use lrmcal_core::dataset::TargetName;
 use lrmcal_core::io::calibration_file::{
     CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
@@ -107,13 +107,18 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
     (rig(file.nominal), rig(file.arm))
 }
 
-/// [`rigs_of`] for a camera's calibration, measured by the camera of
-/// `camera`: both arms seeing every corner of its board, at its pixels.
+/// [`rigs_of`] for a camera's calibration, measured by a camera of
+/// `intrinsics` seeing the board's `corners` (each target's place in the
+/// board frame, as `calib::run::CameraInput` holds them), at their pixels.
 /// The file's world is the camera's frame (`identify --camera` registers
 /// the arm there), its tool frame the board's.
-pub fn camera_rigs_of(file: &CalibrationFile, camera: &CameraInput) -> (Rig, Rig) {
-    let names: Vec<TargetName> = camera.corners.iter().map(|(name, _)| *name).collect();
-    let corners: Vec<Vector3<f64>> = camera.corners.iter().map(|(_, c)| *c).collect();
+pub fn camera_rigs_of(
+    file: &CalibrationFile,
+    intrinsics: &Intrinsics,
+    corners: &[(TargetName, Vector3<f64>)],
+) -> (Rig, Rig) {
+    let names: Vec<TargetName> = corners.iter().map(|(name, _)| *name).collect();
+    let corners: Vec<Vector3<f64>> = corners.iter().map(|(_, c)| *c).collect();
     let seen = |rig: Rig| Rig {
         command_curves: rig.command_curves,
         bounds: rig.bounds,
@@ -122,7 +127,7 @@ pub fn camera_rigs_of(file: &CalibrationFile, camera: &CameraInput) -> (Rig, Rig
             Targets::named_as(&names),
             corners.clone(),
             RigCamera {
-                intrinsics: camera.intrinsics.clone(),
+                intrinsics: intrinsics.clone(),
                 from_world: nalgebra::IsometryMatrix3::identity(),
             },
         )
