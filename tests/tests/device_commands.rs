@@ -267,8 +267,8 @@ fn three_poses(dir: &std::path::Path) -> std::path::PathBuf {
 
 /// `measure --capture`: the board drives the arm to each pose of the list,
 /// and only then the capture command takes its image (here a command that
-/// notes the pose it was run at); the list naming the images is written,
-/// and the board stands at the last pose.
+/// copies a grey image and notes the pose it was run at); the list naming
+/// the images is written, and the board stands at the last pose.
 #[test]
 fn measure_captures_an_image_at_each_pose_the_board_reaches() {
     use host::commands::measure;
@@ -277,6 +277,10 @@ fn measure_captures_an_image_at_each_pose_the_board_reaches() {
     let poses = three_poses(dir.path());
     let out = dir.path().join("shots.csv");
     let order = dir.path().join("order.txt");
+    let grey = dir.path().join("grey.png");
+    image::GrayImage::from_pixel(64, 48, image::Luma([128]))
+        .save(&grey)
+        .unwrap();
     let args = measure::Args {
         poses: Some(poses.clone()),
         joints: None,
@@ -288,9 +292,11 @@ fn measure_captures_an_image_at_each_pose_the_board_reaches() {
         hold_s: None,
         settle_ms: 0,
         capture: Some(format!(
-            "echo {{pose}} > {{image}} && echo {{pose}} >> {}",
+            "cp {} {{image}} && echo {{pose}} >> {}",
+            grey.display(),
             order.display()
         )),
+        capture_frames: 1,
         images: Some(dir.path().join("shots")),
         board: None,
         dtrack: dtrack_args(None),
@@ -341,6 +347,7 @@ fn measure_records_each_pose_and_resumes_after_an_interruption() {
         hold_s: None,
         settle_ms: 0,
         capture: None,
+        capture_frames: 3,
         images: None,
         board: None,
         dtrack: dtrack_args(None),
@@ -447,6 +454,7 @@ fn measure_reads_a_dtrack_stream_and_keeps_the_poses_when_it_stops() {
         hold_s: None,
         settle_ms: 0,
         capture: None,
+        capture_frames: 3,
         images: None,
         board: None,
         dtrack: dtrack_args(Some(0)),

@@ -51,7 +51,21 @@ pub enum ParamKey {
         /// Joint, from 0.
         joint: u8,
     },
+    /// A correction of the measuring camera's lens ([`LENS_FIELDS`]), when
+    /// the fit refines the intrinsics: not the arm's, the instrument's,
+    /// like the registration. Each is dimensionless: a focal length's
+    /// relative change, the principal point's shift over the focal length
+    /// (the turn of the optical axis, rad), a distortion coefficient's
+    /// change.
+    Lens {
+        /// Index into [`LENS_FIELDS`].
+        field: u8,
+    },
 }
+
+/// The lens corrections' names after `camera.`, in [`ParamKey::Lens`]'s
+/// order: focal lengths, principal point, then OpenCV's k1, k2, p1, p2, k3.
+pub const LENS_FIELDS: [&str; 9] = ["fx", "fy", "cx", "cy", "k1", "k2", "p1", "p2", "k3"];
 
 /// Axis letters of [`ParamKey::TargetTool`] names.
 const AXES: [&str; 3] = ["x", "y", "z"];
@@ -73,7 +87,16 @@ impl ParamKey {
             }
             Self::Backlash { joint } => Cow::Owned(backlash_name(joint.into())),
             Self::Softening { spring } => Cow::Owned(format!("s{spring}")),
+            Self::Lens { field } => Cow::Owned(format!(
+                "camera.{}",
+                LENS_FIELDS.get(usize::from(field)).copied().unwrap_or("?")
+            )),
         }
+    }
+
+    /// Every lens correction, in [`LENS_FIELDS`]' order.
+    pub fn lens() -> impl Iterator<Item = Self> {
+        (0..LENS_FIELDS.len() as u8).map(|field| Self::Lens { field })
     }
 
     /// The key called `name`.
@@ -90,6 +113,10 @@ impl ParamKey {
         }
         if let Some(joint) = backlash_from_name(name) {
             return Some(Self::Backlash { joint: joint as u8 });
+        }
+        if let Some(field) = name.strip_prefix("camera.") {
+            let field = LENS_FIELDS.iter().position(|f| *f == field)?;
+            return Some(Self::Lens { field: field as u8 });
         }
         if let Some(spring) = name
             .strip_prefix('s')
@@ -127,7 +154,7 @@ impl ParamKey {
             Self::Arm(id) => id.joint(),
             Self::ServoKnot { joint, .. } | Self::Backlash { joint } => Some(joint.into()),
             Self::Softening { spring } => usize::from(spring).checked_sub(1),
-            Self::TargetTool { .. } => None,
+            Self::TargetTool { .. } | Self::Lens { .. } => None,
         }
     }
 
@@ -154,6 +181,9 @@ impl ParamKey {
             Self::ServoKnot { .. } | Self::Backlash { .. } => ParamKind::Angle,
             // Its steps and typical size are a compliance's (about 0.1).
             Self::Softening { .. } => ParamKind::Compliance,
+            // Dimensionless, sized like a small angle (a turn of the optical
+            // axis, a focal length's relative change).
+            Self::Lens { .. } => ParamKind::Angle,
         }
     }
 
@@ -216,7 +246,7 @@ impl<'de> Deserialize<'de> for ParamKey {
             serde::de::Error::custom(format!(
                 "expected a parameter name (j1.theta … j10.beta, base.x … tool.yaw, k0 … k10, \
                  s0 … s10, j1.servo[1] … j10.servo[9], j1.backlash … j10.backlash, tool[N].x … \
-                 tool[N].z), found `{name}`"
+                 tool[N].z, camera.fx … camera.k3), found `{name}`"
             ))
         })
     }
@@ -285,13 +315,18 @@ mod tests {
             "tool[2].x",
             "j3.servo[5]",
             "j3.backlash",
+            "camera.p1",
         ]
         .map(|n| ParamKey::from_name(n).unwrap());
         let json = serde_json::to_string(&keys).unwrap();
         assert_eq!(
             json,
-            r#"["j3.d","k0","s2","tool[2].x","j3.servo[5]","j3.backlash"]"#
+            r#"["j3.d","k0","s2","tool[2].x","j3.servo[5]","j3.backlash","camera.p1"]"#
         );
+        for key in ParamKey::lens() {
+            assert_eq!(ParamKey::from_name(&key.name()), Some(key));
+        }
+        assert_eq!(ParamKey::from_name("camera.k4"), None);
         assert_eq!(serde_json::from_str::<Vec<ParamKey>>(&json).unwrap(), keys);
         let e = serde_json::from_str::<ParamKey>(r#""j3.dd""#).unwrap_err();
         assert!(e.to_string().contains("found `j3.dd`"), "{e}");

@@ -5,27 +5,34 @@
 //! (`tests/common/camera_trial.rs`); then the median and the range.
 //!
 //! `cargo run --release -p lrmcal-engine --example camera_figures -- 1 10`
-//! (first and last seed; 1 to 10 by default).
+//! (first and last seed; 1 to 10 by default). With a third argument,
+//! `off-held` or `off-refined`, the camera's true lens is off the setup's
+//! intrinsics (focal lengths 3 %, principal point 12 and 9 px, k1 0.04)
+//! and the fit holds the setup's lens or refines it.
 
 #[path = "../tests/common/camera_trial.rs"]
 mod camera_trial;
 
 fn main() {
-    let args: Vec<u64> = std::env::args()
-        .skip(1)
-        .map(|a| a.parse().expect("seeds are integers"))
-        .collect();
-    let (first, last) = match args[..] {
-        [a, b] => (a, b),
-        _ => (1, 10),
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let seed = |i: usize, default: u64| {
+        args.get(i)
+            .map_or(default, |a| a.parse().expect("seeds are integers"))
+    };
+    let (first, last) = (seed(0, 1), seed(1, 10));
+    let lens = match args.get(2).map(String::as_str) {
+        None => camera_trial::Lens::Calibrated,
+        Some("off-held") => camera_trial::Lens::Off { refine: false },
+        Some("off-refined") => camera_trial::Lens::Off { refine: true },
+        Some(other) => panic!("expected off-held or off-refined, found {other}"),
     };
     let mut rows = Vec::new();
-    println!("seed  board origin mm  tracker mm  nominal mm  camera mm  camera deg");
+    println!("seed  board origin mm  tracker mm  nominal mm  camera mm  camera deg  lens px");
     for seed in first..=last {
-        let t = camera_trial::trial(seed);
+        let t = camera_trial::trial(seed, lens);
         println!(
-            "{seed:>4}  {:>15.3}  {:>10.3}  {:>10.1}  {:>9.3}  {:>10.3}",
-            t.board_mm, t.tracker_mm, t.nominal_mm, t.camera_mm, t.camera_deg
+            "{seed:>4}  {:>15.3}  {:>10.3}  {:>10.1}  {:>9.3}  {:>10.3}  {:>7.3}",
+            t.board_mm, t.tracker_mm, t.nominal_mm, t.camera_mm, t.camera_deg, t.lens_px
         );
         rows.push(t);
     }
@@ -46,4 +53,5 @@ fn main() {
     );
     summary("camera mm", rows.iter().map(|t| t.camera_mm).collect());
     summary("camera deg", rows.iter().map(|t| t.camera_deg).collect());
+    summary("lens px", rows.iter().map(|t| t.lens_px).collect());
 }

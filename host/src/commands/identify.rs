@@ -18,7 +18,8 @@ use crate::commands::helpers::write_text;
 use crate::error::Error;
 use crate::progress::Steps;
 use crate::report_page;
-use lrmcal_core::camera::{setup, views};
+use lrmcal_core::camera::static_transform::StaticTransform;
+use lrmcal_core::camera::{Intrinsics, intrinsics_file, setup, views};
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -132,6 +133,12 @@ pub struct Args {
     /// corners seen at each pose).
     #[arg(long, value_name = "SETUP", conflicts_with_all = ["no_register", "tool_only"])]
     pub camera: Option<PathBuf>,
+    /// With --camera, refine the camera's intrinsics (focal lengths,
+    /// principal point, distortion) with the arm, starting from the
+    /// setup's intrinsics file; the refined lens is written as
+    /// camera_info-OPTION.yaml.
+    #[arg(long, requires = "camera")]
+    pub refine_intrinsics: bool,
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-calibration")]
     pub out: PathBuf,
@@ -223,7 +230,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             "warning: {option}: {note}; those are held at their nominal values, and the model is sized from what the poses carry"
         );
     }
-    for (cal, details) in run.files.iter().zip(&run.report.options) {
+    for ((cal, details), result) in run.files.iter().zip(&run.report.options).zip(&run.results) {
         // The file knows the arm it was made for: its name and joints' names.
         let cal = cal.clone().for_arm(&loaded.name, &loaded.joint_names);
         let path = args.out.join(format!("calibration-{}.json", cal.option));
@@ -233,8 +240,19 @@ pub fn run(args: &Args) -> Result<(), Error> {
             // A board's corners are where the board file puts them: the
             // camera is what the user wants to know.
             Some(camera) => {
-                print!("{}", camera_lines(&cal.arm.base));
-                let (_, calibrated) = camera_rigs_of(&cal, &camera.intrinsics, &camera.corners);
+                let tf = camera_in_base(&cal.arm.base);
+                print!("{}", camera_lines(&tf));
+                let lens = match &result.identified.rig.camera {
+                    Some(fitted) => fitted.lens_now(),
+                    None => camera.intrinsics.clone(),
+                };
+                if camera.refine_lens {
+                    print!("{}", lens_lines(&camera.intrinsics, &lens));
+                }
+                for written in write_camera_files(&args.out, &cal.option.to_string(), &lens, &tf)? {
+                    println!("  wrote {}", written.display());
+                }
+                let (_, calibrated) = camera_rigs_of(&cal, &lens, &camera.corners);
                 let measured: Vec<_> = request
                     .measurements
                     .iter()
@@ -314,6 +332,7 @@ fn camera_input(
             intrinsics: setup.intrinsics,
             corners,
             board_on_flange: setup.board_on_flange,
+            refine_lens: args.refine_intrinsics,
         },
         listed,
     ))
@@ -321,31 +340,61 @@ fn camera_input(
 
 /// Where the fit puts the camera: the arm's base in the camera frame
 /// (`base`, the calibration's, whose measurement frame is the camera's)
-/// turned round, and the static transform a ROS user publishes for it
-/// (the camera's optical frame in the base's, quaternion x y z w).
-fn camera_lines(base: &model::Frame<f64>) -> String {
-    let camera = base.isometry().inverse();
-    let t = camera.translation.vector;
-    let (roll, pitch, yaw) = camera.rotation.euler_angles();
-    let q = nalgebra::UnitQuaternion::from_rotation_matrix(&camera.rotation);
+/// turned round, as a ROS user publishes it (the camera's optical frame in
+/// the base's).
+fn camera_in_base(base: &model::Frame<f64>) -> StaticTransform {
+    StaticTransform {
+        parent: "base_link".into(),
+        child: "camera_optical_frame".into(),
+        child_in_parent: base.isometry().inverse(),
+    }
+}
+
+/// The lines that say where the camera is, and how to publish it.
+fn camera_lines(tf: &StaticTransform) -> String {
+    let t = tf.child_in_parent.translation.vector;
+    let (roll, pitch, yaw) = tf.child_in_parent.rotation.euler_angles();
     format!(
         "  camera in the arm's base frame: ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg\n  \
-         publish it: ros2 run tf2_ros static_transform_publisher --x {:.5} --y {:.5} --z {:.5} \
-         --qx {:.6} --qy {:.6} --qz {:.6} --qw {:.6} --frame-id base_link --child-frame-id camera_optical_frame\n",
+         publish it: {}\n",
         t.x * 1e3,
         t.y * 1e3,
         t.z * 1e3,
         roll.to_degrees(),
         pitch.to_degrees(),
         yaw.to_degrees(),
-        t.x,
-        t.y,
-        t.z,
-        q.i,
-        q.j,
-        q.k,
-        q.w
+        tf.command()
     )
+}
+
+/// The lens as refined beside the lens as told.
+fn lens_lines(told: &Intrinsics, refined: &Intrinsics) -> String {
+    let [k1, k2, p1, p2, k3] = refined.distortion;
+    let [t1, t2, q1, q2, t3] = told.distortion;
+    format!(
+        "  lens refined: fx {:.1} fy {:.1} cx {:.1} cy {:.1} px (told {:.1} {:.1} {:.1} {:.1}); \
+         k1 {k1:.4} k2 {k2:.4} p1 {p1:.5} p2 {p2:.5} k3 {k3:.4} (told {t1:.4} {t2:.4} {q1:.5} {q2:.5} {t3:.4})\n",
+        refined.fx, refined.fy, refined.cx, refined.cy, told.fx, told.fy, told.cx, told.cy
+    )
+}
+
+/// Writes the camera's files beside the calibration of `option`: its
+/// intrinsics as a ROS `camera_info` YAML and its pose as a ROS 2 launch
+/// file publishing the static transform; returns their paths.
+fn write_camera_files(
+    out: &Path,
+    option: &str,
+    intrinsics: &Intrinsics,
+    tf: &StaticTransform,
+) -> Result<[PathBuf; 2], Error> {
+    let info = out.join(format!("camera_info-{option}.yaml"));
+    write_text(
+        &info,
+        &intrinsics_file::to_camera_info(intrinsics, "camera"),
+    )?;
+    let launch = out.join(format!("camera_tf-{option}.launch.xml"));
+    write_text(&launch, &tf.launch_xml())?;
+    Ok([info, launch])
 }
 
 /// `--tool-only`: re-teaches the tool points of `--calibration` from the

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use crate::error::Error;
-use lrmcal_core::camera::{setup, views};
+use lrmcal_core::camera::{intrinsics_file, setup, views};
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::io::measurements;
@@ -42,6 +42,11 @@ pub struct Args {
     /// with that camera.
     #[arg(long, value_name = "SETUP")]
     pub camera: Option<PathBuf>,
+    /// With --camera, the lens to see with instead of the setup's: the
+    /// camera_info `identify --camera --refine-intrinsics` wrote beside the
+    /// calibration.
+    #[arg(long, value_name = "FILE", requires = "camera")]
+    pub intrinsics: Option<PathBuf>,
     /// The nominal arm the calibration must belong to [default: the one recorded in it].
     #[arg(long, value_name = "NAME|FILE")]
     pub arm: Option<ArmSource>,
@@ -56,7 +61,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
     let file = args.measurements.display().to_string();
     let (rows, (nominal, calibrated), pixels) = match &args.camera {
         Some(path) => {
-            let setup = setup::read(path)?;
+            let mut setup = setup::read(path)?;
+            if let Some(lens) = &args.intrinsics {
+                setup.intrinsics = intrinsics_file::read(lens)?;
+            }
             let views = views::read(&args.measurements)?;
             let (rows, _) =
                 corner_measurements(&setup.intrinsics, &setup.board, &views).map_err(|source| {

@@ -18,6 +18,8 @@ fn unit(key: ParamKey) -> (&'static str, f64) {
     let degrees = 1f64.to_degrees();
     match key {
         ParamKey::Softening { .. } => ("1/(N·m)", 1.0),
+        // Relative or per focal length: dimensionless (`calib::parameters::camera`).
+        ParamKey::Lens { .. } => ("", 1.0),
         key => match key.kind() {
             ParamKind::Length => ("mm", 1e3),
             ParamKind::Angle => ("°", degrees),

@@ -9,7 +9,11 @@
 //! u = fx x'' + cx, v = fy y'' + cy, in pixels with the top-left pixel's
 //! centre at (0, 0).
 
-use nalgebra::{Matrix2, Matrix2x3, Point2, Point3};
+use nalgebra::{Matrix2, Matrix2x3, Point2, Point3, SMatrix};
+
+/// A pixel's derivative in the nine intrinsics (rows u, v; columns fx, fy,
+/// cx, cy, k1, k2, p1, p2, k3).
+pub type IntrinsicsSlope = SMatrix<f64, 2, 9>;
 
 use super::yaml::{at, finite};
 use crate::error::{InputError, Problem};
@@ -142,6 +146,28 @@ impl Intrinsics {
         Some((pixel, focal * lens * pinhole))
     }
 
+    /// The derivative of [`Intrinsics::project`]'s pixel with respect to
+    /// the intrinsics themselves, per unit of each (rows u, v; columns fx,
+    /// fy, cx, cy, k1, k2, p1, p2, k3): how a reprojection error moves when
+    /// the lens is refined.
+    pub fn intrinsics_slope(&self, point: &Point3<f64>) -> Option<IntrinsicsSlope> {
+        self.project(point)?;
+        let [k1, k2, p1, p2, k3] = self.distortion;
+        let (x, y) = (point.x / point.z, point.y / point.z);
+        let r2 = x * x + y * y;
+        let radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+        let xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+        let yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+        let (fx, fy) = (self.fx, self.fy);
+        let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+        #[rustfmt::skip]
+        let slope = IntrinsicsSlope::from_row_slice(&[
+            xd, 0.0, 1.0, 0.0, fx * x * r2, fx * x * r4, fx * 2.0 * x * y, fx * (r2 + 2.0 * x * x), fx * x * r6,
+            0.0, yd, 0.0, 1.0, fy * y * r2, fy * y * r4, fy * (r2 + 2.0 * y * y), fy * 2.0 * x * y, fy * y * r6,
+        ]);
+        Some(slope)
+    }
+
     /// The normalised image point (x/z, y/z of the camera frame) whose
     /// projection is `pixel`: the lens's distortion undone by fixed-point
     /// iteration, as OpenCV's `undistortPoints` does; `None` when it does
@@ -257,6 +283,41 @@ mod tests {
                     assert!(
                         (exact - diff[row]).abs() < 1e-5 * exact.abs().max(1.0),
                         "{point} {axis}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The slope with respect to the intrinsics is their central
+    /// differences: each of fx, fy, cx, cy, k1, k2, p1, p2, k3 stepped.
+    #[test]
+    fn the_intrinsics_slope_is_its_differences() {
+        let camera = distorted();
+        let stepped = |field: usize, h: f64| {
+            let mut c = camera.clone();
+            match field {
+                0 => c.fx += h,
+                1 => c.fy += h,
+                2 => c.cx += h,
+                3 => c.cy += h,
+                k => c.distortion[k - 4] += h,
+            }
+            c
+        };
+        for point in [Point3::new(0.31, -0.17, 0.9), Point3::new(-0.4, 0.22, 0.7)] {
+            let slope = camera.intrinsics_slope(&point).unwrap();
+            for field in 0..9 {
+                let h = if field < 4 { 1e-3 } else { 1e-6 };
+                let diff = (stepped(field, h).project(&point).unwrap()
+                    - stepped(field, -h).project(&point).unwrap())
+                    / (2.0 * h);
+                for row in 0..2 {
+                    let exact = slope[(row, field)];
+                    assert!(
+                        (exact - diff[row]).abs() < 1e-6 * exact.abs().max(1.0),
+                        "{point} {field} {row}: {exact} against {}",
+                        diff[row]
                     );
                 }
             }

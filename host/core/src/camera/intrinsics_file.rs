@@ -36,6 +36,36 @@ pub fn parse(text: &str) -> Result<Intrinsics, InputError> {
     Ok(intrinsics)
 }
 
+/// The ROS `camera_info` YAML of `intrinsics` (camera_calibration_parsers'
+/// layout, `plumb_bob`), named `camera_name`: what `camera_info_manager`
+/// loads. The images are taken as they come (no rectification): the
+/// rectification matrix is the identity and the projection matrix is the
+/// camera matrix beside a zero column, as ROS writes for a single camera.
+/// Numbers are written in full, so the file reads back to the same
+/// intrinsics ([`parse`]).
+pub fn to_camera_info(intrinsics: &Intrinsics, camera_name: &str) -> String {
+    let Intrinsics {
+        width_px,
+        height_px,
+        fx,
+        fy,
+        cx,
+        cy,
+        distortion: [k1, k2, p1, p2, k3],
+    } = intrinsics;
+    format!(
+        "image_width: {width_px}\n\
+         image_height: {height_px}\n\
+         camera_name: {camera_name}\n\
+         camera_matrix:\n  rows: 3\n  cols: 3\n  data: [{fx:?}, 0.0, {cx:?}, 0.0, {fy:?}, {cy:?}, 0.0, 0.0, 1.0]\n\
+         distortion_model: plumb_bob\n\
+         distortion_coefficients:\n  rows: 1\n  cols: 5\n  data: [{k1:?}, {k2:?}, {p1:?}, {p2:?}, {k3:?}]\n\
+         rectification_matrix:\n  rows: 3\n  cols: 3\n  data: [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]\n\
+         projection_matrix:\n  rows: 3\n  cols: 4\n  \
+         data: [{fx:?}, 0.0, {cx:?}, 0.0, 0.0, {fy:?}, {cy:?}, 0.0, 0.0, 0.0, 1.0, 0.0]\n"
+    )
+}
+
 /// A matrix as both kinds write it (OpenCV adds its element type, `dt`).
 #[derive(Debug, Deserialize)]
 struct RawMatrix {
@@ -189,6 +219,27 @@ projection_matrix:
             (600.0, 601.0, 319.5, 239.5)
         );
         assert_eq!(camera.distortion, [-0.1, 0.05, 0.001, -0.002, 0.0]);
+    }
+
+    /// What is written reads back to the same numbers, and it is the layout
+    /// ROS writes: the test file's keys, in its order.
+    #[test]
+    fn a_written_camera_info_reads_back() {
+        let camera = Intrinsics {
+            fx: 912.345_678_901_234_5,
+            cy: 358.000_000_000_1,
+            distortion: [-0.1, 0.06, 1e-7, -0.0005, 0.01],
+            ..parse(ROS).unwrap()
+        };
+        let text = to_camera_info(&camera, "webcam");
+        assert_eq!(parse(&text).unwrap(), camera);
+        let keys = |t: &str| -> Vec<String> {
+            t.lines()
+                .filter(|l| !l.starts_with(' '))
+                .filter_map(|l| l.split(':').next().map(str::to_owned))
+                .collect()
+        };
+        assert_eq!(keys(&text), keys(ROS));
     }
 
     #[test]

@@ -5,6 +5,7 @@
 //! camera_info / FileStorage YAML --intrinsics_file::read--> Intrinsics (pixels of camera-frame points)
 //! Kalibr aprilgrid YAML --board::read--> AprilGrid (tag corners in the board frame)
 //! camera setup TOML --setup::read--> CameraSetup (both, and where the camera and the board are)
+//! calibrated Intrinsics --intrinsics_file::to_camera_info--> camera_info YAML (for ROS)
 //! Intrinsics + AprilGrid + board pose in the camera frame --visibility::check--> seen, or why not
 //! tags found in images --corners::write--> detected corners CSV
 //! tags seen at each commanded pose and load <--views::read/write--> camera measurement CSV
@@ -20,6 +21,7 @@
 //! | [`corners`] | the board's tag corners found in images, and their CSV file |
 //! | [`views`] | the tags seen at each commanded pose and load (a camera's measurements), and their CSV file |
 //! | [`shots`] | the images taken at a pose list's poses, each under its load |
+//! | [`static_transform`] | the camera's pose for ROS: `static_transform_publisher`'s arguments and a launch file |
 //! | [`setup`] | the camera setup file: the files above and the two poses that place them |
 //! | [`bundled`] | the bundled arm's webcam setup, for the demo |
 //! | `yaml` | the YAML reading the files above share |
@@ -35,6 +37,7 @@ pub mod intrinsics;
 pub mod intrinsics_file;
 pub mod setup;
 pub mod shots;
+pub mod static_transform;
 pub mod views;
 pub mod visibility;
 mod yaml;

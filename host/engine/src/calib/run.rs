@@ -48,6 +48,7 @@ use super::{CalibError, ModelOption, Rig};
 use lrmcal_core::camera::CameraSetup;
 use lrmcal_core::dataset::{Measurement, Pose, TargetName, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
+use lrmcal_core::param_key::LENS_FIELDS;
 
 mod request;
 pub use request::{CameraInput, Placement, PoseChoice, Request};
@@ -224,8 +225,8 @@ impl<'a> Calibration<'a> {
                     rig.targets.clone(),
                     corners,
                     RigCamera {
-                        intrinsics: camera.intrinsics.clone(),
-                        from_world: registration.frame,
+                        lens: camera.refine_lens.then_some([0.0; LENS_FIELDS.len()]),
+                        ..RigCamera::fixed(camera.intrinsics.clone(), registration.frame)
                     },
                 )
             };
@@ -288,10 +289,7 @@ impl<'a> Calibration<'a> {
                 arm,
                 Targets::named_as(&names),
                 camera.corners.iter().map(|(_, corner)| *corner).collect(),
-                RigCamera {
-                    intrinsics: camera.intrinsics.clone(),
-                    from_world: setup.camera.isometry().inverse(),
-                },
+                RigCamera::fixed(camera.intrinsics.clone(), setup.camera.isometry().inverse()),
             )
         };
         plan.request.camera = Some(camera);

@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use lrmcal_core::camera::{CameraSetup, setup};
+use lrmcal_core::camera::{CameraSetup, Intrinsics, setup};
 use lrmcal_core::dataset::Pose;
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_engine::calib::Sample;
@@ -36,6 +36,57 @@ pub struct Trial {
     pub camera_mm: f64,
     /// And turned, degrees.
     pub camera_deg: f64,
+    /// How far the lens the calibration ends with projects from the true
+    /// lens, over a grid of the image's rays: the RMS, px.
+    pub lens_px: f64,
+}
+
+/// What the calibration is told of the lens, and what it does with it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lens {
+    /// The setup's intrinsics are the camera's, held.
+    Calibrated,
+    /// The camera's lens is off the setup's intrinsics (as a nominal lens
+    /// is): the focal lengths by 3 %, k1 by 0.04 and k2 by -0.03.
+    /// `refine`: the fit refines the lens; otherwise it holds the setup's.
+    Off {
+        /// Whether the fit refines the lens.
+        refine: bool,
+    },
+}
+
+/// The lens `told` off by [`Lens::Off`]'s amounts: the camera's true lens.
+fn lens_off(told: &Intrinsics) -> Intrinsics {
+    let mut distortion = told.distortion;
+    distortion[0] += 0.04;
+    distortion[1] -= 0.03;
+    Intrinsics {
+        fx: told.fx * 1.03,
+        fy: told.fy * 1.03,
+        distortion,
+        ..told.clone()
+    }
+}
+
+/// The RMS distance, px, between where `fitted` and `truth` project the
+/// rays of a 9 × 5 grid of the true image.
+fn lens_rms_px(fitted: &Intrinsics, truth: &Intrinsics) -> f64 {
+    let (w, h) = (f64::from(truth.width_px), f64::from(truth.height_px));
+    let mut sum = 0.0;
+    let mut n = 0.0;
+    for i in 0..9 {
+        for j in 0..5 {
+            let pixel = nalgebra::Point2::new(
+                w * (0.05 + 0.9 * f64::from(i) / 8.0),
+                h * (0.05 + 0.9 * f64::from(j) / 4.0),
+            );
+            let ray = truth.undistort(&pixel).unwrap();
+            let seen = fitted.project(&Point3::new(ray.x, ray.y, 1.0)).unwrap();
+            sum += (seen - pixel).norm_squared();
+            n += 1.0;
+        }
+    }
+    (sum / n).sqrt()
 }
 
 fn camera_setup() -> CameraSetup {
@@ -45,7 +96,7 @@ fn camera_setup() -> CameraSetup {
 
 /// Seed `seed`'s true arm and webcam, 60 poses the camera sees fitted
 /// under 66.3 g with 0.3 px of corner noise, 40 others checked.
-pub fn trial(seed: u64) -> Trial {
+pub fn trial(seed: u64, lens: Lens) -> Trial {
     let loaded = ArmSource::Bundled("lrm").load().unwrap();
     let setup = camera_setup();
     let config = PlanConfig {
@@ -57,7 +108,10 @@ pub fn trial(seed: u64) -> Trial {
     let load_kg = 0.0663;
 
     let truth = TrueArm::draw(&loaded.arm, seed, &SimConfig::default()).unwrap();
-    let webcam = Webcam::draw(&setup, seed, 0.3);
+    let mut webcam = Webcam::draw(&setup, seed, 0.3);
+    if let Lens::Off { .. } = lens {
+        webcam.intrinsics = lens_off(&setup.intrinsics);
+    }
     // The poses the camera really sees (the setup is told roughly, so
     // some planned ones fall out of the image): every third for the fit,
     // the next ones to check it.
@@ -92,6 +146,7 @@ pub fn trial(seed: u64) -> Trial {
         intrinsics: setup.intrinsics.clone(),
         corners,
         board_on_flange: setup.board_on_flange,
+        refine_lens: lens == Lens::Off { refine: true },
     };
     let nominal = camera.nominal_arm(&loaded.arm);
     let g = nominal.gravity_vector().norm();
@@ -111,6 +166,7 @@ pub fn trial(seed: u64) -> Trial {
     let tracker_run = calibrate(&Request::new(&nominal, &points), &Silent).unwrap();
     let tracker_rig = &tracker_run.results[0].identified.rig;
     let rig = &result.identified.rig;
+    let fitted_lens = rig.camera.as_ref().unwrap().lens_now();
     let frame = run.registration.frame;
 
     // The board's origin in the camera frame: predicted and true.
@@ -175,5 +231,6 @@ pub fn trial(seed: u64) -> Trial {
         tracker_mm: 1e3 * tracker_sum / check.len() as f64,
         camera_mm: 1e3 * off.translation.vector.norm(),
         camera_deg: off.rotation.angle().to_degrees(),
+        lens_px: lens_rms_px(&fitted_lens, &webcam.intrinsics),
     }
 }

@@ -115,9 +115,17 @@ pub struct Args {
     /// A webcam instead of a tracker: the shell command that takes one image
     /// into `{image}` (also `{pose}`, `{load_kg}`), e.g. `ffmpeg -loglevel
     /// error -f v4l2 -video_size 1280x720 -i /dev/video0 -frames:v 1 {image}`;
-    /// --out is then the pose list naming the images (`detect --poses`).
+    /// run once a frame, --capture-frames times a pose and more while the
+    /// scene still moves, the sharpest still frame kept and a blurred one
+    /// warned of; --out is then the pose list naming the images (`detect
+    /// --poses`).
     #[arg(long, value_name = "COMMAND", requires = "images", conflicts_with_all = ["tracker", "joints", "hold_s"])]
     pub capture: Option<String>,
+    /// With --capture, the still frames taken at each pose, the sharpest
+    /// kept; up to twice as many are taken while two in a row differ (the
+    /// arm still sways). 1 takes one frame, unchecked for motion.
+    #[arg(long, value_name = "N", default_value_t = capture::FRAMES, requires = "capture", value_parser = clap::value_parser!(u32).range(1..))]
+    pub capture_frames: u32,
     /// With --capture, the folder the images are written to.
     #[arg(long, value_name = "DIR", requires = "capture")]
     pub images: Option<PathBuf>,
@@ -275,6 +283,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let mut capture = capture::Capture {
             command: command.clone(),
             folder: folder.clone(),
+            frames: args.capture_frames,
             board,
         };
         let units = model::PerJoint::from_slice(&kinds).unwrap_or_default();

@@ -54,7 +54,8 @@ pub fn ladder(option: ModelOption) -> Vec<Rung> {
 /// The parameters of `kept` (an analysis of the option asked for) that
 /// `rung` fits: the base and the tool points for the placement, the
 /// geometry and the further targets' tool points for kinematic, and the
-/// compliances too for elasto-kinematic; all of them for ours.
+/// compliances too for elasto-kinematic; all of them for ours. A camera's
+/// lens, when refined, is the instrument's: every rung fits it.
 pub fn keys_for(rung: Rung, kept: &[ParamKey]) -> Vec<ParamKey> {
     kept.iter()
         .copied()
@@ -63,17 +64,18 @@ pub fn keys_for(rung: Rung, kept: &[ParamKey]) -> Vec<ParamKey> {
                 ParamKey::Arm(id) => {
                     matches!(id.part(), ParamPart::Base { .. } | ParamPart::Tool { .. })
                 }
-                ParamKey::TargetTool { .. } => true,
+                ParamKey::TargetTool { .. } | ParamKey::Lens { .. } => true,
                 _ => false,
             },
             Rung::Model(ModelOption::Kinematic) => match key {
                 ParamKey::Arm(id) => id.is_geometric(),
-                ParamKey::TargetTool { .. } => true,
+                ParamKey::TargetTool { .. } | ParamKey::Lens { .. } => true,
                 _ => false,
             },
-            Rung::Model(ModelOption::ElastoKinematic) => {
-                matches!(key, ParamKey::Arm(_) | ParamKey::TargetTool { .. })
-            }
+            Rung::Model(ModelOption::ElastoKinematic) => matches!(
+                key,
+                ParamKey::Arm(_) | ParamKey::TargetTool { .. } | ParamKey::Lens { .. }
+            ),
             Rung::Model(_) => true,
         })
         .collect()

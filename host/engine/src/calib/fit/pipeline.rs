@@ -24,6 +24,7 @@ use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
 use crate::calib::fit::model_choice::Ladder;
 use crate::calib::fit::validate::{LoadValidation, Validation, validate};
+use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::parameters::servo_knots::KnotSpacing;
@@ -99,6 +100,7 @@ impl CandidateBlocks {
         // are confounded with (the arm's own tool point, frame 6's
         // translation) is what the rank analysis removes.
         let mut ids = nominal.tool_keys();
+        ids.extend(nominal.camera.iter().flat_map(RigCamera::lens_keys));
         ids.extend(option_candidates(option, &nominal.arm, spacing));
         let j = jacobian(nominal, &ids, &samples)?;
         let identifiability = analyse_jacobian(

@@ -21,18 +21,52 @@
 //! (`from_world`, the arm's world frame to the camera frame); the base's
 //! six parameters, refined by the fit, move the arm in front of it, as
 //! they move it in a tracker's frame.
+//!
+//! Its lens is held as told, or refined with the arm ([`RigCamera::lens`],
+//! the [`ParamKey::Lens`] corrections): the arm moving the board gives the
+//! views a camera calibration needs, at many distances and across the
+//! image. The corrections are dimensionless, so that one step size and one
+//! typical size serve them all: focal lengths change relatively
+//! (`fx (1 + e)`), the principal point by a fraction of the focal length
+//! (`cx + e fx`, a turn of the optical axis by `e` rad), the distortion
+//! coefficients by `e` itself. A lens column is the pixel's derivative in
+//! the intrinsics ([`Intrinsics::intrinsics_slope`]) times that unit,
+//! carried to the target's distance like every pixel.
 
-use nalgebra::{IsometryMatrix3, Matrix3, Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Matrix3, Point3, SMatrix, Vector3};
 
 use lrmcal_core::camera::Intrinsics;
+use lrmcal_core::param_key::{LENS_FIELDS, ParamKey};
+
+/// The lens corrections refined, by index in [`LENS_FIELDS`]: fx, fy, k1,
+/// k2, what a lens's nominal figures get most wrong and what the arm's
+/// views determine. The principal point and the tangential terms stay as
+/// told: a shift of the principal point is, but for the distortion about
+/// it, a turn of the camera, which the fit already has (the base's turn
+/// in front of it), and p1, p2 mimic the rest. Freed, on a simulated arm
+/// (seed 2, `camera_figures -- 2 2 off-refined` with them in this list),
+/// cy came out 19 px off the true lens with p1, p2 three times theirs and
+/// the residual at the corners' noise, the camera 17 mm off. k3, with
+/// k2, bends only the image's far corners, where a board on an arm is
+/// rarely seen (OpenCV's guides fix it for such lenses too).
+const REFINED: [u8; 4] = [0, 1, 4, 5];
+
+/// The lens corrections, in [`LENS_FIELDS`]' order.
+pub type LensErrors = [f64; LENS_FIELDS.len()];
+
+/// A pixel's derivative in the lens corrections, m per unit (rows u, v).
+pub type LensSlope = SMatrix<f64, 2, { LENS_FIELDS.len() }>;
 
 /// The camera that measures a rig's targets.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RigCamera {
-    /// Its lens.
+    /// Its lens as told (the intrinsics file's).
     pub intrinsics: Intrinsics,
     /// The arm's world frame → the camera frame.
     pub from_world: IsometryMatrix3<f64>,
+    /// The lens's corrections when the fit refines it (module docs);
+    /// `None`: the lens is held as told.
+    pub lens: Option<LensErrors>,
 }
 
 /// What an instrument measures of a point of the arm's world frame, as the
@@ -47,6 +81,9 @@ pub struct Observation {
     /// The derivative of `value · scale` with respect to the point, the
     /// scale held.
     pub slope: Matrix3<f64>,
+    /// The derivative of `value · scale` with respect to the lens's
+    /// corrections, when the lens is refined.
+    pub lens_slope: Option<LensSlope>,
 }
 
 impl Observation {
@@ -58,19 +95,72 @@ impl Observation {
 }
 
 impl RigCamera {
+    /// A camera standing at `from_world` whose lens is held as told.
+    pub fn fixed(intrinsics: Intrinsics, from_world: IsometryMatrix3<f64>) -> Self {
+        Self {
+            intrinsics,
+            from_world,
+            lens: None,
+        }
+    }
+
+    /// The lens as the fit has it: as told, its corrections applied.
+    pub fn lens_now(&self) -> Intrinsics {
+        let Some(e) = self.lens else {
+            return self.intrinsics.clone();
+        };
+        let told = &self.intrinsics;
+        let mut distortion = told.distortion;
+        for (d, e) in distortion.iter_mut().zip(&e[4..]) {
+            *d += e;
+        }
+        Intrinsics {
+            fx: told.fx * (1.0 + e[0]),
+            fy: told.fy * (1.0 + e[1]),
+            cx: told.cx + e[2] * told.fx,
+            cy: told.cy + e[3] * told.fy,
+            distortion,
+            ..told.clone()
+        }
+    }
+
+    /// The keys of the lens's corrections when it is refined, none when
+    /// it is held: the focal lengths and the radial distortion's k1, k2
+    /// ([`REFINED`]).
+    pub fn lens_keys(&self) -> Vec<ParamKey> {
+        match self.lens {
+            Some(_) => REFINED.map(|field| ParamKey::Lens { field }).to_vec(),
+            None => Vec::new(),
+        }
+    }
+
     /// What the camera sees of `point` (the arm's world frame); `None`
     /// when it does not project (behind the camera, past the lens's fold).
     pub fn observe(&self, point: &Vector3<f64>) -> Option<Observation> {
+        let lens = self.lens_now();
         let seen = self.from_world * Point3::from(*point);
-        let (pixel, slope) = self.intrinsics.project_with_slope(&seen)?;
-        let scale = seen.z / (0.5 * (self.intrinsics.fx + self.intrinsics.fy));
+        let (pixel, slope) = lens.project_with_slope(&seen)?;
+        let scale = seen.z / (0.5 * (lens.fx + lens.fy));
         let turned = slope * self.from_world.rotation.matrix() * scale;
         let mut block = Matrix3::zeros();
         block.fixed_view_mut::<2, 3>(0, 0).copy_from(&turned);
+        let lens_slope = match self.lens {
+            Some(_) => {
+                let told = &self.intrinsics;
+                let units = [told.fx, told.fy, told.fx, told.fy, 1.0, 1.0, 1.0, 1.0, 1.0];
+                let mut s = lens.intrinsics_slope(&seen)? * scale;
+                for (mut column, unit) in s.column_iter_mut().zip(units) {
+                    column *= unit;
+                }
+                Some(s)
+            }
+            None => None,
+        };
         Some(Observation {
             value: Vector3::new(pixel.x, pixel.y, 0.0),
             scale,
             slope: block,
+            lens_slope,
         })
     }
 }
@@ -81,6 +171,7 @@ pub fn tracked(point: &Vector3<f64>) -> Observation {
         value: *point,
         scale: 1.0,
         slope: Matrix3::identity(),
+        lens_slope: None,
     }
 }
 
@@ -93,13 +184,13 @@ mod tests {
     /// turned and moved in the world.
     #[test]
     fn the_pixels_slope_is_its_differences() {
-        let camera = RigCamera {
-            intrinsics: crate::camera::testing::webcam(),
-            from_world: IsometryMatrix3::from_parts(
+        let camera = RigCamera::fixed(
+            crate::camera::testing::webcam(),
+            IsometryMatrix3::from_parts(
                 Translation3::new(0.05, 0.2, 0.8),
                 Rotation3::from_euler_angles(-1.5, 0.1, 1.6),
             ),
-        };
+        );
         let point = Vector3::new(0.1, -0.05, 0.3);
         let seen = camera.observe(&point).unwrap();
         assert_eq!(seen.value.z, 0.0);
@@ -122,5 +213,42 @@ mod tests {
             }
         }
         assert_eq!(tracked(&point).value, point);
+    }
+
+    /// The lens corrections' slope is their central differences, and a
+    /// camera refining nothing has no lens slope.
+    #[test]
+    fn the_lens_slope_is_its_differences() {
+        let mut camera = RigCamera::fixed(
+            crate::camera::testing::webcam(),
+            IsometryMatrix3::from_parts(
+                Translation3::new(0.05, 0.2, 0.8),
+                Rotation3::from_euler_angles(-1.5, 0.1, 1.6),
+            ),
+        );
+        let point = Vector3::new(0.2, -0.1, 0.3);
+        assert!(camera.observe(&point).unwrap().lens_slope.is_none());
+        assert!(camera.lens_keys().is_empty());
+        camera.lens = Some([0.01, -0.02, 0.003, -0.001, 0.02, -0.01, 1e-4, -2e-4, 0.003]);
+        assert_eq!(camera.lens_keys().len(), 4);
+        let seen = camera.observe(&point).unwrap();
+        let slope = seen.lens_slope.unwrap();
+        let h = 1e-7;
+        for field in 0..9 {
+            let at = |step: f64| {
+                let mut c = camera.clone();
+                c.lens.as_mut().unwrap()[field] += step;
+                c.observe(&point).unwrap().value
+            };
+            let diff = (at(h) - at(-h)) * seen.scale / (2.0 * h);
+            for row in 0..2 {
+                let exact = slope[(row, field)];
+                assert!(
+                    (exact - diff[row]).abs() < 1e-6 * exact.abs().max(1e-3),
+                    "{field} {row}: {exact} against {}",
+                    diff[row]
+                );
+            }
+        }
     }
 }

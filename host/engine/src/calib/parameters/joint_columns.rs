@@ -18,7 +18,10 @@ pub(crate) fn joint_of(key: ParamKey) -> Option<usize> {
         ParamKey::ServoKnot { joint, .. } | ParamKey::Backlash { joint } => {
             Some(usize::from(joint))
         }
-        ParamKey::Arm(_) | ParamKey::TargetTool { .. } | ParamKey::Softening { .. } => None,
+        ParamKey::Arm(_)
+        | ParamKey::TargetTool { .. }
+        | ParamKey::Softening { .. }
+        | ParamKey::Lens { .. } => None,
     }
 }
 
@@ -30,6 +33,9 @@ pub(crate) fn weight(rig: &Rig, key: ParamKey, sample: &Sample) -> f64 {
             knot_weight(rig, j, usize::from(knot), sample.q[j])
         }
         ParamKey::Backlash { joint } => -0.5 * sample.approach[usize::from(joint)].sign::<f64>(),
-        ParamKey::Arm(_) | ParamKey::TargetTool { .. } | ParamKey::Softening { .. } => 0.0,
+        ParamKey::Arm(_)
+        | ParamKey::TargetTool { .. }
+        | ParamKey::Softening { .. }
+        | ParamKey::Lens { .. } => 0.0,
     }
 }

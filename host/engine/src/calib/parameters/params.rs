@@ -67,6 +67,11 @@ impl Key for ParamKey {
             Self::Backlash { joint } => rig.arm.joints[usize::from(joint)].backlash,
             Self::Softening { spring: 0 } => rig.arm.base_softening,
             Self::Softening { spring } => rig.arm.joints[usize::from(spring) - 1].softening,
+            Self::Lens { field } => rig
+                .camera
+                .as_ref()
+                .and_then(|c| c.lens)
+                .map_or(f64::NAN, |e| e[usize::from(field)]),
         }
     }
 
@@ -74,7 +79,7 @@ impl Key for ParamKey {
     ///
     /// # Panics
     /// For a target the rig does not have (keys are made for their rig,
-    /// `Rig::tool_keys`), or a servo knot its curve does not have (the fit
+    /// `Rig::tool_keys`, `RigCamera::lens_keys`), or a servo knot its curve does not have (the fit
     /// puts every curve on the knots it identifies first,
     /// `calib::servo_knots::fit_start`): a bug of the caller either way.
     fn slot(self, rig: &mut Rig) -> &mut f64 {
@@ -96,6 +101,11 @@ impl Key for ParamKey {
             Self::Backlash { joint } => &mut rig.arm.joints[usize::from(joint)].backlash,
             Self::Softening { spring: 0 } => &mut rig.arm.base_softening,
             Self::Softening { spring } => &mut rig.arm.joints[usize::from(spring) - 1].softening,
+            Self::Lens { field } => &mut rig
+                .camera
+                .as_mut()
+                .and_then(|c| c.lens.as_mut())
+                .expect("lens keys are made for a camera refining its lens")[usize::from(field)],
         }
     }
 }

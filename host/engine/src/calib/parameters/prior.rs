@@ -71,7 +71,7 @@ pub const SPRING_SD_OF_BOUND: f64 = 0.5;
 /// One standard deviation of the correction `key` a priori (module docs),
 /// on an arm whose joints are of `kinds` and whose physical bounds are
 /// `bounds`; `None` where the prior says nothing (the geometry but its
-/// twists, placement, a
+/// twists, placement, a camera's lens, a
 /// spring without torque, a slide's servo knots).
 pub fn sd(key: ParamKey, kinds: &[JointKind], bounds: &Bounds<f64>) -> Option<f64> {
     let finite = |x: f64| (x.is_finite() && x > 0.0 && x < f64::MAX / 2.0).then_some(x);
@@ -92,7 +92,7 @@ pub fn sd(key: ParamKey, kinds: &[JointKind], bounds: &Bounds<f64>) -> Option<f6
             (_, ParamPart::Dh { field: 3 | 4, .. }) => Some(TWIST_SD_OF_BOUND * MAX_TWIST_RAD),
             _ => None,
         },
-        ParamKey::TargetTool { .. } => None,
+        ParamKey::TargetTool { .. } | ParamKey::Lens { .. } => None,
     }
 }
 

@@ -52,14 +52,25 @@ pub fn calibration_file(
             ..*nominal
         },
         arm: identified.rig.arm,
-        parameters: identified.estimates.iter().map(FittedParam::from).collect(),
+        // A refined lens is the camera's, written as its camera_info (as the
+        // registration is the instrument's, not the arm's).
+        parameters: identified
+            .estimates
+            .iter()
+            .filter(|e| !matches!(e.id, ParamKey::Lens { .. }))
+            .map(FittedParam::from)
+            .collect(),
         at_bound: identified
             .diagnostics
             .at_bound
             .iter()
             .map(|p| p.name().into_owned())
             .collect(),
-        removed: removed.iter().map(|p| p.name().into_owned()).collect(),
+        removed: removed
+            .iter()
+            .filter(|p| !matches!(p, ParamKey::Lens { .. }))
+            .map(|p| p.name().into_owned())
+            .collect(),
         poses_used,
         loads_kg,
         fit_residual,
@@ -126,10 +137,7 @@ pub fn camera_rigs_of(
             rig.arm,
             Targets::named_as(&names),
             corners.clone(),
-            RigCamera {
-                intrinsics: intrinsics.clone(),
-                from_world: nalgebra::IsometryMatrix3::identity(),
-            },
+            RigCamera::fixed(intrinsics.clone(), nalgebra::IsometryMatrix3::identity()),
         )
     };
     let (nominal, calibrated) = rigs_of(file);

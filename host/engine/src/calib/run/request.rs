@@ -53,6 +53,9 @@ pub struct CameraInput {
     pub corners: Vec<(TargetName, Vector3<f64>)>,
     /// The board frame in the arm's last frame, as the camera setup tells it.
     pub board_on_flange: Frame<f64>,
+    /// Whether the fit refines the lens with the arm (`calib::parameters::camera`);
+    /// otherwise it is held as `intrinsics` tell it.
+    pub refine_lens: bool,
 }
 
 impl CameraInput {
@@ -72,6 +75,7 @@ impl CameraInput {
                 })
                 .collect(),
             board_on_flange: setup.board_on_flange,
+            refine_lens: false,
         }
     }
 

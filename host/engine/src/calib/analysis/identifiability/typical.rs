@@ -42,6 +42,10 @@ impl TypicalErrors {
         match key {
             ParamKey::Softening { spring: 0 } => self.base_softening,
             ParamKey::Softening { .. } => self.joint_softening,
+            // A webcam's calibration is good to about 1 % in its focal
+            // lengths and distortion; p1, p2 are tenths of that.
+            ParamKey::Lens { field: 6 | 7 } => 1e-3,
+            ParamKey::Lens { .. } => 1e-2,
             _ => match key.kind() {
                 ParamKind::Length | ParamKind::Angle => 1e-3,
                 ParamKind::Compliance => match key {

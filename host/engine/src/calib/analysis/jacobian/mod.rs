@@ -258,12 +258,23 @@ fn pose_slopes(
                             None => Vector3::zeros(),
                         }
                     }
+                    // The lens moves the pixel, not the point (below).
+                    ParamKey::Lens { .. } => Vector3::zeros(),
                 };
                 out.set_column(col, &slope);
             }
             // What the instrument measures of the point (a camera: its pixel).
-            let seen = rig.observe(sample, &point)?.slope;
-            Ok((seen * out, seen * w.columns(0, n)))
+            let seen = rig.observe(sample, &point)?;
+            let mut rows = seen.slope * out;
+            if let Some(lens) = &seen.lens_slope {
+                for (col, id) in ids.iter().enumerate() {
+                    if let ParamKey::Lens { field } = *id {
+                        rows.fixed_view_mut::<2, 1>(0, col)
+                            .copy_from(&lens.column(usize::from(field)));
+                    }
+                }
+            }
+            Ok((rows, seen.slope * w.columns(0, n)))
         })
         .collect()
 }
@@ -418,6 +429,7 @@ mod tests {
     fn all_keys(rig: &Rig) -> Vec<ParamKey> {
         let mut ids: Vec<ParamKey> = model::ParamId::all(JOINTS).map(ParamKey::Arm).collect();
         ids.extend(rig.tool_keys());
+        ids.extend(rig.camera.iter().flat_map(|c| c.lens_keys()));
         ids
     }
 
@@ -480,8 +492,9 @@ mod tests {
                 Vector3::new(0.02, 0.08, 0.0),
             ],
             RigCamera {
-                intrinsics: crate::camera::testing::webcam(),
-                from_world: camera_in_world.inverse(),
+                // The lens refined too: its columns are checked with the arm's.
+                lens: Some([0.0; 9]),
+                ..RigCamera::fixed(crate::camera::testing::webcam(), camera_in_world.inverse())
             },
         );
         let mut samples = lively_samples();
