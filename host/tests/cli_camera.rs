@@ -345,6 +345,22 @@ fn a_webcams_corners_calibrate_the_arm() {
         validation["after"]["mean_m"].as_f64().unwrap(),
     );
     assert!(before > 0.01 && after < 0.002, "{before} -> {after} m");
+    // The camera on the report and its page: where it stands, its lens and
+    // the pixels, the held-out ones before and after.
+    let camera = &report["options"][0]["camera"];
+    assert!(
+        camera["fit_px"]["median_px"].as_f64().unwrap() < 1.0,
+        "{camera}"
+    );
+    assert_eq!(camera["lens_refined"], false);
+    let pixels = &validation["pixels"];
+    assert!(
+        pixels["after"]["median_px"].as_f64().unwrap()
+            < 0.2 * pixels["before"]["median_px"].as_f64().unwrap(),
+        "{pixels}"
+    );
+    let page = std::fs::read_to_string(out("cal/report.html")).unwrap();
+    assert!(page.contains("id=\"camera-table-0\""), "no camera table");
     // The file means the same to every reader: predict and the board take it.
     let cal = out("cal/calibration-elasto-kinematic-servo.json");
     let run = lrmcal(&[
@@ -527,5 +543,8 @@ fn a_lens_off_its_file_is_refined() {
         told.fx, refined.fx, truth.fx
     );
     assert!((refined.fx / truth.fx - 1.0).abs() < 0.01, "{refined:?}");
-    assert!(refined_px < held_px && refined_px < 1.0, "{held_px} {refined_px}");
+    assert!(
+        refined_px < held_px && refined_px < 1.0,
+        "{held_px} {refined_px}"
+    );
 }

@@ -28,8 +28,6 @@ use lrmcal_core::io::{measurements, pose_list};
 use lrmcal_engine::calib::analysis::detmax::DetmaxOptions;
 use lrmcal_engine::calib::fit::identify::IdentifyOptions;
 use lrmcal_engine::calib::fit::registration::Gravity;
-use lrmcal_engine::calib::fit::validate::{ErrorStats, reprojection_errors_px};
-use lrmcal_engine::calib::results::export::camera_rigs_of;
 use lrmcal_engine::calib::results::summary;
 use lrmcal_engine::calib::run::{
     CameraInput, Placement, PoseChoice, Request, calibrate, reteach as reteach_tools,
@@ -252,18 +250,9 @@ pub fn run(args: &Args) -> Result<(), Error> {
                 for written in write_camera_files(&args.out, &cal.option.to_string(), &lens, &tf)? {
                     println!("  wrote {}", written.display());
                 }
-                let (_, calibrated) = camera_rigs_of(&cal, &lens, &camera.corners);
-                let measured: Vec<_> = request
-                    .measurements
-                    .iter()
-                    .filter(|m| m.load_kg == run.load_kg)
-                    .copied()
-                    .collect();
-                let px = ErrorStats::of(&reprojection_errors_px(&calibrated, &measured)?);
-                println!(
-                    "  reprojection error at the {} corners measured under {} kg: median {:.2} px, rms {:.2} px",
-                    px.count, run.load_kg, px.median_m, px.rms_m
-                );
+                if let Some(lines) = summary::camera_pixels(details) {
+                    print!("{lines}");
+                }
             }
             None if !cal.targets.is_empty() => {
                 print!("{}", summary::targets_table(&cal.targets))

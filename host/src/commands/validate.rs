@@ -138,13 +138,17 @@ pub fn run(args: &Args) -> Result<(), Error> {
     if let Some(line) = pixels {
         println!("{line}");
     }
-    for o in per_load.iter().flat_map(|lv| &lv.validation.outliers) {
+    for (o, measurements) in per_load
+        .iter()
+        .flat_map(|lv| lv.validation.outlying_poses())
+    {
         println!(
             "{}",
             summary::validation_outlier(&ValidationOutlier {
                 pose: o.pose,
                 load_kg: o.load_kg,
                 error_mm: o.after_m * 1e3,
+                measurements,
             })
         );
     }

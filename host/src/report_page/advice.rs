@@ -380,6 +380,7 @@ mod tests {
                 pose: 9,
                 load_kg: 0.0663,
                 error_mm: 14.0,
+                measurements: 1,
             });
         let a = validation_outliers(&report);
         assert!(

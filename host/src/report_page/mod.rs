@@ -36,7 +36,7 @@ use html::{escape, num, para};
 pub const PAGE: &str = "report.html";
 
 /// The ids of the page's sections, in order, with their headings.
-pub const SECTIONS: [(&str, &str); 12] = [
+pub const SECTIONS: [(&str, &str); 13] = [
     ("next", "Is it good, and what to do next"),
     ("summary", "Summary"),
     ("errors", "Errors before and after, pose by pose"),
@@ -49,6 +49,7 @@ pub const SECTIONS: [(&str, &str); 12] = [
     ("model", "How much model the poses carry"),
     ("knots", "Servo curve knots"),
     ("registration", "Registration"),
+    ("camera", "The camera"),
 ];
 
 const STYLE: &str = "body{font-family:system-ui,sans-serif;margin:0 auto;max-width:1100px;padding:1em;color:#222}\
@@ -105,6 +106,7 @@ pub fn render(report: &Report, page: &Path) -> Result<String, Error> {
             "selection" => sections::selection(report),
             "model" => sections::model(report),
             "knots" => sections::knots(report),
+            "camera" => sections::camera(report),
             _ => sections::registration(report),
         };
         let _ = write!(
@@ -462,6 +464,58 @@ mod tests {
         assert!(html.contains("No option of this run fits servo curves"));
         assert!(html.contains("The arm was not registered"));
         assert!(html.contains("<li>Every measured pose was fitted"));
+    }
+
+    /// A camera's calibration shows where the camera stands, the lens told
+    /// and refined, and the pixels; a tracker's says no camera measured.
+    #[test]
+    fn the_camera_is_shown_in_pixels_and_millimetres() {
+        use lrmcal_engine::calib::results::report::{
+            CameraReport, LensReport, PixelErrors, PixelsBeforeAfter,
+        };
+        let mut report = fixture::report();
+        assert!(page(&report).contains("No camera measured"));
+        let px = |median_px: f64| PixelErrors {
+            count: 480,
+            median_px,
+            rms_px: 1.5 * median_px,
+            p95_px: 3.0 * median_px,
+            max_px: 5.0 * median_px,
+        };
+        let lens = |fx: f64| LensReport {
+            fx,
+            fy: fx,
+            cx: 641.0,
+            cy: 358.0,
+            distortion: [-0.1, 0.06, 0.001, -0.0005, 0.0],
+        };
+        let o = &mut report.options[0];
+        o.camera = Some(CameraReport {
+            xyz_mm: [612.3, -48.0, 251.7],
+            rpy_deg: [-91.0, 0.5, 88.25],
+            quaternion_xyzw: [0.5, -0.5, 0.5, -0.5],
+            lens: lens(936.4),
+            lens_told: lens(910.0),
+            lens_refined: true,
+            fit_px: px(0.3),
+        });
+        o.validation.as_mut().unwrap().pixels = Some(PixelsBeforeAfter {
+            before: px(22.9),
+            after: px(0.22),
+        });
+        let html = page(&report);
+        assert!(html.contains("id=\"camera-table-0\""));
+        for text in [
+            "(612.3, -48.0, 251.7) mm",
+            "lens refined with the arm",
+            "fx 936.4",
+            "fx 910.0",
+            "median 0.30, rms 0.45",
+            "median 22.90, rms 34.35, largest 114.50 px (480 corners) → median 0.22",
+        ] {
+            assert!(html.contains(text), "{text}");
+        }
+        assert!(!html.contains("No camera measured"));
     }
 
     #[test]

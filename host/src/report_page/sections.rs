@@ -5,7 +5,7 @@
 //! produce says so instead of being left out, so every page has the same
 //! outline.
 
-use lrmcal_engine::calib::results::report::{OptionReport, Report};
+use lrmcal_engine::calib::results::report::{LensReport, OptionReport, PixelErrors, Report};
 use lrmcal_engine::calib::results::summary::servo_smoothness;
 
 use super::html::{escape, num, opt_num, para, table};
@@ -361,5 +361,96 @@ pub fn registration(report: &Report) -> String {
         "The arm placed on the measurements before the fit",
         &["what", "found"],
         &rows,
+    )
+}
+
+/// Where each option's fit puts the camera, the lens it saw through, and
+/// the reprojection errors in pixels beside the millimetres they imply.
+pub fn camera(report: &Report) -> String {
+    per_option(
+        report,
+        |o| o.camera.as_ref(),
+        "No camera measured: the measurements are a tracker's points.",
+        |i, o, c| {
+            let v3 = |v: [f64; 3], d: usize| {
+                format!("({}, {}, {})", num(v[0], d), num(v[1], d), num(v[2], d))
+            };
+            let lens = |l: &LensReport| {
+                let [k1, k2, p1, p2, k3] = l.distortion;
+                format!(
+                    "fx {} fy {} cx {} cy {} px; k1 {} k2 {} p1 {} p2 {} k3 {}",
+                    num(l.fx, 1),
+                    num(l.fy, 1),
+                    num(l.cx, 1),
+                    num(l.cy, 1),
+                    num(k1, 4),
+                    num(k2, 4),
+                    num(p1, 5),
+                    num(p2, 5),
+                    num(k3, 4)
+                )
+            };
+            let px = |p: &PixelErrors| {
+                format!(
+                    "median {}, rms {}, largest {} px ({} corners)",
+                    num(p.median_px, 2),
+                    num(p.rms_px, 2),
+                    num(p.max_px, 2),
+                    p.count
+                )
+            };
+            let mut rows = vec![
+                vec![
+                    "camera's optical frame in the arm's base frame".into(),
+                    format!(
+                        "{} mm; roll, pitch, yaw {} °",
+                        v3(c.xyz_mm, 1),
+                        v3(c.rpy_deg, 2)
+                    ),
+                ],
+                vec![
+                    "as a quaternion (x y z w)".into(),
+                    c.quaternion_xyzw.map(|q| num(q, 6)).join(" "),
+                ],
+                vec!["lens as the setup told it".into(), lens(&c.lens_told)],
+                vec![
+                    if c.lens_refined {
+                        "lens refined with the arm".into()
+                    } else {
+                        "lens (held as told)".into()
+                    },
+                    lens(&c.lens),
+                ],
+                vec![
+                    "reprojection error at the fitted corners".into(),
+                    px(&c.fit_px),
+                ],
+            ];
+            if let Some(v) = &o.validation {
+                if let Some(p) = &v.pixels {
+                    rows.push(vec![
+                        "at the held-out corners, before → after".into(),
+                        format!("{} → {}", px(&p.before), px(&p.after)),
+                    ]);
+                }
+                rows.push(vec![
+                    "the same carried to the corners' distance".into(),
+                    format!(
+                        "mean {} → {} mm",
+                        num(v.before.mean_m * 1e3, 2),
+                        num(v.after.mean_m * 1e3, 2)
+                    ),
+                ]);
+            }
+            table(
+                &format!("camera-table-{i}"),
+                &format!(
+                    "{}: where the camera stands (identify writes its camera_info and the launch file publishing it)",
+                    title(o)
+                ),
+                &["", "value"],
+                &rows,
+            )
+        },
     )
 }

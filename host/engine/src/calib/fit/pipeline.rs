@@ -23,7 +23,7 @@ use crate::calib::fit::choice::{ChosenFit, KnotChoice, ModelChoice};
 use crate::calib::fit::grow::grow;
 use crate::calib::fit::identify::{Identified, IdentifyOptions};
 use crate::calib::fit::model_choice::Ladder;
-use crate::calib::fit::validate::{LoadValidation, Validation, validate};
+use crate::calib::fit::validate::{LoadValidation, Validation, reprojection_errors_px, validate};
 use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::option::candidates as option_candidates;
 use crate::calib::parameters::params::ParamKey;
@@ -32,6 +32,7 @@ use crate::calib::parameters::targets::Targets;
 use crate::calib::progress::Progress;
 use crate::calib::{CalibError, ModelOption, Rig, Sample};
 use lrmcal_core::dataset::{Measurement, Pose, from_home};
+use lrmcal_core::io::calibration_file::ErrorStats;
 
 /// The column-scaled Jacobian blocks of a candidate set, one per pose, over the
 /// identifiable parameters of one option.
@@ -390,6 +391,9 @@ pub struct OptionResult {
     pub validation: Option<Validation>,
     /// Validation on the other candidates under the other load, if measured.
     pub cross_load: Option<LoadValidation>,
+    /// A camera's reprojection errors at the fitted corners, px (the
+    /// statistics' `_m` fields hold pixels here); `None` for a tracker.
+    pub fit_px: Option<ErrorStats>,
 }
 
 impl OptionResult {
@@ -498,6 +502,13 @@ pub(crate) fn calibrate_blocks(
         }),
         _ => None,
     };
+    let fit_px = match identified.rig.camera {
+        Some(_) => Some(ErrorStats::of(&reprojection_errors_px(
+            &identified.rig,
+            &fit_set,
+        )?)),
+        None => None,
+    };
     Ok(OptionResult {
         identify_load_kg: load,
         selection,
@@ -507,5 +518,6 @@ pub(crate) fn calibrate_blocks(
         placement: placement.map(|p| p.identified),
         validation,
         cross_load,
+        fit_px,
     })
 }

@@ -43,6 +43,9 @@ pub struct Validation {
     /// (a measurement gone wrong, or a pose the model does not describe),
     /// largest first.
     pub outliers: Vec<PoseError>,
+    /// A camera's: the reprojection errors before and after, px (the
+    /// statistics' `_m` fields hold pixels here).
+    pub pixels: Option<[ErrorStats; 2]>,
 }
 
 /// A validation on the measurements under one load.
@@ -134,6 +137,13 @@ pub fn validate(
         .map(|k| per_measurement[k])
         .collect();
     outliers.sort_by(|x, y| y.after_m.total_cmp(&x.after_m));
+    let pixels = match calibrated.camera {
+        Some(_) => Some([
+            ErrorStats::of(&reprojection_errors_px(nominal, measurements)?),
+            ErrorStats::of(&reprojection_errors_px(calibrated, measurements)?),
+        ]),
+        None => None,
+    };
     Ok(Validation {
         before: b,
         after: a,
@@ -144,10 +154,29 @@ pub fn validate(
         },
         per_measurement,
         outliers,
+        pixels,
     })
 }
 
 impl Validation {
+    /// The outliers grouped by pose and load: each pose's worst, and how
+    /// many of its measurements are outliers (a camera's view is dozens of
+    /// corners, a tracker's several targets), worst pose first.
+    pub fn outlying_poses(&self) -> Vec<(PoseError, usize)> {
+        let mut poses: Vec<(PoseError, usize)> = Vec::new();
+        for o in &self.outliers {
+            match poses
+                .iter_mut()
+                .find(|(p, _)| p.pose == o.pose && p.load_kg == o.load_kg)
+            {
+                // Largest first: the pose's first is its worst.
+                Some((_, count)) => *count += 1,
+                None => poses.push((*o, 1)),
+            }
+        }
+        poses
+    }
+
     /// The calibrated model's error statistics per target, in target order
     /// (`targets` of them; a target with no measurement here has count 0).
     pub fn after_per_target(&self, targets: usize) -> Vec<ErrorStats> {

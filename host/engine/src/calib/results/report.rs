@@ -24,6 +24,7 @@ use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
 use crate::calib::results::figures::{ErrorPoint, O1Point, RandomBaseline};
 use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
+use lrmcal_core::camera::Intrinsics;
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
 use lrmcal_core::io::json;
@@ -35,8 +36,9 @@ pub const REPORT_SCHEMA: &str = "lrmcal-report";
 /// leave-one-out error, the knot spacing chosen, the error against the
 /// number of poses; 4: each validation measurement's error, the registration;
 /// 5: each fitted measurement's errors, where each measurement was, the
-/// servo curves identified).
-pub const REPORT_SCHEMA_VERSION: u32 = 5;
+/// servo curves identified; 6: a camera's pose, lens and reprojection
+/// errors, validation outliers one per pose).
+pub const REPORT_SCHEMA_VERSION: u32 = 6;
 
 /// The oldest version [`Report::parse`] reads (its fields are all still there).
 pub const REPORT_OLDEST_READ: u32 = 3;
@@ -282,6 +284,117 @@ pub struct ValidationReport {
     /// (since version 4; empty when read from an older report).
     #[serde(default)]
     pub per_pose: Vec<PoseErrorReport>,
+    /// A camera's reprojection errors before and after, px (since version
+    /// 6; absent for a tracker).
+    #[serde(default)]
+    pub pixels: Option<PixelsBeforeAfter>,
+}
+
+/// Reprojection errors of a set of corners, px.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PixelErrors {
+    /// Corners.
+    pub count: usize,
+    /// Median, px.
+    pub median_px: f64,
+    /// Root mean square, px.
+    pub rms_px: f64,
+    /// 95th percentile, px.
+    pub p95_px: f64,
+    /// Largest, px.
+    pub max_px: f64,
+}
+
+impl From<&ErrorStats> for PixelErrors {
+    /// Statistics of pixel distances (the fields named `_m` hold pixels).
+    fn from(s: &ErrorStats) -> Self {
+        Self {
+            count: s.count,
+            median_px: s.median_m,
+            rms_px: s.rms_m,
+            p95_px: s.p95_m,
+            max_px: s.max_m,
+        }
+    }
+}
+
+/// A camera's reprojection errors at held-out corners, px.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PixelsBeforeAfter {
+    /// The nominal arm's.
+    pub before: PixelErrors,
+    /// The calibrated arm's.
+    pub after: PixelErrors,
+}
+
+/// The camera an option's fit found (a camera's calibration only).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CameraReport {
+    /// Its optical frame (x right, y down, z forward) in the arm's base
+    /// frame: position, mm.
+    pub xyz_mm: [f64; 3],
+    /// Its roll, pitch and yaw there (`Rz(yaw) Ry(pitch) Rx(roll)`), degrees.
+    pub rpy_deg: [f64; 3],
+    /// Its rotation as a quaternion, x y z w.
+    pub quaternion_xyzw: [f64; 4],
+    /// The lens the fit ended with.
+    pub lens: LensReport,
+    /// The lens the camera setup told.
+    pub lens_told: LensReport,
+    /// Whether the fit refined the lens (otherwise it is the told one).
+    pub lens_refined: bool,
+    /// Reprojection errors at the fitted corners, px.
+    pub fit_px: PixelErrors,
+}
+
+/// A lens: pinhole with OpenCV's radial-tangential distortion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LensReport {
+    /// Focal lengths, px.
+    pub fx: f64,
+    /// See `fx`.
+    pub fy: f64,
+    /// Principal point, px.
+    pub cx: f64,
+    /// See `cx`.
+    pub cy: f64,
+    /// k1, k2, p1, p2, k3.
+    pub distortion: [f64; 5],
+}
+
+impl From<&Intrinsics> for LensReport {
+    fn from(i: &Intrinsics) -> Self {
+        Self {
+            fx: i.fx,
+            fy: i.fy,
+            cx: i.cx,
+            cy: i.cy,
+            distortion: i.distortion,
+        }
+    }
+}
+
+impl CameraReport {
+    /// The camera of `r`'s fit, when a camera measured; `None` for a tracker.
+    fn of(r: &OptionResult) -> Option<Self> {
+        let rig = &r.identified.rig;
+        let camera = rig.camera.as_ref()?;
+        // The fit's world is the arm's; the camera stands at `from_world`
+        // of it, the base at its frame.
+        let in_base = rig.arm.base.isometry().inverse() * camera.from_world.inverse();
+        let t = in_base.translation.vector * 1e3;
+        let (roll, pitch, yaw) = in_base.rotation.euler_angles();
+        let q = nalgebra::UnitQuaternion::from_rotation_matrix(&in_base.rotation);
+        Some(Self {
+            xyz_mm: t.into(),
+            rpy_deg: [roll, pitch, yaw].map(f64::to_degrees),
+            quaternion_xyzw: [q.i, q.j, q.k, q.w],
+            lens: (&camera.lens_now()).into(),
+            lens_told: (&camera.intrinsics).into(),
+            lens_refined: camera.lens.is_some(),
+            fit_px: r.fit_px.as_ref()?.into(),
+        })
+    }
 }
 
 /// One validation measurement's error, in report units.
@@ -308,8 +421,18 @@ pub struct ValidationOutlier {
     pub pose: u32,
     /// Payload, kg.
     pub load_kg: f64,
-    /// 3D error of the calibrated model there, mm.
+    /// 3D error of the calibrated model there, mm: the worst of the pose's
+    /// outlying measurements.
     pub error_mm: f64,
+    /// How many of the pose's measurements are outliers (since version 6;
+    /// 1 in older reports, which listed each measurement).
+    #[serde(default = "one")]
+    pub measurements: usize,
+}
+
+/// One measurement, what reports before version 6 listed per outlier.
+fn one() -> usize {
+    1
 }
 
 impl ValidationReport {
@@ -321,12 +444,13 @@ impl ValidationReport {
             after: v.after,
             reduction_pct: v.reduction_pct,
             outliers: v
-                .outliers
+                .outlying_poses()
                 .iter()
-                .map(|o| ValidationOutlier {
+                .map(|(o, measurements)| ValidationOutlier {
                     pose: o.pose,
                     load_kg: o.load_kg,
                     error_mm: o.after_m * 1e3,
+                    measurements: *measurements,
                 })
                 .collect(),
             per_pose: v
@@ -340,6 +464,10 @@ impl ValidationReport {
                     xyz_mm: Some((p.measured_m * 1e3).into()),
                 })
                 .collect(),
+            pixels: v.pixels.as_ref().map(|[before, after]| PixelsBeforeAfter {
+                before: before.into(),
+                after: after.into(),
+            }),
         }
     }
 }
@@ -379,6 +507,9 @@ pub struct OptionReport {
     /// empty for an option without servo curves and in older reports).
     #[serde(default)]
     pub servo_curves: Vec<ServoCurveReport>,
+    /// The camera the fit found, when a camera measured (since version 6).
+    #[serde(default)]
+    pub camera: Option<CameraReport>,
 }
 
 impl From<&OptionResult> for OptionReport {
@@ -403,6 +534,7 @@ impl From<&OptionResult> for OptionReport {
                 .as_ref()
                 .map(|c| ValidationReport::new(c.load_kg, &c.validation)),
             servo_curves: servo_curves(&r.identified),
+            camera: CameraReport::of(r),
         }
     }
 }

@@ -347,10 +347,36 @@ pub fn outlier(o: &OutlierReport) -> String {
     )
 }
 
+/// A camera's reprojection errors, at the fitted corners and at the
+/// held-out ones before → after, one line each; `None` for a tracker.
+pub fn camera_pixels(o: &OptionReport) -> Option<String> {
+    let camera = o.camera.as_ref()?;
+    let f = &camera.fit_px;
+    let mut lines = format!(
+        "  reprojection error at the {} fitted corners: median {:.2} px, rms {:.2} px\n",
+        f.count, f.median_px, f.rms_px
+    );
+    if let Some(p) = o.validation.as_ref().and_then(|v| v.pixels) {
+        lines.push_str(&format!(
+            "  at the {} held-out corners: median {:.2} -> {:.2} px, rms {:.2} -> {:.2} px\n",
+            p.after.count, p.before.median_px, p.after.median_px, p.before.rms_px, p.after.rms_px
+        ));
+    }
+    Some(lines)
+}
+
 /// A validation measurement named as an outlier.
 pub fn validation_outlier(o: &ValidationOutlier) -> String {
+    let of_many = if o.measurements > 1 {
+        format!(
+            " (the worst of its {} outlying measurements)",
+            o.measurements
+        )
+    } else {
+        String::new()
+    };
     format!(
-        "validation outlier: pose {} ({} kg), error {:.2} mm after calibration",
+        "validation outlier: pose {} ({} kg), error {:.2} mm after calibration{of_many}",
         o.pose, o.load_kg, o.error_mm
     )
 }
