@@ -548,3 +548,96 @@ fn a_lens_off_its_file_is_refined() {
         "{held_px} {refined_px}"
     );
 }
+
+/// The camera on the flange, the board standing before the arm (the
+/// bundled `setup-eye-in-hand.toml`): the same commands plan the poses it
+/// sees the board from, simulate its views, fit the arm and the camera,
+/// and check held-out views. The camera is put on the flange, its
+/// transform published from there, and the board placed in the base frame.
+#[test]
+fn a_camera_on_the_flange_calibrates_the_arm() {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("core/arms/lrm-webcam");
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name);
+    let setup = data.join("setup-eye-in-hand.toml");
+    // The board shows in few grid poses: more random ones.
+    let run = lrmcal(&[
+        "plan",
+        "--camera",
+        p(&setup),
+        "--random",
+        "150",
+        "--out",
+        p(&out("planned.csv")),
+    ]);
+    assert!(run.status.success(), "{}", text(&run));
+    let run = lrmcal(&[
+        "simulate",
+        "--camera",
+        p(&setup),
+        "--poses",
+        p(&out("planned.csv")),
+        "--loads",
+        "0.0663",
+        "--out",
+        p(&out("all.csv")),
+    ]);
+    assert!(run.status.success(), "{}", text(&run));
+    let seen = views::read(&out("all.csv")).unwrap();
+    assert!(seen.len() > 60, "{} seen", seen.len());
+    let units = [model::JointKind::Revolute; 6];
+    let (fit, other): (Vec<_>, Vec<_>) = seen
+        .iter()
+        .cloned()
+        .enumerate()
+        .partition(|(k, _)| k % 3 != 2);
+    let strip = |v: Vec<(usize, views::View)>| v.into_iter().map(|(_, v)| v).collect::<Vec<_>>();
+    views::write(&out("views.csv"), &strip(fit), &units).unwrap();
+    views::write(&out("other.csv"), &strip(other), &units).unwrap();
+    let run = lrmcal(&[
+        "identify",
+        "--camera",
+        p(&setup),
+        "--measurements",
+        p(&out("views.csv")),
+        "--out",
+        p(&out("cal")),
+    ]);
+    let message = text(&run);
+    assert!(run.status.success(), "{message}");
+    assert!(
+        message.contains("camera in the arm's last frame (the flange")
+            && message.contains("--frame-id flange")
+            && message.contains("board in the arm's base frame"),
+        "{message}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out("cal/report.json")).unwrap()).unwrap();
+    assert_eq!(report["options"][0]["camera"]["mount"], "eye-in-hand");
+    // The camera on the flange where the setup says, give or take what the
+    // simulator drew (millimetres).
+    let xyz = &report["options"][0]["camera"]["xyz_mm"];
+    let told = [30.0, 0.0, 20.0];
+    for (axis, t) in told.iter().enumerate() {
+        let v = xyz[axis].as_f64().unwrap();
+        assert!((v - t).abs() < 10.0, "{xyz}");
+    }
+    let run = lrmcal(&[
+        "validate",
+        "--camera",
+        p(&setup),
+        "--calibration",
+        p(&out("cal/calibration-elasto-kinematic-servo.json")),
+        "--measurements",
+        p(&out("other.csv")),
+    ]);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    let reduction: f64 = said
+        .lines()
+        .find(|l| l.trim_start().starts_with("0.0663"))
+        .and_then(|l| l.split_whitespace().rev().nth(1))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"));
+    assert!(reduction > 80.0, "{said}");
+}

@@ -7,8 +7,10 @@
 //! `cargo run --release -p lrmcal-engine --example camera_figures -- 1 10`
 //! (first and last seed; 1 to 10 by default). With a third argument,
 //! `off-held` or `off-refined`, the camera's true lens is off the setup's
-//! intrinsics (focal lengths 3 %, principal point 12 and 9 px, k1 0.04)
-//! and the fit holds the setup's lens or refines it.
+//! intrinsics (focal lengths 3 %, k1 0.04, k2 0.03) and the fit holds the
+//! setup's lens or refines it; with `eye-in-hand`, the webcam rides the
+//! flange and the board stands before the arm (the bundled
+//! `setup-eye-in-hand.toml`).
 
 #[path = "../tests/common/camera_trial.rs"]
 mod camera_trial;
@@ -20,16 +22,20 @@ fn main() {
             .map_or(default, |a| a.parse().expect("seeds are integers"))
     };
     let (first, last) = (seed(0, 1), seed(1, 10));
-    let lens = match args.get(2).map(String::as_str) {
-        None => camera_trial::Lens::Calibrated,
-        Some("off-held") => camera_trial::Lens::Off { refine: false },
-        Some("off-refined") => camera_trial::Lens::Off { refine: true },
-        Some(other) => panic!("expected off-held or off-refined, found {other}"),
-    };
+    let mut lens = camera_trial::Lens::Calibrated;
+    let mut mount = lrmcal_core::camera::Mount::EyeToHand;
+    for word in args.iter().skip(2) {
+        match word.as_str() {
+            "off-held" => lens = camera_trial::Lens::Off { refine: false },
+            "off-refined" => lens = camera_trial::Lens::Off { refine: true },
+            "eye-in-hand" => mount = lrmcal_core::camera::Mount::EyeInHand,
+            other => panic!("expected off-held, off-refined or eye-in-hand, found {other}"),
+        }
+    }
     let mut rows = Vec::new();
     println!("seed  board origin mm  tracker mm  nominal mm  camera mm  camera deg  lens px");
     for seed in first..=last {
-        let t = camera_trial::trial(seed, lens);
+        let t = camera_trial::trial(seed, lens, mount);
         println!(
             "{seed:>4}  {:>15.3}  {:>10.3}  {:>10.1}  {:>9.3}  {:>10.3}  {:>7.3}",
             t.board_mm, t.tracker_mm, t.nominal_mm, t.camera_mm, t.camera_deg, t.lens_px

@@ -19,7 +19,7 @@ use crate::error::Error;
 use crate::progress::Steps;
 use crate::report_page;
 use lrmcal_core::camera::static_transform::StaticTransform;
-use lrmcal_core::camera::{Intrinsics, intrinsics_file, setup, views};
+use lrmcal_core::camera::{Intrinsics, Mount, intrinsics_file, setup, views};
 use lrmcal_core::dataset::{Measurement, Pose};
 use lrmcal_core::io::arm_source::{ArmSource, DEFAULT_ARM};
 use lrmcal_core::io::calibration_file::CalibrationFile;
@@ -238,8 +238,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
             // A board's corners are where the board file puts them: the
             // camera is what the user wants to know.
             Some(camera) => {
-                let tf = camera_in_base(&cal.arm.base);
+                let tf = camera_transform(camera.mount, &cal.arm);
                 print!("{}", camera_lines(&tf));
+                if camera.mount == Mount::EyeInHand {
+                    print!("{}", board_line(&cal.arm.base));
+                }
                 let lens = match &result.identified.rig.camera {
                     Some(fitted) => fitted.lens_now(),
                     None => camera.intrinsics.clone(),
@@ -296,11 +299,13 @@ fn camera_input(
 ) -> Result<(CameraInput, Vec<measurements::ListedMeasurement>), Error> {
     let setup = setup::read(path)?;
     let views = views::read(&args.measurements)?;
-    let (corners_seen, corners) = corner_measurements(&setup.intrinsics, &setup.board, &views)
-        .map_err(|source| Error::Views {
-            path: args.measurements.clone(),
-            source,
-        })?;
+    let (corners_seen, corners) =
+        corner_measurements(&setup.intrinsics, &setup.board, &views, setup.mount).map_err(
+            |source| Error::Views {
+                path: args.measurements.clone(),
+                source,
+            },
+        )?;
     // Each corner listed at its view's first line: the joint-limit check
     // names the line of the pose it refuses.
     let lines = views
@@ -318,24 +323,28 @@ fn camera_input(
         .collect();
     Ok((
         CameraInput {
-            intrinsics: setup.intrinsics,
             corners,
-            board_on_flange: setup.board_on_flange,
             refine_lens: args.refine_intrinsics,
+            ..CameraInput::of_setup(&setup)
         },
         listed,
     ))
 }
 
-/// Where the fit puts the camera: the arm's base in the camera frame
-/// (`base`, the calibration's, whose measurement frame is the camera's)
-/// turned round, as a ROS user publishes it (the camera's optical frame in
-/// the base's).
-fn camera_in_base(base: &model::Frame<f64>) -> StaticTransform {
+/// Where the fit puts the camera, as a ROS user publishes it (the
+/// camera's optical frame in its parent's). Eye-to-hand: in the base
+/// frame, the calibration's base (in the camera frame, where it was
+/// registered) turned round. Eye-in-hand: on the flange, the calibration's
+/// tool frame.
+fn camera_transform(mount: Mount, arm: &model::Arm<f64>) -> StaticTransform {
+    let (parent, child_in_parent) = match mount {
+        Mount::EyeToHand => ("base_link", arm.base.isometry().inverse()),
+        Mount::EyeInHand => ("flange", arm.tool.isometry()),
+    };
     StaticTransform {
-        parent: "base_link".into(),
+        parent: parent.into(),
         child: "camera_optical_frame".into(),
-        child_in_parent: base.isometry().inverse(),
+        child_in_parent,
     }
 }
 
@@ -343,8 +352,12 @@ fn camera_in_base(base: &model::Frame<f64>) -> StaticTransform {
 fn camera_lines(tf: &StaticTransform) -> String {
     let t = tf.child_in_parent.translation.vector;
     let (roll, pitch, yaw) = tf.child_in_parent.rotation.euler_angles();
+    let parent = match tf.parent.as_str() {
+        "flange" => "the arm's last frame (the flange: name it as your URDF does)",
+        _ => "the arm's base frame",
+    };
     format!(
-        "  camera in the arm's base frame: ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg\n  \
+        "  camera in {parent}: ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg\n  \
          publish it: {}\n",
         t.x * 1e3,
         t.y * 1e3,
@@ -353,6 +366,24 @@ fn camera_lines(tf: &StaticTransform) -> String {
         pitch.to_degrees(),
         yaw.to_degrees(),
         tf.command()
+    )
+}
+
+/// Where the board lies in the arm's base frame, when the camera rides the
+/// flange: the calibration's base (in the board's frame, where it was
+/// registered) turned round.
+fn board_line(base: &model::Frame<f64>) -> String {
+    let board = base.isometry().inverse();
+    let t = board.translation.vector * 1e3;
+    let (roll, pitch, yaw) = board.rotation.euler_angles();
+    format!(
+        "  board in the arm's base frame: ({:.1}, {:.1}, {:.1}) mm, roll {:.2} pitch {:.2} yaw {:.2} deg\n",
+        t.x,
+        t.y,
+        t.z,
+        roll.to_degrees(),
+        pitch.to_degrees(),
+        yaw.to_degrees()
     )
 }
 

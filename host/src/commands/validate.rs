@@ -67,14 +67,14 @@ pub fn run(args: &Args) -> Result<(), Error> {
             }
             let views = views::read(&args.measurements)?;
             let (rows, _) =
-                corner_measurements(&setup.intrinsics, &setup.board, &views).map_err(|source| {
-                    Error::Views {
+                corner_measurements(&setup.intrinsics, &setup.board, &views, setup.mount).map_err(
+                    |source| Error::Views {
                         path: args.measurements.clone(),
                         source,
-                    }
-                })?;
+                    },
+                )?;
             let camera = CameraInput::of_setup(&setup);
-            let rigs = camera_rigs_of(&cal, &camera.intrinsics, &camera.corners);
+            let rigs = camera_rigs_of(&cal, &camera.intrinsics, &camera.corners, setup.mount);
             // The same errors in the camera's own unit.
             let px = |rig| reprojection_errors_px(rig, &rows).map(|e| ErrorStats::of(&e));
             let (before, after) = (px(&rigs.0)?, px(&rigs.1)?);

@@ -491,6 +491,7 @@ mod tests {
         };
         let o = &mut report.options[0];
         o.camera = Some(CameraReport {
+            mount: lrmcal_core::camera::Mount::EyeToHand,
             xyz_mm: [612.3, -48.0, 251.7],
             rpy_deg: [-91.0, 0.5, 88.25],
             quaternion_xyzw: [0.5, -0.5, 0.5, -0.5],

@@ -5,6 +5,7 @@
 //! produce says so instead of being left out, so every page has the same
 //! outline.
 
+use lrmcal_core::camera::Mount;
 use lrmcal_engine::calib::results::report::{LensReport, OptionReport, PixelErrors, Report};
 use lrmcal_engine::calib::results::summary::servo_smoothness;
 
@@ -401,7 +402,13 @@ pub fn camera(report: &Report) -> String {
             };
             let mut rows = vec![
                 vec![
-                    "camera's optical frame in the arm's base frame".into(),
+                    match c.mount {
+                        Mount::EyeToHand => "camera's optical frame in the arm's base frame",
+                        Mount::EyeInHand => {
+                            "camera's optical frame on the arm's last frame (the flange)"
+                        }
+                    }
+                    .into(),
                     format!(
                         "{} mm; roll, pitch, yaw {} °",
                         v3(c.xyz_mm, 1),

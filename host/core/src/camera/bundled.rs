@@ -1,20 +1,30 @@
-//! The bundled arm's webcam setup: a 1280 × 720 webcam with a little barrel
-//! distortion 0.8 m in front of the arm, looking back at it, and a 4 × 3
-//! board of 25 mm tag36h11 tags on the flange. `lrmcal demo --camera` writes
-//! these files into its folder and works from them, as a user would from
-//! their own.
+//! The bundled arm's webcam setups: a 1280 × 720 webcam with a little
+//! barrel distortion 0.8 m in front of the arm, looking back at it, and a
+//! 4 × 3 board of 25 mm tag36h11 tags on the flange; or the same webcam on
+//! the flange and the board standing before the arm (eye-in-hand).
+//! `lrmcal demo --camera` writes these files into its folder and works
+//! from them, as a user would from their own.
 
 use std::path::{Path, PathBuf};
 
+use super::Mount;
 use crate::error::Error;
 use crate::io::atomic;
 
 /// The setup file's name among [`FILES`].
 pub const SETUP_FILE: &str = "setup.toml";
 
-/// The setup's files by name: the setup, the intrinsics and the board it names.
-pub const FILES: [(&str, &str); 3] = [
+/// The eye-in-hand setup file's name among [`FILES`].
+pub const EYE_IN_HAND_FILE: &str = "setup-eye-in-hand.toml";
+
+/// The setups' files by name: the two setups, the intrinsics and the board
+/// they name.
+pub const FILES: [(&str, &str); 4] = [
     (SETUP_FILE, include_str!("../../arms/lrm-webcam/setup.toml")),
+    (
+        EYE_IN_HAND_FILE,
+        include_str!("../../arms/lrm-webcam/setup-eye-in-hand.toml"),
+    ),
     (
         "camera_info.yaml",
         include_str!("../../arms/lrm-webcam/camera_info.yaml"),
@@ -25,13 +35,16 @@ pub const FILES: [(&str, &str); 3] = [
     ),
 ];
 
-/// Writes the setup's files into `folder` (which must exist); returns the
-/// setup file's path.
-pub fn write(folder: &Path) -> Result<PathBuf, Error> {
+/// Writes the setups' files into `folder` (which must exist); returns the
+/// path of the setup file of `mount`.
+pub fn write(folder: &Path, mount: Mount) -> Result<PathBuf, Error> {
     for (name, text) in FILES {
         atomic::write(&folder.join(name), |w| w.write_all(text.as_bytes()))?;
     }
-    Ok(folder.join(SETUP_FILE))
+    Ok(folder.join(match mount {
+        Mount::EyeToHand => SETUP_FILE,
+        Mount::EyeInHand => EYE_IN_HAND_FILE,
+    }))
 }
 
 #[cfg(test)]
@@ -42,11 +55,14 @@ mod tests {
     #[test]
     fn the_written_setup_reads_back() {
         let folder = tempfile::tempdir().unwrap();
-        let setup = super::super::setup::read(&write(folder.path()).unwrap()).unwrap();
-        assert_eq!(
-            (setup.intrinsics.width_px, setup.intrinsics.height_px),
-            (1280, 720)
-        );
-        assert_eq!(setup.board.tag_count(), 12);
+        for mount in [Mount::EyeToHand, Mount::EyeInHand] {
+            let setup = super::super::setup::read(&write(folder.path(), mount).unwrap()).unwrap();
+            assert_eq!(
+                (setup.intrinsics.width_px, setup.intrinsics.height_px),
+                (1280, 720)
+            );
+            assert_eq!(setup.board.tag_count(), 12);
+            assert_eq!(setup.mount, mount);
+        }
     }
 }

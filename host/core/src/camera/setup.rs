@@ -1,6 +1,8 @@
 //! The camera setup file (TOML): which intrinsics and board, how the camera
-//! is mounted, where the camera stands in the arm's world frame and where the
-//! board sits on the arm's last frame, each pose told roughly.
+//! is mounted, and where the camera and the board are, each pose told
+//! roughly: eye-to-hand, the camera stands in the arm's world frame and the
+//! board sits on the arm's last frame (the flange); eye-in-hand, the camera
+//! sits on the flange and the board lies in the world.
 //!
 //! Poses are written like the arm file's `[base]`: `Trans(xyz) · Rz(yaw) ·
 //! Ry(pitch) · Rx(roll)`, here in mm and degrees (`model::Frame`'s
@@ -19,10 +21,38 @@ use crate::io::arm_toml::{LineIndex, toml_error};
 use crate::io::read_text;
 
 /// How the camera and the board are carried.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum Mount {
     /// The camera stands still in the world; the arm carries the board.
     EyeToHand,
+    /// The arm carries the camera; the board lies still in the world.
+    EyeInHand,
+}
+
+impl Mount {
+    /// The board's pose in the camera frame when the arm's last frame
+    /// stands at `flange` in the world, the camera at `camera` and the
+    /// board at `board` (each in the world or on the flange, as mounted).
+    pub fn camera_from_board(
+        self,
+        camera: &Frame<f64>,
+        board: &Frame<f64>,
+        flange: &IsometryMatrix3<f64>,
+    ) -> IsometryMatrix3<f64> {
+        match self {
+            Self::EyeToHand => camera.isometry().inverse() * flange * board.isometry(),
+            Self::EyeInHand => (flange * camera.isometry()).inverse() * board.isometry(),
+        }
+    }
+
+    /// What the setup file writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::EyeToHand => "eye-to-hand",
+            Self::EyeInHand => "eye-in-hand",
+        }
+    }
 }
 
 /// A camera setup, read and checked: the camera, the board and their poses.
@@ -34,12 +64,14 @@ pub struct CameraSetup {
     pub board: AprilGrid,
     /// How they are carried.
     pub mount: Mount,
-    /// The camera frame in the arm's world frame (the frame the arm file's
-    /// `[base]` is given in), m and rad.
+    /// The camera frame, m and rad: eye-to-hand in the arm's world frame
+    /// (the frame the arm file's `[base]` is given in), eye-in-hand in the
+    /// arm's last frame (frame n of its DH chain, the flange, the frame its
+    /// `[tool]` is given in).
     pub camera: Frame<f64>,
-    /// The board frame in the arm's last frame (frame n of its DH chain, the
-    /// flange, the frame its `[tool]` is given in), m and rad.
-    pub board_on_flange: Frame<f64>,
+    /// The board frame, m and rad: eye-to-hand in the arm's last frame,
+    /// eye-in-hand in the arm's world frame.
+    pub board_pose: Frame<f64>,
     /// How far from the image's edges and how obliquely the board may be
     /// seen at a planned pose ([`ViewLimits::PLANNING`] as read: room for the
     /// camera and the board standing off where the setup says).
@@ -51,7 +83,8 @@ impl CameraSetup {
     /// `flange` in the world (see [`visibility::check`]).
     pub fn sees_board(&self, flange: &IsometryMatrix3<f64>) -> Result<(), Unseen> {
         let camera_from_board =
-            self.camera.isometry().inverse() * flange * self.board_on_flange.isometry();
+            self.mount
+                .camera_from_board(&self.camera, &self.board_pose, flange);
         visibility::check(
             &self.intrinsics,
             &self.board,
@@ -109,8 +142,8 @@ pub struct SetupFile {
     pub mount: Mount,
     /// See [`CameraSetup::camera`].
     pub camera: Frame<f64>,
-    /// See [`CameraSetup::board_on_flange`].
-    pub board_on_flange: Frame<f64>,
+    /// See [`CameraSetup::board_pose`].
+    pub board_pose: Frame<f64>,
 }
 
 /// Parses and checks the text of a camera setup file (its two files unread).
@@ -123,21 +156,15 @@ pub fn parse(text: &str) -> Result<SetupFile, InputError> {
     })?;
     let mount = match raw.mount.as_str() {
         "eye-to-hand" => Mount::EyeToHand,
-        "eye-in-hand" => {
-            return Err(InputError::new(
-                Location::key(None, "mount"),
-                Problem::Invalid {
-                    message: "eye-in-hand (the camera on the arm, the board fixed) is not \
-                              supported yet; expected \"eye-to-hand\""
-                        .into(),
-                },
-            ));
-        }
+        "eye-in-hand" => Mount::EyeInHand,
         other => {
             return Err(InputError::new(
                 Location::key(None, "mount"),
                 Problem::Invalid {
-                    message: format!("expected \"eye-to-hand\", found \"{other}\""),
+                    message: format!(
+                        "expected \"eye-to-hand\" (the camera still, the arm carrying the \
+                         board) or \"eye-in-hand\" (the arm carrying the camera), found \"{other}\""
+                    ),
                 },
             ));
         }
@@ -147,7 +174,7 @@ pub fn parse(text: &str) -> Result<SetupFile, InputError> {
         board: raw.board_file,
         mount,
         camera: raw.camera.frame("camera")?,
-        board_on_flange: raw.board.frame("board")?,
+        board_pose: raw.board.frame("board")?,
     })
 }
 
@@ -162,7 +189,7 @@ pub fn read(path: &Path) -> Result<CameraSetup, Error> {
         board: board::read(&folder.join(&file.board))?,
         mount: file.mount,
         camera: file.camera,
-        board_on_flange: file.board_on_flange,
+        board_pose: file.board_pose,
         limits: ViewLimits::PLANNING,
     })
 }
@@ -192,18 +219,45 @@ rpy_deg = [0.0, 0.0, 180.0]
         assert_eq!(file.board, "board.yaml");
         assert_eq!(file.camera.xyz, [0.9, 0.0, 0.3]);
         assert_eq!(file.camera.rpy[0], -std::f64::consts::FRAC_PI_2);
-        assert_eq!(file.board_on_flange.xyz, [0.0, 0.0, 0.01]);
+        assert_eq!(file.board_pose.xyz, [0.0, 0.0, 0.01]);
+    }
+
+    /// The same board seen from a camera standing still and from one the
+    /// arm carries: each mount's geometry puts it where the other does
+    /// when the poses describe one scene.
+    #[test]
+    fn both_mounts_see_one_scene_alike() {
+        let file = parse(&SETUP.replace("\"eye-to-hand\"", "\"eye-in-hand\"")).unwrap();
+        assert_eq!(file.mount, Mount::EyeInHand);
+        let flange = Frame {
+            xyz: [0.3, -0.1, 0.4],
+            rpy: [0.2, -0.4, 1.1],
+        }
+        .isometry();
+        let (camera, board) = (file.camera, file.board_pose);
+        let seen = Mount::EyeInHand.camera_from_board(&camera, &board, &flange);
+        // The scene written eye-to-hand: the camera in the world where the
+        // flange carries it, the board on the flange where the world has it.
+        let camera_in_world = flange * camera.isometry();
+        let board_on_flange = flange.inverse() * board.isometry();
+        let frame = |iso: IsometryMatrix3<f64>| {
+            let (r, p, y) = iso.rotation.euler_angles();
+            Frame {
+                xyz: iso.translation.vector.into(),
+                rpy: [r, p, y],
+            }
+        };
+        let same = Mount::EyeToHand.camera_from_board(
+            &frame(camera_in_world),
+            &frame(board_on_flange),
+            &flange,
+        );
+        assert!((seen.translation.vector - same.translation.vector).norm() < 1e-12);
+        assert!((seen.rotation.matrix() - same.rotation.matrix()).norm() < 1e-12);
     }
 
     #[test]
     fn a_bad_setup_names_the_key() {
-        let e = parse(&SETUP.replace("\"eye-to-hand\"", "\"eye-in-hand\""))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("mount") && e.contains("not supported yet"),
-            "{e}"
-        );
         let e = parse(&SETUP.replace("\"eye-to-hand\"", "\"tripod\""))
             .unwrap_err()
             .to_string();

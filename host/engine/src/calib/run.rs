@@ -45,7 +45,7 @@ use super::progress::Progress;
 use super::results::export::registered_calibration_file;
 use super::results::report::{RegistrationReport, Report};
 use super::{CalibError, ModelOption, Rig};
-use lrmcal_core::camera::CameraSetup;
+use lrmcal_core::camera::{CameraSetup, Mount};
 use lrmcal_core::dataset::{Measurement, Pose, TargetName, loads_of, poses_under};
 use lrmcal_core::io::calibration_file::CalibrationFile;
 use lrmcal_core::param_key::LENS_FIELDS;
@@ -176,16 +176,19 @@ impl<'a> Calibration<'a> {
             .copied()
             .collect();
         // A board's first corner stands for the first target: the arm
-        // registered with its tool point there.
-        let first_corner =
-            match &request.camera {
-                Some(camera) => Some(camera.corner(targets.name_at(0)).ok_or_else(|| {
-                    CalibError::Registration {
+        // registered with its tool point there. A camera on the flange is
+        // registered by its centre, the tool frame's origin, where each
+        // view puts it in the board's frame.
+        let first_corner = match &request.camera {
+            Some(camera) if camera.mount == Mount::EyeToHand => Some(
+                camera
+                    .corner(targets.name_at(0))
+                    .ok_or_else(|| CalibError::Registration {
                         problem: format!("{file}: its first target is not a corner of the board"),
-                    }
-                })?),
-                None => None,
-            };
+                    })?,
+            ),
+            _ => None,
+        };
         let mut at_first = *request.nominal;
         if let Some(corner) = first_corner {
             at_first.tool.xyz = (request.nominal.tool.isometry() * Point3::from(corner))
@@ -215,9 +218,24 @@ impl<'a> Calibration<'a> {
         }
         if let Some(camera) = &request.camera {
             let rig = &inputs.nominal;
-            let corners = (0..rig.targets.len())
-                .map(|t| camera.corner(rig.targets.name_at(t)).unwrap_or_default())
-                .collect();
+            let on_board = (0..rig.targets.len())
+                .map(|t| camera.corner(rig.targets.name_at(t)).unwrap_or_default());
+            // Eye-to-hand the corners ride the tool frame, the camera stands
+            // where registration found it; eye-in-hand the corners lie where
+            // registration found the board (its frame the measurements'),
+            // the camera rides the tool frame.
+            let (corners, seeing) = match camera.mount {
+                Mount::EyeToHand => (
+                    on_board.collect(),
+                    RigCamera::fixed(camera.intrinsics.clone(), registration.frame),
+                ),
+                Mount::EyeInHand => (
+                    on_board
+                        .map(|c| (registration.frame.inverse() * Point3::from(c)).coords)
+                        .collect(),
+                    RigCamera::on_flange(camera.intrinsics.clone()),
+                ),
+            };
             inputs.nominal = Rig {
                 level_base: rig.level_base,
                 ..Rig::on_board(
@@ -226,7 +244,7 @@ impl<'a> Calibration<'a> {
                     corners,
                     RigCamera {
                         lens: camera.refine_lens.then_some([0.0; LENS_FIELDS.len()]),
-                        ..RigCamera::fixed(camera.intrinsics.clone(), registration.frame)
+                        ..seeing
                     },
                 )
             };
@@ -266,10 +284,10 @@ impl<'a> Calibration<'a> {
         })
     }
 
-    /// [`Calibration::plan`] for the camera of `setup`, standing where the
-    /// setup tells it: every corner of the board a target seen at its
-    /// pixel, the board the arm's tool frame, gravity turning with the
-    /// base as a level base's does (what `identify --camera` fits).
+    /// [`Calibration::plan`] for the camera of `setup`, where the setup
+    /// tells it: every corner of the board a target seen at its pixel,
+    /// what the arm carries its tool frame, gravity turning with the base
+    /// as a level base's does (what `identify --camera` fits).
     pub fn plan_seen(
         nominal: &'a Arm<f64>,
         candidates: &'a [Pose],
@@ -283,14 +301,22 @@ impl<'a> Calibration<'a> {
             rated_payload_kg: plan.inputs.nominal.arm.rated_payload_kg,
             ..camera.nominal_arm(nominal)
         };
+        let on_board = camera.corners.iter().map(|(_, corner)| *corner);
+        let (corners, seeing) = match setup.mount {
+            Mount::EyeToHand => (
+                on_board.collect(),
+                RigCamera::fixed(camera.intrinsics.clone(), setup.camera.isometry().inverse()),
+            ),
+            Mount::EyeInHand => (
+                on_board
+                    .map(|c| (setup.board_pose.isometry() * Point3::from(c)).coords)
+                    .collect(),
+                RigCamera::on_flange(camera.intrinsics.clone()),
+            ),
+        };
         plan.inputs.nominal = Rig {
             level_base: Some(nominal.gravity_vector().norm()),
-            ..Rig::on_board(
-                arm,
-                Targets::named_as(&names),
-                camera.corners.iter().map(|(_, corner)| *corner).collect(),
-                RigCamera::fixed(camera.intrinsics.clone(), setup.camera.isometry().inverse()),
-            )
+            ..Rig::on_board(arm, Targets::named_as(&names), corners, seeing)
         };
         plan.request.camera = Some(camera);
         Ok(plan)

@@ -8,7 +8,7 @@ use nalgebra::{Point2, Vector3};
 
 use super::board_pose::{MIN_CORNERS, board_pose};
 use lrmcal_core::camera::views::View;
-use lrmcal_core::camera::{AprilGrid, Intrinsics};
+use lrmcal_core::camera::{AprilGrid, Intrinsics, Mount};
 use lrmcal_core::dataset::{Measurement, TargetName};
 
 /// Why a camera's views cannot be measurements.
@@ -57,11 +57,15 @@ pub type BoardCorners = Vec<(TargetName, Vector3<f64>)>;
 
 /// The measurements of `views` (in their order, each corner of each tag),
 /// with the board's corners by target name, in the order the measurements
-/// first name them.
+/// first name them. Each measurement's point is what registration places
+/// the arm by, from the view's board pose: the corner in the camera frame
+/// when the arm carries the board (`mount` eye-to-hand), the camera's
+/// centre in the board frame when it carries the camera (eye-in-hand).
 pub fn corner_measurements(
     camera: &Intrinsics,
     board: &AprilGrid,
     views: &[View],
+    mount: Mount,
 ) -> Result<(Vec<Measurement>, BoardCorners), ViewError> {
     let layout: Vec<(u32, [nalgebra::Point3<f64>; 4])> = board.tags().collect();
     let mut measurements = Vec::new();
@@ -91,10 +95,14 @@ pub fn corner_measurements(
                 if !corners.iter().any(|(name, _)| *name == target) {
                     corners.push((target, corner.coords));
                 }
+                let position = match mount {
+                    Mount::EyeToHand => pose * corner,
+                    Mount::EyeInHand => pose.inverse() * nalgebra::Point3::origin(),
+                };
                 measurements.push(Measurement {
                     pose: view.pose,
                     load_kg: view.load_kg,
-                    position: (pose * corner).coords,
+                    position: position.coords,
                     pixel: Some(Point2::new(*u, *v)),
                     target: Some(target),
                     approach: view.approach,
@@ -145,8 +153,13 @@ mod tests {
             Translation3::new(0.05, -0.02, 0.8),
             Rotation3::from_euler_angles(0.3, -0.2, 0.4),
         );
-        let (measurements, corners) =
-            corner_measurements(&webcam(), &board(), &[view_at(&truth, &[0, 7])]).unwrap();
+        let (measurements, corners) = corner_measurements(
+            &webcam(),
+            &board(),
+            &[view_at(&truth, &[0, 7])],
+            Mount::EyeToHand,
+        )
+        .unwrap();
         assert_eq!(measurements.len(), 8);
         assert_eq!(corners.len(), 8);
         assert_eq!(corners[4].0.as_str(), "tag7.c0");
@@ -165,14 +178,14 @@ mod tests {
             IsometryMatrix3::from_parts(Translation3::new(0.0, 0.0, 0.8), Rotation3::identity());
         let mut view = view_at(&truth, &[3]);
         view.tags[0].id = 40;
-        let e = corner_measurements(&webcam(), &board(), &[view]).unwrap_err();
+        let e = corner_measurements(&webcam(), &board(), &[view], Mount::EyeToHand).unwrap_err();
         assert!(
             e.to_string().contains("pose 5") && e.to_string().contains("tag 40"),
             "{e}"
         );
         let mut view = view_at(&truth, &[3]);
         view.tags.clear();
-        let e = corner_measurements(&webcam(), &board(), &[view]).unwrap_err();
+        let e = corner_measurements(&webcam(), &board(), &[view], Mount::EyeToHand).unwrap_err();
         assert!(e.to_string().contains("do not place the board"), "{e}");
     }
 }

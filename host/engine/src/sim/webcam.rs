@@ -21,7 +21,7 @@ use super::{Pass, SimError, TrueArm};
 use lrmcal_core::camera::corners::TagCorners;
 use lrmcal_core::camera::views::View;
 use lrmcal_core::camera::visibility::{self, ViewLimits};
-use lrmcal_core::camera::{AprilGrid, CameraSetup, Intrinsics};
+use lrmcal_core::camera::{AprilGrid, CameraSetup, Intrinsics, Mount};
 use lrmcal_core::dataset::approaches;
 use model::Frame;
 
@@ -59,10 +59,15 @@ pub struct Webcam {
     /// for the camera to see it: what detection needs, not the planner's margin.
     #[serde(skip)]
     pub limits: ViewLimits,
-    /// The camera frame in the arm's world frame, where it really stands, m and rad.
+    /// How the camera and the board are carried.
+    pub mount: Mount,
+    /// The camera frame where it really is, m and rad: in the arm's world
+    /// frame (eye-to-hand) or its last frame (eye-in-hand).
     pub camera: Frame<f64>,
-    /// The board frame in the arm's last frame, where it really sits, m and rad.
-    pub board_on_flange: Frame<f64>,
+    /// The board frame where it really is, m and rad: in the arm's last
+    /// frame (eye-to-hand) or its world frame (eye-in-hand).
+    #[serde(rename = "board")]
+    pub board_pose: Frame<f64>,
     /// Sigma of the corners' noise on each pixel axis, px.
     pub pixel_noise_px: f64,
     /// The seed of the placement and the noise.
@@ -96,18 +101,31 @@ impl Webcam {
                 rpy: frame.rpy.map(|v| v + rpy_sigma * normal()),
             }
         };
-        let camera = off(&setup.camera, CAMERA_XYZ_SIGMA_M, CAMERA_RPY_SIGMA_RAD);
-        let board_on_flange = off(
-            &setup.board_on_flange,
-            BOARD_XYZ_SIGMA_M,
-            BOARD_RPY_SIGMA_RAD,
-        );
+        // What stands in the world is told to centimetres, what sits on
+        // the flange to millimetres.
+        let (camera, board_pose) = match setup.mount {
+            Mount::EyeToHand => {
+                let camera = off(&setup.camera, CAMERA_XYZ_SIGMA_M, CAMERA_RPY_SIGMA_RAD);
+                (
+                    camera,
+                    off(&setup.board_pose, BOARD_XYZ_SIGMA_M, BOARD_RPY_SIGMA_RAD),
+                )
+            }
+            Mount::EyeInHand => {
+                let camera = off(&setup.camera, BOARD_XYZ_SIGMA_M, BOARD_RPY_SIGMA_RAD);
+                (
+                    camera,
+                    off(&setup.board_pose, CAMERA_XYZ_SIGMA_M, CAMERA_RPY_SIGMA_RAD),
+                )
+            }
+        };
         Self {
             intrinsics: setup.intrinsics.clone(),
             board: setup.board.clone(),
             limits: ViewLimits::default(),
+            mount: setup.mount,
             camera,
-            board_on_flange,
+            board_pose,
             pixel_noise_px,
             seed,
         }
@@ -120,8 +138,9 @@ impl Webcam {
             intrinsics: setup.intrinsics.clone(),
             board: setup.board.clone(),
             limits: ViewLimits::default(),
+            mount: setup.mount,
             camera: setup.camera,
-            board_on_flange: setup.board_on_flange,
+            board_pose: setup.board_pose,
             pixel_noise_px: 0.0,
             seed: 0,
         }
@@ -177,7 +196,8 @@ impl Webcam {
 
     /// The board's pose in the camera frame with the arm's last frame at `flange`.
     fn camera_from_board(&self, flange: &IsometryMatrix3<f64>) -> IsometryMatrix3<f64> {
-        self.camera.isometry().inverse() * flange * self.board_on_flange.isometry()
+        self.mount
+            .camera_from_board(&self.camera, &self.board_pose, flange)
     }
 }
 

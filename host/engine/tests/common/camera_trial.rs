@@ -9,7 +9,7 @@
 
 use std::path::Path;
 
-use lrmcal_core::camera::{CameraSetup, Intrinsics, setup};
+use lrmcal_core::camera::{CameraSetup, Intrinsics, Mount, setup};
 use lrmcal_core::dataset::Pose;
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_engine::calib::Sample;
@@ -31,8 +31,10 @@ pub struct Trial {
     /// The same for the arm calibrated by a tracker on the board's origin
     /// at the same poses (0.15 mm of noise), mm.
     pub tracker_mm: f64,
-    /// How far the fitted camera is from where it stands relative to the
-    /// arm's first joint frame at the zero command, mm.
+    /// How far the fitted camera is from where it stands: relative to the
+    /// arm's first joint frame at the zero command when it stands still,
+    /// relative to the board at the unseen poses (the mean) when the arm
+    /// carries it, mm.
     pub camera_mm: f64,
     /// And turned, degrees.
     pub camera_deg: f64,
@@ -89,16 +91,26 @@ fn lens_rms_px(fitted: &Intrinsics, truth: &Intrinsics) -> f64 {
     (sum / n).sqrt()
 }
 
-fn camera_setup() -> CameraSetup {
-    setup::read(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../core/arms/lrm-webcam/setup.toml"))
-        .unwrap()
+/// The bundled setup of `mount`: the webcam before the arm, or on its flange.
+fn camera_setup(mount: Mount) -> CameraSetup {
+    let file = match mount {
+        Mount::EyeToHand => "setup.toml",
+        Mount::EyeInHand => "setup-eye-in-hand.toml",
+    };
+    setup::read(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../core/arms/lrm-webcam")
+            .join(file),
+    )
+    .unwrap()
 }
 
-/// Seed `seed`'s true arm and webcam, 60 poses the camera sees fitted
-/// under 66.3 g with 0.3 px of corner noise, 40 others checked.
-pub fn trial(seed: u64, lens: Lens) -> Trial {
+/// Seed `seed`'s true arm and webcam, the camera and the board carried as
+/// `mount` says, 60 poses the camera sees fitted under 66.3 g with 0.3 px
+/// of corner noise, 40 others checked.
+pub fn trial(seed: u64, lens: Lens, mount: Mount) -> Trial {
     let loaded = ArmSource::Bundled("lrm").load().unwrap();
-    let setup = camera_setup();
+    let setup = camera_setup(mount);
     let config = PlanConfig {
         camera: Some(setup.clone()),
         random: 400,
@@ -141,12 +153,11 @@ pub fn trial(seed: u64, lens: Lens) -> Trial {
         )
         .unwrap();
     let (measurements, corners) =
-        corner_measurements(&setup.intrinsics, &setup.board, &watched.views).unwrap();
+        corner_measurements(&setup.intrinsics, &setup.board, &watched.views, setup.mount).unwrap();
     let camera = CameraInput {
-        intrinsics: setup.intrinsics.clone(),
         corners,
-        board_on_flange: setup.board_on_flange,
         refine_lens: lens == Lens::Off { refine: true },
+        ..CameraInput::of_setup(&setup)
     };
     let nominal = camera.nominal_arm(&loaded.arm);
     let g = nominal.gravity_vector().norm();
@@ -157,10 +168,14 @@ pub fn trial(seed: u64, lens: Lens) -> Trial {
     let run = calibrate(&request, &Silent).unwrap();
     let result = &run.results[0];
 
-    // A tracker on the board's origin at the same poses (0.15 mm of noise,
-    // its frame the arm's world): what the camera is compared with.
+    // A tracker on what the flange carries at the same poses (0.15 mm of
+    // noise, its frame the arm's world): what the camera is compared with.
+    let on_flange = match mount {
+        Mount::EyeToHand => webcam.board_pose,
+        Mount::EyeInHand => webcam.camera,
+    };
     let mut tracked = truth.clone();
-    tracked.arm.tool = webcam.board_on_flange;
+    tracked.arm.tool = on_flange;
     tracked.config.noise_sigma_m = 0.15e-3;
     let points = tracked.measure(&fit, &[load_kg]).unwrap();
     let tracker_run = calibrate(&Request::new(&nominal, &points), &Silent).unwrap();
@@ -169,13 +184,43 @@ pub fn trial(seed: u64, lens: Lens) -> Trial {
     let fitted_lens = rig.camera.as_ref().unwrap().lens_now();
     let frame = run.registration.frame;
 
-    // The board's origin in the camera frame: predicted and true.
-    let true_camera = webcam.camera.isometry();
+    // The board in the camera frame: as a rig predicts it at `sample` (its
+    // servo curves as fitted, the commands sent through the nominal ones;
+    // the fit's world carried to the measurements' frame, the camera's or
+    // the board's), and as it is.
+    let predicted = |rig: &lrmcal_engine::calib::Rig, sample: &Sample| {
+        let last = rig
+            .evaluate(sample)
+            .unwrap()
+            .deflection
+            .frames
+            .frames
+            .last_value();
+        let carried = last * rig.arm.tool.isometry();
+        match mount {
+            Mount::EyeToHand => frame * carried,
+            Mount::EyeInHand => carried.inverse() * frame.inverse(),
+        }
+    };
+    let actual = |sample: &Sample| {
+        let driven = truth.driven_angles(&sample.q, &sample.approach);
+        let flange = truth
+            .deflection(&driven, sample.load_kg)
+            .unwrap()
+            .frames
+            .frames
+            .last_value();
+        let seen = mount.camera_from_board(&webcam.camera, &webcam.board_pose, &flange);
+        (seen, flange * on_flange.isometry())
+    };
+    let origin = |iso: &IsometryMatrix3<f64>| iso * Point3::origin();
     let mut sum = 0.0;
     let mut nominal_sum = 0.0;
     let mut tracker_sum = 0.0;
+    // A camera on the flange: where it stands before the board at each
+    // unseen pose, predicted against true (mm, degrees summed).
+    let (mut carried_mm, mut carried_deg) = (0.0, 0.0);
     let ways = lrmcal_core::dataset::approaches(check.iter().map(|p| &p.q));
-    let board = webcam.board_on_flange.isometry();
     for (pose, approach) in check.iter().zip(ways) {
         let sample = Sample {
             id: pose.id,
@@ -184,25 +229,17 @@ pub fn trial(seed: u64, lens: Lens) -> Trial {
             target: 0,
             approach,
         };
-        // The board's origin: the rig with every corner there (its servo
-        // curves as fitted, the commands sent through the nominal ones).
-        let predicted = |rig: &lrmcal_engine::calib::Rig| {
-            let mut at_origin = rig.clone();
-            at_origin.board = Some(vec![nalgebra::Vector3::zeros()]);
-            frame * Point3::from(at_origin.evaluate(&sample).unwrap().tool_m)
-        };
-        let driven = truth.driven_angles(&pose.q, &approach);
-        let flange = truth
-            .deflection(&driven, load_kg)
-            .unwrap()
-            .frames
-            .frames
-            .last_value();
-        let actual = true_camera.inverse() * (flange * board * Point3::origin());
-        sum += (predicted(rig) - actual).norm();
-        let world = flange * board * Point3::origin();
-        tracker_sum += (Point3::from(tracker_rig.evaluate(&sample).unwrap().tool_m) - world).norm();
-        nominal_sum += (predicted(&lrmcal_engine::calib::Rig::from(nominal)) - actual).norm();
+        let (seen, carried) = actual(&sample);
+        let fitted = predicted(rig, &sample);
+        sum += (origin(&fitted) - origin(&seen)).norm();
+        let off = fitted * seen.inverse();
+        carried_mm +=
+            1e3 * (fitted.inverse() * Point3::origin() - seen.inverse() * Point3::origin()).norm();
+        carried_deg += off.rotation.angle().to_degrees();
+        let nominal_rig = lrmcal_engine::calib::Rig::from(nominal);
+        nominal_sum += (origin(&predicted(&nominal_rig, &sample)) - origin(&seen)).norm();
+        tracker_sum +=
+            (Point3::from(tracker_rig.evaluate(&sample).unwrap().tool_m) - origin(&carried)).norm();
     }
 
     // The camera relative to the arm's first joint frame, the arm standing
@@ -217,20 +254,36 @@ pub fn trial(seed: u64, lens: Lens) -> Trial {
         target: 0,
         approach: lrmcal_core::dataset::from_home(nominal.joints.len()),
     };
-    let fitted_frame1 = frame * rig.chain().frames(&rig.standing_angles(&zero), 0.0).frames[1];
-    let true_frame1 = true_camera.inverse()
-        * truth
-            .arm
-            .chain()
-            .frames(&truth.driven_angles(&zero.q, &zero.approach), 0.0)
-            .frames[1];
-    let off: IsometryMatrix3<f64> = fitted_frame1.inverse() * true_frame1;
+    // A camera on the flange is judged by where it stands before the board
+    // at the unseen poses (its place on the flange is confounded the same
+    // way with the last joint's parameters, and the zero command may be
+    // far from any pose it saw the board at).
+    let n = check.len() as f64;
+    let (camera_mm, camera_deg) = match mount {
+        Mount::EyeToHand => {
+            let true_camera = webcam.camera.isometry();
+            let fitted_frame1 =
+                frame * rig.chain().frames(&rig.standing_angles(&zero), 0.0).frames[1];
+            let true_frame1 = true_camera.inverse()
+                * truth
+                    .arm
+                    .chain()
+                    .frames(&truth.driven_angles(&zero.q, &zero.approach), 0.0)
+                    .frames[1];
+            let off = fitted_frame1.inverse() * true_frame1;
+            (
+                1e3 * off.translation.vector.norm(),
+                off.rotation.angle().to_degrees(),
+            )
+        }
+        Mount::EyeInHand => (carried_mm / n, carried_deg / n),
+    };
     Trial {
         board_mm: 1e3 * sum / check.len() as f64,
         nominal_mm: 1e3 * nominal_sum / check.len() as f64,
         tracker_mm: 1e3 * tracker_sum / check.len() as f64,
-        camera_mm: 1e3 * off.translation.vector.norm(),
-        camera_deg: off.rotation.angle().to_degrees(),
+        camera_mm,
+        camera_deg,
         lens_px: lens_rms_px(&fitted_lens, &webcam.intrinsics),
     }
 }

@@ -17,7 +17,7 @@ use nalgebra::{IsometryMatrix3, Point3};
 use super::{Args, PAPER_LOAD_KG};
 use crate::commands::helpers::write_text;
 use crate::error::Error;
-use lrmcal_core::camera::{CameraSetup, bundled, setup};
+use lrmcal_core::camera::{CameraSetup, Mount, bundled, setup};
 use lrmcal_core::dataset::{Pose, from_home};
 use lrmcal_core::io::arm_source::ArmSource;
 use lrmcal_core::io::{pose_list, read_text};
@@ -44,7 +44,14 @@ pub fn run(args: &Args, runner: Lrmcal<'_>) -> Result<(), Error> {
     })?;
     let setup_path = match &args.camera_setup {
         Some(path) => path.clone(),
-        None => bundled::write(out)?,
+        None => bundled::write(
+            out,
+            if args.eye_in_hand {
+                Mount::EyeInHand
+            } else {
+                Mount::EyeToHand
+            },
+        )?,
     };
     let setup = setup::read(&setup_path)?;
     let named = setup::parse(&read_text(&setup_path)?).map_err(|e| e.in_file(&setup_path))?;
@@ -148,7 +155,7 @@ pub fn run(args: &Args, runner: Lrmcal<'_>) -> Result<(), Error> {
          the board's origin at {} poses the camera sees that were not fitted: mean {:.2} mm \
          (the nominal arm where the setup puts it: {:.1} mm)\n  \
          the camera: {:.2} mm and {:.3}° off (the setup as told: {:.1} mm and {:.2}°), judged by \
-         where each puts the arm's first joint frame at the zero command",
+         {}",
         args.seed,
         check.poses,
         check.board_mm,
@@ -157,6 +164,10 @@ pub fn run(args: &Args, runner: Lrmcal<'_>) -> Result<(), Error> {
         check.camera_deg,
         check.told_camera_mm,
         check.told_camera_deg,
+        match setup.mount {
+            Mount::EyeToHand => "where each puts the arm's first joint frame at the zero command",
+            Mount::EyeInHand => "where each puts the camera before the board at those poses",
+        }
     );
     println!(
         "\nwrote {} (setup and board files, seen.csv, selection.csv, images/, views.csv, truth.json, \
@@ -180,12 +191,13 @@ struct Check {
     told_camera_mm: f64,
     told_camera_deg: f64,
     /// The true arm's first joint frame at the zero command in the true
-    /// camera's frame, row by row (4 × 4, m).
-    true_frame1_in_camera: [[f64; 4]; 4],
+    /// camera's frame, row by row (4 × 4, m); null eye-in-hand.
+    true_frame1_in_camera: Option<[[f64; 4]; 4]>,
     /// The nominal arm's first joint frame at the zero command in the arm
     /// file's world frame, row by row (4 × 4, m): a camera found in that
-    /// frame by another tool is judged by where it then sees this frame.
-    nominal_frame1_in_world: [[f64; 4]; 4],
+    /// frame by another tool is judged by where it then sees this frame;
+    /// null eye-in-hand.
+    nominal_frame1_in_world: Option<[[f64; 4]; 4]>,
 }
 
 /// `pose` as a 4 × 4 matrix, row by row.
@@ -196,9 +208,11 @@ fn rows(pose: &IsometryMatrix3<f64>) -> [[f64; 4]; 4] {
 
 /// Judges the calibration the camera path wrote against the true arm and
 /// webcam `simulate` drew (its defaults, or `--model-only`): the board's
-/// origin at the planned poses not selected that the true camera sees,
-/// under the paper's load, and the camera's place, both in the camera
-/// frame (the calibration's measurement frame).
+/// origin in the camera frame at the planned poses not selected that the
+/// true camera sees, under the paper's load, and the camera's place: by
+/// where it sees the arm's first joint frame at the zero command when it
+/// stands still, by where it stands before the board at those poses when
+/// the arm carries it.
 fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     let nominal = args.arm.load()?.arm;
     let config = if args.model_only {
@@ -230,9 +244,21 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     let calibration = ArmSource::Calibration(args.out.join(CALIBRATION)).load()?;
     let rig = rig_of(&calibration);
     let nominal_rig = Rig::from(nominal);
-    let true_camera = webcam.camera.isometry().inverse();
-    let told_camera = told.camera.isometry().inverse();
+    let mount = setup.mount;
+    // The board in the camera frame as the calibration has it: its world is
+    // what stood still (the camera's frame, or the board's), its tool frame
+    // what the arm carried.
+    let calibrated = |sample: &Sample| -> Result<IsometryMatrix3<f64>, Error> {
+        let last = rig.evaluate(sample)?.deflection.frames.frames.last_value();
+        let carried = last * rig.arm.tool.isometry();
+        Ok(match mount {
+            Mount::EyeToHand => carried,
+            Mount::EyeInHand => carried.inverse(),
+        })
+    };
+    let origin = |iso: &IsometryMatrix3<f64>| iso * Point3::origin();
     let (mut sum, mut nominal_sum, mut count) = (0.0, 0.0, 0usize);
+    let (mut carried_mm, mut carried_deg, mut told_mm, mut told_deg) = (0.0, 0.0, 0.0, 0.0);
     for (view, flange) in watched.views.iter().zip(&watched.flanges).take(CHECK_POSES) {
         let sample = Sample {
             id: view.pose.id,
@@ -241,20 +267,46 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
             target: 0,
             approach: view.approach,
         };
-        let actual = true_camera * (flange * webcam.board_on_flange.isometry() * Point3::origin());
-        let predicted = Point3::from(rig.evaluate(&sample)?.tool_m);
+        let actual = mount.camera_from_board(&webcam.camera, &webcam.board_pose, flange);
+        let predicted = calibrated(&sample)?;
         let nominal_flange = nominal_rig
             .evaluate(&sample)?
             .deflection
             .frames
             .frames
             .last_value();
-        let guessed =
-            told_camera * (nominal_flange * told.board_on_flange.isometry() * Point3::origin());
-        sum += (predicted - actual).norm();
-        nominal_sum += (guessed - actual).norm();
+        let guessed = mount.camera_from_board(&told.camera, &told.board_pose, &nominal_flange);
+        sum += (origin(&predicted) - origin(&actual)).norm();
+        nominal_sum += (origin(&guessed) - origin(&actual)).norm();
+        // Where the camera stands before the board.
+        let off = |seen: &IsometryMatrix3<f64>| {
+            (
+                1e3 * (origin(&seen.inverse()) - origin(&actual.inverse())).norm(),
+                (seen * actual.inverse()).rotation.angle().to_degrees(),
+            )
+        };
+        let ((mm, deg), (t_mm, t_deg)) = (off(&predicted), off(&guessed));
+        (carried_mm, carried_deg) = (carried_mm + mm, carried_deg + deg);
+        (told_mm, told_deg) = (told_mm + t_mm, told_deg + t_deg);
         count += 1;
     }
+    let mean = |s: f64| s / count.max(1) as f64;
+    if mount == Mount::EyeInHand {
+        return Ok(Check {
+            seed: args.seed,
+            true_frame1_in_camera: None,
+            nominal_frame1_in_world: None,
+            poses: count,
+            board_mm: 1e3 * mean(sum),
+            nominal_board_mm: 1e3 * mean(nominal_sum),
+            camera_mm: mean(carried_mm),
+            camera_deg: mean(carried_deg),
+            told_camera_mm: mean(told_mm),
+            told_camera_deg: mean(told_deg),
+        });
+    }
+    let true_camera = webcam.camera.isometry().inverse();
+    let told_camera = told.camera.isometry().inverse();
 
     // The arm's first joint frame at the zero command: the base's yaw and
     // height are one with joint 1's offsets, so the camera is judged by
@@ -283,14 +335,13 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     };
     let (camera_mm, camera_deg) = off(frame1(&rig));
     let (told_camera_mm, told_camera_deg) = off(told_camera * frame1(&nominal_rig));
-    let mean = |s: f64| 1e3 * s / count.max(1) as f64;
     Ok(Check {
         seed: args.seed,
-        true_frame1_in_camera: rows(&true_frame1),
-        nominal_frame1_in_world: rows(&frame1(&nominal_rig)),
+        true_frame1_in_camera: Some(rows(&true_frame1)),
+        nominal_frame1_in_world: Some(rows(&frame1(&nominal_rig))),
         poses: count,
-        board_mm: mean(sum),
-        nominal_board_mm: mean(nominal_sum),
+        board_mm: 1e3 * mean(sum),
+        nominal_board_mm: 1e3 * mean(nominal_sum),
         camera_mm,
         camera_deg,
         told_camera_mm,

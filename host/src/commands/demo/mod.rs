@@ -102,6 +102,10 @@ pub struct Args {
     /// (a webcam 0.8 m in front of the bundled arm).
     #[arg(long, value_name = "SETUP", requires = "camera")]
     pub camera_setup: Option<PathBuf>,
+    /// With --camera, the bundled webcam on the arm's flange and the board
+    /// standing 0.55 m before the arm (eye-in-hand).
+    #[arg(long, requires = "camera", conflicts_with = "camera_setup")]
+    pub eye_in_hand: bool,
     /// Output folder (created if missing).
     #[arg(long, short, value_name = "DIR", default_value = "lrmcal-demo")]
     pub out: PathBuf,

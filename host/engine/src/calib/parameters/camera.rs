@@ -17,10 +17,16 @@
 //! depth is what a fit in metres costs: across a webcam's 0.6-1.0 m the
 //! weights of equally noisy corners differ by a factor up to about 2.8.
 //!
-//! The camera stands where registration found it, fixed through the fit
-//! (`from_world`, the arm's world frame to the camera frame); the base's
-//! six parameters, refined by the fit, move the arm in front of it, as
-//! they move it in a tracker's frame.
+//! Eye-to-hand, the camera stands where registration found it, fixed
+//! through the fit (`from_world`, the arm's world frame to the camera
+//! frame); the base's six parameters, refined by the fit, move the arm in
+//! front of it, as they move it in a tracker's frame. Eye-in-hand, the
+//! mirror: the board lies where registration found it (its corners fixed
+//! points of the world), and the camera is the arm's tool frame, whose six
+//! parameters place it on the flange. A corner then moves in the camera's
+//! frame as a point carried with the camera moves the other way: its slope
+//! is the same chain rule on the velocity of a point the flange carries
+//! where the corner is, negated ([`RigCamera::observe_carried`]).
 //!
 //! Its lens is held as told, or refined with the arm ([`RigCamera::lens`],
 //! the [`ParamKey::Lens`] corrections): the arm moving the board gives the
@@ -35,7 +41,7 @@
 
 use nalgebra::{IsometryMatrix3, Matrix3, Point3, SMatrix, Vector3};
 
-use lrmcal_core::camera::Intrinsics;
+use lrmcal_core::camera::{Intrinsics, Mount};
 use lrmcal_core::param_key::{LENS_FIELDS, ParamKey};
 
 /// The lens corrections refined, by index in [`LENS_FIELDS`]: fx, fy, k1,
@@ -62,7 +68,11 @@ pub type LensSlope = SMatrix<f64, 2, { LENS_FIELDS.len() }>;
 pub struct RigCamera {
     /// Its lens as told (the intrinsics file's).
     pub intrinsics: Intrinsics,
-    /// The arm's world frame → the camera frame.
+    /// How it is carried: standing ([`RigCamera::observe`]) or on the
+    /// flange as the tool frame ([`RigCamera::observe_carried`]).
+    pub mount: Mount,
+    /// Eye-to-hand, the arm's world frame → the camera frame; eye-in-hand
+    /// the identity (the camera rides the tool frame).
     pub from_world: IsometryMatrix3<f64>,
     /// The lens's corrections when the fit refines it (module docs);
     /// `None`: the lens is held as told.
@@ -99,8 +109,17 @@ impl RigCamera {
     pub fn fixed(intrinsics: Intrinsics, from_world: IsometryMatrix3<f64>) -> Self {
         Self {
             intrinsics,
+            mount: Mount::EyeToHand,
             from_world,
             lens: None,
+        }
+    }
+
+    /// A camera on the flange, the arm's tool frame, whose lens is held as told.
+    pub fn on_flange(intrinsics: Intrinsics) -> Self {
+        Self {
+            mount: Mount::EyeInHand,
+            ..Self::fixed(intrinsics, IsometryMatrix3::identity())
         }
     }
 
@@ -134,14 +153,37 @@ impl RigCamera {
         }
     }
 
-    /// What the camera sees of `point` (the arm's world frame); `None`
-    /// when it does not project (behind the camera, past the lens's fold).
+    /// What the standing camera sees of `point` (the arm's world frame);
+    /// `None` when it does not project (behind the camera, past the lens's
+    /// fold). The slope is against the point's motion.
     pub fn observe(&self, point: &Vector3<f64>) -> Option<Observation> {
+        self.observe_from(&self.from_world, point, 1.0)
+    }
+
+    /// What the camera on the flange, standing at `camera_in_world`, sees
+    /// of `point`, fixed in the world. The slope is against the motion of a
+    /// point carried with the camera where `point` is (module docs).
+    pub fn observe_carried(
+        &self,
+        camera_in_world: &IsometryMatrix3<f64>,
+        point: &Vector3<f64>,
+    ) -> Option<Observation> {
+        self.observe_from(&camera_in_world.inverse(), point, -1.0)
+    }
+
+    /// What a camera at `from_world` sees of `point`, the slope's sign
+    /// `sign`.
+    fn observe_from(
+        &self,
+        from_world: &IsometryMatrix3<f64>,
+        point: &Vector3<f64>,
+        sign: f64,
+    ) -> Option<Observation> {
         let lens = self.lens_now();
-        let seen = self.from_world * Point3::from(*point);
+        let seen = from_world * Point3::from(*point);
         let (pixel, slope) = lens.project_with_slope(&seen)?;
         let scale = seen.z / (0.5 * (lens.fx + lens.fy));
-        let turned = slope * self.from_world.rotation.matrix() * scale;
+        let turned = slope * from_world.rotation.matrix() * (sign * scale);
         let mut block = Matrix3::zeros();
         block.fixed_view_mut::<2, 3>(0, 0).copy_from(&turned);
         let lens_slope = match self.lens {

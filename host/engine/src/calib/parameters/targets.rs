@@ -28,6 +28,7 @@ use nalgebra::{IsometryMatrix3, Point3, Vector3};
 
 use super::camera::{Observation, RigCamera, tracked};
 use crate::calib::{CalibError, Sample};
+use lrmcal_core::camera::Mount;
 use lrmcal_core::dataset::{Measurement, TargetName};
 use lrmcal_core::param_key::ParamKey;
 
@@ -52,8 +53,10 @@ pub struct Rig {
     /// rig was first made from, whatever the fit changes after.
     pub bounds: Bounds<f64>,
     /// When its targets are the corners of a board: each target's corner
-    /// in the tool frame, which is the board's frame (m); `tools` is then
-    /// empty, and the tool frame's six parameters place the board.
+    /// (m) in the tool frame, which is the board's frame, or, when the
+    /// camera rides the flange ([`RigCamera::mount`] eye-in-hand), in the
+    /// world, where the board lies; `tools` is then empty, and the tool
+    /// frame's six parameters place the board (or the camera).
     pub board: Option<Vec<Vector3<f64>>>,
     /// The camera that measures the targets, when one does ([`RigCamera`]):
     /// the measurements are then pixels.
@@ -120,22 +123,47 @@ impl Rig {
         }
     }
 
+    /// The world point the instrument measures for `sample`, the arm's
+    /// last frame standing at `last`: the target the arm carries (its tool
+    /// point `tool_point` on that frame), or, with a camera on the flange,
+    /// the board's corner where it lies.
+    pub fn measured_point(
+        &self,
+        sample: &Sample,
+        last: &IsometryMatrix3<f64>,
+        tool_point: &Vector3<f64>,
+    ) -> Vector3<f64> {
+        match (&self.camera, &self.board) {
+            (Some(c), Some(corners)) if c.mount == Mount::EyeInHand => {
+                corners.get(sample.target).copied().unwrap_or_default()
+            }
+            // As `model::Chain::frames` places the tool point on the last frame.
+            _ => last.rotation * tool_point + last.translation.vector,
+        }
+    }
+
     /// What the rig's instrument measures of `point` (the arm's world
-    /// frame) for `sample`: the point, or its pixel when a camera measures.
+    /// frame, [`Rig::measured_point`]) for `sample`, the arm's last frame
+    /// standing at `last`: the point, or its pixel when a camera measures.
     pub fn observe(
         &self,
         sample: &Sample,
+        last: &IsometryMatrix3<f64>,
         point: &Vector3<f64>,
     ) -> Result<Observation, CalibError> {
-        match &self.camera {
-            None => Ok(tracked(point)),
-            Some(camera) => camera.observe(point).ok_or_else(|| {
-                deflection_error(
-                    sample,
-                    "the board's corner falls behind the camera or outside its lens's field".into(),
-                )
-            }),
-        }
+        let Some(camera) = &self.camera else {
+            return Ok(tracked(point));
+        };
+        let seen = match camera.mount {
+            Mount::EyeToHand => camera.observe(point),
+            Mount::EyeInHand => camera.observe_carried(&(last * self.arm.tool.isometry()), point),
+        };
+        seen.ok_or_else(|| {
+            deflection_error(
+                sample,
+                "the board's corner falls behind the camera or outside its lens's field".into(),
+            )
+        })
     }
 
     /// How many axes a measurement's block has: 3 for a tracker's point, 2
@@ -149,10 +177,10 @@ impl Rig {
 
     /// What the rig's instrument measures for every sample ([`Rig::observe`]).
     pub fn observations(&self, samples: &[Sample]) -> Result<Vec<Observation>, CalibError> {
-        self.tool_points(samples)?
+        self.standing(samples)?
             .iter()
             .zip(samples)
-            .map(|(p, s)| self.observe(s, p))
+            .map(|((last, tool), s)| self.observe(s, last, &self.measured_point(s, last, tool)))
             .collect()
     }
 
@@ -220,6 +248,20 @@ impl Rig {
     /// Samples of one pose (several targets measured at once: a camera's
     /// corners) share its deflection, solved once ([`same_pose`]).
     pub fn tool_points(&self, samples: &[Sample]) -> Result<Vec<Vector3<f64>>, CalibError> {
+        Ok(self
+            .standing(samples)?
+            .iter()
+            .map(|(last, tool)| last.rotation * tool + last.translation.vector)
+            .collect())
+    }
+
+    /// For every sample, where the arm's last frame stands (deflected) and
+    /// the sample's tool point on it; the samples of one pose share its
+    /// deflection, solved once ([`same_pose`]).
+    fn standing(
+        &self,
+        samples: &[Sample],
+    ) -> Result<Vec<(IsometryMatrix3<f64>, Vector3<f64>)>, CalibError> {
         let chains = target_chains(self);
         let mut points = Vec::with_capacity(samples.len());
         let mut standing: Option<(&Sample, IsometryMatrix3<f64>)> = None;
@@ -237,8 +279,7 @@ impl Rig {
                     last
                 }
             };
-            // As `model::Chain::frames` places the tool point on the last frame.
-            points.push(last.rotation * chain.tool_point + last.translation.vector);
+            points.push((last, chain.tool_point));
         }
         Ok(points)
     }
@@ -258,6 +299,10 @@ impl Rig {
     pub fn tool_point(&self, t: usize) -> Option<Vector3<f64>> {
         if let Some(corners) = &self.board {
             let corner = corners.get(t)?;
+            // A camera on the flange: every corner is seen from its origin.
+            if self.camera.as_ref().map(|c| c.mount) == Some(Mount::EyeInHand) {
+                return Some(Vector3::from(self.arm.tool.xyz));
+            }
             return Some(self.arm.tool.isometry() * Point3::from(*corner)).map(|p| p.coords);
         }
         match t {

@@ -11,7 +11,7 @@ use crate::calib::fit::pipeline::OptionResult;
 use crate::calib::fit::registration::Registration;
 use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::targets::{Rig, Targets};
-use lrmcal_core::camera::Intrinsics;
+use lrmcal_core::camera::{Intrinsics, Mount};
 use lrmcal_core::dataset::TargetName;
 use lrmcal_core::io::calibration_file::{
     CalibrationFile, ErrorStats, FittedParam, SCHEMA, SCHEMA_VERSION, TargetTool, ValidationSummary,
@@ -120,13 +120,16 @@ pub fn rigs_of(file: &CalibrationFile) -> (Rig, Rig) {
 
 /// [`rigs_of`] for a camera's calibration, measured by a camera of
 /// `intrinsics` seeing the board's `corners` (each target's place in the
-/// board frame, as `calib::run::CameraInput` holds them), at their pixels.
-/// The file's world is the camera's frame (`identify --camera` registers
-/// the arm there), its tool frame the board's.
+/// board frame, as `calib::run::CameraInput` holds them), at their pixels,
+/// the two carried as `mount` says. `identify --camera` registers the arm
+/// in what stands still: eye-to-hand the file's world is the camera's frame
+/// and its tool frame the board's; eye-in-hand its world is the board's
+/// frame and its tool frame the camera's.
 pub fn camera_rigs_of(
     file: &CalibrationFile,
     intrinsics: &Intrinsics,
     corners: &[(TargetName, Vector3<f64>)],
+    mount: Mount,
 ) -> (Rig, Rig) {
     let names: Vec<TargetName> = corners.iter().map(|(name, _)| *name).collect();
     let corners: Vec<Vector3<f64>> = corners.iter().map(|(_, c)| *c).collect();
@@ -137,7 +140,12 @@ pub fn camera_rigs_of(
             rig.arm,
             Targets::named_as(&names),
             corners.clone(),
-            RigCamera::fixed(intrinsics.clone(), nalgebra::IsometryMatrix3::identity()),
+            match mount {
+                Mount::EyeToHand => {
+                    RigCamera::fixed(intrinsics.clone(), nalgebra::IsometryMatrix3::identity())
+                }
+                Mount::EyeInHand => RigCamera::on_flange(intrinsics.clone()),
+            },
         )
     };
     let (nominal, calibrated) = rigs_of(file);

@@ -24,7 +24,7 @@ use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
 use crate::calib::results::figures::{ErrorPoint, O1Point, RandomBaseline};
 use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
-use lrmcal_core::camera::Intrinsics;
+use lrmcal_core::camera::{Intrinsics, Mount};
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
 use lrmcal_core::io::json;
@@ -330,8 +330,11 @@ pub struct PixelsBeforeAfter {
 /// The camera an option's fit found (a camera's calibration only).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CameraReport {
+    /// How the camera and the board were carried.
+    pub mount: Mount,
     /// Its optical frame (x right, y down, z forward) in the arm's base
-    /// frame: position, mm.
+    /// frame (eye-to-hand) or in its last frame, the flange (eye-in-hand):
+    /// position, mm.
     pub xyz_mm: [f64; 3],
     /// Its roll, pitch and yaw there (`Rz(yaw) Ry(pitch) Rx(roll)`), degrees.
     pub rpy_deg: [f64; 3],
@@ -379,13 +382,18 @@ impl CameraReport {
     fn of(r: &OptionResult) -> Option<Self> {
         let rig = &r.identified.rig;
         let camera = rig.camera.as_ref()?;
-        // The fit's world is the arm's; the camera stands at `from_world`
-        // of it, the base at its frame.
-        let in_base = rig.arm.base.isometry().inverse() * camera.from_world.inverse();
+        // The fit's world is the arm's; a standing camera is at
+        // `from_world` of it, the base at its frame; a camera on the flange
+        // is the tool frame.
+        let in_base = match camera.mount {
+            Mount::EyeToHand => rig.arm.base.isometry().inverse() * camera.from_world.inverse(),
+            Mount::EyeInHand => rig.arm.tool.isometry(),
+        };
         let t = in_base.translation.vector * 1e3;
         let (roll, pitch, yaw) = in_base.rotation.euler_angles();
         let q = nalgebra::UnitQuaternion::from_rotation_matrix(&in_base.rotation);
         Some(Self {
+            mount: camera.mount,
             xyz_mm: t.into(),
             rpy_deg: [roll, pitch, yaw].map(f64::to_degrees),
             quaternion_xyzw: [q.i, q.j, q.k, q.w],

@@ -215,8 +215,8 @@ pub fn study(study: &Study, off_grid: usize) -> Result<String, CalibError> {
         if let Some(b) = &study.report.random_baseline {
             s.push_str(&format!("{}\n", random_baseline(b)));
         }
-        for x in &o.fit.outliers {
-            s.push_str(&format!("{}\n", outlier(x)));
+        for line in outliers_by_pose(&o.fit.outliers) {
+            s.push_str(&format!("{line}\n"));
         }
     }
     Ok(s)
@@ -266,7 +266,7 @@ pub fn option_details(o: &OptionReport) -> String {
         lines.push(format!("  {line}"));
     }
     lines.extend(backlash(o).into_iter().map(|w| format!("  {w}")));
-    lines.extend(f.outliers.iter().map(|x| format!("  {}", outlier(x))));
+    lines.extend(outliers_by_pose(&f.outliers).map(|line| format!("  {line}")));
     lines.extend(
         o.validation
             .iter()
@@ -345,6 +345,29 @@ pub fn outlier(o: &OutlierReport) -> String {
         "outlier: pose {} ({} kg), residual {:.2} mm, weight {:.2}",
         o.pose, o.load_kg, o.residual_mm, o.weight
     )
+}
+
+/// The fit's outliers (largest first) a line per pose and load: its worst
+/// measurement, and how many of its measurements are outliers when more
+/// than one is (a camera's view has dozens of corners).
+fn outliers_by_pose(outliers: &[OutlierReport]) -> impl Iterator<Item = String> + '_ {
+    let mut poses: Vec<(&OutlierReport, usize)> = Vec::new();
+    for o in outliers {
+        match poses
+            .iter_mut()
+            .find(|(p, _)| p.pose == o.pose && p.load_kg == o.load_kg)
+        {
+            Some((_, count)) => *count += 1,
+            None => poses.push((o, 1)),
+        }
+    }
+    poses.into_iter().map(|(o, count)| match count {
+        1 => outlier(o),
+        n => format!(
+            "{} (the worst of its {n} outlying measurements)",
+            outlier(o)
+        ),
+    })
 }
 
 /// A camera's reprojection errors, at the fitted corners and at the
@@ -558,6 +581,27 @@ mod tests {
     use super::*;
     use crate::calib::ModelOption;
     use crate::calib::testing::{calibrate_in_arm_frame, elastic_run, elastic_settings};
+
+    /// A pose with several outlying measurements is one line, its worst,
+    /// saying how many; a pose with one is its line alone.
+    #[test]
+    fn outliers_are_named_once_per_pose() {
+        let o = |pose: u32, residual_mm: f64| OutlierReport {
+            pose,
+            load_kg: 0.0663,
+            residual_mm,
+            weight: 0.5,
+        };
+        let lines: Vec<String> =
+            outliers_by_pose(&[o(7, 3.0), o(9, 2.5), o(7, 2.0), o(7, 1.0)]).collect();
+        assert_eq!(lines.len(), 2, "{lines:?}");
+        assert!(
+            lines[0].starts_with("outlier: pose 7 (0.0663 kg), residual 3.00 mm")
+                && lines[0].ends_with("(the worst of its 3 outlying measurements)"),
+            "{lines:?}"
+        );
+        assert_eq!(lines[1], outlier(&o(9, 2.5)));
+    }
 
     fn elastic_report() -> OptionReport {
         let (nominal, _, all) = elastic_run();

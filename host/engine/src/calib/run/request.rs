@@ -10,7 +10,7 @@ use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::registration::Gravity;
 use crate::calib::parameters::option::DEFAULT;
 use crate::camera::corner_measurements::corner_target;
-use lrmcal_core::camera::{CameraSetup, Intrinsics};
+use lrmcal_core::camera::{CameraSetup, Intrinsics, Mount};
 use lrmcal_core::dataset::{Measurement, Pose, TargetName};
 
 /// Which measured poses the fit uses.
@@ -44,15 +44,20 @@ pub enum Placement {
 }
 
 /// A camera as the instrument: the measurements are the corners of a
-/// board on the flange, seen at their pixels (`calib::parameters::camera`).
+/// board seen at their pixels (`calib::parameters::camera`), the board on
+/// the flange or the camera there.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CameraInput {
     /// The camera's lens.
     pub intrinsics: Intrinsics,
     /// Each corner target's place in the board frame, m.
     pub corners: Vec<(TargetName, Vector3<f64>)>,
-    /// The board frame in the arm's last frame, as the camera setup tells it.
-    pub board_on_flange: Frame<f64>,
+    /// Which of the two the arm carries.
+    pub mount: Mount,
+    /// The frame of what the arm carries (the board eye-to-hand, the
+    /// camera eye-in-hand) in its last frame, as the camera setup tells it:
+    /// the arm's tool frame in the fit.
+    pub on_flange: Frame<f64>,
     /// Whether the fit refines the lens with the arm (`calib::parameters::camera`);
     /// otherwise it is held as `intrinsics` tell it.
     pub refine_lens: bool,
@@ -74,19 +79,24 @@ impl CameraInput {
                         .map(move |(k, corner)| (corner_target(id, k), corner.coords))
                 })
                 .collect(),
-            board_on_flange: setup.board_on_flange,
+            mount: setup.mount,
+            on_flange: match setup.mount {
+                Mount::EyeToHand => setup.board_pose,
+                Mount::EyeInHand => setup.camera,
+            },
             refine_lens: false,
         }
     }
 
     /// `arm` as the camera's fit starts from it: its tool frame moved to
-    /// the board's, its payload's centre of mass kept where it is.
+    /// what it carries ([`CameraInput::on_flange`]), its payload's centre
+    /// of mass kept where it is.
     pub fn nominal_arm(&self, arm: &Arm<f64>) -> Arm<f64> {
-        let board = self.board_on_flange;
+        let carried = self.on_flange;
         let com = arm.tool.isometry() * Point3::from(arm.payload_com);
         Arm {
-            tool: board,
-            payload_com: (board.isometry().inverse() * com).coords.into(),
+            tool: carried,
+            payload_com: (carried.isometry().inverse() * com).coords.into(),
             ..*arm
         }
     }
@@ -124,7 +134,7 @@ pub struct Request<'a> {
     /// How the fit runs.
     pub identify: IdentifyOptions,
     /// The camera, when one measured (the nominal arm's tool frame is then
-    /// the board's: [`CameraInput::board_on_flange`]).
+    /// what the arm carries: [`CameraInput::on_flange`]).
     pub camera: Option<CameraInput>,
 }
 

@@ -196,8 +196,7 @@ fn pose_slopes(
         .iter()
         .map(|sample| {
             let tool_point = chain_of(chains, sample)?.tool_point;
-            // As `model::Chain::frames` places the tool point on the last frame.
-            let point = last.rotation * tool_point + last.translation.vector;
+            let point = rig.measured_point(sample, &last, &tool_point);
             // P: how the point moves per unit of each state coordinate.
             let p = Matrix3xX::from_fn(n + 1, |r, e| twists[e].velocity(&point)[r]);
             let w = match &solve {
@@ -264,7 +263,7 @@ fn pose_slopes(
                 out.set_column(col, &slope);
             }
             // What the instrument measures of the point (a camera: its pixel).
-            let seen = rig.observe(sample, &point)?;
+            let seen = rig.observe(sample, &last, &point)?;
             let mut rows = seen.slope * out;
             if let Some(lens) = &seen.lens_slope {
                 for (col, id) in ids.iter().enumerate() {
@@ -523,6 +522,58 @@ mod tests {
     /// joints, Hayati's twists on two links (one of them fitted, so the
     /// `a` and `alpha` columns act across a tilted frame), every column,
     /// each twist's too, agrees with central differences as closely.
+    /// A camera on the flange, the tool frame, seeing corners fixed in the
+    /// world: every column (the camera's six, the lens's) agrees with
+    /// central differences of the pixels.
+    #[test]
+    fn a_carried_cameras_columns_match_central_differences_of_the_pixels() {
+        use crate::calib::parameters::camera::RigCamera;
+        let lively = lively_rig();
+        let samples = lively_samples();
+        let names: Vec<TargetName> = (0..samples.len())
+            .map(|k| TargetName::from(&format!("c{k}")).unwrap())
+            .collect();
+        let mut rig = Rig::on_board(
+            lively.arm,
+            Targets::named_as(&names),
+            vec![Vector3::zeros(); names.len()],
+            RigCamera {
+                lens: Some([0.0; 9]),
+                ..RigCamera::on_flange(crate::camera::testing::webcam())
+            },
+        );
+        // Sample k sees corner k, half a metre before the camera where the
+        // arm stands then, off its axis.
+        let seen: Vec<Sample> = samples
+            .iter()
+            .enumerate()
+            .map(|(k, s)| Sample { target: k, ..*s })
+            .collect();
+        let corners: Vec<Vector3<f64>> = seen
+            .iter()
+            .map(|s| {
+                let last = rig
+                    .evaluate(s)
+                    .unwrap()
+                    .deflection
+                    .frames
+                    .frames
+                    .last_value();
+                let camera = last * rig.arm.tool.isometry();
+                let k = s.target as f64;
+                (camera * nalgebra::Point3::new(0.04 * k - 0.1, 0.03 - 0.02 * k, 0.5)).coords
+            })
+            .collect();
+        rig.board = Some(corners);
+        let ids = all_keys(&rig);
+        assert_columns_match_differences(&rig, &ids, &seen);
+        let level = Rig {
+            level_base: Some(9.81),
+            ..rig
+        };
+        assert_columns_match_differences(&level, &ids, &seen);
+    }
+
     #[test]
     fn lift_and_twist_columns_match_central_differences() {
         use model::testing::{LIFT_ARM_JOINTS, lift_arm, random_lift_q};
