@@ -70,6 +70,10 @@ pub struct Rig {
     pub level_base: Option<f64>,
 }
 
+/// Where the arm's last frame stands for a sample (deflected), and the
+/// sample's tool point on it.
+type Standing = (IsometryMatrix3<f64>, Vector3<f64>);
+
 /// A commanded pose evaluated: where the rig stands and where its target goes.
 #[derive(Clone, Copy, Debug)]
 pub struct Evaluated {
@@ -258,10 +262,7 @@ impl Rig {
     /// For every sample, where the arm's last frame stands (deflected) and
     /// the sample's tool point on it; the samples of one pose share its
     /// deflection, solved once ([`same_pose`]).
-    fn standing(
-        &self,
-        samples: &[Sample],
-    ) -> Result<Vec<(IsometryMatrix3<f64>, Vector3<f64>)>, CalibError> {
+    fn standing(&self, samples: &[Sample]) -> Result<Vec<Standing>, CalibError> {
         let chains = target_chains(self);
         let mut points = Vec::with_capacity(samples.len());
         let mut standing: Option<(&Sample, IsometryMatrix3<f64>)> = None;
