@@ -183,6 +183,35 @@ fn seen_views(dir: &Path, setup: &Path) -> Vec<views::View> {
     views::read(&out).unwrap()
 }
 
+/// What `validate --camera setup` of `calibration` on the camera
+/// measurements `views` (with `extra` options) says, the run succeeding.
+fn validate_camera(setup: &Path, calibration: &Path, views: &Path, extra: &[&str]) -> String {
+    let mut args = vec![
+        "validate",
+        "--camera",
+        p(setup),
+        "--calibration",
+        p(calibration),
+        "--measurements",
+        p(views),
+    ];
+    args.extend_from_slice(extra);
+    let run = lrmcal(&args);
+    let said = text(&run);
+    assert!(run.status.success(), "{said}");
+    said
+}
+
+/// The mean error's reduction, %, on `validate`'s table line under the
+/// paper's load.
+fn reduction_pct(said: &str) -> f64 {
+    said.lines()
+        .find(|l| l.trim_start().starts_with("0.0663"))
+        .and_then(|l| l.split_whitespace().rev().nth(1))
+        .and_then(|r| r.parse().ok())
+        .unwrap_or_else(|| panic!("{said}"))
+}
+
 /// Writes `seen` as `dir/views.csv`, to fit, and `dir/other.csv`, every
 /// `nth` view held out to check it, so both spread over the poses.
 fn split_views(dir: &Path, seen: &[views::View], nth: usize) {
@@ -400,23 +429,8 @@ fn a_webcams_corners_calibrate_the_arm() {
         &[model::JointKind::Revolute; 6],
     )
     .unwrap();
-    let run = lrmcal(&[
-        "validate",
-        "--camera",
-        p(&setup),
-        "--calibration",
-        p(&cal),
-        "--measurements",
-        p(&out("other.csv")),
-    ]);
-    let said = text(&run);
-    assert!(run.status.success(), "{said}");
-    let reduction: f64 = said
-        .lines()
-        .find(|l| l.trim_start().starts_with("0.0663"))
-        .and_then(|l| l.split_whitespace().rev().nth(1))
-        .and_then(|r| r.parse().ok())
-        .unwrap_or_else(|| panic!("{said}"));
+    let said = validate_camera(&setup, &cal, &out("other.csv"), &[]);
+    let reduction = reduction_pct(&said);
     assert!(said.contains("corners") && reduction > 80.0, "{said}");
     assert!(said.contains("reprojection error over the"), "{said}");
 
@@ -505,19 +519,7 @@ fn a_lens_off_its_file_is_refined() {
     };
     let validate = |folder: &str, extra: &[&str]| -> f64 {
         let cal = out(folder).join("calibration-elasto-kinematic-servo.json");
-        let mut args = vec![
-            "validate",
-            "--camera",
-            p(&setup_file),
-            "--calibration",
-            p(&cal),
-            "--measurements",
-            p(&other_file),
-        ];
-        args.extend_from_slice(extra);
-        let run = lrmcal(&args);
-        let said = text(&run);
-        assert!(run.status.success(), "{said}");
+        let said = validate_camera(&setup_file, &cal, &other_file, extra);
         // The median reprojection error after calibration, px.
         said.lines()
             .filter(|l| l.starts_with("reprojection error over"))
@@ -598,22 +600,11 @@ fn a_camera_on_the_flange_calibrates_the_arm() {
         let v = xyz[axis].as_f64().unwrap();
         assert!((v - t).abs() < 10.0, "{xyz}");
     }
-    let run = lrmcal(&[
-        "validate",
-        "--camera",
-        p(&setup),
-        "--calibration",
-        p(&out("cal/calibration-elasto-kinematic-servo.json")),
-        "--measurements",
-        p(&out("other.csv")),
-    ]);
-    let said = text(&run);
-    assert!(run.status.success(), "{said}");
-    let reduction: f64 = said
-        .lines()
-        .find(|l| l.trim_start().starts_with("0.0663"))
-        .and_then(|l| l.split_whitespace().rev().nth(1))
-        .and_then(|r| r.parse().ok())
-        .unwrap_or_else(|| panic!("{said}"));
-    assert!(reduction > 80.0, "{said}");
+    let said = validate_camera(
+        &setup,
+        &out("cal/calibration-elasto-kinematic-servo.json"),
+        &out("other.csv"),
+        &[],
+    );
+    assert!(reduction_pct(&said) > 80.0, "{said}");
 }

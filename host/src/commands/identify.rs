@@ -247,8 +247,8 @@ pub fn run(args: &Args) -> Result<(), Error> {
                     Some(fitted) => fitted.lens_now(),
                     None => camera.intrinsics.clone(),
                 };
-                if camera.refine_lens {
-                    print!("{}", lens_lines(&camera.intrinsics, &lens));
+                if let Some(line) = summary::lens_refined(details) {
+                    print!("{line}");
                 }
                 for written in write_camera_files(&args.out, &cal.option.to_string(), &lens, &tf)? {
                     println!("  wrote {}", written.display());
@@ -384,17 +384,6 @@ fn board_line(base: &model::Frame<f64>) -> String {
         roll.to_degrees(),
         pitch.to_degrees(),
         yaw.to_degrees()
-    )
-}
-
-/// The lens as refined beside the lens as told.
-fn lens_lines(told: &Intrinsics, refined: &Intrinsics) -> String {
-    let [k1, k2, p1, p2, k3] = refined.distortion;
-    let [t1, t2, q1, q2, t3] = told.distortion;
-    format!(
-        "  lens refined: fx {:.1} fy {:.1} cx {:.1} cy {:.1} px (told {:.1} {:.1} {:.1} {:.1}); \
-         k1 {k1:.4} k2 {k2:.4} p1 {p1:.5} p2 {p2:.5} k3 {k3:.4} (told {t1:.4} {t2:.4} {q1:.5} {q2:.5} {t3:.4})\n",
-        refined.fx, refined.fy, refined.cx, refined.cy, told.fx, told.fy, told.cx, told.cy
     )
 }
 

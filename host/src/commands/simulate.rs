@@ -389,13 +389,7 @@ fn watch(
     let mut sum = 0.0;
     let mut count = 0usize;
     for view in &watched.views {
-        let sample = Sample {
-            id: view.pose.id,
-            q: view.pose.q,
-            load_kg: view.load_kg,
-            target: 0,
-            approach: view.approach,
-        };
+        let sample = Sample::from(view);
         let flange = rig.evaluate(&sample)?.deflection.frames.frames.last_value();
         let Some(predicted) = told.project_board(&flange) else {
             continue;

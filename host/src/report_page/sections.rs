@@ -6,8 +6,8 @@
 //! outline.
 
 use lrmcal_core::camera::Mount;
-use lrmcal_engine::calib::results::report::{LensReport, OptionReport, PixelErrors, Report};
-use lrmcal_engine::calib::results::summary::servo_smoothness;
+use lrmcal_engine::calib::results::report::{OptionReport, PixelErrors, Report};
+use lrmcal_engine::calib::results::summary::{lens, servo_smoothness};
 
 use super::html::{escape, num, opt_num, para, table};
 
@@ -375,21 +375,6 @@ pub fn camera(report: &Report) -> String {
         |i, o, c| {
             let v3 = |v: [f64; 3], d: usize| {
                 format!("({}, {}, {})", num(v[0], d), num(v[1], d), num(v[2], d))
-            };
-            let lens = |l: &LensReport| {
-                let [k1, k2, p1, p2, k3] = l.distortion;
-                format!(
-                    "fx {} fy {} cx {} cy {} px; k1 {} k2 {} p1 {} p2 {} k3 {}",
-                    num(l.fx, 1),
-                    num(l.fy, 1),
-                    num(l.cx, 1),
-                    num(l.cy, 1),
-                    num(k1, 4),
-                    num(k2, 4),
-                    num(p1, 5),
-                    num(p2, 5),
-                    num(k3, 4)
-                )
             };
             let px = |p: &PixelErrors| {
                 format!(

@@ -45,14 +45,6 @@ impl Mount {
             Self::EyeInHand => (flange * camera.isometry()).inverse() * board.isometry(),
         }
     }
-
-    /// What the setup file writes.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::EyeToHand => "eye-to-hand",
-            Self::EyeInHand => "eye-in-hand",
-        }
-    }
 }
 
 /// A camera setup, read and checked: the camera, the board and their poses.

@@ -62,3 +62,16 @@ impl From<&lrmcal_core::dataset::Measurement> for Sample {
         }
     }
 }
+
+/// A camera's view as a sample of target 0: the pose it was taken at.
+impl From<&lrmcal_core::camera::views::View> for Sample {
+    fn from(v: &lrmcal_core::camera::views::View) -> Self {
+        Sample {
+            id: v.pose.id,
+            q: v.pose.q,
+            load_kg: v.load_kg,
+            target: 0,
+            approach: v.approach,
+        }
+    }
+}

@@ -260,13 +260,7 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     let (mut sum, mut nominal_sum, mut count) = (0.0, 0.0, 0usize);
     let (mut carried_mm, mut carried_deg, mut told_mm, mut told_deg) = (0.0, 0.0, 0.0, 0.0);
     for (view, flange) in watched.views.iter().zip(&watched.flanges).take(CHECK_POSES) {
-        let sample = Sample {
-            id: view.pose.id,
-            q: view.pose.q,
-            load_kg: view.load_kg,
-            target: 0,
-            approach: view.approach,
-        };
+        let sample = Sample::from(view);
         let actual = mount.camera_from_board(&webcam.camera, &webcam.board_pose, flange);
         let predicted = calibrated(&sample)?;
         let nominal_flange = nominal_rig

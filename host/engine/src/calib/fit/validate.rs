@@ -57,6 +57,21 @@ pub struct LoadValidation {
     pub validation: Validation,
 }
 
+/// Outliers `largest_first` grouped by the pose and load `at` says each
+/// was measured at: each pose's first, its worst, and how many of its
+/// measurements are outliers (a camera's view is dozens of corners, a
+/// tracker's several targets), worst pose first.
+pub fn worst_per_pose<T>(largest_first: &[T], at: impl Fn(&T) -> (u32, f64)) -> Vec<(&T, usize)> {
+    let mut poses: Vec<(&T, usize)> = Vec::new();
+    for o in largest_first {
+        match poses.iter_mut().find(|(p, _)| at(p) == at(o)) {
+            Some((_, count)) => *count += 1,
+            None => poses.push((o, 1)),
+        }
+    }
+    poses
+}
+
 /// Compares `nominal` and `calibrated` on `measurements`, load by load (ascending).
 pub fn validate_per_load(
     nominal: &Rig,
@@ -85,25 +100,27 @@ pub fn reprojection_errors_px(
     rig: &Rig,
     measurements: &[Measurement],
 ) -> Result<Vec<f64>, CalibError> {
+    Ok(errors_at(rig, measurements)?.1)
+}
+
+/// `rig`'s errors at `measurements` (each of one of its targets), from one
+/// evaluation of its observations: each error's norm, m (a tracker's 3D
+/// distance, a camera's reprojection error carried to the target's
+/// distance, `calib::parameters::camera`), and each pixel's reprojection
+/// error, px (none for a tracker's measurements).
+fn errors_at(rig: &Rig, measurements: &[Measurement]) -> Result<(Vec<f64>, Vec<f64>), CalibError> {
     let seen = rig.observations(&rig.samples(measurements)?)?;
-    Ok(seen
+    let norms = seen
+        .iter()
+        .zip(measurements)
+        .map(|(o, m)| o.residual(&measured_block(m)).norm())
+        .collect();
+    let pixels = seen
         .iter()
         .zip(measurements)
         .filter_map(|(o, m)| m.pixel.map(|px| (o.value.x - px.x).hypot(o.value.y - px.y)))
-        .collect())
-}
-
-/// Error norms of `rig`'s predictions against `measurements` (each of one
-/// of its targets), m: a tracker's 3D distance, a camera's reprojection
-/// error carried to the target's distance (`calib::parameters::camera`).
-pub fn error_norms(rig: &Rig, measurements: &[Measurement]) -> Result<Vec<f64>, CalibError> {
-    let samples = rig.samples(measurements)?;
-    let measured: Vec<_> = measurements.iter().map(measured_block).collect();
-    Ok(rig
-        .residuals(&samples, &measured)?
-        .iter()
-        .map(|r| r.norm())
-        .collect())
+        .collect();
+    Ok((norms, pixels))
 }
 
 /// Compares `nominal` and `calibrated` (the same targets) on `measurements`.
@@ -117,8 +134,8 @@ pub fn validate(
             what: "validate the calibration: no validation measurements".into(),
         });
     }
-    let before = error_norms(nominal, measurements)?;
-    let after = error_norms(calibrated, measurements)?;
+    let (before, before_px) = errors_at(nominal, measurements)?;
+    let (after, after_px) = errors_at(calibrated, measurements)?;
     let (b, a) = (ErrorStats::of(&before), ErrorStats::of(&after));
     let per_measurement: Vec<PoseError> = measurements
         .iter()
@@ -137,13 +154,10 @@ pub fn validate(
         .map(|k| per_measurement[k])
         .collect();
     outliers.sort_by(|x, y| y.after_m.total_cmp(&x.after_m));
-    let pixels = match calibrated.camera {
-        Some(_) => Some([
-            ErrorStats::of(&reprojection_errors_px(nominal, measurements)?),
-            ErrorStats::of(&reprojection_errors_px(calibrated, measurements)?),
-        ]),
-        None => None,
-    };
+    let pixels = calibrated
+        .camera
+        .is_some()
+        .then(|| [ErrorStats::of(&before_px), ErrorStats::of(&after_px)]);
     Ok(Validation {
         before: b,
         after: a,
@@ -163,18 +177,10 @@ impl Validation {
     /// many of its measurements are outliers (a camera's view is dozens of
     /// corners, a tracker's several targets), worst pose first.
     pub fn outlying_poses(&self) -> Vec<(PoseError, usize)> {
-        let mut poses: Vec<(PoseError, usize)> = Vec::new();
-        for o in &self.outliers {
-            match poses
-                .iter_mut()
-                .find(|(p, _)| p.pose == o.pose && p.load_kg == o.load_kg)
-            {
-                // Largest first: the pose's first is its worst.
-                Some((_, count)) => *count += 1,
-                None => poses.push((*o, 1)),
-            }
-        }
-        poses
+        worst_per_pose(&self.outliers, |o| (o.pose, o.load_kg))
+            .into_iter()
+            .map(|(o, count)| (*o, count))
+            .collect()
     }
 
     /// The calibrated model's error statistics per target, in target order

@@ -6,11 +6,12 @@ use crate::calib::CalibError;
 use crate::calib::ParamKey;
 use crate::calib::fit::choice::Rung;
 use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, TILT_WARNING_RAD, frame_of};
+use crate::calib::fit::validate::worst_per_pose;
 use crate::calib::parameters::option::DEFAULT;
 use crate::calib::parameters::prior::SERVO_CORRELATIONS_DEG;
 use crate::calib::results::figures::{ErrorPoint, GridErrors, RandomBaseline};
 use crate::calib::results::report::{
-    OptionReport, OutlierReport, RemovedReport, ValidationOutlier,
+    LensReport, OptionReport, OutlierReport, RemovedReport, ValidationOutlier,
 };
 use crate::calib::results::study::Study;
 use lrmcal_core::io::calibration_file::TargetTool;
@@ -351,23 +352,39 @@ pub fn outlier(o: &OutlierReport) -> String {
 /// measurement, and how many of its measurements are outliers when more
 /// than one is (a camera's view has dozens of corners).
 fn outliers_by_pose(outliers: &[OutlierReport]) -> impl Iterator<Item = String> + '_ {
-    let mut poses: Vec<(&OutlierReport, usize)> = Vec::new();
-    for o in outliers {
-        match poses
-            .iter_mut()
-            .find(|(p, _)| p.pose == o.pose && p.load_kg == o.load_kg)
-        {
-            Some((_, count)) => *count += 1,
-            None => poses.push((o, 1)),
-        }
+    worst_per_pose(outliers, |o| (o.pose, o.load_kg))
+        .into_iter()
+        .map(|(o, count)| format!("{}{}", outlier(o), of_many(count)))
+}
+
+/// What a pose's outlier line adds when `count` of its measurements are
+/// outliers: nothing for one.
+fn of_many(count: usize) -> String {
+    match count {
+        n if n > 1 => format!(" (the worst of its {n} outlying measurements)"),
+        _ => String::new(),
     }
-    poses.into_iter().map(|(o, count)| match count {
-        1 => outlier(o),
-        n => format!(
-            "{} (the worst of its {n} outlying measurements)",
-            outlier(o)
-        ),
-    })
+}
+
+/// A lens in a line: focal lengths and principal point (px), then
+/// OpenCV's distortion coefficients.
+pub fn lens(l: &LensReport) -> String {
+    let [k1, k2, p1, p2, k3] = l.distortion;
+    format!(
+        "fx {:.1} fy {:.1} cx {:.1} cy {:.1} px; k1 {k1:.4} k2 {k2:.4} p1 {p1:.5} p2 {p2:.5} k3 {k3:.4}",
+        l.fx, l.fy, l.cx, l.cy
+    )
+}
+
+/// The lens an option's fit refined beside the one told, when it refined
+/// one.
+pub fn lens_refined(o: &OptionReport) -> Option<String> {
+    let camera = o.camera.as_ref().filter(|c| c.lens_refined)?;
+    Some(format!(
+        "  lens refined: {} (told {})\n",
+        lens(&camera.lens),
+        lens(&camera.lens_told)
+    ))
 }
 
 /// A camera's reprojection errors, at the fitted corners and at the
@@ -390,17 +407,12 @@ pub fn camera_pixels(o: &OptionReport) -> Option<String> {
 
 /// A validation measurement named as an outlier.
 pub fn validation_outlier(o: &ValidationOutlier) -> String {
-    let of_many = if o.measurements > 1 {
-        format!(
-            " (the worst of its {} outlying measurements)",
-            o.measurements
-        )
-    } else {
-        String::new()
-    };
     format!(
-        "validation outlier: pose {} ({} kg), error {:.2} mm after calibration{of_many}",
-        o.pose, o.load_kg, o.error_mm
+        "validation outlier: pose {} ({} kg), error {:.2} mm after calibration{}",
+        o.pose,
+        o.load_kg,
+        o.error_mm,
+        of_many(o.measurements)
     )
 }
 
