@@ -59,6 +59,7 @@ fn the_webcam_path_calibrates_arm_and_camera_from_rendered_images() {
         figure("camera_mm") < 3.0 && figure("camera_deg") < 0.5,
         "{check}"
     );
+    checked_poses_hold_the_truth(&check, 6);
     let calibration = out.join("calibration/calibration-elasto-kinematic-servo.json");
     let push = lrmcal(&["push", p(&calibration), "--dry-run"]);
     assert!(push.status.success(), "{}", text(&push));
@@ -69,8 +70,9 @@ fn the_webcam_path_calibrates_arm_and_camera_from_rendered_images() {
 /// calibration puts the board within a few millimetres in the camera's
 /// frame at seen poses it was not fitted to (the nominal arm with the setup
 /// as told: centimetres) and the camera within millimetres and a fraction
-/// of a degree of where it stands before the board there; no hand-eye
-/// frames for another tool are written (they are the standing camera's).
+/// of a degree of where it stands before the board there; another tool's
+/// camera is judged at the same poses (`checked`), not by the standing
+/// camera's frames.
 #[test]
 fn the_webcam_on_the_flange_calibrates_arm_and_camera() {
     let dir = tempfile::tempdir().unwrap();
@@ -103,4 +105,37 @@ fn the_webcam_on_the_flange_calibrates_arm_and_camera() {
         "{check}"
     );
     assert!(check["true_frame1_in_camera"].is_null(), "{check}");
+    checked_poses_hold_the_truth(&check, 6);
+}
+
+/// check.json's `checked`: one entry per judged pose, each with its
+/// commanded angles (one per joint) and the true board in the true camera,
+/// a rigid pose with the board in front of the camera.
+fn checked_poses_hold_the_truth(check: &serde_json::Value, joints: usize) {
+    let checked = check["checked"].as_array().expect("checked");
+    assert_eq!(checked.len() as f64, check["poses"].as_f64().unwrap());
+    for c in checked {
+        assert_eq!(c["q_deg"].as_array().unwrap().len(), joints, "{c}");
+        let m: Vec<Vec<f64>> = c["true_board_in_camera"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| {
+                r.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            })
+            .collect();
+        for i in 0..3 {
+            for j in 0..3 {
+                let dot: f64 = (0..3).map(|k| m[i][k] * m[j][k]).sum();
+                let expected = if i == j { 1.0 } else { 0.0 };
+                assert!((dot - expected).abs() < 1e-9, "{c}");
+            }
+        }
+        assert_eq!(m[3], [0.0, 0.0, 0.0, 1.0], "{c}");
+        assert!(m[2][3] > 0.1, "the board behind the camera: {c}");
+    }
 }

@@ -16,6 +16,15 @@ Each camera is judged as lrmcal's is in the demo's check.json: by where it puts 
 arm's first joint frame (DH frame 1) at the zero command, against where the true camera
 sees the true arm's frame 1: the translation (mm) and angle (deg) between the two.
 
+With --eye-in-hand the demos run `lrmcal demo --camera --eye-in-hand` (the webcam on the
+flange, the board standing in the scene) and OpenCV's calibrateHandEye runs in its
+eye-in-hand form (gripper-to-base poses in, the camera on the gripper out). The board's
+place in the arm's world is then the mean over the images of flange . camera . board,
+as a user of OpenCV would place it. Each camera is judged as check.json judges lrmcal's:
+by where it stands before the board at the demo's 100 checked poses (their commanded
+angles and the true board in the true camera are in check.json's `checked`), the mean
+translation (mm) and angle (deg) from where the true camera stood.
+
 Frames, checked on every seed (the table's last part gives the checks' figures):
 - the URDF's link_i is DH frame i-1 turned by joint i, so DH frame 1 at the zero
   command is link_2 there (not link_1, joint 1's child, which is DH frame 0), and DH
@@ -31,6 +40,8 @@ Reproduce (from the repository root; the demos take about a minute a seed):
     /tmp/cvenv/bin/pip install "opencv-python-headless<5" numpy yourdfpy pyyaml
     /tmp/cvenv/bin/python tools/camera/hand_eye.py --lrmcal /tmp/lrmcal-bin \\
         --runs /tmp/he --seeds 1 10 --out tools/camera/hand_eye_results.md
+    /tmp/cvenv/bin/python tools/camera/hand_eye.py --lrmcal /tmp/lrmcal-bin --eye-in-hand \\
+        --runs /tmp/he-eih --seeds 1 10 --out tools/camera/hand_eye_results_eye_in_hand.md
 OpenCV below 5 because the 5.0.0.93 wheel leaves calibrateHandEye out of its Python
 bindings. The demo folders (--runs/seed-S) are made when missing and reused otherwise;
 the script writes the table to --out and a line per seed to the terminal.
@@ -107,12 +118,16 @@ def intrinsics(path):
     return k, np.array(info["distortion_coefficients"]["data"], dtype=np.float64)
 
 
-def read_seed(run, lrmcal, seed):
+def read_seed(run, lrmcal, seed, eye_in_hand):
     """The demo's files for one seed, running the demo first if its folder lacks them."""
     if not (run / "check.json").exists():
         cmd = [lrmcal, "demo", "--camera", "--seed", str(seed), "--out", str(run)]
+        cmd += ["--eye-in-hand"] if eye_in_hand else []
         subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    setup = tomllib.loads((run / "setup.toml").read_text())
+    setup_file = "setup-eye-in-hand.toml" if eye_in_hand else "setup.toml"
+    setup = tomllib.loads((run / setup_file).read_text())
+    if (setup.get("mount") == "eye-in-hand") != eye_in_hand:
+        sys.exit(f"{run / setup_file}: its mount is not the one asked for")
     ours = collections.defaultdict(dict)
     with open(run / "views.csv", newline="") as f:
         for r in csv.DictReader(f):
@@ -120,9 +135,12 @@ def read_seed(run, lrmcal, seed):
     with open(run / "images/poses.csv", newline="") as f:
         images = [(r["image"], [float(r[f"q{i}_deg"]) for i in range(1, 7)]) for r in csv.DictReader(f)]
     return {
+        "eye_in_hand": eye_in_hand,
         "check": json.loads((run / "check.json").read_text()),
+        # Eye-to-hand the camera in the world and the board on the flange;
+        # eye-in-hand the camera on the flange and the board in the world.
         "cam_told": pose(setup["camera"]["xyz_mm"], setup["camera"]["rpy_deg"]),
-        "board_on_flange": pose(setup["board"]["xyz_mm"], setup["board"]["rpy_deg"]),
+        "board_told": pose(setup["board"]["xyz_mm"], setup["board"]["rpy_deg"]),
         "K_D": intrinsics(run / "camera_info.yaml"),
         "tags": board_corners(run / "board.yaml"),
         "ours": ours,
@@ -161,28 +179,68 @@ def project(point, cam_in_world, K, D):
     return cv2.projectPoints(point[None], cv2.Rodrigues(w[:3, :3])[0], w[:3, 3], K, D)[0].reshape(-1, 2)
 
 
+def placed(d, flange, camera=None, board=None):
+    """(camera, board) in the world with the flange (DH frame 6) at `flange`: the told
+    ones, or those given; eye-to-hand the board rides on the flange, eye-in-hand the
+    camera does."""
+    camera = d["cam_told"] if camera is None else camera
+    board = d["board_told"] if board is None else board
+    return (flange @ camera, board) if d["eye_in_hand"] else (camera, flange @ board)
+
+
+def before_board(arm, d, camera_on_flange, board_in_world):
+    """Eye-in-hand, as check.json judges a camera: the mean translation (mm) and angle
+    (deg) between where the camera stands before the board and where the true one stood,
+    over the checked poses."""
+    mm, deg = [], []
+    for c in d["check"]["checked"]:
+        cam = arm.frame("tool0", c["q_deg"]) @ camera_on_flange
+        seen, actual = np.linalg.inv(cam) @ board_in_world, np.array(c["true_board_in_camera"])
+        mm.append(1000.0 * np.linalg.norm(np.linalg.inv(seen)[:3, 3] - np.linalg.inv(actual)[:3, 3]))
+        deg.append(off(seen, actual)[1])
+    return float(np.mean(mm)), float(np.mean(deg))
+
+
+def mean_pose(poses):
+    """The mean of rigid poses: the mean translation, and the rotation nearest the mean
+    of the rotation matrices."""
+    u, _, vt = np.linalg.svd(sum(p[:3, :3] for p in poses))
+    t = np.eye(4)
+    t[:3, :3] = u @ np.diag([1.0, 1.0, np.linalg.det(u @ vt)]) @ vt
+    t[:3, 3] = np.mean([p[:3, 3] for p in poses], axis=0)
+    return t
+
+
 def sanity(arm, d, boards):
     """The frame checks: DH frame 1, the judging formula, and DH frame 6 through the board."""
-    zero = np.zeros(6)
-    f1 = np.array(d["check"]["nominal_frame1_in_world"])
-    frame1 = {link: np.abs(arm.frame(link, zero) - f1).max() for link in ("link_1", "link_2")}
-    if frame1["link_2"] > 1e-9:
-        sys.exit(f"link_2 at the zero command is not check.json's nominal DH frame 1: {frame1}")
+    if d["eye_in_hand"]:
+        frame1 = None
+        told = before_board(arm, d, d["cam_told"], d["board_told"])
+    else:
+        zero = np.zeros(6)
+        f1 = np.array(d["check"]["nominal_frame1_in_world"])
+        frame1 = {link: np.abs(arm.frame(link, zero) - f1).max() for link in ("link_1", "link_2")}
+        if frame1["link_2"] > 1e-9:
+            sys.exit(f"link_2 at the zero command is not check.json's nominal DH frame 1: {frame1}")
+        told = off(np.linalg.inv(d["cam_told"]) @ f1, np.array(d["check"]["true_frame1_in_camera"]))
     # The setup's own camera, judged here, must give check.json's figure for it.
-    told = off(np.linalg.inv(d["cam_told"]) @ f1, np.array(d["check"]["true_frame1_in_camera"]))
     told_diff = (told[0] - d["check"]["told_camera_mm"], told[1] - d["check"]["told_camera_deg"])
+    if max(abs(x) for x in told_diff) > 1e-3:
+        sys.exit(f"the told camera judged here is not check.json's: {told_diff}")
     # The board put by the nominal arm and seen by the told camera, against lrmcal's
     # corners (px) and against OpenCV's board poses (the angle between the two, deg):
     # the arm and the camera are off by centimetres and degrees, a wrong frame by more.
     K, D = d["K_D"]
     px, deg = {}, {}
     for link in ("tool0", "flange", "link_6"):
-        board = {n: arm.frame(link, q) @ d["board_on_flange"] for n, q in d["images"]}
+        scene = {n: placed(d, arm.frame(link, q)) for n, q in d["images"]}
         px[link] = np.median(
             [
                 np.hypot(
                     *(
-                        project(board[n][:3, :3] @ d["tags"][t][k] + board[n][:3, 3], d["cam_told"], K, D)[0]
+                        project(
+                            scene[n][1][:3, :3] @ d["tags"][t][k] + scene[n][1][:3, 3], scene[n][0], K, D
+                        )[0]
                         - uv
                     )
                 )
@@ -190,14 +248,16 @@ def sanity(arm, d, boards):
                 for (t, k), uv in seen.items()
             ]
         )
-        deg[link] = np.median([off(np.linalg.inv(d["cam_told"]) @ board[n], b)[1] for n, b in boards.items()])
+        deg[link] = np.median(
+            [off(np.linalg.inv(scene[n][0]) @ scene[n][1], b)[1] for n, b in boards.items()]
+        )
     return frame1, told_diff, px, deg
 
 
 def measure(arm, detector, run, d, min_tags):
     K, D = d["K_D"]
     found, total, diffs, rms = 0, 0, [], []
-    base2gripper, boards = [], {}
+    flanges, boards = [], {}
     for name, q in d["images"]:
         tags = detect(detector, run / "images" / name, d["tags"])
         found, total = found + len(tags), total + len(d["tags"])
@@ -218,22 +278,28 @@ def measure(arm, detector, run, d, min_tags):
                 np.mean(np.sum((cv2.projectPoints(obj, rvec, tvec, K, D)[0].reshape(-1, 2) - img) ** 2, 1))
             )
         )
-        base2gripper.append(np.linalg.inv(arm.frame("tool0", q)))
+        flanges.append(arm.frame("tool0", q))
         boards[name] = from_rt(rvec, tvec)
-    truth = np.array(d["check"]["true_frame1_in_camera"])
-    f1 = np.array(d["check"]["nominal_frame1_in_world"])
     cams = {}
     for m in METHODS:
-        # Eye-to-hand as OpenCV documents it: base-to-gripper poses where the
-        # gripper-to-base ones go, and the camera-to-base pose comes out.
+        # Eye-in-hand, gripper-to-base poses in and the camera on the gripper
+        # out; eye-to-hand as OpenCV documents it: base-to-gripper poses where
+        # the gripper-to-base ones go, and the camera-to-base pose comes out.
+        grippers = flanges if d["eye_in_hand"] else [np.linalg.inv(f) for f in flanges]
         r, t = cv2.calibrateHandEye(
-            R_gripper2base=[b[:3, :3] for b in base2gripper],
-            t_gripper2base=[b[:3, 3] for b in base2gripper],
+            R_gripper2base=[g[:3, :3] for g in grippers],
+            t_gripper2base=[g[:3, 3] for g in grippers],
             R_target2cam=[b[:3, :3] for b in boards.values()],
             t_target2cam=[b[:3, 3] for b in boards.values()],
             method=getattr(cv2, f"CALIB_HAND_EYE_{m}"),
         )
-        cams[m] = off(np.linalg.inv(from_rt(r, t)) @ f1, truth)
+        camera = from_rt(r, t)
+        if d["eye_in_hand"]:
+            board = mean_pose([f @ camera @ b for f, b in zip(flanges, boards.values(), strict=True)])
+            cams[m] = before_board(arm, d, camera, board)
+        else:
+            f1 = np.array(d["check"]["nominal_frame1_in_world"])
+            cams[m] = off(np.linalg.inv(camera) @ f1, np.array(d["check"]["true_frame1_in_camera"]))
     return {
         "images": (len(boards), len(d["images"])),
         "found": found / total,
@@ -249,8 +315,23 @@ def spread(values):
     return f"{np.median(v):.2f} ({v.min():.2f}–{v.max():.2f})"
 
 
-def write(out, argv, rows, checks, versions, refine):
+def write(out, argv, rows, checks, versions, refine, eye_in_hand):
     seeds = list(rows)
+    judged = (
+        [
+            "The camera is on the flange (eye-in-hand). Its error is judged as in the demo's",
+            "check.json: where the camera stands before the board at the demo's 100 checked poses",
+            "against where the true camera stood, the mean translation in mm and angle in degrees;",
+            "OpenCV's board is the mean over the images of flange . camera . board.",
+        ]
+        if eye_in_hand
+        else [
+            "The camera's error is judged as in the demo's check.json: where the camera puts the arm's",
+            "first joint frame at the zero command against where the true camera sees the true arm's,",
+            "translation in mm and angle in degrees.",
+        ]
+    )
+    form = "eye-in-hand" if eye_in_hand else "eye-to-hand"
     lines = [
         "# OpenCV hand-eye calibration with the nominal arm, beside lrmcal's camera",
         "",
@@ -260,12 +341,11 @@ def write(out, argv, rows, checks, versions, refine):
         " ".join(argv),
         "```",
         "",
-        "The camera's error is judged as in the demo's check.json: where the camera puts the arm's",
-        "first joint frame at the zero command against where the true camera sees the true arm's,",
-        "translation in mm and angle in degrees. OpenCV: ArUco detection (DICT_APRILTAG_36h11,",
+        *judged,
+        "OpenCV: ArUco detection (DICT_APRILTAG_36h11,",
         f"CORNER_REFINE_{refine}), solvePnP (IPPE, then LM) with the known intrinsics, the flange",
         "from the nominal URDF at the commanded joint angles, all images of both loads, and",
-        "calibrateHandEye in its eye-to-hand form. 'Told' is the camera pose the setup file states.",
+        f"calibrateHandEye in its {form} form. 'Told' is the camera pose the setup file states.",
         "",
         "## Median (min–max) over the seeds",
         "",
@@ -292,12 +372,12 @@ def write(out, argv, rows, checks, versions, refine):
         "Tags found: the share of the 12 tags per image found by OpenCV and by lrmcal's detector.",
         "Corner diff: median distance between OpenCV's corners and lrmcal's for the tags both found.",
         "PnP RMS: median per-image reprojection RMS of OpenCV's board poses. Nominal px and",
-        "nominal deg: the board put by the nominal arm's DH frame 6 (the URDF's tool0) and seen",
-        "by the told camera, against lrmcal's corners (median px) and OpenCV's board poses",
-        "(median angle); beside them the same through `flange` and `link_6`, the wrong frames.",
-        "Frame 1: max |difference| between check.json's nominal DH frame 1 and the URDF's",
-        "link_1 and link_2 at the zero command. Told check: this script's figure for the told",
-        "camera minus check.json's (mm, deg).",
+        "nominal deg: the told board and camera, the one on the flange placed by the nominal",
+        "arm's DH frame 6 (the URDF's tool0), against lrmcal's corners (median px) and OpenCV's",
+        "board poses (median angle); beside them the same through `flange` and `link_6`, the",
+        "wrong frames. Frame 1 (eye-to-hand): max |difference| between check.json's nominal DH",
+        "frame 1 and the URDF's link_1 and link_2 at the zero command. Told check: this script's",
+        "figure for the told camera minus check.json's (mm, deg).",
         "",
         "| seed | images used | tags found OpenCV / ours | corner diff px | PnP RMS px "
         "| nominal px tool0 / flange / link_6 | nominal deg tool0 / flange / link_6 "
@@ -311,7 +391,8 @@ def write(out, argv, rows, checks, versions, refine):
             f"| {r['corner_px']:.3f} | {r['pnp_rms']:.3f} "
             f"| {px['tool0']:.1f} / {px['flange']:.1f} / {px['link_6']:.1f} "
             f"| {deg['tool0']:.1f} / {deg['flange']:.1f} / {deg['link_6']:.1f} "
-            f"| {frame1['link_1']:.3g} / {frame1['link_2']:.3g} | {told[0]:.1e} / {told[1]:.1e} |"
+            + (f"| {frame1['link_1']:.3g} / {frame1['link_2']:.3g} " if frame1 else "| – ")
+            + f"| {told[0]:.1e} / {told[1]:.1e} |"
         )
     pathlib.Path(out).write_text("\n".join(lines) + "\n")
 
@@ -325,6 +406,7 @@ def main():
     ap.add_argument("--seeds", type=int, nargs=2, default=[1, 10], metavar=("FIRST", "LAST"))
     ap.add_argument("--refine", choices=REFINE, default="SUBPIX", help="ArUco corner refinement")
     ap.add_argument("--min-tags", type=int, default=4, help="tags an image needs for its board pose")
+    ap.add_argument("--eye-in-hand", action="store_true", help="the camera on the flange")
     ap.add_argument("--out", default="tools/camera/hand_eye_results.md")
     args = ap.parse_args()
 
@@ -345,7 +427,7 @@ def main():
     rows, checks = {}, {}
     for seed in range(args.seeds[0], args.seeds[1] + 1):
         run = args.runs / f"seed-{seed}"
-        d = read_seed(run, args.lrmcal, seed)
+        d = read_seed(run, args.lrmcal, seed, args.eye_in_hand)
         rows[seed], boards = measure(arm, detector, run, d, args.min_tags)
         checks[seed] = sanity(arm, d, boards)
         c = d["check"]
@@ -367,6 +449,7 @@ def main():
         checks,
         f"OpenCV {cv2.__version__}, {version}",
         args.refine,
+        args.eye_in_hand,
     )
 
 

@@ -198,6 +198,23 @@ struct Check {
     /// frame by another tool is judged by where it then sees this frame;
     /// null eye-in-hand.
     nominal_frame1_in_world: Option<[[f64; 4]; 4]>,
+    /// The poses the board and camera figures are judged at, with where the
+    /// true camera saw the true board there: another tool's calibration is
+    /// judged at them as this one is.
+    checked: Vec<CheckedPose>,
+}
+
+/// One pose the calibration is judged at.
+#[derive(serde::Serialize)]
+struct CheckedPose {
+    /// The pose's id in `seen.csv`.
+    pose: u32,
+    /// The commanded joint angles, degrees.
+    q_deg: Vec<f64>,
+    /// The payload, kg.
+    load_kg: f64,
+    /// The true board in the true camera's frame, row by row (4 × 4, m).
+    true_board_in_camera: [[f64; 4]; 4],
 }
 
 /// `pose` as a 4 × 4 matrix, row by row.
@@ -259,9 +276,16 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
     let origin = |iso: &IsometryMatrix3<f64>| iso * Point3::origin();
     let (mut sum, mut nominal_sum, mut count) = (0.0, 0.0, 0usize);
     let (mut carried_mm, mut carried_deg, mut told_mm, mut told_deg) = (0.0, 0.0, 0.0, 0.0);
+    let mut checked = Vec::new();
     for (view, flange) in watched.views.iter().zip(&watched.flanges).take(CHECK_POSES) {
         let sample = Sample::from(view);
         let actual = mount.camera_from_board(&webcam.camera, &webcam.board_pose, flange);
+        checked.push(CheckedPose {
+            pose: sample.id,
+            q_deg: sample.q.iter().map(|q| q.to_degrees()).collect(),
+            load_kg: sample.load_kg,
+            true_board_in_camera: rows(&actual),
+        });
         let predicted = calibrated(&sample)?;
         let nominal_flange = nominal_rig
             .evaluate(&sample)?
@@ -297,6 +321,7 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
             camera_deg: mean(carried_deg),
             told_camera_mm: mean(told_mm),
             told_camera_deg: mean(told_deg),
+            checked,
         });
     }
     let true_camera = webcam.camera.isometry().inverse();
@@ -340,6 +365,7 @@ fn judge(args: &Args, setup: &CameraSetup) -> Result<Check, Error> {
         camera_deg,
         told_camera_mm,
         told_camera_deg,
+        checked,
     })
 }
 
