@@ -40,6 +40,7 @@ use crate::calib::fit::choice::{ChosenFit, ModelChoice, ModelTrial, Rung};
 use crate::calib::parameters::params::ParamKey;
 use crate::calib::{CalibError, ModelOption};
 use model::params::ParamPart;
+use rayon::prelude::*;
 
 /// The rungs `option` is fitted as, simplest first, `option` last.
 pub fn ladder(option: ModelOption) -> Vec<Rung> {
@@ -146,15 +147,15 @@ pub struct Ladder {
 }
 
 /// Fits each rung of `option`'s ladder with `fit` (its rung and its
-/// parameters of `kept`) and keeps one (module docs); the placement is
-/// fitted too when the ladder has no such rung. A rung of which `flaw`
+/// parameters of `kept`), the rungs side by side, and keeps one (module
+/// docs); the placement is fitted too when the ladder has no such rung. A rung of which `flaw`
 /// says something (the geometry bent past a real arm's size) is no
 /// candidate, like one that did not converge. An option of one rung keeps
 /// that rung's fit, or its failure.
 pub fn choose(
     option: ModelOption,
     kept: &[ParamKey],
-    fit: impl Fn(Rung, &[ParamKey]) -> Result<ChosenFit, CalibError>,
+    fit: impl Fn(Rung, &[ParamKey]) -> Result<ChosenFit, CalibError> + Sync,
     flaw: impl Fn(&ChosenFit) -> Option<String>,
 ) -> Result<Ladder, CalibError> {
     // A placement with nothing to place (the base kept, no tool point among
@@ -171,19 +172,23 @@ pub fn choose(
             placement: placed.then(|| fit_rung(Rung::Placement).ok()).flatten(),
         });
     }
-    let mut fits: Vec<(Rung, Result<ChosenFit, CalibError>)> = Vec::new();
+    // A rung that adds nothing to the one before (no spring the poses
+    // show) is the same fit: the richer keeps its place on the ladder only
+    // where it adds parameters of its own.
+    let mut fitted: Vec<Rung> = Vec::new();
     for rung in rungs {
-        // A rung that adds nothing to the one before (no spring the poses
-        // show) is the same fit: the richer keeps its place on the ladder
-        // only where it adds parameters of its own.
-        let adds = fits.last().is_none_or(|(before, _)| {
+        let adds = fitted.last().is_none_or(|before| {
             keys_for(rung, kept) != keys_for(*before, kept)
                 || rung == Rung::Model(ModelOption::ElastoKinematicServo)
         });
         if adds {
-            fits.push((rung, fit_rung(rung)));
+            fitted.push(rung);
         }
     }
+    let mut fits: Vec<(Rung, Result<ChosenFit, CalibError>)> = fitted
+        .into_par_iter()
+        .map(|rung| (rung, fit_rung(rung)))
+        .collect();
     // A rung that did not converge is no candidate: its error says nothing;
     // nor is one with a flaw.
     let flaws: Vec<Option<String>> = fits
