@@ -148,10 +148,10 @@ pub struct Ladder {
 
 /// Fits each rung of `option`'s ladder with `fit` (its rung and its
 /// parameters of `kept`), the rungs side by side, and keeps one (module
-/// docs); the placement is fitted too when the ladder has no such rung. A rung of which `flaw`
-/// says something (the geometry bent past a real arm's size) is no
-/// candidate, like one that did not converge. An option of one rung keeps
-/// that rung's fit, or its failure.
+/// docs); the placement is fitted too when the ladder has no such rung. A
+/// rung of which `flaw` says something (the geometry bent past a real
+/// arm's size) is no candidate, like one that did not converge. An option
+/// of one rung keeps that rung's fit, or its failure.
 pub fn choose(
     option: ModelOption,
     kept: &[ParamKey],
