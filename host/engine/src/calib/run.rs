@@ -220,22 +220,9 @@ impl<'a> Calibration<'a> {
             let rig = &inputs.nominal;
             let on_board = (0..rig.targets.len())
                 .map(|t| camera.corner(rig.targets.name_at(t)).unwrap_or_default());
-            // Eye-to-hand the corners ride the tool frame, the camera stands
-            // where registration found it; eye-in-hand the corners lie where
-            // registration found the board (its frame the measurements'),
-            // the camera rides the tool frame.
-            let (corners, seeing) = match camera.mount {
-                Mount::EyeToHand => (
-                    on_board.collect(),
-                    RigCamera::fixed(camera.intrinsics.clone(), registration.frame),
-                ),
-                Mount::EyeInHand => (
-                    on_board
-                        .map(|c| (registration.frame.inverse() * Point3::from(c)).coords)
-                        .collect(),
-                    RigCamera::on_flange(camera.intrinsics.clone()),
-                ),
-            };
+            // What stands still is where registration found it: the
+            // measurements' frame is its frame.
+            let (corners, seeing) = camera.seen_by(on_board, registration.frame);
             inputs.nominal = Rig {
                 level_base: rig.level_base,
                 ..Rig::on_board(
@@ -301,19 +288,14 @@ impl<'a> Calibration<'a> {
             rated_payload_kg: plan.inputs.nominal.arm.rated_payload_kg,
             ..camera.nominal_arm(nominal)
         };
-        let on_board = camera.corners.iter().map(|(_, corner)| *corner);
-        let (corners, seeing) = match setup.mount {
-            Mount::EyeToHand => (
-                on_board.collect(),
-                RigCamera::fixed(camera.intrinsics.clone(), setup.camera.isometry().inverse()),
-            ),
-            Mount::EyeInHand => (
-                on_board
-                    .map(|c| (setup.board_pose.isometry() * Point3::from(c)).coords)
-                    .collect(),
-                RigCamera::on_flange(camera.intrinsics.clone()),
-            ),
+        let still = match setup.mount {
+            Mount::EyeToHand => setup.camera,
+            Mount::EyeInHand => setup.board_pose,
         };
+        let (corners, seeing) = camera.seen_by(
+            camera.corners.iter().map(|(_, corner)| *corner),
+            still.isometry().inverse(),
+        );
         plan.inputs.nominal = Rig {
             level_base: Some(nominal.gravity_vector().norm()),
             ..Rig::on_board(arm, Targets::named_as(&names), corners, seeing)

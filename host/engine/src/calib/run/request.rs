@@ -3,11 +3,12 @@
 //! [`Request::new`] by its setters.
 
 use model::{Arm, Frame};
-use nalgebra::{Point3, Vector3};
+use nalgebra::{IsometryMatrix3, Point3, Vector3};
 
 use crate::calib::ModelOption;
 use crate::calib::fit::identify::IdentifyOptions;
 use crate::calib::fit::registration::Gravity;
+use crate::calib::parameters::camera::RigCamera;
 use crate::calib::parameters::option::DEFAULT;
 use crate::camera::corner_measurements::corner_target;
 use lrmcal_core::camera::{CameraSetup, Intrinsics, Mount};
@@ -85,6 +86,34 @@ impl CameraInput {
                 Mount::EyeInHand => setup.camera,
             },
             refine_lens: false,
+        }
+    }
+
+    /// The board's corners where the fit has them and the camera that sees
+    /// them, `still_from_world` taking the arm's world frame to the frame of
+    /// what stands still (the camera eye-to-hand, the board eye-in-hand):
+    /// eye-to-hand the corners `on_board` ride the tool frame and the camera
+    /// stands there; eye-in-hand the corners lie in the world where the
+    /// board stands, and the camera rides the tool frame. Its lens is held.
+    pub fn seen_by(
+        &self,
+        on_board: impl Iterator<Item = Vector3<f64>>,
+        still_from_world: IsometryMatrix3<f64>,
+    ) -> (Vec<Vector3<f64>>, RigCamera) {
+        match self.mount {
+            Mount::EyeToHand => (
+                on_board.collect(),
+                RigCamera::fixed(self.intrinsics.clone(), still_from_world),
+            ),
+            Mount::EyeInHand => {
+                let board_in_world = still_from_world.inverse();
+                (
+                    on_board
+                        .map(|c| (board_in_world * Point3::from(c)).coords)
+                        .collect(),
+                    RigCamera::on_flange(self.intrinsics.clone()),
+                )
+            }
         }
     }
 
