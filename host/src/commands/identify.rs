@@ -234,11 +234,11 @@ pub fn run(args: &Args) -> Result<(), Error> {
         let path = args.out.join(format!("calibration-{}.json", cal.option));
         write_text(&path, &cal.to_json())?;
         println!("\n{}", summary::option_details(details));
-        match &request.camera {
+        match (&request.camera, &details.camera) {
             // A board's corners are where the board file puts them: the
             // camera is what the user wants to know.
-            Some(camera) => {
-                let tf = camera_transform(camera.mount, &cal.arm);
+            (Some(camera), Some(fitted)) => {
+                let tf = fitted.static_transform();
                 print!("{}", camera_lines(&tf));
                 if camera.mount == Mount::EyeInHand {
                     print!("{}", board_line(&cal.arm.base));
@@ -257,10 +257,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
                     print!("{lines}");
                 }
             }
-            None if !cal.targets.is_empty() => {
+            (None, _) if !cal.targets.is_empty() => {
                 print!("{}", summary::targets_table(&cal.targets))
             }
-            None => {}
+            _ => {}
         }
         if args.no_robust
             && let Some(warning) = summary::unweighted_outliers(details, &request.measurements_file)
@@ -329,23 +329,6 @@ fn camera_input(
         },
         listed,
     ))
-}
-
-/// Where the fit puts the camera, as a ROS user publishes it (the
-/// camera's optical frame in its parent's). Eye-to-hand: in the base
-/// frame, the calibration's base (in the camera frame, where it was
-/// registered) turned round. Eye-in-hand: on the flange, the calibration's
-/// tool frame.
-fn camera_transform(mount: Mount, arm: &model::Arm<f64>) -> StaticTransform {
-    let (parent, child_in_parent) = match mount {
-        Mount::EyeToHand => ("base_link", arm.base.isometry().inverse()),
-        Mount::EyeInHand => ("flange", arm.tool.isometry()),
-    };
-    StaticTransform {
-        parent: parent.into(),
-        child: "camera_optical_frame".into(),
-        child_in_parent,
-    }
 }
 
 /// The lines that say where the camera is, and how to publish it.

@@ -24,6 +24,7 @@ use crate::calib::fit::registration::{MIN_TOOL_TURN, Registration, frame_of};
 use crate::calib::fit::validate::{ErrorStats, Validation};
 use crate::calib::results::figures::{ErrorPoint, O1Point, RandomBaseline};
 use crate::calib::results::servo_curves::{ServoCurveReport, servo_curves};
+use lrmcal_core::camera::static_transform::StaticTransform;
 use lrmcal_core::camera::{Intrinsics, Mount};
 use lrmcal_core::error::InputError;
 use lrmcal_core::io::calibration_file::FittedParam;
@@ -378,6 +379,27 @@ impl From<&Intrinsics> for LensReport {
 }
 
 impl CameraReport {
+    /// Where it is, as a ROS user publishes it: its optical frame in the
+    /// arm's base frame (`base_link`, eye-to-hand) or on the flange
+    /// (`flange`, eye-in-hand).
+    pub fn static_transform(&self) -> StaticTransform {
+        let [x, y, z, w] = self.quaternion_xyzw;
+        let rotation =
+            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        StaticTransform {
+            parent: match self.mount {
+                Mount::EyeToHand => "base_link",
+                Mount::EyeInHand => "flange",
+            }
+            .into(),
+            child: "camera_optical_frame".into(),
+            child_in_parent: nalgebra::IsometryMatrix3::from_parts(
+                nalgebra::Vector3::from(self.xyz_mm.map(|v| v * 1e-3)).into(),
+                rotation.to_rotation_matrix(),
+            ),
+        }
+    }
+
     /// The camera of `r`'s fit, when a camera measured; `None` for a tracker.
     fn of(r: &OptionResult) -> Option<Self> {
         let rig = &r.identified.rig;
