@@ -5,6 +5,7 @@
 use super::fit;
 use super::problem::{FitData, Tally, stack};
 use super::result::IdentifyOptions;
+use super::robust::Weighting;
 use crate::calib::parameters::params::Key as _;
 use crate::calib::parameters::params::{ParamKey, ParamVector};
 use crate::calib::{CalibError, Rig};
@@ -50,7 +51,7 @@ pub(super) fn release_candidate(
     data: &FitData,
     params: &ParamVector,
     arm: &Rig,
-    sqrt_w: &[f64],
+    weighting: Weighting,
     sigma: f64,
 ) -> Option<ParamKey> {
     let fixed: Vec<ParamKey> = params.fixed().collect();
@@ -59,11 +60,11 @@ pub(super) fn release_candidate(
     }
     // The prior's rows count in the cost like the measurements'.
     let r = stack(
-        data.weighted_residuals(arm, sqrt_w)?,
+        data.weighted_residuals(arm, weighting)?,
         data.prior_residuals(params, &params.free_errors(), sigma),
     );
     let jf = stack(
-        data.weighted_jacobian(arm, &fixed, sqrt_w).ok()?,
+        data.weighted_jacobian(arm, &fixed, weighting).ok()?,
         data.prior_jacobian(params, true, sigma),
     );
     // d(cost)/d(correction) for each fixed parameter at the solution.
@@ -97,14 +98,14 @@ pub(super) fn release_candidate(
 pub(super) fn active_set(
     data: &FitData,
     params: &mut ParamVector,
-    sqrt_w: &[f64],
+    weighting: Weighting,
     sigma: f64,
     options: &IdentifyOptions,
     tally: &mut Tally,
 ) -> Result<(), CalibError> {
     loop {
         tally.active_set_rounds += 1;
-        fit(data, params, sqrt_w, sigma, options.patience, tally)?;
+        fit(data, params, weighting, sigma, options.patience, tally)?;
         let arm = params.apply(data.nominal);
         let outside = outside_bounds(data, params, &arm);
         // A run that spent its budget would spend it again from about there.
@@ -115,7 +116,7 @@ pub(super) fn active_set(
             fix_at_bound(params, data.nominal, &outside)?;
             continue;
         }
-        match release_candidate(data, params, &arm, sqrt_w, sigma) {
+        match release_candidate(data, params, &arm, weighting, sigma) {
             Some(key) => params.release(key)?,
             None => return Ok(()),
         }

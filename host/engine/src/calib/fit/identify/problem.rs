@@ -8,6 +8,7 @@ use nalgebra::allocator::Reallocator;
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, Vector3};
 
+use super::robust::Weighting;
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::parameters::params::{ParamKey, ParamVector};
 use crate::calib::parameters::prior::Prior;
@@ -109,12 +110,18 @@ impl<'a> FitData<'a> {
         arm.residuals(&self.samples, &self.measured)
     }
 
-    /// The stacked residuals of `arm`, each block times its `sqrt_w`.
-    pub(super) fn weighted_residuals(&self, arm: &Rig, sqrt_w: &[f64]) -> Option<DVector<f64>> {
+    /// The stacked residuals of `arm`, each block as `weighting` has the
+    /// solver see it.
+    pub(super) fn weighted_residuals(
+        &self,
+        arm: &Rig,
+        weighting: Weighting,
+    ) -> Option<DVector<f64>> {
         let residuals = arm.residuals(&self.samples, &self.measured).ok()?;
         let mut r = DVector::zeros(3 * residuals.len());
         for (k, block) in residuals.iter().enumerate() {
-            r.fixed_rows_mut::<3>(3 * k).copy_from(&(block * sqrt_w[k]));
+            r.fixed_rows_mut::<3>(3 * k)
+                .copy_from(&weighting.block(k, block).0);
         }
         Some(r)
     }
@@ -124,11 +131,22 @@ impl<'a> FitData<'a> {
         &self,
         arm: &Rig,
         keys: &[ParamKey],
-        sqrt_w: &[f64],
+        weighting: Weighting,
     ) -> Result<DMatrix<f64>, CalibError> {
         let mut j = jacobian(arm, keys, &self.samples)?;
-        for (k, w) in sqrt_w.iter().enumerate() {
-            j.rows_mut(3 * k, 3).scale_mut(*w);
+        match weighting {
+            Weighting::Scaled(sqrt_w) => {
+                for (k, w) in sqrt_w.iter().enumerate() {
+                    j.rows_mut(3 * k, 3).scale_mut(*w);
+                }
+            }
+            Weighting::Huber(_) => {
+                for (k, block) in self.residuals(arm)?.iter().enumerate() {
+                    let map = weighting.block(k, block).1;
+                    let rows = map * j.rows(3 * k, 3);
+                    j.rows_mut(3 * k, 3).copy_from(&rows);
+                }
+            }
         }
         Ok(j)
     }
@@ -155,7 +173,7 @@ pub(super) struct Problem<'a> {
     pub(super) data: &'a FitData<'a>,
     pub(super) params: &'a ParamVector,
     pub(super) free: Vec<ParamKey>,
-    pub(super) sqrt_w: &'a [f64],
+    pub(super) weighting: Weighting<'a>,
     /// The noise the prior's rows are scaled by, m.
     pub(super) sigma: f64,
     pub(super) x: DVector<f64>,
@@ -211,7 +229,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
         let prior = self
             .data
             .prior_residuals(self.params, self.x.as_slice(), self.sigma);
-        match self.data.weighted_residuals(&self.arm(), self.sqrt_w) {
+        match self.data.weighted_residuals(&self.arm(), self.weighting) {
             Some(r) => Some(stack(self.measured(r), prior)),
             None => {
                 // A failed step, not the end of the fit (module docs).
@@ -225,7 +243,7 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         let j = self
             .data
-            .weighted_jacobian(&self.arm(), &self.free, self.sqrt_w)
+            .weighted_jacobian(&self.arm(), &self.free, self.weighting)
             .ok()?;
         Some(stack(
             self.measured(j),

@@ -17,7 +17,8 @@ pub struct IdentifyOptions {
     pub robust: bool,
     /// Most active-set rounds (each one a full LM fit), over all reweighting rounds.
     pub max_active_set_rounds: usize,
-    /// Most reweighting rounds of the robust fit.
+    /// Most rounds of the robust fit (each with Huber's threshold of the
+    /// residuals it starts from) or of the prior's noise.
     pub max_irls_rounds: usize,
     /// Run the rank analysis again at the estimate and fit what it adds
     /// (`crate::calib::fit::refresh`, which the pipeline calls); false is the paper's reduction.
@@ -95,7 +96,7 @@ pub struct Diagnostics {
     pub active_set_rounds: usize,
     /// Trial steps rejected because the deflection could not be solved there.
     pub failed_steps: usize,
-    /// Reweighting rounds used (1 when not robust).
+    /// Rounds used (1 when neither robust nor under a prior).
     pub irls_rounds: usize,
     /// Parameters fixed at a bound (zero or the compliance's physical
     /// ceiling) by the constraint, in fit order.

@@ -1,5 +1,8 @@
-//! Robust weighting: the Huber weights of the measurements and the rule that
-//! names outliers, both in units of the residuals' robust scale.
+//! Robust weighting: Huber's cost as the solver minimises it, the weights
+//! it gives the measurements and the rule that names outliers, all in
+//! units of the residuals' robust scale.
+
+use nalgebra::{Matrix3, Vector3};
 
 use super::result::Outlier;
 use crate::calib::Sample;
@@ -24,6 +27,47 @@ pub(super) fn robust_scale(norms: &[f64], axes: usize) -> f64 {
             2 => CHI2_MEDIAN,
             _ => CHI3_MEDIAN,
         }
+}
+
+/// Huber's threshold on the residual norms `norms` (each over `axes`
+/// axes): [`HUBER_K`] robust scales; `None` when most residuals vanish
+/// (exact data: nothing to measure a gross one against).
+pub(super) fn huber_threshold(norms: &[f64], axes: usize) -> Option<f64> {
+    Some(HUBER_K * robust_scale(norms, axes)).filter(|c| *c > 0.0)
+}
+
+/// How a Levenberg–Marquardt run weighs the measurements' residual blocks.
+#[derive(Clone, Copy, Debug)]
+pub(crate) enum Weighting<'w> {
+    /// Least squares, each block times the square root of its weight.
+    Scaled(&'w [f64]),
+    /// Huber's cost of each block's norm `e` with this threshold `c`:
+    /// `e²` up to it, `2ce − c²` beyond, minimised directly. A block beyond
+    /// is shortened to the norm `√(2ce − c²)`, so the solver's sum of
+    /// squares is the cost, and its Jacobian rows follow (the chain rule
+    /// through the shortening).
+    Huber(f64),
+}
+
+impl Weighting<'_> {
+    /// The `k`-th block `r` as the solver sees it, and the map from the
+    /// block's Jacobian rows to those of what the solver sees.
+    pub(crate) fn block(&self, k: usize, r: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
+        match *self {
+            Weighting::Scaled(sqrt_w) => (r * sqrt_w[k], Matrix3::identity() * sqrt_w[k]),
+            Weighting::Huber(c) => {
+                let e = r.norm();
+                if e <= c {
+                    return (*r, Matrix3::identity());
+                }
+                let f = (2.0 * c * e - c * c).sqrt();
+                let u = r / e;
+                let along = u * u.transpose();
+                let map = along * (c / f) + (Matrix3::identity() - along) * (f / e);
+                (u * f, map)
+            }
+        }
+    }
 }
 
 /// Step *reweight*: Huber weights of the measurements from their residual

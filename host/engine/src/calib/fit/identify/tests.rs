@@ -9,6 +9,7 @@ use covariance::leave_one_out;
 use levenberg_marquardt::LeastSquaresProblem;
 use model::ParamId;
 use nalgebra::DMatrix;
+use robust::Weighting;
 
 fn elastic_keys() -> Vec<ParamKey> {
     ["k2", "k3", "k4", "k5", "k0"].map(key).to_vec()
@@ -142,7 +143,7 @@ fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
     params.fix(key("k4"), 0.0).unwrap();
     let arm = params.apply(&nominal);
     assert_eq!(
-        release_candidate(&data, &params, &arm, &sqrt_w, 0.0),
+        release_candidate(&data, &params, &arm, Weighting::Scaled(&sqrt_w), 0.0),
         Some(key("k4"))
     );
     let sagging_up = upward_sag(&nominal);
@@ -153,7 +154,13 @@ fn release_names_the_compliance_whose_multiplier_has_the_wrong_sign() {
     }
     params.fix(key("k3"), 0.0).unwrap();
     assert_eq!(
-        release_candidate(&data, &params, &params.apply(&nominal), &sqrt_w, 0.0),
+        release_candidate(
+            &data,
+            &params,
+            &params.apply(&nominal),
+            Weighting::Scaled(&sqrt_w),
+            0.0
+        ),
         None
     );
 }
@@ -177,7 +184,9 @@ fn covariance_matches_the_normal_equations() {
     let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
     let cov = covariance(&data, &arm, &keys, &weights, &residuals, None).unwrap();
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
+    let j = data
+        .weighted_jacobian(&arm, &keys, Weighting::Scaled(&sqrt_w))
+        .unwrap();
     let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
     let s2 = rss / (3 * meas.len() - keys.len()) as f64;
     let direct = (j.transpose() * &j).try_inverse().unwrap() * s2;
@@ -280,7 +289,7 @@ fn an_unsolvable_trial_point_is_a_failed_step() {
         data: &data,
         params: &params,
         free: keys.clone(),
-        sqrt_w: &sqrt_w,
+        weighting: Weighting::Scaled(&sqrt_w),
         sigma: 0.0,
         x: DVector::zeros(keys.len()),
         failed_entry: 7.0,
@@ -302,6 +311,72 @@ fn huber_weights_down_weight_only_beyond_the_threshold() {
     assert_eq!(w[..5], [1.0; 5]);
     assert!((w[5] - HUBER_K / 6.0).abs() < 1e-12);
     assert!((w[6] - HUBER_K / 30.0).abs() < 1e-12);
+}
+
+/// Beyond the threshold a block is shortened to the root of Huber's cost,
+/// and its map is the slope of that shortening; within, it is untouched.
+#[test]
+fn huber_blocks_carry_the_cost_and_its_slope() {
+    let c = 0.5;
+    let huber = Weighting::Huber(c);
+    let inside = Vector3::new(0.1, -0.2, 0.3);
+    let (r, map) = huber.block(0, &inside);
+    assert_eq!((r, map), (inside, nalgebra::Matrix3::identity()));
+    let beyond = Vector3::new(1.2, -0.7, 2.0);
+    let e = beyond.norm();
+    let (r, map) = huber.block(0, &beyond);
+    assert!((r.norm_squared() - (2.0 * c * e - c * c)).abs() < 1e-12);
+    assert!((r.normalize() - beyond.normalize()).norm() < 1e-12);
+    let h = 1e-6;
+    for axis in 0..3 {
+        let step = Vector3::ith(axis, h);
+        let slope =
+            (huber.block(0, &(beyond + step)).0 - huber.block(0, &(beyond - step)).0) / (2.0 * h);
+        assert!((slope - map.column(axis)).norm() < 1e-8, "axis {axis}");
+    }
+}
+
+/// The robust fit ends where Huber's cost is stationary: the gradient of
+/// the measurements' cost, each weighted as Huber's function weighs it,
+/// vanishes beside that of plain least squares at the same point (which
+/// the gross error pulls).
+#[test]
+fn the_robust_fit_ends_where_hubers_cost_is_stationary() {
+    let nominal = Rig::from(rigid_nominal());
+    let keys = elastic_keys();
+    let samples = small_samples(24);
+    let mut meas = measure(
+        &with_errors(&nominal, &keys, &[0.1, 0.05, 0.08, 0.03, 0.02]).arm,
+        &samples,
+    );
+    for (k, m) in meas.iter_mut().enumerate() {
+        m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
+    }
+    meas[3].position.x -= 0.015;
+    let fit = identify(
+        &nominal,
+        ModelOption::Elastic,
+        &keys,
+        &meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap();
+    assert!(fit.diagnostics.irls_rounds < 12, "{:?}", fit.diagnostics);
+    let data = fit_data(&nominal, &meas);
+    let norms = data.residual_norms(&fit.rig).unwrap();
+    let gradient = |weights: &[f64]| {
+        let j = data
+            .weighted_jacobian(&fit.rig, &keys, Weighting::Scaled(weights))
+            .unwrap();
+        let r = data
+            .weighted_residuals(&fit.rig, Weighting::Scaled(weights))
+            .unwrap();
+        (j.transpose() * r).norm()
+    };
+    let sqrt_huber: Vec<f64> = huber_weights(&norms, 3).iter().map(|w| w.sqrt()).collect();
+    let robust = gradient(&sqrt_huber);
+    let plain = gradient(&vec![1.0; meas.len()]);
+    assert!(robust < 1e-2 * plain, "robust {robust:e} plain {plain:e}");
 }
 
 #[test]
@@ -562,7 +637,9 @@ fn the_posterior_covariance_matches_the_regularised_normal_equations() {
     let sigma = 3e-3;
     let p = prior.columns(&[0, 1, 2, 3, 4]) * sigma;
     let cov = covariance(&data, &arm, &keys, &weights, &residuals, Some(&p)).unwrap();
-    let j = data.weighted_jacobian(&arm, &keys, &weights).unwrap();
+    let j = data
+        .weighted_jacobian(&arm, &keys, Weighting::Scaled(&weights))
+        .unwrap();
     let normal = (j.transpose() * &j + p.transpose() * &p)
         .try_inverse()
         .unwrap();
