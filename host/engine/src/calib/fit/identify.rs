@@ -119,6 +119,7 @@ use lrmcal_core::dataset::Measurement;
 use lrmcal_core::io::calibration_file::ErrorStats;
 
 mod active_set;
+mod compressed;
 mod covariance;
 pub(crate) mod problem;
 mod result;

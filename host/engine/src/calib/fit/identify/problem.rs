@@ -8,6 +8,7 @@ use nalgebra::allocator::Reallocator;
 use nalgebra::storage::Owned;
 use nalgebra::{DMatrix, DVector, DefaultAllocator, Dim, Dyn, OMatrix, Vector3};
 
+use super::compressed;
 use super::robust::Weighting;
 use crate::calib::analysis::jacobian::jacobian;
 use crate::calib::parameters::params::{ParamKey, ParamVector};
@@ -212,6 +213,33 @@ impl Problem<'_> {
     }
 }
 
+impl Problem<'_> {
+    /// The measurements' weighted residuals with the prior's rows below,
+    /// at the trial point; `None` where the deflection cannot be solved.
+    pub(super) fn stacked_residuals(&self) -> Option<DVector<f64>> {
+        let prior = self
+            .data
+            .prior_residuals(self.params, self.x.as_slice(), self.sigma);
+        let r = self.data.weighted_residuals(&self.arm(), self.weighting)?;
+        Some(stack(self.measured(r), prior))
+    }
+
+    /// The Jacobian of [`Problem::stacked_residuals`] over the free parameters.
+    pub(super) fn stacked_jacobian(&self) -> Option<DMatrix<f64>> {
+        let j = self
+            .data
+            .weighted_jacobian(&self.arm(), &self.free, self.weighting)
+            .ok()?;
+        Some(stack(
+            self.measured(j),
+            self.data.prior_jacobian(self.params, false, self.sigma),
+        ))
+    }
+}
+
+/// The solver sees the stacked problem compressed to one row more than
+/// the free parameters (`compressed`): the same cost, gradient and
+/// Gauss–Newton matrix, so the same steps, for a fraction of its QR.
 impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     type ResidualStorage = Owned<f64, Dyn>;
     type JacobianStorage = Owned<f64, Dyn, Dyn>;
@@ -226,29 +254,22 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
     }
 
     fn residuals(&self) -> Option<DVector<f64>> {
-        let prior = self
-            .data
-            .prior_residuals(self.params, self.x.as_slice(), self.sigma);
-        match self.data.weighted_residuals(&self.arm(), self.weighting) {
-            Some(r) => Some(stack(self.measured(r), prior)),
+        let norm = match self.stacked_residuals() {
+            Some(r) => r.norm(),
             None => {
                 // A failed step, not the end of the fit (module docs).
                 self.failed.set(self.failed.get() + 1);
-                let rows = self.measured_count() + prior.map_or(0, |p| p.len());
-                Some(DVector::from_element(rows, self.failed_entry))
+                let prior = self.data.prior.as_ref().map_or(0, |p| p.len());
+                self.failed_entry * ((self.measured_count() + prior) as f64).sqrt()
             }
-        }
+        };
+        Some(compressed::residuals(norm, self.free.len()))
     }
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
-        let j = self
-            .data
-            .weighted_jacobian(&self.arm(), &self.free, self.weighting)
-            .ok()?;
-        Some(stack(
-            self.measured(j),
-            self.data.prior_jacobian(self.params, false, self.sigma),
-        ))
+        // LM asks at points whose residuals it accepted: they evaluate.
+        let r = self.stacked_residuals()?;
+        Some(compressed::jacobian(&r, self.stacked_jacobian()?))
     }
 }
 
