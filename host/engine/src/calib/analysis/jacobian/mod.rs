@@ -192,6 +192,12 @@ fn pose_slopes(
             _ => None,
         })
         .collect();
+    // A servo knot's or a play's share of its joint's angle: the pose's
+    // command and approach, the same for every target.
+    let joint_weights: Vec<f64> = ids
+        .iter()
+        .map(|id| joint_columns::weight(rig, *id, first))
+        .collect();
     group
         .iter()
         .map(|sample| {
@@ -253,7 +259,7 @@ fn pose_slopes(
                     }
                     ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
                         match joint_columns::joint_of(*id) {
-                            Some(j) => w.column(j) * joint_columns::weight(rig, *id, sample),
+                            Some(j) => w.column(j) * joint_weights[col],
                             None => Vector3::zeros(),
                         }
                     }
