@@ -198,6 +198,20 @@ fn pose_slopes(
         .iter()
         .map(|id| joint_columns::weight(rig, *id, first))
         .collect();
+    // Each geometric parameter's rigid motion, the pose's; which target is
+    // measured matters only to a tool offset's motion of a tracker's point.
+    let rigid_motions: Vec<Option<(Twist, Option<Vector3<f64>>)>> = ids
+        .iter()
+        .map(|id| match *id {
+            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
+                Some(arm_twist(rig, &state, pid.part(), first.target))
+            }
+            _ => None,
+        })
+        .collect();
+    let per_target = |part: ParamPart| {
+        rig.board.is_none() && matches!(part, ParamPart::Tool { axis } if axis < 3)
+    };
     group
         .iter()
         .map(|sample| {
@@ -233,7 +247,10 @@ fn pose_slopes(
                                     * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
                             }
                             ParamKind::Length | ParamKind::Angle => {
-                                let (twist, direct) = arm_twist(rig, &state, part, sample.target);
+                                let (twist, direct) = match rigid_motions[col] {
+                                    Some(t) if !per_target(part) || sample.target == first.target => t,
+                                    _ => arm_twist(rig, &state, part, sample.target),
+                                };
                                 let direct = direct.unwrap_or_else(|| twist.velocity(&point));
                                 match rhs {
                                     Some(rhs) => direct + &w * rhs,
