@@ -6,11 +6,14 @@ use std::path::{Path, PathBuf};
 
 use crate::error::{Error, InputError, Location, Problem};
 use crate::progress::Meter;
+use lrmcal_core::camera::board::AprilGrid;
 use lrmcal_core::camera::corners::{self, ImageCorners};
+use lrmcal_core::camera::intrinsics::Intrinsics;
 use lrmcal_core::camera::shots::{self, Shot};
 use lrmcal_core::camera::views::{self, View};
 use lrmcal_core::camera::{board, intrinsics_file};
-use lrmcal_engine::camera::detect::TagDetector;
+use lrmcal_engine::camera::detect::{Found, TagDetector};
+use rayon::prelude::*;
 
 /// The file name endings of the images read (case aside).
 const IMAGE_EXTENSIONS: [&str; 3] = ["png", "jpg", "jpeg"];
@@ -90,41 +93,33 @@ pub fn run(args: &Args) -> Result<(), Error> {
         }
         None => folder,
     };
-    let mut detector = TagDetector::new().map_err(|e| Error::Detect {
-        reason: e.to_string(),
-    })?;
     let bar = Meter::new("detecting tags", files.len() as u64, "images");
     let mut seen = Vec::new();
     let mut foreign = 0;
-    for (path, name) in &files {
-        let grey = image::open(path)
-            .map_err(|e| Error::Image {
-                path: path.clone(),
-                reason: e.to_string(),
-            })?
-            .into_luma8();
-        if let Some((file, camera)) = &intrinsics
-            && grey.dimensions() != (camera.width_px, camera.height_px)
-        {
-            return Err(Error::ImageSize {
-                path: path.clone(),
-                size: grey.dimensions(),
-                intrinsics: file.to_path_buf(),
-                expected: (camera.width_px, camera.height_px),
-            });
+    // Images side by side, each thread with its own detector, a batch at a
+    // time so the meter moves; the first failing image in the folder's
+    // order is the one named.
+    let batch = DETECT_BATCH_PER_THREAD * rayon::current_num_threads();
+    for files in files.chunks(batch) {
+        let found: Vec<Result<Found, Error>> = files
+            .par_iter()
+            .with_min_len(DETECT_BATCH_PER_THREAD)
+            .map_init(TagDetector::new, |detector, (path, _)| {
+                let detector = detector.as_mut().map_err(|e| Error::Detect {
+                    reason: e.to_string(),
+                })?;
+                detect_file(detector, path, &board, intrinsics.as_ref())
+            })
+            .collect();
+        for (found, (_, name)) in found.into_iter().zip(files) {
+            let found = found?;
+            foreign += found.foreign;
+            if found.tags.is_empty() {
+                bar.println(&format!("{name}: no tag of the board found"));
+            }
+            seen.push(found.tags);
+            bar.inc(1);
         }
-        let found = detector
-            .detect_image(&grey, &board)
-            .map_err(|e| Error::Image {
-                path: path.clone(),
-                reason: e.to_string(),
-            })?;
-        foreign += found.foreign;
-        if found.tags.is_empty() {
-            bar.println(&format!("{name}: no tag of the board found"));
-        }
-        seen.push(found.tags);
-        bar.inc(1);
     }
     bar.finish();
     let images = seen.len();
@@ -160,6 +155,42 @@ pub fn run(args: &Args) -> Result<(), Error> {
         args.out.display()
     );
     Ok(())
+}
+
+/// Images each thread reads between two moves of the meter, with one
+/// detector (making one takes about as long as reading an image).
+const DETECT_BATCH_PER_THREAD: usize = 16;
+
+/// The board's tags in the image file `path`, turned grey; refused when
+/// its size is not the intrinsics'.
+fn detect_file(
+    detector: &mut TagDetector,
+    path: &Path,
+    board: &AprilGrid,
+    intrinsics: Option<&(&Path, Intrinsics)>,
+) -> Result<Found, Error> {
+    let grey = image::open(path)
+        .map_err(|e| Error::Image {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })?
+        .into_luma8();
+    if let Some((file, camera)) = intrinsics
+        && grey.dimensions() != (camera.width_px, camera.height_px)
+    {
+        return Err(Error::ImageSize {
+            path: path.to_path_buf(),
+            size: grey.dimensions(),
+            intrinsics: file.to_path_buf(),
+            expected: (camera.width_px, camera.height_px),
+        });
+    }
+    detector
+        .detect_image(&grey, board)
+        .map_err(|e| Error::Image {
+            path: path.to_path_buf(),
+            reason: e.to_string(),
+        })
 }
 
 /// The folder's image file each shot names, in the list's order; a name
