@@ -34,7 +34,7 @@ Frames, checked on every seed (the table's last part gives the checks' figures):
   corner k is corner k+2 (mod 4) of the official tag, the one Kalibr's grid and
   lrmcal's files use; the corners are renumbered before matching them to the board.
 
-Reproduce (from the repository root; the demos take about a minute a seed):
+Reproduce (from the repository root; the demos take about 20 s a seed):
     cargo build --release -p host --bin lrmcal && cp target/release/lrmcal /tmp/lrmcal-bin
     python3 -m venv /tmp/cvenv
     /tmp/cvenv/bin/pip install "opencv-python-headless<5" numpy yourdfpy pyyaml
