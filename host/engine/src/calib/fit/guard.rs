@@ -1,8 +1,9 @@
 //! What a fit must show before a calibration is made of it: that it
 //! converged, and that it leaves the arm no worse than it started. A
 //! calibration file is what `push` sends to the board, so a fit that
-//! diverged, or that meets its own poses worse than the nominal arm placed,
-//! or that predicts the poses it leaves out worse than that (by more than a
+//! diverged, or that meets its own poses worse than the nominal arm placed
+//! (by more than an RMS of that many coordinates spreads by), or that
+//! predicts the poses it leaves out worse than that (by more than a
 //! standard error), or that moves the arm's geometry by more than any real
 //! arm is off, is refused here with what happened and what to try.
 //!
@@ -14,6 +15,13 @@
 //! carry loses even where its residual is small. Without that fit (no base
 //! or tool point among the parameters) the bar is the nominal arm's
 //! residual as the fit started.
+//!
+//! A richer model fitted robustly minimises Huber's cost, not the RMS: on
+//! poses the placement already meets at the noise, its RMS may come out a
+//! hair above the placement's. The residual check allows the sampling
+//! spread of an RMS of `N` coordinates, `RMS / √(2N)` (3 % of it from 150
+//! points), far below what a fit that went astray adds (56 mm against
+//! 3.9 on the TIAGo data).
 
 use crate::calib::fit::identify::Identified;
 use crate::calib::fit::model_choice::paired;
@@ -80,7 +88,9 @@ pub fn check(
             d.rms_before_m,
         ),
     };
-    if d.rms_after_m > bar_rms {
+    let coordinates = fit.fit_residual.count * fit.rig.measured_axes();
+    let spread = bar_rms / (2.0 * coordinates.max(1) as f64).sqrt();
+    if d.rms_after_m > bar_rms + spread {
         return Err(refuse(
             format!(
                 "the fit meets its own poses worse than {bar} ({} residual RMS against {})",
@@ -203,6 +213,15 @@ mod tests {
         );
         let level = fit(true, 40e-3, 2.0e-3, 3.9e-3, vec![]);
         assert!(check(o, &arm, &level, Some(&placed)).is_ok());
+        // A residual a hair above the placement's, within what an RMS of
+        // 300 coordinates spreads by (4 %), is no sign of trouble; beyond, it is.
+        let hair = fit(true, 40e-3, 3.3e-3, 3.9e-3, vec![]);
+        assert!(check(o, &arm, &hair, Some(&placed)).is_ok());
+        let above = fit(true, 40e-3, 3.4e-3, 3.9e-3, vec![]);
+        let e = check(o, &arm, &above, Some(&placed))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("3.40 mm residual RMS against 3.20 mm"), "{e}");
         let far = message(fit(
             true,
             4e-3,
