@@ -28,6 +28,18 @@ fn fit_data<'a>(nominal: &'a Rig, meas: &[Measurement]) -> FitData<'a> {
     FitData::new(nominal, ModelOption::Elastic, meas).unwrap()
 }
 
+/// The default fit (robust, prior, refresh) of the elastic option's `keys`.
+fn fit_elastic(nominal: &Rig, keys: &[ParamKey], meas: &[Measurement]) -> Identified {
+    identify(
+        nominal,
+        ModelOption::Elastic,
+        keys,
+        meas,
+        &IdentifyOptions::default(),
+    )
+    .unwrap()
+}
+
 /// Measurements of an arm that sags *upwards* at joint 3: only a negative k3 would fit.
 fn upward_sag(nominal: &Rig) -> Vec<Measurement> {
     let mut true_arm = with_errors(nominal, &elastic_keys(), &[0.1, 0.0, 0.08, 0.03, 0.02]).arm;
@@ -46,14 +58,7 @@ fn recovers_compliances_exactly() {
         &with_errors(&nominal, &keys, &truth).arm,
         &small_samples(16),
     );
-    let fit = identify(
-        &nominal,
-        ModelOption::Elastic,
-        &keys,
-        &meas,
-        &IdentifyOptions::default(),
-    )
-    .unwrap();
+    let fit = fit_elastic(&nominal, &keys, &meas);
     for (e, t) in fit.estimates.iter().zip(truth) {
         assert!((e.error - t).abs() < 1e-8, "{}: {} vs {t}", e.id, e.error);
     }
@@ -69,14 +74,7 @@ fn recovers_compliances_exactly() {
 fn compliances_never_go_negative() {
     let nominal = Rig::from(rigid_nominal());
     let meas = upward_sag(&nominal);
-    let fit = identify(
-        &nominal,
-        ModelOption::Elastic,
-        &elastic_keys(),
-        &meas,
-        &IdentifyOptions::default(),
-    )
-    .unwrap();
+    let fit = fit_elastic(&nominal, &elastic_keys(), &meas);
     assert!(
         fit.rig.arm.joints.iter().all(|j| j.compliance >= 0.0)
             && fit.rig.arm.base_compliance >= 0.0
@@ -184,9 +182,7 @@ fn covariance_matches_the_normal_equations() {
     let weights: Vec<f64> = (0..meas.len()).map(|k| 0.5 + (k % 3) as f64).collect();
     let cov = covariance(&data, &arm, &keys, &weights, &residuals, None).unwrap();
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = data
-        .weighted_jacobian(&arm, &keys, Weighting::Scaled(&sqrt_w))
-        .unwrap();
+    let j = data.weighted_jacobian(&arm, &keys, &sqrt_w).unwrap();
     let rss: f64 = norms.iter().zip(&weights).map(|(e, w)| w * e * e).sum();
     let s2 = rss / (3 * meas.len() - keys.len()) as f64;
     let direct = (j.transpose() * &j).try_inverse().unwrap() * s2;
@@ -358,23 +354,13 @@ fn the_robust_fit_ends_where_hubers_cost_is_stationary() {
         m.position.y += 2e-4 * ((k * 5 % 7) as f64 - 3.0);
     }
     meas[3].position.x -= 0.015;
-    let fit = identify(
-        &nominal,
-        ModelOption::Elastic,
-        &keys,
-        &meas,
-        &IdentifyOptions::default(),
-    )
-    .unwrap();
+    let fit = fit_elastic(&nominal, &keys, &meas);
     assert!(fit.diagnostics.irls_rounds < 12, "{:?}", fit.diagnostics);
     let data = fit_data(&nominal, &meas);
     let norms = data.residual_norms(&fit.rig).unwrap();
     let gradient = |weights: &[f64]| {
-        let j = data
-            .weighted_jacobian(&fit.rig, &keys, Weighting::Scaled(weights))
-            .unwrap();
-        let r = data
-            .weighted_residuals(&fit.rig, Weighting::Scaled(weights))
+        let (r, j) = data
+            .weighted_with_jacobian(&fit.rig, &keys, Weighting::Scaled(weights))
             .unwrap();
         (j.transpose() * r).norm()
     };
@@ -410,14 +396,7 @@ fn robust_fit_names_and_ignores_an_outlier() {
     }
     meas[5].position.z += 0.02;
     // Robust is the default.
-    let fit = identify(
-        &nominal,
-        ModelOption::Elastic,
-        &keys,
-        &meas,
-        &IdentifyOptions::default(),
-    )
-    .unwrap();
+    let fit = fit_elastic(&nominal, &keys, &meas);
     assert_eq!(fit.outliers.first().map(|o| o.pose), Some(meas[5].pose.id));
     assert!(fit.outliers[0].weight < 0.1);
     let squared = IdentifyOptions {
@@ -642,9 +621,7 @@ fn the_posterior_covariance_matches_the_regularised_normal_equations() {
     let sigma = 3e-3;
     let p = prior.columns(&[0, 1, 2, 3, 4]) * sigma;
     let cov = covariance(&data, &arm, &keys, &weights, &residuals, Some(&p)).unwrap();
-    let j = data
-        .weighted_jacobian(&arm, &keys, Weighting::Scaled(&weights))
-        .unwrap();
+    let j = data.weighted_jacobian(&arm, &keys, &weights).unwrap();
     let normal = (j.transpose() * &j + p.transpose() * &p)
         .try_inverse()
         .unwrap();
