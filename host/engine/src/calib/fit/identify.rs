@@ -285,7 +285,7 @@ pub fn identify_scored(
     // The prior weighs against the noise, which the residual tells: from
     // the residual the fit starts with (the prior at its strongest), each
     // round fits with the last estimate (module docs).
-    let mut sigma = rms_before_m / (data.nominal.measured_axes() as f64).sqrt();
+    let mut sigma = rms_before_m / (axes as f64).sqrt();
     let rounds = if options.robust || data.prior.is_some() {
         options.max_irls_rounds.max(1)
     } else {
@@ -449,7 +449,7 @@ fn log_evidence(
     let keys: Vec<ParamKey> = params.iter().map(|p| p.key).collect();
     let all: Vec<usize> = (0..keys.len()).collect();
     let j = stack(
-        data.weighted_jacobian(rig, &keys, Weighting::Scaled(&sqrt_w))?,
+        data.weighted_jacobian(rig, &keys, &sqrt_w)?,
         Some(prior.columns(&all) * sigma),
     );
     // log det(JᵀJ + σ² AᵀA) from the column-scaled singular values.

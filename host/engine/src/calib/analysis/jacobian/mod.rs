@@ -172,20 +172,30 @@ fn pose_slopes(
     let torques = state.torques();
     let last = state.frames[n];
     let in_last = |axis: usize| last.rotation.matrix().column(axis).into_owned();
+    // Each geometric parameter's rigid motion, the pose's; which target is
+    // measured matters only to a tool offset's motion of a tracker's point.
+    let rigid_motions: Vec<Option<(Twist, Option<Vector3<f64>>)>> = ids
+        .iter()
+        .map(|id| match *id {
+            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
+                Some(arm_twist(rig, &state, pid.part(), first.target))
+            }
+            _ => None,
+        })
+        .collect();
     // Each geometric parameter's change of the state's right-hand side
     // (none where the arm moves rigidly), the same for every target.
     let geometric_rhs: Vec<Option<DVector<f64>>> = ids
         .iter()
-        .map(|id| match *id {
-            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
-                let part = pid.part();
+        .zip(&rigid_motions)
+        .map(|(id, motion)| match (*id, motion) {
+            (ParamKey::Arm(pid), Some((twist, _))) => {
                 // A level base turns gravity with it: the arm moves
                 // rigidly, its torques unchanged.
                 let with_gravity = rig.level_base.is_some()
-                    && matches!(part, ParamPart::Base { axis } if axis >= 3);
+                    && matches!(pid.part(), ParamPart::Base { axis } if axis >= 3);
                 (!state.rigid() && !with_gravity).then(|| {
-                    let (twist, _) = arm_twist(rig, &state, part, first.target);
-                    let dt = state.torque_slopes(&twist);
+                    let dt = state.torque_slopes(twist);
                     DVector::from_fn(n + 1, |e, _| state.rate[e] * dt[e])
                 })
             }
@@ -197,17 +207,6 @@ fn pose_slopes(
     let joint_weights: Vec<f64> = ids
         .iter()
         .map(|id| joint_columns::weight(rig, *id, first))
-        .collect();
-    // Each geometric parameter's rigid motion, the pose's; which target is
-    // measured matters only to a tool offset's motion of a tracker's point.
-    let rigid_motions: Vec<Option<(Twist, Option<Vector3<f64>>)>> = ids
-        .iter()
-        .map(|id| match *id {
-            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
-                Some(arm_twist(rig, &state, pid.part(), first.target))
-            }
-            _ => None,
-        })
         .collect();
     let per_target = |part: ParamPart| {
         rig.board.is_none() && matches!(part, ParamPart::Tool { axis } if axis < 3)

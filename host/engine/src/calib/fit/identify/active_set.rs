@@ -59,14 +59,12 @@ pub(super) fn release_candidate(
         return None;
     }
     // The prior's rows count in the cost like the measurements'.
+    let (r, jf) = data.weighted_with_jacobian(arm, &fixed, weighting).ok()?;
     let r = stack(
-        data.weighted_residuals(arm, weighting)?,
+        r,
         data.prior_residuals(params, &params.free_errors(), sigma),
     );
-    let jf = stack(
-        data.weighted_jacobian(arm, &fixed, weighting).ok()?,
-        data.prior_jacobian(params, true, sigma),
-    );
+    let jf = stack(jf, data.prior_jacobian(params, true, sigma));
     // d(cost)/d(correction) for each fixed parameter at the solution.
     let g = jf.transpose() * r;
     let scale = jf

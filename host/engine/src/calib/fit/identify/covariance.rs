@@ -9,7 +9,6 @@ use model::params::ParamKind;
 
 use super::WEAK_REACH_FRACTION;
 use super::problem::FitData;
-use super::robust::Weighting;
 use crate::calib::analysis::observability::ColumnScale;
 use crate::calib::{CalibError, ParamKey, Rig};
 
@@ -75,10 +74,7 @@ pub(super) fn covariance(
     prior: Option<&DMatrix<f64>>,
 ) -> Result<Covariance, CalibError> {
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = super::stack(
-        data.weighted_jacobian(arm, free, Weighting::Scaled(&sqrt_w))?,
-        prior.cloned(),
-    );
+    let j = super::stack(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
     let rss: f64 = residuals
         .iter()
         .zip(weights)

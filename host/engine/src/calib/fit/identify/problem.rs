@@ -127,29 +127,45 @@ impl<'a> FitData<'a> {
         Some(r)
     }
 
-    /// The Jacobian of the weighted residuals with respect to `keys` at `arm`.
+    /// The Jacobian with respect to `keys` at `arm` of the residuals, each
+    /// block times its `sqrt_w`.
     pub(super) fn weighted_jacobian(
         &self,
         arm: &Rig,
         keys: &[ParamKey],
-        weighting: Weighting,
+        sqrt_w: &[f64],
     ) -> Result<DMatrix<f64>, CalibError> {
         let mut j = jacobian(arm, keys, &self.samples)?;
-        match weighting {
-            Weighting::Scaled(sqrt_w) => {
-                for (k, w) in sqrt_w.iter().enumerate() {
-                    j.rows_mut(3 * k, 3).scale_mut(*w);
-                }
-            }
-            Weighting::Huber(_) => {
-                for (k, block) in self.residuals(arm)?.iter().enumerate() {
-                    let map = weighting.block(k, block).1;
+        for (k, w) in sqrt_w.iter().enumerate() {
+            j.rows_mut(3 * k, 3).scale_mut(*w);
+        }
+        Ok(j)
+    }
+
+    /// [`FitData::weighted_residuals`] and their Jacobian with respect to
+    /// `keys`, from one evaluation of the residuals (Huber's weighting
+    /// needs them for the Jacobian too).
+    pub(super) fn weighted_with_jacobian(
+        &self,
+        arm: &Rig,
+        keys: &[ParamKey],
+        weighting: Weighting,
+    ) -> Result<(DVector<f64>, DMatrix<f64>), CalibError> {
+        let residuals = self.residuals(arm)?;
+        let mut j = jacobian(arm, keys, &self.samples)?;
+        let mut r = DVector::zeros(3 * residuals.len());
+        for (k, block) in residuals.iter().enumerate() {
+            let (seen, map) = weighting.block(k, block);
+            r.fixed_rows_mut::<3>(3 * k).copy_from(&seen);
+            match weighting {
+                Weighting::Scaled(sqrt_w) => j.rows_mut(3 * k, 3).scale_mut(sqrt_w[k]),
+                Weighting::Huber(_) => {
                     let rows = map * j.rows(3 * k, 3);
                     j.rows_mut(3 * k, 3).copy_from(&rows);
                 }
             }
         }
-        Ok(j)
+        Ok((r, j))
     }
 
     pub(super) fn solver_error(&self, reason: String) -> CalibError {
@@ -224,15 +240,22 @@ impl Problem<'_> {
         Some(stack(self.measured(r), prior))
     }
 
-    /// The Jacobian of [`Problem::stacked_residuals`] over the free parameters.
-    pub(super) fn stacked_jacobian(&self) -> Option<DMatrix<f64>> {
-        let j = self
+    /// [`Problem::stacked_residuals`] and their Jacobian over the free
+    /// parameters, from one evaluation of the model.
+    pub(super) fn stacked_with_jacobian(&self) -> Option<(DVector<f64>, DMatrix<f64>)> {
+        let (r, j) = self
             .data
-            .weighted_jacobian(&self.arm(), &self.free, self.weighting)
+            .weighted_with_jacobian(&self.arm(), &self.free, self.weighting)
             .ok()?;
-        Some(stack(
-            self.measured(j),
-            self.data.prior_jacobian(self.params, false, self.sigma),
+        let prior = self
+            .data
+            .prior_residuals(self.params, self.x.as_slice(), self.sigma);
+        Some((
+            stack(self.measured(r), prior),
+            stack(
+                self.measured(j),
+                self.data.prior_jacobian(self.params, false, self.sigma),
+            ),
         ))
     }
 }
@@ -268,8 +291,8 @@ impl LeastSquaresProblem<f64, Dyn, Dyn> for Problem<'_> {
 
     fn jacobian(&self) -> Option<DMatrix<f64>> {
         // LM asks at points whose residuals it accepted: they evaluate.
-        let r = self.stacked_residuals()?;
-        Some(compressed::jacobian(&r, self.stacked_jacobian()?))
+        let (r, j) = self.stacked_with_jacobian()?;
+        Some(compressed::jacobian(&r, j))
     }
 }
 

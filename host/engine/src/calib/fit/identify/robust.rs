@@ -73,11 +73,9 @@ impl Weighting<'_> {
 /// Step *reweight*: Huber weights of the measurements from their residual
 /// norms, each over `axes` axes.
 pub(super) fn huber_weights(norms: &[f64], axes: usize) -> Vec<f64> {
-    let c = HUBER_K * robust_scale(norms, axes);
-    if c == 0.0 {
-        // Most residuals vanish (exact data): nothing to measure a gross one against.
+    let Some(c) = huber_threshold(norms, axes) else {
         return vec![1.0; norms.len()];
-    }
+    };
     norms
         .iter()
         .map(|&e| if e <= c || e == 0.0 { 1.0 } else { c / e })
