@@ -41,7 +41,7 @@ mod state;
 
 use model::SolverOptions;
 use model::params::{ParamKind, ParamPart};
-use nalgebra::{DMatrix, DVector, Matrix3xX, Vector3};
+use nalgebra::{DMatrix, Matrix3xX, Vector3};
 use rayon::prelude::*;
 
 use crate::calib::parameters::joint_columns;
@@ -157,130 +157,134 @@ fn pose_slopes(
     );
     let n = state.joints;
     let twists: Vec<Twist> = (0..=n).map(|e| state.state_twist(e)).collect();
-    // (I − D ∂T/∂s)ᵀ, factored: W = P (I − D ∂T/∂s)⁻¹ carries a change of
-    // the state's right-hand side to a point whose motion per unit of each
-    // state coordinate is P.
-    let solve = (!state.rigid()).then(|| {
+    // Each state coordinate's motion of the bodies beyond it, its response
+    // included: `ds = (I − D ∂T/∂s)⁻¹ D ∂T/∂p dp` moves a point by `P ds`
+    // (`P` the state's twists' velocities at it), so a unit change of the
+    // right-hand side's coordinate `e` moves it as the twist
+    // `Σ_k (I − D ∂T/∂s)⁻¹_ke twist_k` does, whichever point it is.
+    let responses: Vec<Motion> = if state.rigid() {
+        twists.iter().map(Motion::of).collect()
+    } else {
         let mut h = DMatrix::<f64>::identity(n + 1, n + 1);
         for (e, t) in twists.iter().enumerate() {
             for (row, slope) in state.torque_slopes(t).iter().enumerate() {
                 h[(row, e)] -= state.rate[row] * slope;
             }
         }
-        h.transpose().lu()
-    });
+        let inverse = h.try_inverse().ok_or_else(|| {
+            deflection_error(
+                first,
+                "the deflection is singular here: its fixed point does not move smoothly with the parameters".into(),
+            )
+        })?;
+        (0..=n)
+            .map(|e| {
+                twists.iter().enumerate().fold(Motion::NONE, |sum, (k, t)| {
+                    sum.plus(&Motion::of(t), inverse[(k, e)])
+                })
+            })
+            .collect()
+    };
     let torques = state.torques();
     let last = state.frames[n];
-    let in_last = |axis: usize| last.rotation.matrix().column(axis).into_owned();
-    // Each geometric parameter's rigid motion, the pose's; which target is
-    // measured matters only to a tool offset's motion of a tracker's point.
-    let rigid_motions: Vec<Option<(Twist, Option<Vector3<f64>>)>> = ids
-        .iter()
-        .map(|id| match *id {
-            ParamKey::Arm(pid) if matches!(pid.kind(), ParamKind::Length | ParamKind::Angle) => {
-                Some(arm_twist(rig, &state, pid.part(), first.target))
-            }
-            _ => None,
-        })
-        .collect();
-    // Each geometric parameter's change of the state's right-hand side
-    // (none where the arm moves rigidly), the same for every target.
-    let geometric_rhs: Vec<Option<DVector<f64>>> = ids
-        .iter()
-        .zip(&rigid_motions)
-        .map(|(id, motion)| match (*id, motion) {
-            (ParamKey::Arm(pid), Some((twist, _))) => {
-                // A level base turns gravity with it: the arm moves
-                // rigidly, its torques unchanged.
-                let with_gravity = rig.level_base.is_some()
-                    && matches!(pid.part(), ParamPart::Base { axis } if axis >= 3);
-                (!state.rigid() && !with_gravity).then(|| {
-                    let dt = state.torque_slopes(twist);
-                    DVector::from_fn(n + 1, |e, _| state.rate[e] * dt[e])
-                })
-            }
-            _ => None,
-        })
-        .collect();
-    // A servo knot's or a play's share of its joint's angle: the pose's
-    // command and approach, the same for every target.
-    let joint_weights: Vec<f64> = ids
-        .iter()
-        .map(|id| joint_columns::weight(rig, *id, first))
-        .collect();
     let per_target = |part: ParamPart| {
         rig.board.is_none() && matches!(part, ParamPart::Tool { axis } if axis < 3)
     };
+    // Each column's motion at the pose, the same for every target but
+    // where a target's own offset decides.
+    let columns: Vec<Column> = ids
+        .iter()
+        .map(|id| match *id {
+            ParamKey::Arm(pid) => {
+                let part = pid.part();
+                match pid.kind() {
+                    ParamKind::Compliance => {
+                        // k1..kn then k0, as the state.
+                        let e = match part {
+                            ParamPart::Compliance { joint } => joint,
+                            _ => n,
+                        };
+                        let per_unit = (1.0 + state.softening[e] * torques[e].abs()) * torques[e];
+                        Column::Moves(Motion::NONE.plus(&responses[e], per_unit))
+                    }
+                    ParamKind::Length | ParamKind::Angle => {
+                        let (twist, direct) = arm_twist(rig, &state, part, first.target);
+                        // A level base turns gravity with it: the arm
+                        // moves rigidly, its torques unchanged.
+                        let with_gravity = rig.level_base.is_some()
+                            && matches!(part, ParamPart::Base { axis } if axis >= 3);
+                        let response = if state.rigid() || with_gravity {
+                            Motion::NONE
+                        } else {
+                            let dt = state.torque_slopes(&twist);
+                            responses
+                                .iter()
+                                .enumerate()
+                                .fold(Motion::NONE, |sum, (e, r)| {
+                                    sum.plus(r, state.rate[e] * dt[e])
+                                })
+                        };
+                        if per_target(part) {
+                            Column::ToolOffset(response, part)
+                        } else {
+                            let own = match direct {
+                                Some(v) => Motion {
+                                    w: Vector3::zeros(),
+                                    v,
+                                },
+                                None => Motion::of(&twist),
+                            };
+                            Column::Moves(own.plus(&response, 1.0))
+                        }
+                    }
+                }
+            }
+            ParamKey::TargetTool { target, axis } => Column::Target {
+                target: usize::from(target),
+                along: last
+                    .rotation
+                    .matrix()
+                    .column(usize::from(axis))
+                    .into_owned(),
+            },
+            ParamKey::Softening { spring } => {
+                // s0 is the base's (state n), s1..sn the joints'.
+                let e = match usize::from(spring) {
+                    0 => n,
+                    j => j - 1,
+                };
+                let per_unit = state.compliance[e] * torques[e].abs() * torques[e];
+                Column::Moves(Motion::NONE.plus(&responses[e], per_unit))
+            }
+            // A servo knot's or a play's share of its joint's angle: the
+            // pose's command and approach.
+            ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
+                match joint_columns::joint_of(*id) {
+                    Some(j) => Column::Moves(
+                        Motion::NONE.plus(&responses[j], joint_columns::weight(rig, *id, first)),
+                    ),
+                    None => Column::Still,
+                }
+            }
+            // The lens moves the pixel, not the point (below).
+            ParamKey::Lens { .. } => Column::Still,
+        })
+        .collect();
     group
         .iter()
         .map(|sample| {
             let tool_point = chain_of(chains, sample)?.tool_point;
             let point = rig.measured_point(sample, &last, &tool_point);
-            // P: how the point moves per unit of each state coordinate.
-            let p = Matrix3xX::from_fn(n + 1, |r, e| twists[e].velocity(&point)[r]);
-            let w = match &solve {
-                None => p,
-                Some(ht) => ht
-                    .solve(&p.transpose())
-                    .ok_or_else(|| {
-                        deflection_error(
-                            sample,
-                            "the deflection is singular here: its fixed point does not move smoothly with the parameters".into(),
-                        )
-                    })?
-                    .transpose(),
-            };
             let mut out = Matrix3xX::zeros(ids.len());
-            for (col, (id, rhs)) in ids.iter().zip(&geometric_rhs).enumerate() {
-                let slope = match *id {
-                    ParamKey::Arm(pid) => {
-                        let part = pid.part();
-                        match pid.kind() {
-                            ParamKind::Compliance => {
-                                // k1..kn then k0, as the state.
-                                let e = match part {
-                                    ParamPart::Compliance { joint } => joint,
-                                    _ => n,
-                                };
-                                w.column(e)
-                                    * ((1.0 + state.softening[e] * torques[e].abs()) * torques[e])
-                            }
-                            ParamKind::Length | ParamKind::Angle => {
-                                let (twist, direct) = match rigid_motions[col] {
-                                    Some(t) if !per_target(part) || sample.target == first.target => t,
-                                    _ => arm_twist(rig, &state, part, sample.target),
-                                };
-                                let direct = direct.unwrap_or_else(|| twist.velocity(&point));
-                                match rhs {
-                                    Some(rhs) => direct + &w * rhs,
-                                    None => direct,
-                                }
-                            }
-                        }
+            for (col, column) in columns.iter().enumerate() {
+                let slope = match column {
+                    Column::Moves(motion) => motion.velocity(&point),
+                    Column::ToolOffset(response, part) => {
+                        let (_, direct) = arm_twist(rig, &state, *part, sample.target);
+                        direct.unwrap_or_else(Vector3::zeros) + response.velocity(&point)
                     }
-                    ParamKey::TargetTool { target, axis } => {
-                        if usize::from(target) == sample.target {
-                            in_last(usize::from(axis))
-                        } else {
-                            Vector3::zeros()
-                        }
-                    }
-                    ParamKey::Softening { spring } => {
-                        // s0 is the base's (state n), s1..sn the joints'.
-                        let e = match usize::from(spring) {
-                            0 => n,
-                            j => j - 1,
-                        };
-                        w.column(e) * (state.compliance[e] * torques[e].abs() * torques[e])
-                    }
-                    ParamKey::ServoKnot { .. } | ParamKey::Backlash { .. } => {
-                        match joint_columns::joint_of(*id) {
-                            Some(j) => w.column(j) * joint_weights[col],
-                            None => Vector3::zeros(),
-                        }
-                    }
-                    // The lens moves the pixel, not the point (below).
-                    ParamKey::Lens { .. } => Vector3::zeros(),
+                    Column::Target { target, along } if *target == sample.target => *along,
+                    Column::Target { .. } | Column::Still => continue,
                 };
                 out.set_column(col, &slope);
             }
@@ -295,9 +299,55 @@ fn pose_slopes(
                     }
                 }
             }
-            Ok((rows, seen.slope * w.columns(0, n)))
+            let joints = Matrix3xX::from_fn(n, |r, e| responses[e].velocity(&point)[r]);
+            Ok((rows, seen.slope * joints))
         })
         .collect()
+}
+
+/// How a change moves every point of the bodies beyond it at a pose,
+/// `ω × x + v`: a rigid motion, the deflection's response included.
+#[derive(Clone, Copy, Debug)]
+struct Motion {
+    w: Vector3<f64>,
+    v: Vector3<f64>,
+}
+
+impl Motion {
+    /// No motion.
+    const NONE: Self = Self {
+        w: Vector3::new(0.0, 0.0, 0.0),
+        v: Vector3::new(0.0, 0.0, 0.0),
+    };
+
+    fn of(t: &Twist) -> Self {
+        Self { w: t.w, v: t.v }
+    }
+
+    /// This motion and `scale` times `other`.
+    fn plus(self, other: &Self, scale: f64) -> Self {
+        Self {
+            w: self.w + other.w * scale,
+            v: self.v + other.v * scale,
+        }
+    }
+
+    fn velocity(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.w.cross(x) + self.v
+    }
+}
+
+/// A parameter's column at a pose, read at each of its samples' points.
+enum Column {
+    /// Moves the measured point as the motion does, whichever target it is.
+    Moves(Motion),
+    /// A tool offset with a tracker: its deflection's response, and the
+    /// offset's own motion of the sample's target (target 0's point alone).
+    ToolOffset(Motion, ParamPart),
+    /// A target's own tool offset: along `along` for that target's samples.
+    Target { target: usize, along: Vector3<f64> },
+    /// Moves no point.
+    Still,
 }
 
 /// The rigid motion of the arm's geometric parameter `part` at `state`,

@@ -39,10 +39,6 @@ impl Twist {
             from,
         }
     }
-
-    pub(super) fn velocity(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        self.w.cross(x) + self.v
-    }
 }
 
 /// One deflected state as the derivatives see it, world frame.
