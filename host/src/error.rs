@@ -73,6 +73,14 @@ pub enum Error {
         #[source]
         source: device::ClientError,
     },
+    /// A webcam read directly (`measure --webcam`) could not be opened or gave no frame.
+    #[error("read the webcam {}: {reason}", device.display())]
+    Webcam {
+        /// The device file.
+        device: PathBuf,
+        /// What went wrong.
+        reason: String,
+    },
     /// A device command got something it cannot send or use.
     #[error("{what}: {reason}")]
     DeviceInput {
@@ -234,7 +242,7 @@ impl Error {
             | Self::Ik { .. }
             | Self::Positioning(_) => exit_codes::INVALID_INPUT,
             Self::Model { .. } => exit_codes::MODEL,
-            Self::Device { .. } | Self::Emulator { .. } => exit_codes::DEVICE,
+            Self::Device { .. } | Self::Emulator { .. } | Self::Webcam { .. } => exit_codes::DEVICE,
             Self::FlashImage { .. } | Self::NoReport { .. } => exit_codes::INVALID_INPUT,
             Self::DeviceInput { .. } => exit_codes::INVALID_INPUT,
             Self::Image { .. }

@@ -5,7 +5,8 @@
 //! warning; a command that fails stops the run naming the pose. Of several
 //! frames a pose the sharpest still one is kept and the others deleted; a
 //! scene that moves between frames is taken again, and a kept image far
-//! blurrier than the run's others is warned of.
+//! blurrier than the run's others is warned of. A webcam read directly
+//! that cannot be opened is named, and nothing is written.
 
 mod common;
 
@@ -394,4 +395,55 @@ fn a_pose_far_blurrier_than_the_others_is_warned_of() {
     );
     assert_eq!(said.matches("is blurred").count(), 1, "{said}");
     assert!(!said.contains("still moving"), "{said}");
+}
+
+#[test]
+fn a_webcam_that_cannot_be_read_is_named_and_nothing_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let list = dir.path().join("poses.csv");
+    std::fs::write(
+        &list,
+        "pose,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg\n1,0,0,0,0,0,0\n",
+    )
+    .unwrap();
+    let (shots, out) = (dir.path().join("shots"), dir.path().join("shots.csv"));
+    for device in ["/nonexistent/video9", "/dev/null"] {
+        let run = lrmcal(&[
+            "measure",
+            "--poses",
+            p(&list),
+            "--webcam",
+            device,
+            "--images",
+            p(&shots),
+            "--out",
+            p(&out),
+        ]);
+        let said = text(&run);
+        assert_eq!(run.status.code(), Some(6), "{said}");
+        assert!(
+            said.contains(&format!("read the webcam {device}")),
+            "{said}"
+        );
+        assert!(!shots.exists() && !out.exists(), "{said}");
+    }
+    // A size that is no size is refused before any device is opened.
+    let run = lrmcal(&[
+        "measure",
+        "--poses",
+        p(&list),
+        "--webcam",
+        "/dev/video0",
+        "--webcam-size",
+        "1280",
+        "--images",
+        p(&shots),
+        "--out",
+        p(&out),
+    ]);
+    assert!(
+        text(&run).contains("expected WIDTHxHEIGHT"),
+        "{}",
+        text(&run)
+    );
 }

@@ -1,8 +1,9 @@
-//! `measure --capture`: a webcam instead of a tracker. At each pose, once
-//! the arm stands, the user's capture command (the frame source: `ffmpeg`
-//! or `fswebcam` reading the webcam, or any command that writes an image)
-//! is run once a frame, [`FRAMES`] frames by default, each into a name of
-//! its own beside the pose's image (`pose7-0kg.frame2.png`).
+//! `measure --capture` and `--webcam`: a webcam instead of a tracker. At
+//! each pose, once the arm stands, [`FRAMES`] frames are taken by default:
+//! from the webcam read directly (`--webcam`, [`super::webcam`]), or by
+//! the user's capture command (`ffmpeg` or `fswebcam` reading the webcam,
+//! or any command that writes an image), run once a frame, each into a
+//! name of its own beside the pose's image (`pose7-0kg.frame2.png`).
 //!
 //! An arm that has arrived may still sway: two frames in a row whose pixel
 //! blocks' mean grey levels differ by more than [`MOVED_GREY_LEVELS`] say
@@ -12,8 +13,9 @@
 //! [`FRAME_ALLOWANCE`] times as many frames in all (then with a warning).
 //! The sharpest of them (the variance of its Laplacian,
 //! `lrmcal_engine::camera::focus`) becomes the pose's image
-//! (`pose7-0kg.png`) and the other frames are deleted, also when a frame
-//! fails: no frame file outlives its pose.
+//! (`pose7-0kg.png`: the command's file, or the webcam's frame in grey)
+//! and the other frames are deleted, also when a frame fails: no frame
+//! file outlives its pose.
 //!
 //! A kept image far less sharp than this run's others (under
 //! [`BLURRED_FRACTION`] of their median, once [`MEDIAN_AFTER`] poses are
@@ -84,10 +86,20 @@ const MEDIAN_AFTER: usize = 3;
 /// What `{image}` in the capture command stands for.
 const IMAGE: &str = "{image}";
 
+/// Where the frames come from.
+pub(super) enum Source {
+    /// The user's shell command that writes one frame into `{image}` (and
+    /// `{pose}`, `{load_kg}` in it).
+    Command(String),
+    /// A webcam read directly, streaming for the whole run.
+    #[cfg(target_os = "linux")]
+    Webcam(super::webcam::Webcam),
+}
+
 /// How images are taken and checked.
 pub(super) struct Capture {
-    /// The shell command, `{image}` (and `{pose}`, `{load_kg}`) in it.
-    pub command: String,
+    /// Where the frames come from.
+    pub source: Source,
     /// Where the images go.
     pub folder: PathBuf,
     /// Still frames taken at a pose, the sharpest kept (at least 1).
@@ -106,10 +118,11 @@ pub(super) fn run(
     mover: &mut Mover,
     settle_ms: u64,
 ) -> Result<(), Error> {
-    if !capture.command.contains(IMAGE) {
+    if let Source::Command(command) = &capture.source
+        && !command.contains(IMAGE)
+    {
         return Err(Error::Usage(format!(
-            "--capture `{}`: the command must write the image to `{IMAGE}` (the file measure names)",
-            capture.command
+            "--capture `{command}`: the command must write the image to `{IMAGE}` (the file measure names)"
         )));
     }
     std::fs::create_dir_all(&capture.folder).map_err(|source| lrmcal_core::Error::Write {
@@ -230,12 +243,12 @@ impl Drop for Frames {
 }
 
 impl Capture {
-    /// Takes frames of pose `pose` under `load_kg` into frame names from
-    /// `stem` until `self.frames` in a row held still (or
+    /// Takes frames of pose `pose` under `load_kg` (a command's into frame
+    /// names from `stem`) until `self.frames` in a row held still (or
     /// [`FRAME_ALLOWANCE`] times as many are taken), and keeps the sharpest
     /// of those as the image `path`.
     fn take_still(
-        &self,
+        &mut self,
         pose: u32,
         load_kg: f64,
         stem: &str,
@@ -243,17 +256,23 @@ impl Capture {
         bar: &Meter,
     ) -> Result<Kept, Error> {
         let most = self.frames as usize * FRAME_ALLOWANCE;
-        let mut frames = Frames(Vec::new());
-        let mut previous = self.frame(&mut frames, pose, load_kg, stem)?;
-        // The sharpest frame since the scene last moved (by its index in
-        // `frames`), and how many frames have held still since.
+        let mut files = Frames(Vec::new());
+        let mut previous = self.frame(&mut files, 1, pose, load_kg, stem)?;
+        let mut taken = 1;
+        // The sharpest frame since the scene last moved (by its number from
+        // 0), and how many frames have held still since.
         let mut sharpest = (0, Kept::of(previous.clone()));
         let mut still = 1;
-        while still < self.frames && frames.0.len() < most {
-            let grey = self.frame(&mut frames, pose, load_kg, stem)?;
-            let index = frames.0.len() - 1;
+        while still < self.frames && taken < most {
+            taken += 1;
+            let grey = self.frame(&mut files, taken, pose, load_kg, stem)?;
+            let index = taken - 1;
             let moved = focus::scene_change(&previous, &grey).ok_or_else(|| Error::Image {
-                path: frames.0[index].clone(),
+                path: files
+                    .0
+                    .get(index)
+                    .cloned()
+                    .unwrap_or_else(|| path.to_owned()),
                 reason: format!(
                     "it is {}x{} px, the frame before it {}x{} px",
                     grey.width(),
@@ -265,10 +284,9 @@ impl Capture {
             let kept = Kept::of(grey.clone());
             if moved > MOVED_GREY_LEVELS {
                 bar.println(&format!(
-                    "pose {pose}: the arm was still moving (frame {} differs from the one before \
+                    "pose {pose}: the arm was still moving (frame {taken} differs from the one before \
                      by {moved:.0} grey levels, over {MOVED_GREY_LEVELS}){}",
-                    index + 1,
-                    if frames.0.len() < most {
+                    if taken < most {
                         ", taking another frame"
                     } else {
                         ""
@@ -292,29 +310,49 @@ impl Capture {
             ));
         }
         let (index, kept) = sharpest;
-        std::fs::rename(&frames.0[index], path).map_err(|source| lrmcal_core::Error::Write {
+        let written = match files.0.get(index) {
+            Some(file) => std::fs::rename(file, path),
+            None => self.write_png(&kept.grey, path),
+        };
+        written.map_err(|source| lrmcal_core::Error::Write {
             path: path.to_owned(),
             source,
         })?;
         Ok(kept)
     }
 
-    /// Takes the next frame of pose `pose` under `load_kg` into the next
-    /// frame name from `stem` (counted in `frames`), and reads it grey.
+    /// Writes `grey` as the PNG image `path`, whole or not at all.
+    fn write_png(&self, grey: &GrayImage, path: &Path) -> std::io::Result<()> {
+        let mut file = tempfile::Builder::new()
+            .suffix(".png")
+            .tempfile_in(&self.folder)?;
+        grey.write_to(file.as_file_mut(), image::ImageOutputFormat::Png)
+            .map_err(std::io::Error::other)?;
+        file.persist(path).map(|_| ()).map_err(|e| e.error)
+    }
+
+    /// Takes frame `number` (from 1) of pose `pose` under `load_kg`, grey;
+    /// a command writes it into the frame name from `stem` and `number`,
+    /// counted in `files`.
     fn frame(
-        &self,
-        frames: &mut Frames,
+        &mut self,
+        files: &mut Frames,
+        number: usize,
         pose: u32,
         load_kg: f64,
         stem: &str,
     ) -> Result<GrayImage, Error> {
-        let path = self
-            .folder
-            .join(format!("{stem}.frame{}.png", frames.0.len() + 1));
-        // Counted before it is taken, so that a half-written frame goes too.
-        frames.0.push(path.clone());
-        take(&self.command, &path, pose, load_kg)?;
-        read_grey(&path)
+        match &mut self.source {
+            Source::Command(command) => {
+                let path = self.folder.join(format!("{stem}.frame{number}.png"));
+                // Counted before it is taken, so that a half-written frame goes too.
+                files.0.push(path.clone());
+                take(command, &path, pose, load_kg)?;
+                read_grey(&path)
+            }
+            #[cfg(target_os = "linux")]
+            Source::Webcam(webcam) => webcam.grab(),
+        }
     }
 
     /// How many of the board's tags the image `grey` (read from `path`)

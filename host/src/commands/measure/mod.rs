@@ -20,6 +20,8 @@ mod capture;
 mod joints;
 mod mover;
 mod tracker;
+#[cfg(target_os = "linux")]
+mod webcam;
 
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -44,6 +46,7 @@ use tracker::{Text, Tracker};
 #[derive(Debug, clap::Args)]
 #[command(
     mut_arg("port", |a| a.required(false)),
+    group(clap::ArgGroup::new("frame_source").args(["capture", "webcam"])),
     after_help = "Examples:\n  \
 lrmcal measure --poses selected.csv --out measured.csv --tracker dtrack://5000 --body 0\n  \
 lrmcal measure --poses selected.csv --out measured.csv --load-kg 0.0663 --port /dev/ttyACM0\n  \
@@ -119,20 +122,29 @@ pub struct Args {
     /// scene still moves, the sharpest still frame kept and a blurred one
     /// warned of; --out is then the pose list naming the images (`detect
     /// --poses`).
-    #[arg(long, value_name = "COMMAND", requires = "images", conflicts_with_all = ["tracker", "joints", "hold_s"])]
+    #[arg(long, value_name = "COMMAND", requires = "images", conflicts_with_all = ["tracker", "joints", "hold_s", "webcam"])]
     pub capture: Option<String>,
-    /// With --capture, the still frames taken at each pose, the sharpest
-    /// kept; up to twice as many are taken while two in a row differ (the
-    /// arm still sways). 1 takes one frame, unchecked for motion.
-    #[arg(long, value_name = "N", default_value_t = capture::FRAMES, requires = "capture", value_parser = clap::value_parser!(u32).range(1..))]
+    /// A webcam instead of a tracker, read directly (Linux, V4L2): its
+    /// device, e.g. `/dev/video0`, opened once and streaming for the whole
+    /// run, so its exposure and focus settle once; frames are taken and
+    /// kept as with --capture, each kept one written as a grey PNG.
+    #[arg(long, value_name = "DEVICE", requires = "images", conflicts_with_all = ["tracker", "joints", "hold_s"])]
+    pub webcam: Option<PathBuf>,
+    /// With --webcam, the frames' size, px: the size the intrinsics are of.
+    #[arg(long, value_name = "WxH", default_value = "1280x720", requires = "webcam", value_parser = frame_size)]
+    pub webcam_size: (u32, u32),
+    /// With --capture or --webcam, the still frames taken at each pose, the
+    /// sharpest kept; up to twice as many are taken while two in a row
+    /// differ (the arm still sways). 1 takes one frame, unchecked for motion.
+    #[arg(long, value_name = "N", default_value_t = capture::FRAMES, requires = "frame_source", value_parser = clap::value_parser!(u32).range(1..))]
     pub capture_frames: u32,
-    /// With --capture, the folder the images are written to.
-    #[arg(long, value_name = "DIR", requires = "capture")]
+    /// With --capture or --webcam, the folder the images are written to.
+    #[arg(long, value_name = "DIR", requires = "frame_source")]
     pub images: Option<PathBuf>,
-    /// With --capture, the board (Kalibr aprilgrid YAML) each image is
-    /// checked for at once: taken again, up to 3 times, while fewer than
-    /// half its tags are found (a blurred or badly lit frame).
-    #[arg(long, value_name = "FILE", requires = "capture")]
+    /// With --capture or --webcam, the board (Kalibr aprilgrid YAML) each
+    /// image is checked for at once: taken again, up to 3 times, while
+    /// fewer than half its tags are found (a blurred or badly lit frame).
+    #[arg(long, value_name = "FILE", requires = "frame_source")]
     pub board: Option<PathBuf>,
     /// The board that moves the arm; none: the arm is moved by hand or by its
     /// own controller.
@@ -265,10 +277,10 @@ pub fn run(args: &Args) -> Result<(), Error> {
             });
         }
     };
-    if let (Some(command), Some(folder)) = (&args.capture, &args.images) {
+    if let (Some(source), Some(folder)) = (frame_source(args)?, &args.images) {
         let Some(poses) = &list else {
             return Err(Error::Usage(
-                "--capture takes the images of a pose list: pass --poses".into(),
+                "--capture and --webcam take the images of a pose list: pass --poses".into(),
             ));
         };
         let board = match &args.board {
@@ -281,7 +293,7 @@ pub fn run(args: &Args) -> Result<(), Error> {
             None => None,
         };
         let mut capture = capture::Capture {
-            command: command.clone(),
+            source,
             folder: folder.clone(),
             frames: args.capture_frames,
             board,
@@ -458,6 +470,41 @@ fn hold(args: &Args, list: &Path, poses: &[(Pose, f64)], hold_s: f64) -> Result<
     Ok(())
 }
 
+/// Where `measure`'s images come from: `--capture`'s command or
+/// `--webcam`'s device, opened; none without either.
+fn frame_source(args: &Args) -> Result<Option<capture::Source>, Error> {
+    if let Some(command) = &args.capture {
+        return Ok(Some(capture::Source::Command(command.clone())));
+    }
+    let Some(device) = &args.webcam else {
+        return Ok(None);
+    };
+    #[cfg(target_os = "linux")]
+    {
+        let (width, height) = args.webcam_size;
+        Ok(Some(capture::Source::Webcam(webcam::Webcam::open(
+            device, width, height,
+        )?)))
+    }
+    #[cfg(not(target_os = "linux"))]
+    Err(Error::Webcam {
+        device: device.clone(),
+        reason: "a webcam is read directly on Linux only (V4L2); here pass --capture with a \
+                 command that writes a frame, e.g. ffmpeg's"
+            .into(),
+    })
+}
+
+/// `--webcam-size`: `WIDTHxHEIGHT` in pixels.
+fn frame_size(text: &str) -> Result<(u32, u32), String> {
+    let expected = || format!("`{text}`: expected WIDTHxHEIGHT in pixels, e.g. 1280x720");
+    let (w, h) = text.split_once(['x', 'X']).ok_or_else(expected)?;
+    match (w.trim().parse::<u32>(), h.trim().parse::<u32>()) {
+        (Ok(w), Ok(h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => Err(expected()),
+    }
+}
+
 /// A duration from a checked number of seconds (>= 0); beyond `Duration`'s range, forever.
 fn seconds(s: f64) -> Duration {
     Duration::try_from_secs_f64(s).unwrap_or(Duration::MAX)
@@ -468,6 +515,16 @@ mod tests {
     use super::*;
     use model::testing::TEST_ARM_JOINTS as JOINTS;
     use nalgebra::Vector3;
+
+    #[test]
+    fn frame_sizes_read_as_width_by_height() {
+        assert_eq!(frame_size("1280x720"), Ok((1280, 720)));
+        assert_eq!(frame_size("640X480"), Ok((640, 480)));
+        for bad in ["1280", "0x720", "x", "1280x-1", "wide x high"] {
+            let e = frame_size(bad).unwrap_err();
+            assert!(e.contains("WIDTHxHEIGHT"), "{bad}: {e}");
+        }
+    }
 
     #[test]
     fn tracker_sources_by_their_form() {
