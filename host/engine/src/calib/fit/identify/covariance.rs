@@ -3,35 +3,14 @@
 //! problem, each measurement's leave-one-out error, and which parameters
 //! the data barely determine.
 
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, Vector3};
 
 use model::params::ParamKind;
 
 use super::WEAK_REACH_FRACTION;
 use super::problem::FitData;
 use crate::calib::analysis::observability::ColumnScale;
-use crate::calib::analysis::triangular::triangular_factor;
 use crate::calib::{CalibError, ParamKey, Rig};
-
-/// The singular values, `Vᵀ` and the left singular vectors `U` of a tall
-/// matrix `A`, read on its triangular factor: `A`'s columns and `R`'s share
-/// their inner products, so `R = Ur Σ Vᵀ` gives `Σ` and `V`, and
-/// `U = A V Σ⁻¹` (a column of a zero singular value is zero: the hat matrix
-/// `U Uᵀ` projects on what `A`'s columns span). A QR and one matrix product
-/// in place of bidiagonalising all of `A`'s rows.
-fn decomposition(a: &DMatrix<f64>) -> Option<(DVector<f64>, DMatrix<f64>, DMatrix<f64>)> {
-    let svd = triangular_factor(a).svd(false, true);
-    let vt = svd.v_t?;
-    let mut u = a * vt.transpose();
-    for (i, s) in svd.singular_values.iter().enumerate() {
-        if *s > 0.0 {
-            u.column_mut(i).unscale_mut(*s);
-        } else {
-            u.column_mut(i).fill(0.0);
-        }
-    }
-    Some((svd.singular_values, vt, u))
-}
 
 /// The fit's uncertainty at its solution.
 #[derive(Clone, Debug, PartialEq)]
@@ -102,37 +81,57 @@ pub(super) fn covariance(
         .map(|(e, w)| w * e.norm_squared())
         .sum();
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
-    let (singular_values, vt, u) = decomposition(&scale.apply(&j))
-        .ok_or_else(|| data.solver_error("the covariance's decomposition failed".into()))?;
-    let condition = singular_values.max() / singular_values.min();
+    let svd = scale.apply(&j).svd(true, true);
+    let condition = svd.singular_values.max() / svd.singular_values.min();
     let rows = 3 * data.samples.len();
     // The coordinates measured: a camera's blocks have two (their third row is zero).
     let measured = data.nominal.measured_axes() * data.samples.len();
-    let dof = match prior {
-        Some(_) => {
+    let dof = match (prior, svd.u.as_ref()) {
+        (Some(_), Some(u)) => {
             let determined: f64 = u.rows(0, rows).iter().map(|v| v * v).sum();
             (measured as f64 - determined).max(1.0)
         }
-        None => measured.saturating_sub(free.len()).max(1) as f64,
+        _ => measured.saturating_sub(free.len()).max(1) as f64,
     };
     let sigma_m = (rss / dof).sqrt();
-    let (loo_errors_m, loo_mean_m) = leave_one_out(&u, residuals);
+    let (loo_errors_m, loo_mean_m) = svd
+        .u
+        .as_ref()
+        .map_or((Vec::new(), f64::NAN), |u| leave_one_out(u, residuals));
     // cov of scaled params = s² (JsᵀJs)⁻¹ = s² V Σ⁻² Vᵀ; unscale by the factors.
     let m = free.len();
-    // Vᵀ's rows divided by their singular values: cov = s² Wᵀ W.
-    let mut w = vt;
-    for (i, s) in singular_values.iter().enumerate() {
-        w.row_mut(i).unscale_mut(*s);
-    }
-    let mut matrix = w.transpose() * &w * (sigma_m * sigma_m);
-    for r in 0..m {
-        for c in 0..m {
-            matrix[(r, c)] *= scale.factors[r] * scale.factors[c];
+    let matrix = match svd.v_t.as_ref() {
+        Some(vt) => {
+            // Vᵀ's rows divided by their singular values: cov = s² Wᵀ W.
+            let mut w = vt.clone();
+            for (i, s) in svd.singular_values.iter().enumerate() {
+                w.row_mut(i).unscale_mut(*s);
+            }
+            let mut cov = w.transpose() * w * (sigma_m * sigma_m);
+            for r in 0..m {
+                for c in 0..m {
+                    cov[(r, c)] *= scale.factors[r] * scale.factors[c];
+                }
+            }
+            cov
         }
-    }
+        None => DMatrix::from_element(m, m, f64::NAN),
+    };
     // The deviations: the roots of the diagonal, each summed over the singular values.
+    let vt = svd.v_t.as_ref();
     let std = (0..m)
-        .map(|c| sigma_m * w.column(c).norm() * scale.factors[c])
+        .map(|c| {
+            let var: f64 = vt
+                .map(|vt| {
+                    svd.singular_values
+                        .iter()
+                        .enumerate()
+                        .map(|(i, s)| (vt[(i, c)] / s).powi(2))
+                        .sum()
+                })
+                .unwrap_or(f64::NAN);
+            sigma_m * var.sqrt() * scale.factors[c]
+        })
         .collect();
     Ok(Covariance {
         sigma_m,
