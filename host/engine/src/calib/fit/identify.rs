@@ -126,7 +126,7 @@ mod result;
 mod robust;
 
 use active_set::active_set;
-use covariance::{covariance, is_weak};
+use covariance::{covariance, is_weak, noise_sigma};
 use problem::{FitData, Problem, Tally, stack};
 pub use result::{Diagnostics, Estimate, FitPoint, Identified, IdentifyOptions, Outlier};
 pub use robust::{HUBER_K, OUTLIER_K, outlier_indices};
@@ -307,7 +307,7 @@ pub fn identify_scored(
             let residuals = data.residuals(&arm)?;
             let free: Vec<ParamKey> = params.free().collect();
             let prior = data.prior_jacobian(&params, false, sigma);
-            let new = covariance(&data, &arm, &free, &weights, &residuals, prior.as_ref())?.sigma_m;
+            let new = noise_sigma(&data, &arm, &free, &weights, &residuals, prior.as_ref())?;
             settled &= (new - sigma).abs() <= SIGMA_SETTLED * sigma;
             sigma = new;
         }

@@ -10,6 +10,7 @@ use model::params::ParamKind;
 use super::WEAK_REACH_FRACTION;
 use super::problem::FitData;
 use crate::calib::analysis::observability::ColumnScale;
+use crate::calib::analysis::triangular::triangular_factor;
 use crate::calib::{CalibError, ParamKey, Rig};
 
 /// The fit's uncertainty at its solution.
@@ -54,6 +55,56 @@ pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (Ve
     (errors, mean)
 }
 
+/// The residual deviation per coordinate alone, m: [`covariance`]'s
+/// `sigma_m`, which each round of a fit under a prior weighs the prior
+/// against. With a prior the parameters the measurements determine are
+/// `m − tr H_prior`, the hat matrix's trace over the prior's rows, read on
+/// the Jacobian's triangular factor `R` as `‖A R⁻¹‖²` (`A` the prior's
+/// rows): no singular vectors of the tall Jacobian, which only the
+/// leave-one-out errors need. Falls back to [`covariance`] where `R` is
+/// singular.
+pub(super) fn noise_sigma(
+    data: &FitData,
+    arm: &Rig,
+    free: &[ParamKey],
+    weights: &[f64],
+    residuals: &[Vector3<f64>],
+    prior: Option<&DMatrix<f64>>,
+) -> Result<f64, CalibError> {
+    let Some(prior_rows) = prior else {
+        return covariance(data, arm, free, weights, residuals, None).map(|c| c.sigma_m);
+    };
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let j = super::stack(
+        data.weighted_jacobian(arm, free, &sqrt_w)?,
+        Some(prior_rows.clone()),
+    );
+    let scaled = ColumnScale::from_jacobian(&j, data.samples.len()).apply(&j);
+    let m = free.len();
+    let r = triangular_factor(&scaled);
+    let a = scaled.rows(3 * data.samples.len(), prior_rows.nrows());
+    let in_prior = (r.shape() == (m, m))
+        .then(|| r.transpose().solve_lower_triangular(&a.transpose()))
+        .flatten()
+        .map(|w| w.norm_squared())
+        .filter(|t| t.is_finite());
+    let Some(in_prior) = in_prior else {
+        return covariance(data, arm, free, weights, residuals, prior).map(|c| c.sigma_m);
+    };
+    let measured = data.nominal.measured_axes() * data.samples.len();
+    let dof = (measured as f64 - (m as f64 - in_prior)).max(1.0);
+    Ok((weighted_rss(residuals, weights) / dof).sqrt())
+}
+
+/// The weighted residual sum of squares, `Σ w_k ‖r_k‖²`.
+fn weighted_rss(residuals: &[Vector3<f64>], weights: &[f64]) -> f64 {
+    residuals
+        .iter()
+        .zip(weights)
+        .map(|(e, w)| w * e.norm_squared())
+        .sum()
+}
+
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
 /// with `s² = RSS / (3n − m)` of the weighted residual norms, and the
 /// leave-one-out error of the measurements ([`leave_one_out`]).
@@ -75,11 +126,7 @@ pub(super) fn covariance(
 ) -> Result<Covariance, CalibError> {
     let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
     let j = super::stack(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
-    let rss: f64 = residuals
-        .iter()
-        .zip(weights)
-        .map(|(e, w)| w * e.norm_squared())
-        .sum();
+    let rss = weighted_rss(residuals, weights);
     let scale = ColumnScale::from_jacobian(&j, data.samples.len());
     let svd = scale.apply(&j).svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();

@@ -601,7 +601,8 @@ fn a_prior_holds_what_the_poses_do_not_see() {
 
 /// Under a prior the covariance is the posterior's, `s² (JᵀJ + PᵀP)⁻¹`
 /// (`P` the prior's rows scaled by the noise), and `s²` counts as
-/// parameters only what the measurements determine, `tr H`.
+/// parameters only what the measurements determine, `tr H`, with the
+/// singular vectors or without them.
 #[test]
 fn the_posterior_covariance_matches_the_regularised_normal_equations() {
     let nominal = Rig::from(rigid_nominal());
@@ -633,6 +634,14 @@ fn the_posterior_covariance_matches_the_regularised_normal_equations() {
     let rss: f64 = residuals.iter().map(|r| r.norm_squared()).sum();
     let s2 = rss / (3.0 * meas.len() as f64 - determined);
     assert!((cov.sigma_m - s2.sqrt()).abs() < 1e-9 * s2.sqrt());
+    // The noise alone, read on the triangular factor, is the same.
+    let alone =
+        covariance::noise_sigma(&data, &arm, &keys, &weights, &residuals, Some(&p)).unwrap();
+    assert!(
+        (alone - s2.sqrt()).abs() < 1e-9 * s2.sqrt(),
+        "{alone} vs {}",
+        s2.sqrt()
+    );
     for c in 0..keys.len() {
         let expected = (normal[(c, c)] * s2).sqrt();
         assert!(
