@@ -387,4 +387,23 @@ mod tests {
             "median {median} px, worst {worst} px"
         );
     }
+
+    /// A dim room: the page and the ink 20 to 30 grey levels apart, light
+    /// from one side, the webcam's noise. Every tag is still found (the
+    /// detector skips only tiles flatter than its contrast floor), its
+    /// corners within a pixel.
+    #[test]
+    fn a_dim_webcam_image_still_shows_every_tag() {
+        let dim = Look {
+            white: [35.0, 45.0],
+            black: [12.0, 18.0],
+            ..Look::WEBCAM
+        };
+        let errors = corner_errors(&dim);
+        let (median, worst) = (errors[errors.len() / 2], errors[errors.len() - 1]);
+        assert!(
+            median < 0.6 && worst < 1.5,
+            "median {median} px, worst {worst} px"
+        );
+    }
 }
