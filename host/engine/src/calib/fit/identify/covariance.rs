@@ -62,7 +62,8 @@ pub(super) fn leave_one_out(u: &DMatrix<f64>, residuals: &[Vector3<f64>]) -> (Ve
 /// the Jacobian's triangular factor `R` as `‖A R⁻¹‖²` (`A` the prior's
 /// rows): no singular vectors of the tall Jacobian, which only the
 /// leave-one-out errors need. Falls back to [`covariance`] where `R` is
-/// singular.
+/// singular. Without a prior they are the free parameters, and no
+/// Jacobian is needed.
 pub(super) fn noise_sigma(
     data: &FitData,
     arm: &Rig,
@@ -71,16 +72,11 @@ pub(super) fn noise_sigma(
     residuals: &[Vector3<f64>],
     prior: Option<&DMatrix<f64>>,
 ) -> Result<f64, CalibError> {
-    let Some(prior_rows) = prior else {
-        return covariance(data, arm, free, weights, residuals, None).map(|c| c.sigma_m);
-    };
-    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = super::stack(
-        data.weighted_jacobian(arm, free, &sqrt_w)?,
-        Some(prior_rows.clone()),
-    );
-    let scaled = ColumnScale::from_jacobian(&j, data.samples.len()).apply(&j);
     let m = free.len();
+    let Some(prior_rows) = prior else {
+        return Ok(deviation(data, residuals, weights, m as f64));
+    };
+    let (scaled, _) = scaled_jacobian(data, arm, free, weights, prior)?;
     let r = triangular_factor(&scaled);
     let a = scaled.rows(3 * data.samples.len(), prior_rows.nrows());
     let in_prior = (r.shape() == (m, m))
@@ -91,18 +87,36 @@ pub(super) fn noise_sigma(
     let Some(in_prior) = in_prior else {
         return covariance(data, arm, free, weights, residuals, prior).map(|c| c.sigma_m);
     };
-    let measured = data.nominal.measured_axes() * data.samples.len();
-    let dof = (measured as f64 - (m as f64 - in_prior)).max(1.0);
-    Ok((weighted_rss(residuals, weights) / dof).sqrt())
+    Ok(deviation(data, residuals, weights, m as f64 - in_prior))
 }
 
-/// The weighted residual sum of squares, `Σ w_k ‖r_k‖²`.
-fn weighted_rss(residuals: &[Vector3<f64>], weights: &[f64]) -> f64 {
-    residuals
+/// The weighted Jacobian at `arm` over `free`, the prior's rows (if any)
+/// below it, with its columns scaled, and the scale.
+fn scaled_jacobian(
+    data: &FitData,
+    arm: &Rig,
+    free: &[ParamKey],
+    weights: &[f64],
+    prior: Option<&DMatrix<f64>>,
+) -> Result<(DMatrix<f64>, ColumnScale), CalibError> {
+    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
+    let j = super::stack(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
+    let scale = ColumnScale::from_jacobian(&j, data.samples.len());
+    Ok((scale.apply(&j), scale))
+}
+
+/// The residual deviation per coordinate, m: the root of the weighted
+/// residual sum of squares `Σ w_k ‖r_k‖²` over the coordinates measured (a
+/// camera's blocks have two: their third row is zero) less the
+/// `determined` parameters, that difference at least 1.
+fn deviation(data: &FitData, residuals: &[Vector3<f64>], weights: &[f64], determined: f64) -> f64 {
+    let rss: f64 = residuals
         .iter()
         .zip(weights)
         .map(|(e, w)| w * e.norm_squared())
-        .sum()
+        .sum();
+    let measured = data.nominal.measured_axes() * data.samples.len();
+    (rss / (measured as f64 - determined).max(1.0)).sqrt()
 }
 
 /// Step *covariance*: `cov = s² (JᵀJ)⁻¹` over the `free` parameters at `arm`,
@@ -124,23 +138,15 @@ pub(super) fn covariance(
     residuals: &[Vector3<f64>],
     prior: Option<&DMatrix<f64>>,
 ) -> Result<Covariance, CalibError> {
-    let sqrt_w: Vec<f64> = weights.iter().map(|w| w.sqrt()).collect();
-    let j = super::stack(data.weighted_jacobian(arm, free, &sqrt_w)?, prior.cloned());
-    let rss = weighted_rss(residuals, weights);
-    let scale = ColumnScale::from_jacobian(&j, data.samples.len());
-    let svd = scale.apply(&j).svd(true, true);
+    let (scaled, scale) = scaled_jacobian(data, arm, free, weights, prior)?;
+    let svd = scaled.svd(true, true);
     let condition = svd.singular_values.max() / svd.singular_values.min();
     let rows = 3 * data.samples.len();
-    // The coordinates measured: a camera's blocks have two (their third row is zero).
-    let measured = data.nominal.measured_axes() * data.samples.len();
-    let dof = match (prior, svd.u.as_ref()) {
-        (Some(_), Some(u)) => {
-            let determined: f64 = u.rows(0, rows).iter().map(|v| v * v).sum();
-            (measured as f64 - determined).max(1.0)
-        }
-        _ => measured.saturating_sub(free.len()).max(1) as f64,
+    let determined = match (prior, svd.u.as_ref()) {
+        (Some(_), Some(u)) => u.rows(0, rows).iter().map(|v| v * v).sum(),
+        _ => free.len() as f64,
     };
-    let sigma_m = (rss / dof).sqrt();
+    let sigma_m = deviation(data, residuals, weights, determined);
     let (loo_errors_m, loo_mean_m) = svd
         .u
         .as_ref()
